@@ -1,0 +1,43 @@
+"""graspmanifold: experience-based, tactile-driven dextrous grasping with SOM grasp manifolds.
+
+An implementation (and extension) of "SOM-based experience representation for dextrous grasping"
+(WSOM 2007) on a MuJoCo model of the 24-joint Shadow Dexterous Hand.
+"""
+
+from .hand import (
+    ACTUATORS,
+    DISTAL_SEGMENTS,
+    FINGER_JOINTS,
+    FINGER_SEGMENTS,
+    FINGERS,
+    FINGERTIP_SITES,
+    HAND_JOINTS,
+    JOINT_RANGES,
+    SEGMENTS,
+    finger_limits,
+    load_hand,
+)
+from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
+from .posture import (
+    clip_posture,
+    closed_posture,
+    dict_to_posture,
+    open_posture,
+    pcp_mask,
+    posture_to_ctrl,
+    posture_to_dict,
+    validate_posture,
+    within_limits,
+)
+from .scene import Scene, facing_pose
+from .tactile import TactileReading, TactileSensor
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
+    "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "GraspObject", "Scene", "TactileReading",
+    "TactileSensor", "clip_posture", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "get_object", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
+    "posture_to_dict", "validate_posture", "within_limits", "__version__",
+]

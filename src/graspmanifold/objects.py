@@ -1,0 +1,186 @@
+"""Grasp objects: the paper's box, cylinder and sphere, and other sizes of the same shapes.
+
+An object is centred at its origin with its long axis along z. Besides what MuJoCo needs to
+simulate it, each object answers exact geometric queries (closest surface point, signed
+distance) that the posture generator's springs rely on.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere")
+
+
+@dataclass(frozen=True)
+class GraspObject:
+    """A rigid primitive object. `half_sizes`: box (hx, hy, hz), cylinder (radius, half length), sphere (radius,)."""
+
+    name: str
+    shape: str
+    half_sizes: tuple[float, ...]
+    mass: float = 0.1
+    friction: float = 1.0
+
+    @property
+    def half_extents(self) -> np.ndarray:
+        """Half extents of the axis-aligned bounding box (3,)."""
+        if self.shape == "box":
+            return np.array(self.half_sizes)
+        if self.shape == "cylinder":
+            r, h = self.half_sizes
+            return np.array([r, r, h])
+        return np.full(3, self.half_sizes[0])
+
+    def params(self) -> dict[str, object]:
+        """Plain parameters for metadata and for `make_object(**params)`."""
+        return {"name": self.name, "shape": self.shape, "half_sizes": list(self.half_sizes),
+                "mass": self.mass, "friction": self.friction}
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance (m) of points (n, 3) or (3,) in the object frame to the surface; < 0 inside."""
+        return self._closest_and_distance(points)[1]
+
+    def closest_point(self, points: np.ndarray) -> np.ndarray:
+        """Exact closest surface points for points (n, 3) or (3,) in the object frame."""
+        return self._closest_and_distance(points)[0]
+
+    def _closest_and_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p = np.asarray(points, dtype=float)
+        single = p.ndim == 1
+        p = np.atleast_2d(p)
+        if p.shape[1] != 3 or not np.all(np.isfinite(p)):
+            raise ValueError(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
+        closest, distance = _SURFACE_QUERIES[self.shape](p, self.half_sizes)
+        return (closest[0], distance[0]) if single else (closest, distance)
+
+
+def _box_query(p: np.ndarray, half: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    h = np.asarray(half)
+    clamped = np.clip(p, -h, h)
+    outside_gap = np.linalg.norm(p - clamped, axis=1)
+    inside = outside_gap == 0.0
+    closest = clamped.copy()
+    distance = outside_gap.copy()
+    if inside.any():
+        q = p[inside]
+        face_gap = h - np.abs(q)
+        axis = np.argmin(face_gap, axis=1)
+        rows = np.arange(len(q))
+        snapped = q.copy()
+        sign = np.where(q[rows, axis] >= 0.0, 1.0, -1.0)
+        snapped[rows, axis] = sign * h[axis]
+        closest[inside] = snapped
+        distance[inside] = -face_gap[rows, axis]
+    return closest, distance
+
+
+def _radial_directions(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    rho = np.linalg.norm(xy, axis=1)
+    direction = np.zeros_like(xy)
+    direction[:, 0] = 1.0  # any direction is closest on the axis itself
+    off_axis = rho > 0.0
+    direction[off_axis] = xy[off_axis] / rho[off_axis, None]
+    return rho, direction
+
+
+def _cylinder_query(p: np.ndarray, half: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    radius, half_length = half
+    rho, direction = _radial_directions(p[:, :2])
+    z = p[:, 2]
+    d_side = rho - radius
+    d_cap = np.abs(z) - half_length
+    outside = (d_side > 0.0) | (d_cap > 0.0)
+    closest = np.empty_like(p)
+    distance = np.empty(len(p))
+    # outside: clamp radially and axially
+    closest[:, :2] = direction * np.minimum(rho, radius)[:, None]
+    closest[:, 2] = np.clip(z, -half_length, half_length)
+    distance[:] = np.hypot(np.maximum(d_side, 0.0), np.maximum(d_cap, 0.0))
+    # inside: the nearer of the side wall and the end cap
+    to_side = ~outside & (d_side >= d_cap)
+    to_cap = ~outside & ~to_side
+    closest[to_side, :2] = direction[to_side] * radius
+    closest[to_side, 2] = z[to_side]
+    distance[to_side] = d_side[to_side]
+    closest[to_cap, :2] = p[to_cap, :2]
+    closest[to_cap, 2] = np.where(z[to_cap] >= 0.0, half_length, -half_length)
+    distance[to_cap] = d_cap[to_cap]
+    return closest, distance
+
+
+def _sphere_query(p: np.ndarray, half: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    radius = half[0]
+    norm = np.linalg.norm(p, axis=1)
+    direction = np.zeros_like(p)
+    direction[:, 2] = 1.0
+    away = norm > 0.0
+    direction[away] = p[away] / norm[away, None]
+    return direction * radius, norm - radius
+
+
+_SURFACE_QUERIES = {"box": _box_query, "cylinder": _cylinder_query, "sphere": _sphere_query}
+
+
+def _positive(value: object, argument: str) -> float:
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{argument} must be a positive number, got {value!r}") from None
+    if not math.isfinite(number) or number <= 0.0:
+        raise ValueError(f"{argument} must be a positive finite number, got {value!r}")
+    return number
+
+
+def make_object(shape: str, *, radius: float | None = None, length: float | None = None,
+                size: tuple[float, float, float] | None = None, mass: float = 0.1,
+                friction: float = 1.0, name: str | None = None) -> GraspObject:
+    """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`) or sphere (`radius`).
+
+    Sizes are in metres, mass in kg; `friction` is the sliding friction coefficient.
+    """
+    given = {"radius": radius, "length": length, "size": size}
+    needed = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+    if shape not in needed:
+        raise ValueError(f"unknown object shape {shape!r}; expected one of {SHAPES}")
+    extra = [k for k, v in given.items() if v is not None and k not in needed[shape]]
+    if extra:
+        raise ValueError(f"a {shape} takes {needed[shape]}, not {extra}")
+    missing = [k for k in needed[shape] if given[k] is None]
+    if missing:
+        raise ValueError(f"a {shape} needs {missing}")
+    if shape == "box":
+        extents = tuple(np.asarray(size, dtype=float).ravel())
+        if len(extents) != 3:
+            raise ValueError(f"size must be three extents (x, y, z) in metres, got {size!r}")
+        half = tuple(_positive(e, "size") / 2.0 for e in extents)
+        label = "box_{:.3f}x{:.3f}x{:.3f}".format(*extents)
+    elif shape == "cylinder":
+        half = (_positive(radius, "radius"), _positive(length, "length") / 2.0)
+        label = f"cylinder_r{half[0]:.3f}_l{2 * half[1]:.3f}"
+    else:
+        half = (_positive(radius, "radius"),)
+        label = f"sphere_r{half[0]:.3f}"
+    return GraspObject(name=name or label, shape=shape, half_sizes=half,
+                       mass=_positive(mass, "mass"), friction=_positive(friction, "friction"))
+
+
+#: The paper's three objects (Fig. 1).
+PAPER_OBJECTS: dict[str, GraspObject] = {
+    "box": make_object("box", size=(0.04, 0.04, 0.16), name="box"),
+    "cylinder": make_object("cylinder", radius=0.03, length=0.16, name="cylinder"),
+    "sphere": make_object("sphere", radius=0.03, name="sphere"),
+}
+
+
+def get_object(obj: str | GraspObject) -> GraspObject:
+    """The object itself, or the paper's object of that name."""
+    if isinstance(obj, GraspObject):
+        return obj
+    if isinstance(obj, str) and obj in PAPER_OBJECTS:
+        return PAPER_OBJECTS[obj]
+    raise ValueError(f"unknown object {obj!r}; expected one of {tuple(PAPER_OBJECTS)} or an object "
+                     "made by make_object()")

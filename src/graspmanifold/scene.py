@@ -1,0 +1,197 @@
+"""A simulated grasp scene: the hand and one object, composed with mujoco.MjSpec.
+
+The object sits at the world origin (its body is named `object`); the hand hangs from the mocap
+body `hand_mount`, so placing the hand is moving that body. Hand poses are always the pose of the
+palm frame in the object frame (position in m, quaternion w x y z).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import mujoco
+import numpy as np
+
+from .hand import HAND_JOINTS, hand_spec
+from .objects import GraspObject, get_object
+from .posture import posture_to_ctrl, validate_posture
+from .tactile import TactileReading, TactileSensor
+
+GRAVITY = 9.81
+OBJECT_RGBA = (0.25, 0.45, 0.8, 1.0)
+_GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+               "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
+
+#: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
+GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
+PALM_HALF_THICKNESS = 0.013
+
+
+def _quat(quat: Iterable[float], name: str) -> np.ndarray:
+    q = np.asarray(tuple(quat), dtype=float)
+    if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-9:
+        raise ValueError(f"{name} must be a non-zero finite quaternion (w, x, y, z), got {quat!r}")
+    return q / np.linalg.norm(q)
+
+
+def _vec3(vec: Iterable[float], name: str) -> np.ndarray:
+    v = np.asarray(tuple(vec), dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be three finite numbers, got {vec!r}")
+    return v
+
+
+def compose(pos_a: np.ndarray, quat_a: np.ndarray, pos_b: np.ndarray, quat_b: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Pose product a * b of two (position, quaternion) poses."""
+    pos, quat = np.zeros(3), np.zeros(4)
+    mujoco.mju_rotVecQuat(pos, pos_b, quat_a)
+    mujoco.mju_mulQuat(quat, quat_a, quat_b)
+    return pos + pos_a, quat
+
+
+def invert(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of a (position, quaternion) pose."""
+    inv_quat, inv_pos = np.zeros(4), np.zeros(3)
+    mujoco.mju_negQuat(inv_quat, quat)
+    mujoco.mju_rotVecQuat(inv_pos, -np.asarray(pos, dtype=float), inv_quat)
+    return inv_pos, inv_quat
+
+
+def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float = 0.0
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """A palm pose (object frame) for a side wrap: the palm faces the object from +x.
+
+    The object's long axis (z) runs across the fingers (palm x), the object's surface is `clearance`
+    metres in front of the palm's inner face, and `height` shifts the hand along the object's axis.
+    """
+    obj = get_object(obj)
+    # columns: palm x -> object z, palm y -> object x, palm z -> object y
+    rotation = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, rotation.ravel())
+    centre_in_palm = GRASP_CENTRE_IN_PALM - [0.0, PALM_HALF_THICKNESS + clearance + obj.half_extents[0], 0.0]
+    pos = -rotation @ centre_in_palm + [0.0, 0.0, height]
+    return pos, quat
+
+
+class Scene:
+    """The hand and one object in a MuJoCo model, with helpers to pose, actuate and sense.
+
+    `free_object=False` welds the object to the world (the posture generator holds it fixed); with
+    `free_object=True` it hangs on a free joint and can be pushed and dropped. Gravity starts off.
+    """
+
+    def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
+                 gravity: bool = False):
+        self.object = get_object(obj)
+        self.free_object = free_object
+        spec = hand_spec()
+        spec.modelname = f"graspmanifold_{self.object.name}"
+        body = spec.worldbody.add_body(name="object")
+        if free_object:
+            body.add_freejoint(name="object_free")
+        size = np.zeros(3)
+        size[: len(self.object.half_sizes)] = self.object.half_sizes
+        body.add_geom(name="object", type=_GEOM_TYPES[self.object.shape], size=size,
+                      mass=self.object.mass, friction=[self.object.friction, 0.005, 0.0001],
+                      condim=4, contype=1, conaffinity=1, solref=[0.004, 1.0], rgba=OBJECT_RGBA)
+        spec.add_exclude(bodyname1="object", bodyname2="forearm")
+        self.spec = spec
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.sensor = TactileSensor(self.model)
+        joint_ids = [self.model.joint(name).id for name in HAND_JOINTS]
+        self._hand_qpos = self.model.jnt_qposadr[joint_ids]
+        self._hand_dof = self.model.jnt_dofadr[joint_ids]
+        self._finger_qpos = self._hand_qpos[2:]
+        self._mount = int(self.model.body("hand_mount").mocapid[0])
+        self._palm = self.model.body("palm").id
+        self._object_body = self.model.body("object").id
+        self.object_geom = self.model.geom("object").id
+        self.set_gravity(gravity)
+        self.reset()
+
+    # -- state -----------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the model's initial state: hand open and straight, 5 cm in front of the object."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.set_hand_pose(*facing_pose(self.object, clearance=0.05))
+
+    def forward(self) -> None:
+        """Recompute positions, contacts and sensor values without advancing time."""
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, n: int = 1) -> None:
+        """Advance the physics by n timesteps."""
+        for _ in range(int(n)):
+            mujoco.mj_step(self.model, self.data)
+
+    def run(self, seconds: float) -> None:
+        """Advance the physics by (about) `seconds` of simulated time."""
+        self.step(max(1, round(seconds / self.model.opt.timestep)))
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def set_gravity(self, gravity: bool | Iterable[float]) -> None:
+        """Gravity on (True: -z of the world), off (False), or an explicit vector (m/s^2)."""
+        if gravity is True:
+            vector = np.array([0.0, 0.0, -GRAVITY])
+        elif gravity is False:
+            vector = np.zeros(3)
+        else:
+            vector = _vec3(gravity, "gravity")
+        self.model.opt.gravity[:] = vector
+
+    # -- hand placement --------------------------------------------------------------------------
+    def object_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current object pose in the world (position, quaternion)."""
+        return self.data.xpos[self._object_body].copy(), self.data.xquat[self._object_body].copy()
+
+    def hand_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current palm pose in the object frame."""
+        mujoco.mj_kinematics(self.model, self.data)
+        palm = self.data.xpos[self._palm], self.data.xquat[self._palm]
+        return compose(*invert(*self.object_pose()), *palm)
+
+    def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
+        """Move the hand so that the palm frame has this pose in the object frame."""
+        pos, quat = _vec3(pos, "pos"), _quat(quat, "quat")
+        mujoco.mj_kinematics(self.model, self.data)
+        target = compose(*self.object_pose(), pos, quat)
+        mount = self.data.mocap_pos[self._mount].copy(), self.data.mocap_quat[self._mount].copy()
+        mount_to_palm = compose(*invert(*mount), self.data.xpos[self._palm], self.data.xquat[self._palm])
+        new_pos, new_quat = compose(*target, *invert(*mount_to_palm))
+        self.data.mocap_pos[self._mount] = new_pos
+        self.data.mocap_quat[self._mount] = new_quat
+        self.forward()
+
+    # -- postures --------------------------------------------------------------------------------
+    def posture(self) -> np.ndarray:
+        """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
+        return self.data.qpos[self._finger_qpos].copy()
+
+    def wrist(self) -> np.ndarray:
+        """The current wrist angles (WRJ2, WRJ1)."""
+        return self.data.qpos[self._hand_qpos[:2]].copy()
+
+    def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
+        """Put the hand in a posture at rest and make the actuators hold it."""
+        posture = validate_posture(posture, check_limits=True)
+        ctrl = posture_to_ctrl(posture, wrist)
+        self.data.qpos[self._finger_qpos] = posture
+        self.data.qpos[self._hand_qpos[:2]] = ctrl[:2]
+        self.data.qvel[self._hand_dof] = 0.0
+        self.data.ctrl[:] = ctrl
+        self.forward()
+
+    def set_target(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
+        """Command the actuators towards a posture (the hand moves when the physics steps)."""
+        self.data.ctrl[:] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True), wrist)
+
+    # -- sensing ---------------------------------------------------------------------------------
+    def tactile(self) -> TactileReading:
+        """Hand-object contacts now (see TactileReading)."""
+        return self.sensor.read(self.data)

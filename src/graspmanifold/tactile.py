@@ -1,0 +1,112 @@
+"""Tactile sensing: per-segment hand-object contact readings from MuJoCo's contacts.
+
+Only contacts between a hand segment and the object are tactile events; the hand touching
+itself (or anything else) is not. A reading is what a tactile skin would report, plus the contact
+geometry that grasp-quality measures need (points and normals, in the world frame).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from .hand import SEGMENTS
+from .posture import pcp_mask
+
+_SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
+
+
+def _check_segment(segment: str) -> int:
+    if segment not in _SEGMENT_INDEX:
+        raise ValueError(f"unknown segment {segment!r}; expected one of {SEGMENTS}")
+    return _SEGMENT_INDEX[segment]
+
+
+@dataclass(frozen=True)
+class TactileReading:
+    """Hand-object contacts at one instant.
+
+    `segments`: touching segments in SEGMENTS order; `segment_forces`: (len(SEGMENTS),) summed normal
+    force per segment (N). Per contact: `contact_segments`, `points` (k, 3, world frame), `normals`
+    (k, 3, unit, pointing into the object), `forces` (k,) normal force (N), `depths` (k,) penetration (m).
+    """
+
+    segments: tuple[str, ...]
+    segment_forces: np.ndarray
+    contact_segments: tuple[str, ...] = ()
+    points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    normals: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    forces: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    depths: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def touches(self, segment: str) -> bool:
+        """True when `segment` touches the object."""
+        _check_segment(segment)
+        return segment in self.segments
+
+    def force_on(self, segment: str) -> float:
+        """Summed normal force on one segment (N)."""
+        return float(self.segment_forces[_check_segment(segment)])
+
+    @property
+    def max_penetration(self) -> float:
+        """Deepest hand-object penetration (m), 0 without contact."""
+        return float(self.depths.max()) if len(self.depths) else 0.0
+
+    def pcp_mask(self) -> np.ndarray:
+        """The Partial Contact Posture mask (22,) of this reading (paper Eq. 1)."""
+        return pcp_mask(self.segments)
+
+
+class TactileSensor:
+    """Reads TactileReadings from a model holding the hand and a body named `object`."""
+
+    def __init__(self, model: mujoco.MjModel, object_body: str = "object", min_force: float = 0.0):
+        try:
+            object_id = model.body(object_body).id
+        except KeyError:
+            raise ValueError(f"the model has no body named {object_body!r}") from None
+        self.model = model
+        self.min_force = float(min_force)
+        self._segment_of_geom = np.full(model.ngeom, -1)
+        for geom in range(model.ngeom):
+            body = model.body(model.geom_bodyid[geom]).name
+            if body in _SEGMENT_INDEX:
+                self._segment_of_geom[geom] = _SEGMENT_INDEX[body]
+        self._is_object_geom = model.geom_bodyid == object_id
+        self._wrench = np.zeros(6)
+
+    def read(self, data: mujoco.MjData) -> TactileReading:
+        """The current hand-object contacts (call after mj_step or mj_forward)."""
+        n = data.ncon
+        segment_forces = np.zeros(len(SEGMENTS))
+        if n == 0:
+            return TactileReading(segments=(), segment_forces=segment_forces)
+        contact = data.contact
+        g1, g2 = contact.geom1[:n], contact.geom2[:n]
+        hand_first = (self._segment_of_geom[g1] >= 0) & self._is_object_geom[g2]
+        hand_second = (self._segment_of_geom[g2] >= 0) & self._is_object_geom[g1]
+        active = (hand_first | hand_second) & (contact.efc_address[:n] >= 0)
+        rows = np.flatnonzero(active)
+        forces = np.empty(len(rows))
+        for k, row in enumerate(rows):
+            mujoco.mj_contactForce(self.model, data, int(row), self._wrench)
+            forces[k] = self._wrench[0]
+        keep = forces >= self.min_force
+        rows, forces = rows[keep], forces[keep]
+        segment_ids = np.where(hand_first[rows], self._segment_of_geom[g1[rows]], self._segment_of_geom[g2[rows]])
+        # the contact normal points from geom1 to geom2: into the object when the hand is geom1
+        normals = contact.frame[:n, :3][rows] * np.where(hand_first[rows], 1.0, -1.0)[:, None]
+        np.add.at(segment_forces, segment_ids, forces)
+        touching = sorted(set(segment_ids.tolist()))
+        return TactileReading(
+            segments=tuple(SEGMENTS[i] for i in touching),
+            segment_forces=segment_forces,
+            contact_segments=tuple(SEGMENTS[i] for i in segment_ids),
+            points=contact.pos[:n][rows].copy(),
+            normals=normals,
+            forces=forces,
+            depths=np.maximum(-contact.dist[:n][rows], 0.0),
+        )
