@@ -17,6 +17,7 @@ from .hand import (
     finger_limits,
     load_hand,
 )
+from .experience import Experience, PostureDatabase
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import (
     clip_posture,
@@ -30,13 +31,15 @@ from .posture import (
     within_limits,
 )
 from .scene import Scene, facing_pose
+from .som import SOM
 from .tactile import TactileReading, TactileSensor
 
 __version__ = "0.1.0"
 
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
-    "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "GraspObject", "Scene", "TactileReading",
+    "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
+    "PostureDatabase", "Scene", "TactileReading",
     "TactileSensor", "clip_posture", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "get_object", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",

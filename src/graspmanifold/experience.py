@@ -1,0 +1,77 @@
+"""Experience bases: the interface the grasp controller uses, and the raw posture database.
+
+The paper represents grasp experience either as a database of successful grasp postures
+(Section 2, matched with the PCP distance of Eq. 2) or as a SOM approximating the grasp manifold
+(Section 4, the same masked distance in Eq. 4). Both answer one question: which stored posture
+best matches the current partial contact posture? `Experience` is that question as a protocol;
+`SOM` and `PostureDatabase` both satisfy it.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .io import fingerprint, load_npz, save_npz
+from .nearest import MaskedNearest, check_queries
+from .som import check_data
+
+
+@runtime_checkable
+class Experience(Protocol):
+    """A set of reference postures answering masked best-match queries."""
+
+    dim: int
+
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int: ...
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray: ...
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray: ...
+
+
+class PostureDatabase:
+    """All stored postures (n, dim); best matches are row indices into `postures`."""
+
+    def __init__(self, postures: np.ndarray):
+        data = np.asarray(postures, dtype=float)
+        if data.ndim != 2:
+            raise ValueError(f"postures must be an (n, dim) array, got shape {data.shape}")
+        self.postures = check_data(data, data.shape[1], "postures")
+        self.postures.flags.writeable = False
+        self.dim = self.postures.shape[1]
+        self._search = MaskedNearest(self.postures)
+
+    def __len__(self) -> int:
+        return len(self.postures)
+
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """Row of the stored posture nearest to x under the PCP distance of Eq. 2."""
+        queries, weights = check_queries(x, mask, self.dim)
+        if len(queries) != 1:
+            raise ValueError(f"x must be one vector of length {self.dim}; use best_match_batch for many")
+        return int(self._search.query(queries, weights)[0])
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """Best-matching rows (m,) for queries X (m, dim), with one mask or one per row."""
+        queries, weights = check_queries(X, masks, self.dim)
+        return self._search.query(queries, weights)
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching stored posture, in full."""
+        return self.postures[self.best_match(x, mask)].copy()
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}
+        return save_npz(path, "posture_database", {"postures": self.postures}, meta, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> PostureDatabase:
+        arrays, _ = load_npz(path, "posture_database", {"postures": (None, None)})
+        return cls(arrays["postures"])
+
+    def __repr__(self) -> str:
+        return f"PostureDatabase({len(self)} postures, dim={self.dim})"

@@ -1,0 +1,90 @@
+"""Files: NumPy .npz archives with readable JSON metadata, written atomically, loaded with checks.
+
+Every file the library writes carries `{"schema": ..., "kind": ..., "library_version": ...}` plus
+whatever the writer adds (units, seed, parameters). A temporary file is renamed into place only
+once it is complete, so an interrupted write never leaves a half-written file behind.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+SCHEMA_VERSION = 1
+_METADATA_KEY = "__metadata__"
+
+
+def library_version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def fingerprint(array: np.ndarray) -> str:
+    """A short content hash of an array (shape, dtype and values)."""
+    a = np.ascontiguousarray(array)
+    digest = hashlib.sha256(f"{a.shape}{a.dtype.str}".encode())
+    digest.update(a.tobytes())
+    return digest.hexdigest()[:16]
+
+
+def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], metadata: dict,
+             *, overwrite: bool = True) -> Path:
+    """Write arrays and metadata to `path` atomically; refuse an existing file unless `overwrite`."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise ValueError(f"path must end in .npz, got {str(path)!r}")
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists; pass overwrite=True (or --force) to replace it")
+    if _METADATA_KEY in arrays:
+        raise ValueError(f"{_METADATA_KEY!r} is reserved")
+    meta = {"schema": SCHEMA_VERSION, "kind": kind, "library_version": library_version(), **metadata}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            np.savez(handle, **arrays, **{_METADATA_KEY: np.array(json.dumps(meta))})
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int | None, ...]]
+             ) -> tuple[dict[str, np.ndarray], dict]:
+    """Load a file written by `save_npz` and check its kind, schema and the shapes of `required`.
+
+    `required` maps array names to shapes in which None matches any length.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file: {path}")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {name: archive[name] for name in archive.files}
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError, KeyError) as error:
+        raise ValueError(f"{path} is not a readable .npz file (truncated or corrupt?): {error}") from None
+    if _METADATA_KEY not in arrays:
+        raise ValueError(f"{path} is not a graspmanifold file: it has no metadata")
+    try:
+        meta = json.loads(str(arrays.pop(_METADATA_KEY)))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path} has corrupt metadata: {error}") from None
+    if meta.get("kind") != kind:
+        raise ValueError(f"{path} holds a {meta.get('kind')!r}, not a {kind!r}")
+    if meta.get("schema") != SCHEMA_VERSION:
+        raise ValueError(f"{path} has schema version {meta.get('schema')!r}; this library reads {SCHEMA_VERSION}")
+    for name, shape in required.items():
+        if name not in arrays:
+            raise ValueError(f"{path} lacks the array {name!r}")
+        got = arrays[name].shape
+        if len(got) != len(shape) or any(s is not None and s != g for s, g in zip(shape, got)):
+            raise ValueError(f"{path}: array {name!r} has shape {got}, expected {shape}")
+    return arrays, meta

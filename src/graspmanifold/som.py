@@ -1,0 +1,358 @@
+"""A Self-Organising Map on a rectangular lattice, vectorised with NumPy (paper Sections 3-5).
+
+    som = SOM(25, 25, 22, seed=0).fit(postures)                         # the paper's schedule
+    som.fit(new_postures, epochs=10, learning_rate=(0.1, 0.05), sigma=(3.0, 0.7))   # resumed
+    node = som.best_match(pcp, mask)                                      # Eq. 3 with Eq. 4
+    posture = som.complete(pcp, mask)                                     # associative completion
+
+Training schedule. Learning rate and neighbourhood width decay exponentially from their start to
+their end value over the run, one value per epoch: v_e = v_0 (v_end / v_0)^(e / (epochs - 1)).
+Each epoch presents every sample once, in a fresh random order. The neighbourhood is the Gaussian
+h = lr * exp(-|a - a*|^2 / (2 sigma^2)) on lattice coordinates; values below 1e-12 of the centre
+are dropped (they would move a weight by less than 1e-12 of its distance to the sample).
+
+Online training is the textbook update w <- w + h (x - w), computed exactly but cheaply: each
+node is stored as w = alpha * v, so the update becomes alpha <- (1 - h) alpha plus one BLAS rank-1
+update of V, and |w|^2 is kept up to date from the v.x product that the best-match search needs
+anyway. `algorithm="batch"` is Kohonen's batch map (no learning rate) with the same sigma schedule,
+for speed: it finds all winners of an epoch with one single-precision matrix product on centred
+data (winners closer than ~1e-6 in squared distance may resolve differently than in double
+precision, which moves the map negligibly); the weights themselves are double precision.
+
+Initialisation is from the principal components: the lattice spans the 5th to 95th percentile of
+the data along its first two principal axes. It needs no random numbers, starts the map already
+ordered (the paper's shrinking schedule then refines rather than untangles) and makes the seed
+matter only for the presentation order.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+from scipy.linalg.blas import dger
+from threadpoolctl import threadpool_limits
+
+from .io import fingerprint, load_npz, save_npz
+from .nearest import MaskedNearest, check_queries
+from .progress import Progress
+
+ALGORITHMS = ("online", "batch")
+_NEGLIGIBLE = 1e-12
+_RENORMALISE_BELOW = 1e-30
+
+
+def decay_schedule(start: float, end: float, epochs: int) -> np.ndarray:
+    """Per-epoch values decaying exponentially from `start` to `end`."""
+    if epochs == 1:
+        return np.array([float(start)])
+    return start * (end / start) ** (np.arange(epochs) / (epochs - 1))
+
+
+def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
+    """X as a float (n, dim) array with n >= 1 and only finite values; errors name the bad row."""
+    data = np.asarray(X, dtype=float)
+    if data.ndim != 2 or data.shape[1] != dim or len(data) == 0:
+        raise ValueError(f"{name} must have shape (n, {dim}) with n >= 1, got {data.shape}")
+    finite = np.isfinite(data).all(axis=1)
+    if not finite.all():
+        row = int(np.flatnonzero(~finite)[0])
+        raise ValueError(f"{name} row {row} has non-finite values: {data[row].tolist()}")
+    return np.ascontiguousarray(data)
+
+
+def _pair(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
+    try:
+        start, end = (float(v) for v in value)  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a (start, end) pair of numbers, got {value!r}") from None
+    for v in (start, end):
+        if not math.isfinite(v) or v <= 0 or (upper is not None and v >= upper):
+            bound = f" and below {upper}" if upper is not None else ""
+            raise ValueError(f"{name} values must be positive{bound}, got {value!r}")
+    return start, end
+
+
+def _positive_int(value: object, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+class SOM:
+    """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
+
+    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0):
+        self.rows = _positive_int(rows, "rows")
+        self.cols = _positive_int(cols, "cols")
+        self.dim = _positive_int(dim, "dim")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        self.seed = int(seed)
+        self.history: list[dict] = []
+        self._weights: np.ndarray | None = None
+        self._search: MaskedNearest | None = None
+        # lattice coordinates of every node, flat order row * cols + col
+        self._grid = np.indices((self.rows, self.cols)).reshape(2, -1).T
+
+    # -- state -----------------------------------------------------------------------------------
+    @property
+    def n_nodes(self) -> int:
+        return self.rows * self.cols
+
+    @property
+    def is_fitted(self) -> bool:
+        return self._weights is not None
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Reference vectors, shape (rows, cols, dim) (read-only; assign a new array to change them)."""
+        view = self._require_weights().view()
+        view.flags.writeable = False
+        return view
+
+    @weights.setter
+    def weights(self, value: np.ndarray) -> None:
+        array = np.array(value, dtype=float)
+        if array.shape != (self.rows, self.cols, self.dim):
+            raise ValueError(f"weights must have shape {(self.rows, self.cols, self.dim)}, got {array.shape}")
+        check_data(array.reshape(-1, self.dim), self.dim, "weights")
+        self._weights = array
+        self._search = None
+
+    def _require_weights(self) -> np.ndarray:
+        if self._weights is None:
+            raise RuntimeError("this SOM has no weights yet: call fit() (or initialize()) first")
+        return self._weights
+
+    def _nearest(self) -> MaskedNearest:
+        if self._search is None:
+            self._search = MaskedNearest(self._require_weights().reshape(-1, self.dim))
+        return self._search
+
+    def node_position(self, index: int) -> tuple[int, int]:
+        """(row, col) of a flat node index."""
+        if not 0 <= index < self.n_nodes:
+            raise ValueError(f"node index must be in [0, {self.n_nodes}), got {index}")
+        return divmod(int(index), self.cols)
+
+    # -- training --------------------------------------------------------------------------------
+    def initialize(self, X: np.ndarray) -> SOM:
+        """Place the lattice on the data's first two principal axes (deterministic)."""
+        data = check_data(X, self.dim)
+        mean = data.mean(axis=0)
+        centred = data - mean
+        if len(data) > 1:
+            _, _, components = np.linalg.svd(centred, full_matrices=False)
+        else:
+            components = np.zeros((0, self.dim))
+        axes = np.zeros((2, self.dim))
+        axes[: min(2, len(components))] = components[:2]
+        for axis in axes:  # a fixed sign per axis: its largest component is positive
+            if np.any(axis):
+                axis *= np.sign(axis[np.argmax(np.abs(axis))])
+        spans = []
+        for axis, count in zip(axes, (self.rows, self.cols)):
+            low, high = np.percentile(centred @ axis, [5, 95])
+            spans.append(np.linspace(low, high, count) if count > 1 else np.zeros(1))
+        weights = mean + spans[0][:, None, None] * axes[0] + spans[1][None, :, None] * axes[1]
+        self.weights = weights
+        return self
+
+    def fit(self, X: np.ndarray, epochs: int = 300, learning_rate: tuple[float, float] = (0.95, 0.05),
+            sigma: tuple[float, float] = (6.0, 0.7), algorithm: str = "online", *, restart: bool = False,
+            progress: bool = False) -> SOM:
+        """Train on X (n, dim). A trained map continues from its weights (resumed learning) unless
+        `restart=True`, which initialises it afresh. Returns self."""
+        data = check_data(X, self.dim)
+        epochs = _positive_int(epochs, "epochs")
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
+        rates = decay_schedule(*_pair(learning_rate, "learning_rate", upper=1.0), epochs)
+        widths = decay_schedule(*_pair(sigma, "sigma"), epochs)
+        if restart or not self.is_fitted:
+            self.history = []
+            self.initialize(data)
+        rng = np.random.default_rng([self.seed, len(self.history)])
+        report = Progress(epochs, f"SOM {self.rows}x{self.cols} {algorithm}", "epochs", enabled=progress)
+        if algorithm == "online":
+            with threadpool_limits(limits=1, user_api="blas"):  # tiny BLAS calls: threads only add latency
+                weights = self._train_online(data, rates, widths, rng, report)
+        else:
+            weights = self._train_batch(data, widths, report)
+        self.weights = weights
+        self.history.append({"algorithm": algorithm, "epochs": epochs, "learning_rate": list(map(float, learning_rate)),
+                             "sigma": list(map(float, sigma)), "samples": len(data),
+                             "data_fingerprint": fingerprint(data)})
+        return self
+
+    def _train_online(self, data: np.ndarray, rates: np.ndarray, widths: np.ndarray,
+                      rng: np.random.Generator, report: Progress) -> np.ndarray:
+        n_nodes, cols = self.n_nodes, self.cols
+        scale = np.asfortranarray(self._require_weights().reshape(n_nodes, self.dim))  # V, with w = alpha * v
+        alpha = np.ones(n_nodes)
+        half_vv = 0.5 * np.einsum("ij,ij->i", scale, scale)  # |v|^2 / 2
+        half_xx = 0.5 * np.einsum("ij,ij->i", data, data)
+        vx, score, keep, tmp, coef = (np.empty(n_nodes) for _ in range(5))
+        for rate, sigma in zip(rates, widths):
+            neighbourhood = self._neighbourhood_table(rate, sigma)  # row b: h of every node for winner b
+            shrink_bound, floor = 1.0, 1.0 - rate
+            for i in rng.permutation(len(data)):
+                x = data[i]
+                np.dot(scale, x, out=vx)
+                np.multiply(alpha, half_vv, out=score)  # |w - x|^2 / (2 alpha) minus a constant:
+                score -= vx  # alpha (alpha |v|^2/2 - v.x)
+                score *= alpha
+                h = neighbourhood[int(score.argmin())]
+                np.subtract(1.0, h, out=keep)
+                alpha *= keep  # w' = (1 - h) w + h x  <=>  alpha' = (1 - h) alpha, v' = v + (h / alpha') x
+                np.divide(h, alpha, out=coef)
+                np.multiply(coef, half_xx[i], out=tmp)  # |v'|^2/2 = |v|^2/2 + c v.x + c^2 |x|^2/2
+                tmp += vx
+                tmp *= coef
+                half_vv += tmp
+                scale = dger(1.0, coef, x, a=scale, overwrite_a=1)
+                shrink_bound *= floor
+                if shrink_bound < _RENORMALISE_BELOW:  # fold alpha back into V before it underflows
+                    half_vv = self._fold(scale, alpha)
+                    shrink_bound = 1.0
+            half_vv = self._fold(scale, alpha)
+            report.update()
+        return np.ascontiguousarray(scale).reshape(self.rows, cols, self.dim)
+
+    @staticmethod
+    def _fold(scale: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+        """Scale V's rows by alpha in place, reset alpha to 1; return |v|^2 / 2 computed afresh."""
+        scale *= alpha[:, None]
+        alpha[:] = 1.0
+        return 0.5 * np.einsum("ij,ij->i", scale, scale)
+
+    def _neighbourhood_table(self, rate: float, sigma: float) -> np.ndarray:
+        """(n_nodes, n_nodes) table: row b holds rate * exp(-|a - b|^2 / (2 sigma^2)) for every node a."""
+        g_rows = np.exp(-0.5 * (np.subtract.outer(np.arange(self.rows), np.arange(self.rows)) / sigma) ** 2)
+        g_cols = np.exp(-0.5 * (np.subtract.outer(np.arange(self.cols), np.arange(self.cols)) / sigma) ** 2)
+        table = rate * np.einsum("ac,bd->abcd", g_rows, g_cols).reshape(self.n_nodes, self.n_nodes)
+        table[table < _NEGLIGIBLE * rate] = 0.0
+        return table
+
+    def _train_batch(self, data: np.ndarray, widths: np.ndarray, report: Progress) -> np.ndarray:
+        rows, cols, dim = self.rows, self.cols, self.dim
+        centre = data.mean(axis=0)
+        centred = data - centre
+        augmented = np.hstack([centred, np.ones((len(data), 1))]).astype(np.float32)
+        weights = self._require_weights().reshape(self.n_nodes, dim) - centre
+        lattice_r = np.subtract.outer(np.arange(rows), np.arange(rows)) ** 2
+        lattice_c = np.subtract.outer(np.arange(cols), np.arange(cols)) ** 2
+        flat_columns = np.arange(dim)
+        scores = np.empty((len(data), self.n_nodes), dtype=np.float32)
+        for sigma in widths:
+            # winners: argmax of x.w - |w|^2 / 2, in single precision on centred data
+            node_side = np.hstack([weights, -0.5 * np.einsum("ij,ij->i", weights, weights)[:, None]])
+            np.dot(augmented, node_side.T.astype(np.float32), out=scores)
+            best = scores.argmax(axis=1)
+            sums = np.bincount((best[:, None] * dim + flat_columns).ravel(), weights=centred.ravel(),
+                               minlength=self.n_nodes * dim).reshape(rows, cols * dim)
+            counts = np.bincount(best, minlength=self.n_nodes).reshape(rows, cols).astype(float)
+            g_r = np.exp(-0.5 * lattice_r / sigma**2)
+            g_c = np.exp(-0.5 * lattice_c / sigma**2)
+            numerator = np.matmul(g_c, (g_r @ sums).reshape(rows, cols, dim))  # separable Gaussian
+            denominator = (g_r @ counts @ g_c.T).ravel()
+            update = denominator > 1e-300
+            weights[update] = numerator.reshape(self.n_nodes, dim)[update] / denominator[update, None]
+            report.update()
+        return (weights + centre).reshape(rows, cols, dim)
+
+    # -- best match and completion (Eq. 3 with the masked distance of Eq. 4) ------------------------
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """Flat index (row * cols + col) of the node nearest to x under the masked distance.
+
+        `mask`: None (plain Euclidean), boolean, or weights p_k >= 0 (not all zero). x may hold NaN
+        where the mask is 0.
+        """
+        queries, weights = check_queries(x, mask, self.dim)
+        if len(queries) != 1:
+            raise ValueError(f"x must be one vector of length {self.dim}; use best_match_batch for many")
+        return int(self._nearest().query(queries, weights)[0])
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """Best-matching flat node indices (m,) for queries X (m, dim), with one mask or one per row."""
+        queries, weights = check_queries(X, masks, self.dim)
+        return self._nearest().query(queries, weights)
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching node's full reference vector: x pulled onto the map."""
+        return self._require_weights().reshape(-1, self.dim)[self.best_match(x, mask)].copy()
+
+    # -- quality and structure -------------------------------------------------------------------
+    def quantization_error(self, X: np.ndarray) -> float:
+        """Mean Euclidean distance from each sample to its best-matching reference vector."""
+        data = check_data(X, self.dim)
+        flat = self._require_weights().reshape(-1, self.dim)
+        return float(np.mean(np.linalg.norm(data - flat[self.best_match_batch(data)], axis=1)))
+
+    def topographic_error(self, X: np.ndarray) -> float:
+        """Fraction of samples whose best and second-best nodes are not lattice neighbours (8-neighbourhood)."""
+        data = check_data(X, self.dim)
+        flat = self._require_weights().reshape(-1, self.dim)
+        errors = 0
+        for start in range(0, len(data), 4096):
+            block = data[start:start + 4096]
+            d = (np.einsum("ij,ij->i", flat, flat)[None, :] - 2.0 * block @ flat.T)
+            two = np.argsort(d, axis=1, kind="stable")[:, :2]
+            gap = np.abs(self._grid[two[:, 0]] - self._grid[two[:, 1]]).max(axis=1)
+            errors += int(np.count_nonzero(gap > 1))
+        return errors / len(data)
+
+    def hit_counts(self, X: np.ndarray) -> np.ndarray:
+        """(rows, cols) number of samples whose best match is each node."""
+        return np.bincount(self.best_match_batch(check_data(X, self.dim)),
+                           minlength=self.n_nodes).reshape(self.rows, self.cols)
+
+    def unsupported_nodes(self, X: np.ndarray) -> np.ndarray:
+        """Flat indices of the nodes that no sample of X falls on."""
+        return np.flatnonzero(self.hit_counts(X).ravel() == 0)
+
+    def internode_distances(self) -> tuple[np.ndarray, np.ndarray]:
+        """Euclidean distances between 4-neighbours: horizontal (rows, cols-1), vertical (rows-1, cols)."""
+        w = self._require_weights()
+        return (np.linalg.norm(np.diff(w, axis=1), axis=2), np.linalg.norm(np.diff(w, axis=0), axis=2))
+
+    def distance_stats(self, degrees: bool = False) -> dict[str, float]:
+        """min, max, mean, std and coefficient of variation of the inter-node distances.
+
+        `degrees=True` reports distances between posture vectors in degrees (the paper's Fig. 4 text).
+        """
+        horizontal, vertical = self.internode_distances()
+        d = np.concatenate([horizontal.ravel(), vertical.ravel()])
+        if degrees:
+            d = np.degrees(d)
+        if len(d) == 0:
+            raise ValueError("a 1 x 1 map has no inter-node distances")
+        mean = float(d.mean())
+        return {"min": float(d.min()), "max": float(d.max()), "mean": mean, "std": float(d.std()),
+                "cv": float(d.std() / mean) if mean > 0 else float("nan"), "edges": int(len(d))}
+
+    # -- files -----------------------------------------------------------------------------------
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        """Write the map to a .npz file (atomically) with its shape, seed and training history."""
+        meta = {"rows": self.rows, "cols": self.cols, "dim": self.dim, "seed": self.seed, "history": self.history,
+                "units": "as the training data (radians for postures)"}
+        return save_npz(path, "som", {"weights": self._require_weights()}, meta, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> SOM:
+        """Read a map written by `save`, checking kind, schema and shapes."""
+        arrays, meta = load_npz(path, "som", {"weights": (None, None, None)})
+        try:
+            som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"])
+        except KeyError as missing:
+            raise ValueError(f"{path} lacks SOM metadata {missing}") from None
+        som.weights = arrays["weights"]
+        som.history = list(meta.get("history", []))
+        return som
+
+    def __repr__(self) -> str:
+        state = f"trained {len(self.history)}x" if self.history else ("initialised" if self.is_fitted else "untrained")
+        return f"SOM({self.rows}x{self.cols}, dim={self.dim}, seed={self.seed}, {state})"
