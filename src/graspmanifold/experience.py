@@ -16,7 +16,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from .io import fingerprint, load_npz, save_npz
-from .nearest import MaskedNearest, check_queries
+from .nearest import MaskedNearest, check_queries, check_query
 from .som import check_data
 
 
@@ -50,10 +50,8 @@ class PostureDatabase:
 
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
         """Row of the stored posture nearest to x under the PCP distance of Eq. 2."""
-        queries, weights = check_queries(x, mask, self.dim)
-        if len(queries) != 1:
-            raise ValueError(f"x must be one vector of length {self.dim}; use best_match_batch for many")
-        return int(self._search.query(queries, weights)[0])
+        query, weights = check_query(x, mask, self.dim)
+        return self._search.query_one(query, weights)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """Best-matching rows (m,) for queries X (m, dim), with one mask or one per row."""

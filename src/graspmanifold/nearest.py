@@ -11,6 +11,8 @@ formula, so the answer is exactly the brute-force argmin (lowest index on ties).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _CHUNK = 4096  # queries per matrix product: bounds memory at CHUNK x n distances
@@ -51,6 +53,30 @@ def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.nda
     return queries, np.ascontiguousarray(weights)
 
 
+def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """`check_queries` for one query: returns float (dim,) arrays; a lean path for control loops."""
+    query = np.asarray(x, dtype=float)
+    if query.shape != (dim,):
+        raise ValueError(f"x must have shape ({dim},), got {np.shape(x)}")
+    if mask is None:
+        weights = np.ones(dim)
+    else:
+        weights = np.asarray(mask, dtype=float)
+        if weights.shape != (dim,):
+            raise ValueError(f"mask must have shape ({dim},), got {np.shape(mask)}")
+        total = float(weights.sum())
+        if not math.isfinite(total):
+            raise ValueError("mask has non-finite weights")
+        if weights.min() < 0:
+            raise ValueError("mask has negative weights; expected booleans or weights p_k >= 0")
+        if total == 0.0:
+            raise ValueError("mask selects no dimension (all zero)")
+    query = np.where(weights > 0, query, 0.0)
+    if not np.isfinite(query).all():
+        raise ValueError(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
+    return query, weights
+
+
 class MaskedNearest:
     """Exact nearest point of a fixed set under the masked squared distance."""
 
@@ -61,7 +87,6 @@ class MaskedNearest:
         squares = self.points * self.points
         self._expanded = np.ascontiguousarray(np.hstack([squares, self.points]).T)  # (2 dim, n)
         self._scale_sq = squares.max(axis=0)
-        self._scale_abs = np.abs(self.points).max(axis=0)
 
     @property
     def dim(self) -> int:
@@ -69,7 +94,7 @@ class MaskedNearest:
 
     def distances(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """Direct masked squared distances (n,) from one query to every point."""
-        (query,), (weights,) = check_queries(x, mask, self.dim)
+        query, weights = check_query(x, mask, self.dim)
         return np.sum(weights * (self.points - query) ** 2, axis=1)
 
     def query(self, queries: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -80,13 +105,25 @@ class MaskedNearest:
             result[block] = self._query_block(queries[block], weights[block])
         return result
 
+    def query_one(self, query: np.ndarray, weights: np.ndarray) -> int:
+        """Index of the nearest point for one validated query (see check_query)."""
+        expanded = np.concatenate((weights, -2.0 * weights * query)) @ self._expanded
+        best = int(expanded.argmin())
+        # |p.w^2 - 2 (p x).w| <= sum p (w_max^2 + x^2) * 2 bounds the magnitude of the rounded terms
+        tolerance = 2.0 * _RELATIVE_TOLERANCE * float((self._scale_sq + query * query) @ weights)
+        threshold = expanded[best] + tolerance
+        if np.count_nonzero(expanded <= threshold) > 1:  # rare: settle with the direct formula
+            candidates = np.flatnonzero(expanded <= threshold)
+            exact = np.sum(weights * (self.points[candidates] - query) ** 2, axis=1)
+            best = int(candidates[np.argmin(exact)])
+        return best
+
     def _query_block(self, queries: np.ndarray, weights: np.ndarray) -> np.ndarray:
         stacked = np.hstack([weights, -2.0 * weights * queries])
         expanded = stacked @ self._expanded  # (m, n): distance minus the query's own constant
         best = expanded.argmin(axis=1)
         rows = np.arange(len(queries))
-        magnitude = self._scale_sq + 2.0 * self._scale_abs * np.abs(queries) + queries * queries
-        tolerance = _RELATIVE_TOLERANCE * np.einsum("ij,ij->i", magnitude, weights)
+        tolerance = 2.0 * _RELATIVE_TOLERANCE * np.einsum("ij,ij->i", self._scale_sq + queries * queries, weights)
         near_tie = np.count_nonzero(expanded <= (expanded[rows, best] + tolerance)[:, None], axis=1) > 1
         for row in np.flatnonzero(near_tie):  # rare: settle with the direct formula
             candidates = np.flatnonzero(expanded[row] <= expanded[row, best[row]] + tolerance[row])

@@ -36,7 +36,7 @@ from scipy.linalg.blas import dger
 from threadpoolctl import threadpool_limits
 
 from .io import fingerprint, load_npz, save_npz
-from .nearest import MaskedNearest, check_queries
+from .nearest import MaskedNearest, check_queries, check_query
 from .progress import Progress
 
 ALGORITHMS = ("online", "batch")
@@ -271,10 +271,8 @@ class SOM:
         `mask`: None (plain Euclidean), boolean, or weights p_k >= 0 (not all zero). x may hold NaN
         where the mask is 0.
         """
-        queries, weights = check_queries(x, mask, self.dim)
-        if len(queries) != 1:
-            raise ValueError(f"x must be one vector of length {self.dim}; use best_match_batch for many")
-        return int(self._nearest().query(queries, weights)[0])
+        query, weights = check_query(x, mask, self.dim)
+        return self._nearest().query_one(query, weights)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """Best-matching flat node indices (m,) for queries X (m, dim), with one mask or one per row."""
