@@ -18,6 +18,7 @@ from .hand import (
     load_hand,
 )
 from .experience import Experience, PostureDatabase
+from .generator import PRESETS, GeneratorParams, generate_postures
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import (
     clip_posture,
@@ -30,7 +31,9 @@ from .posture import (
     validate_posture,
     within_limits,
 )
+from .postureset import PostureSet
 from .scene import Scene, facing_pose
+from .starts import StartingPosture, starting_postures
 from .som import SOM
 from .tactile import TactileReading, TactileSensor
 
@@ -39,8 +42,8 @@ __version__ = "0.1.0"
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
-    "PostureDatabase", "Scene", "TactileReading",
+    "PostureDatabase", "PostureSet", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "clip_posture", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
-    "get_object", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
+    "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",
 ]

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 from .objects import PAPER_OBJECTS
 from .posture import closed_posture, open_posture
@@ -47,6 +49,47 @@ def _view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_output(path: str, force: bool) -> Path:
+    """An output .npz path that may be written: refuse existing files without --force, unwritable places."""
+    out = Path(path)
+    if out.suffix != ".npz":
+        raise SystemExit(f"error: --out must end in .npz, got {path!r}")
+    if out.exists() and not force:
+        raise SystemExit(f"error: {out} exists; pass --force to overwrite it")
+    parent = out.resolve().parent
+    existing = next(p for p in (parent, *parent.parents) if p.exists())
+    if not os.access(existing, os.W_OK) or not existing.is_dir():
+        raise SystemExit(f"error: cannot write to {out} ({existing} is not a writable directory)")
+    return out
+
+
+def _generate(args: argparse.Namespace) -> int:
+    from .generator import PRESETS, generate_postures, remove_checkpoints
+
+    out = _check_output(args.out, args.force)
+    n = args.n if args.n is not None else PRESETS[args.preset][args.object]
+    if n <= 0:
+        raise SystemExit(f"error: --n must be positive, got {n}")
+    checkpoints = out.with_name(out.name + ".parts")
+    start = time.perf_counter()
+    try:
+        postures = generate_postures(args.object, n, seed=args.seed, workers=args.workers,
+                                     checkpoint_dir=checkpoints, progress=True)
+    except ValueError as error:
+        if not (args.force and "another run" in str(error)):
+            raise SystemExit(f"error: {error}") from None
+        remove_checkpoints(checkpoints)
+        postures = generate_postures(args.object, n, seed=args.seed, workers=args.workers,
+                                     checkpoint_dir=checkpoints, progress=True)
+    postures.save(out)
+    remove_checkpoints(checkpoints)
+    separation = postures.cluster_separation()
+    print(f"wrote {len(postures)} {args.object} postures to {out} in {time.perf_counter() - start:.1f} s "
+          f"(acceptance {postures.metadata['acceptance_ratio']:.2f}; within-start {separation['within_deg']:.1f}°, "
+          f"between starts {separation['between_deg']:.1f}° over {separation['starts']} starting postures)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -56,6 +99,17 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close (default 2)")
     demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m (default 0.01)")
     demo.set_defaults(run=_demo)
+
+    generate = commands.add_parser("generate", help="generate grasp postures with the spring generator")
+    generate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    generate.add_argument("--n", type=int, help="number of postures (default: the preset's size for the object)")
+    generate.add_argument("--preset", choices=("paper", "quick"), default="paper",
+                          help="dataset sizes when --n is not given: paper (box 4069, cylinder 4220, sphere 1885) or quick")
+    generate.add_argument("--out", required=True, help="output .npz file")
+    generate.add_argument("--workers", type=int, default=1, help="parallel worker processes (default 1)")
+    generate.add_argument("--seed", type=int, default=0)
+    generate.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    generate.set_defaults(run=_generate)
 
     view = commands.add_parser("view", help="open MuJoCo's interactive viewer on a scene")
     view.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")

@@ -156,16 +156,19 @@ class Scene:
         palm = self.data.xpos[self._palm], self.data.xquat[self._palm]
         return compose(*invert(*self.object_pose()), *palm)
 
-    def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
-        """Move the hand so that the palm frame has this pose in the object frame."""
+    def mount_pose_for(self, pos: Iterable[float], quat: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
+        """The pose of the mocap body `hand_mount` that puts the palm at (pos, quat) in the object
+        frame, for the current joint angles."""
         pos, quat = _vec3(pos, "pos"), _quat(quat, "quat")
         mujoco.mj_kinematics(self.model, self.data)
         target = compose(*self.object_pose(), pos, quat)
         mount = self.data.mocap_pos[self._mount].copy(), self.data.mocap_quat[self._mount].copy()
         mount_to_palm = compose(*invert(*mount), self.data.xpos[self._palm], self.data.xquat[self._palm])
-        new_pos, new_quat = compose(*target, *invert(*mount_to_palm))
-        self.data.mocap_pos[self._mount] = new_pos
-        self.data.mocap_quat[self._mount] = new_quat
+        return compose(*target, *invert(*mount_to_palm))
+
+    def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
+        """Move the hand so that the palm frame has this pose in the object frame."""
+        self.data.mocap_pos[self._mount], self.data.mocap_quat[self._mount] = self.mount_pose_for(pos, quat)
         self.forward()
 
     # -- postures --------------------------------------------------------------------------------

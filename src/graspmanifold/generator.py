@@ -1,0 +1,285 @@
+"""Spring-based grasp posture generation (paper Section 5).
+
+The object is held fixed. Each fingertip is pulled towards its closest point on the object surface
+by a spring force applied in the simulation, while the finger servos hold the starting posture
+only softly, so the fingers follow the springs. Around each starting posture the hand takes a
+random walk through nearby positions and orientations, in steps small enough for the springs to
+keep up; after each step the hand settles and the posture is tested. Postures in which all five
+distal segments touch the object (gap <= 1 mm), nothing penetrates deeper than 2 mm, every joint is
+inside its range and the hand is at rest are kept. Because the walk stays near its starting
+posture, the data clusters around the starting postures, as the paper's did.
+
+Work is cut into jobs (a starting posture and a chunk of its quota) with their own random streams,
+so the set depends on the seed alone (not on the number of workers), jobs run in parallel
+processes, and a run with a checkpoint directory resumes after an interruption without redoing
+finished jobs.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .hand import DISTAL_SEGMENTS, FINGERTIP_SITES, SEGMENTS, finger_limits
+from .io import library_version, load_npz, save_npz
+from .objects import GraspObject, get_object
+from .postureset import PostureSet
+from .posture import posture_to_ctrl
+from .progress import Progress
+from .scene import Scene
+from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
+
+#: The paper's dataset sizes (Section 5), and a small set for tests and demos.
+PRESETS: dict[str, dict[str, int]] = {
+    "paper": {"box": 4069, "cylinder": 4220, "sphere": 1885},
+    "quick": {"box": 240, "cylinder": 240, "sphere": 160},
+}
+
+
+@dataclass(frozen=True)
+class GeneratorParams:
+    """Settings of the spring generator (SI units, radians)."""
+
+    spring_stiffness: float = 150.0  # N/m, fingertip to closest surface point
+    spring_max_force: float = 2.0  # N
+    servo_stiffness_scale: float = 0.15  # finger servo gains are scaled down so the fingers follow
+    walk_radius: float = 0.012  # m, how far the hand strays from its starting pose
+    walk_angle: float = 0.2  # rad, how far it turns
+    step_size: float = 0.003  # m, standard deviation of one walk step
+    step_angle: float = 0.04  # rad
+    move_steps: int = 15  # physics steps to move the hand by one walk step
+    settle_steps: int = 150  # physics steps at most to come to rest
+    rest_speed: float = 0.1  # rad/s, the hand is at rest below this joint speed
+    job_size: int = 200  # postures per job (the unit of parallel work and of checkpoints)
+    max_tries_per_posture: int = 40  # give up a job if acceptance falls below 1 in this many
+
+
+class _SpringRig:
+    """A scene with fingertip springs and compliant finger servos, for one object."""
+
+    def __init__(self, obj: GraspObject, params: GeneratorParams):
+        self.scene = Scene(obj)
+        self.params = params
+        model = self.scene.model
+        fingers = slice(2, None)  # actuators after the two wrist servos
+        model.actuator_gainprm[fingers, 0] *= params.servo_stiffness_scale
+        model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
+        self.tip_sites = [model.site(s).id for s in FINGERTIP_SITES]
+        self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
+        body_of = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
+        self.segment_geoms = [[g for g in range(model.ngeom) if body_of[g] == s] for s in SEGMENTS]
+        self.distal_geoms = [model.geom(s).id for s in DISTAL_SEGMENTS]
+        self.finger_dofs = self.scene._hand_dof[2:]
+        self.limits = finger_limits()
+        self._fromto = np.zeros(6)
+        self._torque = np.zeros(3)
+
+    def apply_springs(self) -> None:
+        data = self.scene.data
+        data.qfrc_applied[:] = 0.0
+        tips = data.site_xpos[self.tip_sites]  # the object sits at the world origin, unrotated
+        pull = self.params.spring_stiffness * (self.scene.object.closest_point(tips) - tips)
+        norm = np.linalg.norm(pull, axis=1, keepdims=True)
+        pull *= np.minimum(1.0, self.params.spring_max_force / np.maximum(norm, 1e-12))
+        for force, point, body in zip(pull, tips, self.tip_bodies):
+            mujoco.mj_applyFT(self.scene.model, data, force, self._torque, point, body, data.qfrc_applied)
+
+    def simulate(self, steps: int) -> None:
+        for _ in range(steps):
+            self.apply_springs()
+            mujoco.mj_step(self.scene.model, self.scene.data)
+
+    def move_to(self, pos: np.ndarray, quat: np.ndarray) -> None:
+        """Glide the hand so the palm reaches a pose in `move_steps` physics steps, springs on."""
+        data, mount = self.scene.data, self.scene._mount
+        start_pos, start_quat = data.mocap_pos[mount].copy(), data.mocap_quat[mount].copy()
+        end_pos, end_quat = self.scene.mount_pose_for(pos, quat)
+        turn = Rotation.from_quat(start_quat[[1, 2, 3, 0]])
+        delta = (turn.inv() * Rotation.from_quat(end_quat[[1, 2, 3, 0]])).as_rotvec()
+        steps = self.params.move_steps
+        for k in range(1, steps + 1):
+            f = k / steps
+            data.mocap_pos[mount] = start_pos + f * (end_pos - start_pos)
+            data.mocap_quat[mount] = (turn * Rotation.from_rotvec(f * delta)).as_quat()[[3, 0, 1, 2]]
+            self.simulate(1)
+
+    def settle(self) -> bool:
+        """Step until the fingers rest (True) or `settle_steps` run out (False)."""
+        for _ in range(0, self.params.settle_steps, 5):
+            self.simulate(5)
+            if np.max(np.abs(self.scene.data.qvel[self.finger_dofs])) < self.params.rest_speed:
+                return True
+        return False
+
+    def accepted_posture(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(posture, contacts) when the current state is an acceptable grasp, else None."""
+        scene, model, data = self.scene, self.scene.model, self.scene.data
+        posture = scene.posture()
+        if np.any(posture < self.limits[:, 0] - 1e-3) or np.any(posture > self.limits[:, 1] + 1e-3):
+            return None
+        clipped = np.clip(posture, self.limits[:, 0], self.limits[:, 1])
+        saved = data.qpos.copy()
+        data.qpos[scene._finger_qpos] = clipped  # judge exactly what is stored
+        mujoco.mj_kinematics(model, data)
+        gap = lambda g: mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, self._fromto)  # noqa: E731
+        try:
+            if any(gap(g) > CONTACT_GAP for g in self.distal_geoms):
+                return None
+            distances = [min(gap(g) for g in geoms) for geoms in self.segment_geoms]
+            if min(distances) < -MAX_PENETRATION:
+                return None
+            return clipped, np.array(distances) <= CONTACT_GAP
+        finally:
+            data.qpos[:] = saved
+            mujoco.mj_kinematics(model, data)
+
+    def reset_to(self, start: StartingPosture) -> None:
+        scene = self.scene
+        mujoco.mj_resetData(scene.model, scene.data)
+        scene.set_hand_pose(start.hand_pos, start.hand_quat)
+        scene.set_posture(start.posture)
+
+
+@dataclass(frozen=True)
+class _Job:
+    start_index: int
+    chunk: int
+    quota: int
+
+
+def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
+             ) -> dict[str, np.ndarray]:
+    """Walk around one starting posture until `job.quota` postures are accepted."""
+    rng = np.random.default_rng([seed, job.start_index, job.chunk])
+    rig = _SpringRig(obj, params)
+    rig.reset_to(start)
+    rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
+    base = Rotation.from_quat(start.hand_quat[[1, 2, 3, 0]])
+    offset, turn = np.zeros(3), np.zeros(3)
+    postures, poses, contacts = [], [], []
+    tries, misses = 0, 0
+    while len(postures) < job.quota:
+        tries += 1
+        if tries > params.max_tries_per_posture * job.quota:
+            raise RuntimeError(f"the generator accepted only {len(postures)} of {tries} postures around "
+                               f"starting posture {start.name!r}; check the object and GeneratorParams")
+        offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
+        turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
+        rig.move_to(start.hand_pos + offset, (Rotation.from_rotvec(turn) * base).as_quat()[[3, 0, 1, 2]])
+        result = rig.accepted_posture() if rig.settle() else None
+        if result is None:
+            misses += 1
+            if misses >= 5:  # lost the grasp: back to the starting posture
+                rig.reset_to(start)
+                offset, turn, misses = np.zeros(3), np.zeros(3), 0
+            continue
+        misses = 0
+        pos, quat = rig.scene.hand_pose()
+        postures.append(result[0])
+        contacts.append(result[1])
+        poses.append(np.concatenate([pos, quat]))
+    return {"postures": np.array(postures), "hand_poses": np.array(poses), "contacts": np.array(contacts),
+            "tries": np.array(tries)}
+
+
+def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
+    norm = np.linalg.norm(v)
+    return v if norm <= radius else v * (radius / norm)
+
+
+def _plan(n: int, starts: int, job_size: int) -> list[_Job]:
+    """Split n postures evenly over the starting postures, and each share into jobs."""
+    jobs = []
+    for s in range(starts):
+        share = n // starts + (1 if s < n % starts else 0)
+        for chunk, first in enumerate(range(0, share, job_size)):
+            jobs.append(_Job(s, chunk, min(job_size, share - first)))
+    return jobs
+
+
+def _job_file(directory: Path, job: _Job) -> Path:
+    return directory / f"job_{job.start_index:03d}_{job.chunk:04d}.npz"
+
+
+def _job_worker(args: tuple) -> tuple[int, dict[str, np.ndarray]]:
+    index, obj, start, job, seed, params, directory, signature = args
+    result = _run_job(obj, start, job, seed, params)
+    if directory is not None:
+        save_npz(_job_file(directory, job), "generator_job", result, {"signature": signature, "job": asdict(job)})
+    return index, result
+
+
+def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
+                      params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
+                      progress: bool = False) -> PostureSet:
+    """Generate exactly n accepted grasp postures for an object (a name or a made object).
+
+    The same seed gives the same set, whatever the number of workers. With `checkpoint_dir`,
+    every finished job is saved there, and a rerun with the same arguments picks them up.
+    """
+    obj = get_object(obj)
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
+        raise ValueError(f"n must be a positive integer, got {n!r}")
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    params = params or GeneratorParams()
+    starts = starting_postures(obj)
+    if not starts:
+        raise RuntimeError(f"no starting posture could be found for {obj.name}")
+    jobs = _plan(int(n), len(starts), params.job_size)
+    signature = json.dumps({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
+                            "starts": [s.name for s in starts]}, sort_keys=True)
+    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
+    results: dict[int, dict[str, np.ndarray]] = {}
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
+        for index, job in enumerate(jobs):
+            path = _job_file(directory, job)
+            if path.exists():
+                arrays, meta = load_npz(path, "generator_job", {"postures": (job.quota, None)})
+                if meta.get("signature") != signature:
+                    raise ValueError(f"{directory} holds jobs of another run (other object, seed, n or "
+                                     "parameters); remove it or choose another output")
+                results[index] = arrays
+    report = Progress(n, f"generate {obj.name}", "postures", enabled=progress)
+    if results:
+        report.update(sum(len(r["postures"]) for r in results.values()))
+    pending = [(i, obj, starts[job.start_index], job, seed, params, directory, signature)
+               for i, job in enumerate(jobs) if i not in results]
+    if workers == 1:
+        for args in pending:
+            index, result = _job_worker(args)
+            results[index] = result
+            report.update(len(result["postures"]))
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            for index, result in pool.map(_job_worker, pending):
+                results[index] = result
+                report.update(len(result["postures"]))
+    ordered = [results[i] for i in range(len(jobs))]
+    tries = int(sum(int(r["tries"]) for r in ordered))
+    posture_set = PostureSet(
+        postures=np.concatenate([r["postures"] for r in ordered]),
+        hand_poses=np.concatenate([r["hand_poses"] for r in ordered]),
+        start_ids=np.concatenate([np.full(job.quota, job.start_index) for job in jobs]).astype(np.int64),
+        contacts=np.concatenate([r["contacts"] for r in ordered]).astype(bool),
+        start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
+        metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
+                  "acceptance_ratio": n / tries, "library_version": library_version(),
+                  "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
+                                                 "posture": s.posture.tolist()} for s in starts}},
+    )
+    return posture_set
+
+
+def remove_checkpoints(directory: str | os.PathLike) -> None:
+    """Delete a checkpoint directory once its run has been saved."""
+    shutil.rmtree(directory, ignore_errors=True)

@@ -1,0 +1,173 @@
+"""The spring-based posture generator, starting postures and posture sets."""
+
+import mujoco
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold import generator
+from graspmanifold.cli import main as cli
+
+SMALL = gm.GeneratorParams(job_size=6)
+
+
+def replay_distances(obj, posture, pose):
+    """MuJoCo's own distances from each hand geom to the object, posture replayed in a fresh Scene."""
+    scene = gm.Scene(obj)
+    scene.set_hand_pose(pose[:3], pose[3:])
+    scene.set_posture(posture)
+    model, data = scene.model, scene.data
+    fromto = np.zeros(6)
+    by_segment = {}
+    for g in range(model.ngeom):
+        body = model.body(model.geom_bodyid[g]).name
+        if body in gm.SEGMENTS:
+            d = mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.1, fromto)
+            by_segment[body] = min(d, by_segment.get(body, np.inf))
+    return by_segment
+
+
+def assert_valid_grasp(obj, posture, pose):
+    assert gm.within_limits(posture, tol=1e-9)
+    distances = replay_distances(obj, posture, pose)
+    for segment in gm.DISTAL_SEGMENTS:
+        assert distances[segment] <= 0.001, (segment, distances[segment])
+    assert min(distances.values()) >= -0.002
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
+def test_shipped_starting_postures_are_five_fingertip_grasps(name):
+    starts = gm.starting_postures(name)
+    assert len(starts) >= 3
+    assert len({s.name for s in starts}) == len(starts)
+    for start in starts:
+        assert_valid_grasp(name, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))
+    # distinct grasps: the postures differ clearly
+    postures = np.array([s.posture for s in starts])
+    gaps = [np.linalg.norm(a - b) for i, a in enumerate(postures) for b in postures[i + 1:]]
+    assert min(gaps) > 0.1
+
+
+def test_starting_postures_are_found_for_other_sizes():
+    obj = gm.make_object("cylinder", radius=0.025, length=0.12)
+    starts = gm.starting_postures(obj)
+    assert len(starts) >= 3
+    for start in starts:
+        assert_valid_grasp(obj, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))
+
+
+@pytest.fixture(scope="module")
+def small_sets():
+    return {name: gm.generate_postures(name, 24, seed=3, params=SMALL) for name in ("box", "cylinder", "sphere")}
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
+def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
+    postures = small_sets[name]
+    assert len(postures) == 24
+    assert len(np.unique(postures.start_ids)) >= 3
+    for posture, pose in zip(postures.postures, postures.hand_poses):
+        assert_valid_grasp(name, posture, pose)
+    distal = [gm.SEGMENTS.index(s) for s in gm.DISTAL_SEGMENTS]
+    assert postures.contacts[:, distal].all()
+    assert postures.metadata["object"] == gm.get_object(name).params()
+    assert 0 < postures.metadata["acceptance_ratio"] <= 1
+
+
+def test_same_seed_same_set_whatever_the_worker_count(small_sets):
+    again = gm.generate_postures("cylinder", 24, seed=3, params=SMALL, workers=2)
+    first = small_sets["cylinder"]
+    assert again.postures.tobytes() == first.postures.tobytes()
+    assert again.hand_poses.tobytes() == first.hand_poses.tobytes()
+    other = gm.generate_postures("cylinder", 24, seed=4, params=SMALL)
+    assert other.postures.tobytes() != first.postures.tobytes()
+
+
+def test_data_clusters_around_the_starting_postures():
+    postures = gm.generate_postures("cylinder", 80, seed=0, params=gm.GeneratorParams(job_size=20))
+    separation = postures.cluster_separation()
+    assert separation["starts"] >= 3
+    assert separation["ratio"] < 0.5, separation
+
+
+def test_interrupted_run_resumes_without_redoing_finished_jobs(tmp_path, monkeypatch):
+    checkpoints = tmp_path / "parts"
+    calls = []
+    real_run = generator._run_job
+
+    def counting_run(obj, start, job, seed, params):
+        calls.append(job)
+        if len(calls) == 4:
+            raise KeyboardInterrupt  # the run is killed half-way
+        return real_run(obj, start, job, seed, params)
+
+    monkeypatch.setattr(generator, "_run_job", counting_run)
+    with pytest.raises(KeyboardInterrupt):
+        gm.generate_postures("sphere", 24, seed=1, params=SMALL, checkpoint_dir=checkpoints)
+    finished = sorted(p.name for p in checkpoints.glob("job_*.npz"))
+    assert len(finished) == 3
+    assert not list(checkpoints.glob("*.tmp"))  # nothing half-written
+    calls.clear()
+    monkeypatch.setattr(generator, "_run_job", lambda *a: calls.append(a[2]) or real_run(*a))
+    resumed = gm.generate_postures("sphere", 24, seed=1, params=SMALL, checkpoint_dir=checkpoints)
+    assert len(calls) == 1  # only the unfinished job ran
+    fresh = gm.generate_postures("sphere", 24, seed=1, params=SMALL)
+    assert resumed.postures.tobytes() == fresh.postures.tobytes()
+    with pytest.raises(ValueError, match="another run"):
+        gm.generate_postures("sphere", 24, seed=2, params=SMALL, checkpoint_dir=checkpoints)
+
+
+def test_posture_set_files_round_trip_and_concatenate(small_sets, tmp_path):
+    box, cylinder = small_sets["box"], small_sets["cylinder"]
+    path = cylinder.save(tmp_path / "cylinder.npz")
+    loaded = gm.PostureSet.load(path)
+    assert loaded.postures.tobytes() == cylinder.postures.tobytes()
+    assert loaded.start_names == cylinder.start_names and loaded.metadata["seed"] == 3
+    both = gm.PostureSet.concatenate([box, cylinder])
+    assert len(both) == 48 and len(both.start_names) == len(box.start_names) + len(cylinder.start_names)
+    np.testing.assert_array_equal(np.array(both.start_names)[both.start_ids[24:]],
+                                  np.array(cylinder.start_names)[cylinder.start_ids])
+    assert len(cylinder.subset(cylinder.start_ids == 0)) == np.sum(cylinder.start_ids == 0)
+
+
+def test_corrupt_and_inconsistent_set_files_raise(small_sets, tmp_path):
+    good = small_sets["sphere"].save(tmp_path / "s.npz")
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(good.read_bytes()[:300])
+    with pytest.raises(ValueError, match="truncated or corrupt"):
+        gm.PostureSet.load(broken)
+    with pytest.raises(ValueError, match="hand_poses"):
+        gm.PostureSet(np.zeros((2, 22)), np.zeros((3, 7)), np.zeros(2, int), np.zeros((2, len(gm.SEGMENTS)), bool), ("a",))
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: gm.generate_postures("cylinder", 0), "n must be a positive"),
+    (lambda: gm.generate_postures("cylinder", -5), "n must be a positive"),
+    (lambda: gm.generate_postures("teapot", 10), "unknown object"),
+    (lambda: gm.generate_postures("cylinder", 10, workers=0), "workers"),
+])
+def test_bad_generator_arguments_raise(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "data" / "sphere.npz"
+    assert cli(["generate", "--object", "sphere", "--n", "8", "--out", str(out)]) == 0
+    assert len(gm.PostureSet.load(out)) == 8
+    assert not (tmp_path / "data" / "sphere.npz.parts").exists()
+    before = out.read_bytes()
+    with pytest.raises(SystemExit, match="exists; pass --force"):
+        cli(["generate", "--object", "sphere", "--n", "8", "--out", str(out)])
+    assert out.read_bytes() == before
+    with pytest.raises(SystemExit, match="--n must be positive"):
+        cli(["generate", "--object", "sphere", "--n", "0", "--out", str(tmp_path / "x.npz")])
+    with pytest.raises(SystemExit, match="must end in .npz"):
+        cli(["generate", "--object", "sphere", "--n", "4", "--out", str(tmp_path / "x.csv")])
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    with pytest.raises(SystemExit, match="cannot write"):
+        cli(["generate", "--object", "sphere", "--n", "4", "--out", str(blocker / "x.npz")])
+    with pytest.raises(SystemExit):
+        cli(["generate", "--object", "teapot", "--out", str(tmp_path / "y.npz")])
+    assert not (tmp_path / "x.npz").exists() and not (tmp_path / "y.npz").exists()
