@@ -17,6 +17,9 @@ from .hand import (
     finger_limits,
     load_hand,
 )
+from .analysis import resume_learning, smoothness
+from .controller import ControllerParams, GraspController
+from .evaluation import EvaluationResult, Noise, evaluate, grid_preset
 from .experience import Experience, PostureDatabase
 from .generator import PRESETS, GeneratorParams, generate_postures
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
@@ -32,6 +35,7 @@ from .posture import (
     within_limits,
 )
 from .postureset import PostureSet
+from .quality import epsilon_l1
 from .scene import Scene, facing_pose
 from .starts import StartingPosture, starting_postures
 from .som import SOM
@@ -43,7 +47,8 @@ __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "clip_posture", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "clip_posture",
+    "epsilon_l1", "evaluate", "grid_preset", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",
 ]

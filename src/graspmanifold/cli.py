@@ -90,6 +90,49 @@ def _generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _load_experience(kind: str, postures: list[str], som_path: str | None, seed: int):
+    """The experience base the evaluate command asks for: none, a database or a SOM."""
+    from .experience import PostureDatabase
+    from .postureset import PostureSet
+    from .som import SOM
+
+    if kind == "none":
+        return None
+    if kind == "som" and som_path:
+        return SOM.load(som_path)
+    if not postures:
+        raise SystemExit(f"error: --experience {kind} needs --postures FILE.npz (or --som MAP.npz)")
+    data = PostureSet.concatenate([PostureSet.load(p) for p in postures]).postures
+    if kind == "database":
+        return PostureDatabase(data)
+    print(f"training a 25x25 SOM on {len(data)} postures (paper schedule) ...", file=sys.stderr)
+    return SOM(25, 25, data.shape[1], seed=seed).fit(data, progress=True)
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    from .evaluation import Noise, evaluate, summary_json
+
+    if args.experience not in ("none", "database", "som"):
+        raise SystemExit(f"error: --experience must be none, database or som, got {args.experience!r}")
+    out = Path(args.out)
+    if out.exists() and any(out.iterdir()) and not args.force:
+        raise SystemExit(f"error: {out} is not empty; pass --force to overwrite its results")
+    try:
+        noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
+        experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
+        start = time.perf_counter()
+        result = evaluate(args.object, experience, args.grid, seed=args.seed, workers=args.workers,
+                          noise=noise, progress=True)
+    except (ValueError, FileNotFoundError) as error:
+        raise SystemExit(f"error: {error}") from None
+    out.mkdir(parents=True, exist_ok=True)
+    result.save(out / "trials.npz")
+    (out / "summary.json").write_text(summary_json([result]) + "\n")
+    (out / "table.md").write_text(result.markdown())
+    print(result.markdown() + f"\n{len(result.trials)} trials in {time.perf_counter() - start:.1f} s; results in {out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
@@ -110,6 +153,21 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--seed", type=int, default=0)
     generate.add_argument("--force", action="store_true", help="overwrite an existing output file")
     generate.set_defaults(run=_generate)
+
+    evaluate = commands.add_parser("evaluate", help="run the grasp controller over a grid of object poses")
+    evaluate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    evaluate.add_argument("--experience", default="som", help="none (plain tactile heuristic), database or som")
+    evaluate.add_argument("--postures", nargs="*", help="posture set file(s) for the database or the SOM")
+    evaluate.add_argument("--som", help="a trained SOM file (instead of training one on --postures)")
+    evaluate.add_argument("--grid", choices=("quick", "paper"), default="quick")
+    evaluate.add_argument("--workers", type=int, default=1)
+    evaluate.add_argument("--seed", type=int, default=0)
+    evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
+    evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
+    evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")
+    evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
+    evaluate.add_argument("--force", action="store_true", help="overwrite results in a non-empty --out")
+    evaluate.set_defaults(run=_evaluate)
 
     view = commands.add_parser("view", help="open MuJoCo's interactive viewer on a scene")
     view.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")

@@ -131,8 +131,13 @@ def pcp_mask(segments: Iterable[str]) -> np.ndarray:
 
 
 def open_posture() -> np.ndarray:
-    """The controller's initial posture (phase A): fingers straight, thumb turned towards the palm."""
-    return dict_to_posture({**dict.fromkeys(FINGER_JOINTS, 0.0), "THJ5": 0.5, "THJ4": 1.0})
+    """The controller's initial posture (phase A): fingers straight, thumb opposed but low.
+
+    The thumb is turned in front of the palm (THJ4) and swung towards the wrist (THJ5), so it is
+    ready to close against the fingers yet stays clear of an object held 1 cm in front of the palm.
+    Starting with the thumb in the palm plane instead makes it sweep into the object and land on top.
+    """
+    return dict_to_posture({**dict.fromkeys(FINGER_JOINTS, 0.0), "THJ5": -0.5, "THJ4": 1.2})
 
 
 def closed_posture() -> np.ndarray:

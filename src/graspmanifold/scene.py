@@ -135,6 +135,17 @@ class Scene:
     def time(self) -> float:
         return float(self.data.time)
 
+    def set_object_support(self, stiffness: float = 0.0, damping: float = 0.0) -> None:
+        """A spring-damper holding a free object near its start pose (N/m and N s/m, the same
+        numbers per radian for rotation), like a support it rests on; 0, 0 releases it."""
+        if not self.free_object:
+            raise ValueError("set_object_support needs a Scene with free_object=True")
+        if not (np.isfinite(stiffness) and np.isfinite(damping)) or stiffness < 0 or damping < 0:
+            raise ValueError(f"stiffness and damping must be finite and >= 0, got {stiffness!r}, {damping!r}")
+        joint = self.model.joint("object_free")
+        self.model.jnt_stiffness[joint.id] = stiffness
+        self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
+
     def set_gravity(self, gravity: bool | Iterable[float]) -> None:
         """Gravity on (True: -z of the world), off (False), or an explicit vector (m/s^2)."""
         if gravity is True:

@@ -1,0 +1,268 @@
+"""Evaluating a grasp controller over a grid of object positions and orientations (paper Section 5).
+
+A trial puts a free object (gravity off) in front of the open hand at one grid pose, runs the
+controller until it reports the grasp done, and then judges the grasp twice. While the hand closes,
+a stiff spring-damper support keeps the object near its place (as a table or a helper's hand would;
+without it the first touch would push a weightless object away); it is released before judging:
+
+- force closure: the Ferrari-Canny epsilon of the L1 grasp wrench space of the final contacts
+  (`quality.epsilon_l1`, friction as simulated) is positive, as in the paper;
+- hold: gravity is then switched on along +x, -x, +y, -y, +z and -z in turn (0.5 s each) while the
+  controller keeps its grasp; the object must stay within 2 cm of where it was grasped.
+
+The grid is given in the palm frame around a nominal wrap placement (object long axis across the
+fingers, centred in front of the palm, see `scene.facing_pose`): shifts across the fingers (x) and
+along them (z), the gap between palm and object, and a yaw of the object's axis about the palm
+normal. It covers where the open hand can plausibly close on the object. Optional noise perturbs
+the true object pose around each grid pose and the joint angles the controller senses.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .controller import ControllerParams, GraspController, check_experience
+from .experience import Experience
+from .hand import SEGMENTS
+from .io import library_version, load_npz, save_npz
+from .objects import GraspObject, get_object
+from .progress import Progress
+from .quality import epsilon_l1
+from .scene import Scene, compose, facing_pose, invert
+
+HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+HOLD_SECONDS = 0.5
+HOLD_LIMIT = 0.02  # m
+SUPPORT_STIFFNESS = 2000.0  # N/m (and N m/rad): the object's support while the hand closes
+SUPPORT_DAMPING = 30.0  # N s/m (and N m s/rad): about critical for 0.1 kg
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Standard deviations of the trial noise: object position (m) and yaw (rad), sensed joints (rad)."""
+
+    position: float = 0.0
+    yaw: float = 0.0
+    joints: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not np.isfinite(value) or value < 0:
+                raise ValueError(f"noise {name} must be a finite standard deviation >= 0, got {value!r}")
+
+
+GRID_COLUMNS = ("x", "z", "gap", "yaw")
+
+
+def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
+    """Grid poses (n, 4): object shift across (x) and along (z) the fingers, palm gap, yaw (m, rad).
+
+    'quick': 36 poses; 'paper': 225 poses. A sphere has no yaw, so it gets more gaps instead.
+    """
+    obj = get_object(obj)
+    sphere = obj.shape == "sphere"
+    if name == "quick":
+        axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015],
+                [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], [0.0] if sphere else [0.0, 0.5])
+    elif name == "paper":
+        axes = (np.linspace(-0.02, 0.02, 5), np.linspace(-0.02, 0.02, 5),
+                np.linspace(0.01, 0.034, 9) if sphere else [0.01, 0.02, 0.03],
+                [0.0] if sphere else [-0.5, 0.0, 0.5])
+    else:
+        raise ValueError(f"unknown grid preset {name!r}; expected 'quick', 'paper' or an (n, 4) array")
+    return np.array(list(itertools.product(*axes)), dtype=float)
+
+
+def check_grid(grid: object, obj: GraspObject) -> tuple[str, np.ndarray]:
+    if isinstance(grid, str):
+        return grid, grid_preset(grid, obj)
+    poses = np.asarray(grid, dtype=float)
+    if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
+        raise ValueError(f"grid must be 'quick', 'paper' or a non-empty (n, 4) array of {GRID_COLUMNS}, "
+                         f"got shape {poses.shape}")
+    if not np.all(np.isfinite(poses)):
+        raise ValueError("grid poses must be finite")
+    return "custom", poses
+
+
+def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Palm pose in the object frame that places the object at a grid pose relative to the palm."""
+    x, z, gap, yaw = grid_pose
+    object_in_palm = invert(*facing_pose(obj, clearance=gap))
+    turn = Rotation.from_rotvec([0.0, yaw, 0.0]).as_quat()[[3, 0, 1, 2]]  # about the palm normal
+    pos = object_in_palm[0] + np.array([x, 0.0, z])
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, turn, object_in_palm[1])
+    return invert(pos, quat)
+
+
+@dataclass
+class Trial:
+    """The outcome of one grasp trial."""
+
+    grid_pose: np.ndarray
+    posture: np.ndarray
+    touching: np.ndarray  # (len(SEGMENTS),) bool
+    epsilon: float
+    hold: bool
+    hold_displacement: float
+    time_to_grasp: float
+    matches: int
+
+    @property
+    def force_closure(self) -> bool:
+        return self.epsilon > 0.0
+
+
+def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
+              rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None) -> Trial:
+    """Place the object, let the controller grasp it, measure epsilon and the hold."""
+    scene = Scene(obj, free_object=True, gravity=False)
+    scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    controller = GraspController(experience, params)
+    true_pose = np.asarray(grid_pose, dtype=float) + np.array(
+        [rng.normal(0, noise.position), rng.normal(0, noise.position), 0.0, rng.normal(0, noise.yaw)])
+    scene.set_hand_pose(*palm_pose_for(obj, true_pose))
+    scene.set_posture(controller.initial)
+    period = controller.params.control_period
+
+    def cycle() -> None:
+        sensed = scene.posture() + rng.normal(0.0, noise.joints, 22) if noise.joints else scene.posture()
+        scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
+        scene.run(period)
+
+    while not controller.done:
+        cycle()
+    scene.set_object_support(0.0, 0.0)
+    reading = scene.tactile()
+    centre = scene.data.xipos[scene._object_body].copy()
+    mu = max(scene.model.geom_friction[scene.object_geom, 0], 1.0)  # MuJoCo takes the larger friction
+    epsilon = epsilon_l1(reading.points, reading.normals, centre, mu=mu) if len(reading.forces) else 0.0
+    posture = scene.posture()
+    start = scene.object_pose()[0]
+    worst = 0.0
+    for direction in HOLD_DIRECTIONS:
+        scene.set_gravity(9.81 * direction)
+        for _ in range(round(HOLD_SECONDS / period)):
+            cycle()
+            worst = max(worst, float(np.linalg.norm(scene.object_pose()[0] - start)))
+    return Trial(np.asarray(grid_pose, dtype=float), posture, np.array([reading.touches(s) for s in SEGMENTS]),
+                 float(epsilon), worst <= HOLD_LIMIT, worst, float(controller.time_to_grasp), controller.matches)
+
+
+@dataclass
+class EvaluationResult:
+    """Trials of one controller (method) on one object, with their summary."""
+
+    object: dict
+    method: str
+    grid_name: str
+    seed: int
+    trials: list[Trial]
+    noise: Noise = field(default_factory=Noise)
+
+    @property
+    def summary(self) -> dict[str, float | int | str]:
+        eps = np.array([t.epsilon for t in self.trials])
+        return {
+            "object": self.object["name"], "method": self.method, "grid": self.grid_name, "trials": len(self.trials),
+            "force_closure_rate": float(np.mean(eps > 0)),
+            "hold_rate": float(np.mean([t.hold for t in self.trials])),
+            "mean_epsilon": float(eps.mean()),
+            "mean_time_to_grasp": float(np.mean([t.time_to_grasp for t in self.trials])),
+            "mean_touching_segments": float(np.mean([t.touching.sum() for t in self.trials])),
+        }
+
+    def successful_postures(self, require_hold: bool = False) -> np.ndarray:
+        """Final postures (m, 22) of the force-closure trials (and held ones, if asked): for retraining."""
+        keep = [t.posture for t in self.trials if t.force_closure and (t.hold or not require_hold)]
+        return np.array(keep).reshape(-1, 22)
+
+    def markdown(self) -> str:
+        s = self.summary
+        return ("| object | method | trials | force closure | hold | mean ε | mean time to grasp (s) |\n"
+                "|---|---|---|---|---|---|---|\n"
+                f"| {s['object']} | {s['method']} | {s['trials']} | {s['force_closure_rate']:.0%} | "
+                f"{s['hold_rate']:.0%} | {s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        t = self.trials
+        arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
+                  "postures": np.array([x.posture for x in t]).reshape(-1, 22),
+                  "touching": np.array([x.touching for x in t]).reshape(-1, len(SEGMENTS)),
+                  "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
+                  "hold_displacement": np.array([x.hold_displacement for x in t]),
+                  "time_to_grasp": np.array([x.time_to_grasp for x in t]),
+                  "matches": np.array([x.matches for x in t])}
+        meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
+                "noise": asdict(self.noise), "summary": self.summary, "segments": list(SEGMENTS),
+                "units": "m, rad, s; epsilon per unit total normal force"}
+        return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> EvaluationResult:
+        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, 22), "epsilon": (None,)})
+        trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
+                        float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]))
+                  for i in range(len(a["epsilon"]))]
+        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]))
+
+
+def method_name(experience: Experience | None) -> str:
+    return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
+
+
+_WORKER: dict = {}
+
+
+def _init_worker(obj: GraspObject, experience: Experience | None, noise: Noise, params: ControllerParams | None) -> None:
+    _WORKER.update(obj=obj, experience=experience, noise=noise, params=params)
+
+
+def _trial_worker(args: tuple[int, np.ndarray, int]) -> tuple[int, Trial]:
+    index, grid_pose, seed = args
+    rng = np.random.default_rng([seed, index])
+    w = _WORKER
+    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"])
+
+
+def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
+             seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
+             progress: bool = False) -> EvaluationResult:
+    """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose."""
+    obj = get_object(obj)
+    experience = check_experience(experience)
+    noise = noise or Noise()
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    grid_name, poses = check_grid(grid, obj)
+    tasks = [(i, pose, seed) for i, pose in enumerate(poses)]
+    trials: list[Trial | None] = [None] * len(tasks)
+    report = Progress(len(tasks), f"evaluate {obj.name} / {method_name(experience)}", "trials", enabled=progress)
+    if workers == 1:
+        _init_worker(obj, experience, noise, params)
+        for task in tasks:
+            index, trial = _trial_worker(task)
+            trials[index] = trial
+            report.update()
+    else:
+        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(obj, experience, noise, params)) as pool:
+            for index, trial in pool.map(_trial_worker, tasks, chunksize=max(1, len(tasks) // (4 * workers))):
+                trials[index] = trial
+                report.update()
+    return EvaluationResult(obj.params(), method_name(experience), grid_name, seed, trials, noise)  # type: ignore[arg-type]
+
+
+def summary_json(results: list[EvaluationResult]) -> str:
+    return json.dumps({"library_version": library_version(), "results": [r.summary for r in results]}, indent=2)
+
+

@@ -1,0 +1,91 @@
+"""Grasp quality: the Ferrari-Canny epsilon of the L1 grasp wrench space (the paper's success measure).
+
+Each contact's Coulomb friction cone is linearised by `num_edges` unit-normal-component edge forces
+f = n + mu (cos t_k t1 + sin t_k t2); every edge gives the wrench (f, (p - c) x f / lambda). The L1
+grasp wrench space is the convex hull of all of them, and epsilon is the radius of the largest ball
+around the origin inside it: the magnitude of the worst-case disturbance wrench the grasp resists
+per unit of total normal force. A grasp is force closure when epsilon > 0.
+
+The cone polygon of a contact is oriented by its lever arm (p - c) projected onto the tangent plane,
+so epsilon is exactly invariant to rotating and to scaling the whole grasp; when the lever arm is
+parallel to the normal (a sphere grasped around its centre) the least aligned world axis orients it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+
+def _array(value: object, shape: tuple[int | None, ...], name: str) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim != len(shape) or any(s is not None and s != g for s, g in zip(shape, a.shape)):
+        raise ValueError(f"{name} must have shape {tuple('k' if s is None else s for s in shape)}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite")
+    return a
+
+
+def _tangent_bases(normals: np.ndarray, levers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    projected = levers - np.sum(levers * normals, axis=1, keepdims=True) * normals
+    length = np.linalg.norm(projected, axis=1)
+    scale = np.maximum(np.linalg.norm(levers, axis=1), 1e-12)
+    fallback = length < 1e-6 * scale
+    if fallback.any():
+        axes = np.eye(3)[np.argmin(np.abs(normals[fallback]), axis=1)]
+        projected[fallback] = axes - np.sum(axes * normals[fallback], axis=1, keepdims=True) * normals[fallback]
+        length[fallback] = np.linalg.norm(projected[fallback], axis=1)
+    t1 = projected / length[:, None]
+    return t1, np.cross(normals, t1)
+
+
+def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float,
+                     num_edges: int = 8, torque_scale: float | None = None) -> np.ndarray:
+    """The (k * num_edges, 6) edge wrenches of the linearised friction cones (see module doc)."""
+    points = _array(points, (None, 3), "points")
+    normals = _array(normals, (len(points), 3), "normals")
+    center = _array(center, (3,), "center")
+    if not np.isfinite(mu) or mu < 0:
+        raise ValueError(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
+    if isinstance(num_edges, bool) or not isinstance(num_edges, (int, np.integer)) or num_edges < 3:
+        raise ValueError(f"num_edges must be an integer >= 3, got {num_edges!r}")
+    length = np.linalg.norm(normals, axis=1)
+    if np.any(length < 1e-12):
+        raise ValueError("normals must be non-zero vectors")
+    normals = normals / length[:, None]
+    levers = points - center
+    if torque_scale is None:
+        torque_scale = float(np.max(np.linalg.norm(levers, axis=1))) if len(points) else 1.0
+    elif not np.isfinite(torque_scale) or torque_scale <= 0:
+        raise ValueError(f"torque_scale must be positive, got {torque_scale!r}")
+    if torque_scale <= 0:
+        torque_scale = 1.0  # every contact at the centre: torques are zero anyway
+    t1, t2 = _tangent_bases(normals, levers)
+    angles = 2 * np.pi * np.arange(num_edges) / num_edges
+    forces = (normals[:, None, :] + mu * (np.cos(angles)[None, :, None] * t1[:, None, :]
+                                          + np.sin(angles)[None, :, None] * t2[:, None, :]))
+    torques = np.cross(levers[:, None, :], forces) / torque_scale
+    return np.concatenate([forces, torques], axis=2).reshape(-1, 6)
+
+
+def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float = 1.0,
+               num_edges: int = 8, torque_scale: float | None = None) -> float:
+    """Ferrari-Canny epsilon of the L1 grasp wrench space; 0 when the grasp is not force closure.
+
+    `points` (k, 3) and `normals` (k, 3, pointing into the object) in one frame, `center` (3,) the
+    reference point for torques (the object's centre of mass), `mu` the friction coefficient,
+    `torque_scale` lambda (default: the largest distance from center to a contact). Fewer than two
+    contacts or a wrench set that does not span all six dimensions give 0.
+    """
+    wrenches = contact_wrenches(points, normals, center, mu, num_edges, torque_scale)
+    if len(points) < 2:
+        return 0.0
+    if np.linalg.matrix_rank(wrenches, tol=1e-9) < 6:
+        return 0.0
+    try:
+        hull = ConvexHull(wrenches)
+    except QhullError:
+        return 0.0
+    offsets = hull.equations[:, -1]  # facets: unit normal . x + offset <= 0 inside
+    distance = -offsets.max()
+    return float(distance) if distance > 1e-12 else 0.0

@@ -1,0 +1,133 @@
+"""The four-phase grasp controller and the evaluation over a grid."""
+
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold.evaluation import palm_pose_for
+
+
+@pytest.fixture(scope="module")
+def experience():
+    postures = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15)).postures
+    return {"database": gm.PostureDatabase(postures), "som": gm.SOM(6, 6, 22, seed=0).fit(postures, epochs=20)}
+
+
+def run_until_touch(obj_pose, experience, cycles=40):
+    """Targets the controller sends, cycle by cycle, until anything touches the object."""
+    obj = gm.get_object("cylinder")
+    scene = gm.Scene(obj, free_object=True)
+    scene.set_object_support(2000.0, 30.0)
+    controller = gm.GraspController(experience)
+    scene.set_hand_pose(*palm_pose_for(obj, obj_pose))
+    scene.set_posture(controller.initial)
+    targets = []
+    for _ in range(cycles):
+        reading = scene.tactile()
+        if reading.segments:
+            break
+        targets.append(controller.step(scene.posture(), reading.segment_forces))
+        scene.set_target(targets[-1])
+        scene.run(controller.params.control_period)
+    return targets
+
+
+@pytest.mark.parametrize("kind", ["none", "database", "som"])
+def test_actions_do_not_depend_on_the_object_until_it_is_touched(experience, kind):
+    exp = None if kind == "none" else experience[kind]
+    near = run_until_touch(np.array([0.0, 0.0, 0.01, 0.0]), exp)
+    far = run_until_touch(np.array([0.0, 0.0, 0.3, 0.0]), exp)  # 30 cm away: never touched
+    assert len(near) >= 10 and len(far) == 40
+    np.testing.assert_array_equal(np.array(near), np.array(far[: len(near)]))
+
+
+def test_controller_reads_only_joints_and_forces(experience):
+    controller = gm.GraspController(experience["som"])
+    forces = np.zeros(len(gm.SEGMENTS))
+    first = controller.step(gm.open_posture(), forces)
+    assert first.shape == (22,) and controller.phase == "A"
+    with pytest.raises(ValueError, match="shape"):
+        controller.step(np.zeros(21), forces)
+    with pytest.raises(ValueError, match="segment_forces"):
+        controller.step(gm.open_posture(), np.zeros(3))
+    with pytest.raises(ValueError, match="segment_forces"):
+        controller.step(gm.open_posture(), np.full(len(gm.SEGMENTS), np.nan))
+
+
+def test_phases_follow_the_contacts(experience):
+    params = gm.ControllerParams(preshape_time=0.04)
+    controller = gm.GraspController(experience["database"], params)
+    forces = np.zeros(len(gm.SEGMENTS))
+    controller.step(gm.open_posture(), forces)
+    assert controller.phase == "A"
+    controller.step(gm.open_posture(), forces)
+    controller.step(gm.open_posture(), forces)
+    assert controller.phase == "B"
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+    target = controller.step(gm.open_posture(), forces)
+    assert controller.phase == "C" and controller.matches >= 2
+    assert gm.within_limits(target)
+    for _ in range(300):
+        controller.step(gm.open_posture(), forces)
+    assert controller.done and controller.time_to_grasp <= params.timeout + 1e-9
+
+
+def test_bad_experience_is_rejected():
+    with pytest.raises(ValueError, match="experience must be None"):
+        gm.GraspController(np.zeros((5, 22)))
+    with pytest.raises(ValueError, match="22-joint"):
+        gm.GraspController(gm.SOM(3, 3, 10).fit(np.random.default_rng(0).normal(size=(20, 10)), epochs=1))
+    with pytest.raises(ValueError, match="experience must be None"):
+        gm.evaluate("cylinder", "som")
+
+
+def test_a_centred_cylinder_is_grasped_and_held():
+    result = gm.evaluate("cylinder", None, grid=np.array([[0.0, 0.0, 0.01, 0.0]]))
+    trial = result.trials[0]
+    assert trial.force_closure and trial.hold and trial.epsilon > 0.01
+    assert trial.touching[[gm.SEGMENTS.index(s) for s in gm.DISTAL_SEGMENTS]].sum() >= 4
+    assert result.summary["trials"] == 1 and result.summary["force_closure_rate"] == 1.0
+
+
+def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
+    grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
+    noise = gm.Noise(position=0.003, yaw=0.05, joints=0.01)
+    a = gm.evaluate("cylinder", experience["som"], grid=grid, seed=5, noise=noise)
+    b = gm.evaluate("cylinder", experience["som"], grid=grid, seed=5, noise=noise, workers=2)
+    assert [t.epsilon for t in a.trials] == [t.epsilon for t in b.trials]
+    assert a.summary == b.summary
+    loaded = gm.EvaluationResult.load(a.save(tmp_path / "trials.npz"))
+    assert loaded.summary == a.summary and loaded.noise == noise
+    assert a.successful_postures().shape[1] == 22
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: gm.evaluate("cylinder", None, grid=np.zeros((0, 4))), "grid"),
+    (lambda: gm.evaluate("cylinder", None, grid="huge"), "unknown grid"),
+    (lambda: gm.evaluate("cylinder", None, grid=np.array([[0, 0, np.nan, 0]])), "finite"),
+    (lambda: gm.Noise(position=float("nan")), "noise position"),
+    (lambda: gm.Noise(joints=-0.1), "noise joints"),
+    (lambda: gm.evaluate("cylinder", None, workers=0), "workers"),
+])
+def test_bad_evaluation_input_raises(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_grid_presets_cover_enough_trials():
+    for name in ("box", "cylinder", "sphere"):
+        assert len(gm.grid_preset("quick", name)) >= 30
+        assert len(gm.grid_preset("paper", name)) >= 200
+
+
+def test_resumed_learning_reports_smoothness_and_leaves_the_original(experience):
+    som = experience["som"]
+    before = som.weights.copy()
+    rng = np.random.default_rng(0)
+    new = gm.clip_posture(som.weights.reshape(-1, 22)[0]) + rng.normal(0, 0.05, (40, 22))
+    resumed, report = gm.resume_learning(som, new)
+    assert np.array_equal(som.weights, before)
+    assert len(resumed.history) == len(som.history) + 1 and resumed.history[-1]["epochs"] == 10
+    assert resumed.quantization_error(new) < som.quantization_error(new)
+    for key in ("distance_cv", "distance_max_deg", "unsupported_by_evaluation"):
+        assert key in report["before"] and key in report["after"]
