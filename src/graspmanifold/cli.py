@@ -133,9 +133,30 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reproduce(args: argparse.Namespace) -> int:
+    from .reproduce import PRESETS, reproduce
+
+    if args.preset not in PRESETS:
+        raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
+    try:
+        reproduce(args.out, args.preset, workers=args.workers, force=args.force,
+                  log=lambda line: print(line, file=sys.stderr, flush=True))
+    except ValueError as error:
+        raise SystemExit(f"error: {error}") from None
+    print(f"report: {Path(args.out) / 'report.md'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
+
+    reproduce = commands.add_parser("reproduce", help="regenerate every figure and table of the paper")
+    reproduce.add_argument("--preset", default="quick", help="quick (minutes) or paper (the paper's sizes)")
+    reproduce.add_argument("--out", default="reproduction", help="output directory (default: reproduction)")
+    reproduce.add_argument("--workers", type=int, default=max(1, min(2, os.cpu_count() or 1)))
+    reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
+    reproduce.set_defaults(run=_reproduce)
 
     demo = commands.add_parser("demo", help="close the hand on an object and print the touching segments")
     demo.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")

@@ -1,0 +1,212 @@
+"""Figures and the report of a `reproduce` run, built from the files the run wrote."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .analysis import smoothness
+from .evaluation import EvaluationResult
+from .io import library_version
+from .postureset import PostureSet
+from .som import SOM
+
+#: The paper's own numbers, shown beside ours (Section 5).
+PAPER_VALUES = {
+    "dataset_size": {"box": 4069, "cylinder": 4220, "sphere": 1885},
+    "max_distance_deg": {"box": 55.06, "cylinder": 63.45, "sphere": 66.23},
+    "min_distance_deg": {"box": 0.013, "cylinder": 0.013, "sphere": 0.007},
+}
+FIGURE_OBJECT = "cylinder"  # the paper's Figs. 3 and 5-8 show the cylinder map
+
+
+@dataclass
+class RunData:
+    """What a run produced: posture sets, maps, resumed maps and evaluation results."""
+
+    config: object
+    sets: dict[str, PostureSet]
+    maps: dict[str, SOM]
+    resumed: dict[str, SOM]
+    results: dict[tuple[str, str], EvaluationResult]
+
+    @classmethod
+    def load(cls, out: str | os.PathLike) -> RunData:
+        """Read a finished run's files (postures/, maps/, evaluation/)."""
+        out = Path(out)
+        if not (out / "run.json").exists():
+            raise ValueError(f"{out} is not a graspmanifold reproduce run (no run.json)")
+        config = json.loads((out / "run.json").read_text())["config"]
+        sets = {p.stem: PostureSet.load(p) for p in sorted((out / "postures").glob("*.npz"))}
+        maps = {p.stem: SOM.load(p) for p in sorted((out / "maps").glob("*.npz")) if not p.stem.endswith("_resumed")}
+        resumed = {p.stem[: -len("_resumed")]: SOM.load(p) for p in sorted((out / "maps").glob("*_resumed.npz"))}
+        results = {}
+        for p in sorted((out / "evaluation").glob("*.npz")):
+            name, method = p.stem.split("_", 1)
+            results[(name, method)] = EvaluationResult.load(p)
+        return cls(config, sets, maps, resumed, results)
+
+
+def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callable]:
+    from .figures import border_figure, extract_figure, lattice_panels, rates_figure
+
+    obj = FIGURE_OBJECT
+    train_hits = {name: run.maps[name].hit_counts(s.postures) for name, s in run.sets.items()}
+    successes = run.results[(obj, "som")].successful_postures()
+    eval_hits = run.maps[obj].hit_counts(successes) if len(successes) else np.zeros_like(train_hits[obj])
+    resumed = run.resumed[obj]
+    resumed_train = resumed.hit_counts(run.sets[obj].postures)
+    resumed_eval = resumed.hit_counts(successes) if len(successes) else np.zeros_like(resumed_train)
+    builders: dict[str, Callable] = {
+        f"fig4_{name}": (lambda name=name: lattice_panels(
+            run.maps[name], [("a) inter-node distances", None), ("b) training data", train_hits[name])],
+            f"Fig. 4: {name} map")) for name in run.sets}
+    builders["fig6_cylinder_evaluation"] = lambda: lattice_panels(
+        run.maps[obj], [("successful evaluation postures", eval_hits)], "Fig. 6: cylinder map")
+    builders["fig8_cylinder_resumed"] = lambda: lattice_panels(
+        resumed, [("a) inter-node distances", None), ("b) training data", resumed_train),
+                  ("c) evaluation postures", resumed_eval)], "Fig. 8: cylinder map after resumed learning")
+    builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()])
+    if render is not None:
+        builders["fig3_cylinder_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render,
+                                                                   title="Fig. 3: cylinder map")
+        builders["fig5_cylinder_border"] = lambda: border_figure(run.maps[obj], train_hits[obj], render,
+                                                                 "Fig. 5: across cluster borders")
+        builders["fig7_cylinder_resumed_extract"] = lambda: extract_figure(
+            resumed, resumed_train, render, title="Fig. 7: cylinder map after resumed learning")
+    return builders
+
+
+RENDERED_FIGURES = ("fig3_cylinder_extract", "fig5_cylinder_border", "fig7_cylinder_resumed_extract")
+
+
+def _renderer(image_size: int) -> tuple[Callable | None, str]:
+    from .render import RenderingUnavailable, render_postures
+
+    try:
+        render_postures(np.zeros((1, 22)), 16)
+    except RenderingUnavailable as error:
+        return None, str(error)
+    return (lambda postures: render_postures(postures, image_size)), "rendered with MuJoCo's offscreen renderer"
+
+
+def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = print,
+                  only: str | None = None) -> dict:
+    """Write every figure (or only one) as PNG and PDF; hand pictures only where OpenGL works."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    image_size = run.config.image_size if hasattr(run.config, "image_size") else run.config["image_size"]
+    render, message = _renderer(image_size)
+    if render is None:
+        log(f"figures: skipping the rendered hand figures: {message}")
+    directory.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, build in _figure_builders(run, render).items():
+        if only is not None and name != only:
+            continue
+        figure = build()
+        for suffix in ("png", "pdf"):
+            figure.savefig(directory / f"{name}.{suffix}", dpi=110)
+        written.append(name)
+    return {"rendered": render is not None, "message": message, "figures": written}
+
+
+def _table(header: list[str], rows: list[list[object]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return "\n".join(lines) + "\n\n"
+
+
+def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
+    """Write report.md and summary.json: every number from this run, beside the paper's."""
+    objects = list(run.sets)
+    summary: dict = {"library_version": library_version(), "objects": {}, "evaluation": [],
+                     "figures": figure_info}
+    for name in objects:
+        postures = run.sets[name]
+        successes = run.results[(name, "som")].successful_postures()
+        before = smoothness(run.maps[name], postures.postures, successes if len(successes) else None)
+        after = smoothness(run.resumed[name], postures.postures, successes if len(successes) else None)
+        train_winners = run.maps[name].best_match_batch(postures.postures)
+        hits = np.bincount(train_winners, minlength=run.maps[name].n_nodes)
+        summary["objects"][name] = {
+            "dataset_size": len(postures), "paper_dataset_size": PAPER_VALUES["dataset_size"].get(name),
+            "acceptance_ratio": postures.metadata.get("acceptance_ratio"),
+            "clusters": postures.cluster_separation(),
+            "map": before, "resumed_map": after,
+            "paper_min_distance_deg": PAPER_VALUES["min_distance_deg"].get(name),
+            "paper_max_distance_deg": PAPER_VALUES["max_distance_deg"].get(name),
+            "successful_som_postures": int(len(successes)),
+            "evaluation_on_unsupported_nodes": before.get("evaluation_on_unsupported_nodes"),
+            "supported_nodes": int(np.sum(hits > 0)),
+        }
+    for result in run.results.values():
+        summary["evaluation"].append(result.summary)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
+    (out / "report.md").write_text(_markdown(run, summary))
+    return summary
+
+
+def _fmt(value: object, digits: int = 3) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}" if abs(value) < 1000 else f"{value:.0f}"
+    return str(value)
+
+
+def _markdown(run: RunData, summary: dict) -> str:
+    objects = summary["objects"]
+    parts = ["# graspmanifold: reproduction of *SOM-based experience representation for dextrous grasping*\n\n",
+             f"Library {summary['library_version']}. Every number below comes from this run; the paper's values "
+             "stand beside ours where it gives them.\n\n",
+             "## Posture datasets\n\n",
+             _table(["object", "postures", "paper", "acceptance", "starting postures", "within-start (°)",
+                     "between starts (°)"],
+                    [[n, o["dataset_size"], _fmt(o["paper_dataset_size"]), _fmt(o["acceptance_ratio"], 2),
+                      o["clusters"]["starts"], _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
+                     for n, o in objects.items()]),
+             "## SOM grasp manifolds (Fig. 4)\n\n",
+             "Inter-node distances over the 22 finger joints, in degrees, as in the paper's Section 5.\n\n",
+             _table(["object", "min distance (°)", "paper min", "max distance (°)", "paper max", "distance CV",
+                     "quantisation error (rad)", "topographic error", "nodes without training data"],
+                    [[n, _fmt(o["map"]["distance_min_deg"]), _fmt(o["paper_min_distance_deg"]),
+                      _fmt(o["map"]["distance_max_deg"]), _fmt(o["paper_max_distance_deg"]),
+                      _fmt(o["map"]["distance_cv"]), _fmt(o["map"].get("quantization_error")),
+                      _fmt(o["map"].get("topographic_error")),
+                      f"{o['map'].get('unsupported_by_training')} of {o['map']['nodes']}"] for n, o in objects.items()]),
+             "## Grasp success per object and method (Fig. 6 data)\n\n",
+             "force closure: Ferrari–Canny ε of the L1 grasp wrench space > 0; hold: the object stays within 2 cm "
+             "under gravity along ±x, ±y, ±z. `som_all` is one map trained on all three objects.\n\n",
+             _table(["object", "method", "trials", "force closure", "hold", "mean ε", "time to grasp (s)"],
+                    [[s["object"], s["method"], s["trials"], f"{s['force_closure_rate']:.0%}", f"{s['hold_rate']:.0%}",
+                      _fmt(s["mean_epsilon"]), _fmt(s["mean_time_to_grasp"])] for s in summary["evaluation"]]),
+             "## Where the evaluation grasps land (Section 5)\n\n",
+             "The paper observed that successful grasps of the experience-based controller match mostly "
+             "inter-cluster nodes, which no training posture falls on.\n\n",
+             _table(["object", "successful SOM grasps", "nodes with training data",
+                     "successful grasps on nodes without training data"],
+                    [[n, o["successful_som_postures"], f"{o['supported_nodes']} of {o['map']['nodes']}",
+                      _fmt(o["evaluation_on_unsupported_nodes"])] for n, o in objects.items()]),
+             "## Resumed learning (Figs. 7, 8)\n\n",
+             "10 epochs with the successful evaluation postures, learning rate 0.1 → 0.05, σ 3 → 0.7.\n\n",
+             _table(["object", "distance CV before → after", "max distance (°) before → after",
+                     "nodes without training data before → after", "nodes without evaluation data before → after"],
+                    [[n, f"{_fmt(o['map']['distance_cv'])} → {_fmt(o['resumed_map']['distance_cv'])}",
+                      f"{_fmt(o['map']['distance_max_deg'])} → {_fmt(o['resumed_map']['distance_max_deg'])}",
+                      f"{o['map'].get('unsupported_by_training')} → {o['resumed_map'].get('unsupported_by_training')}",
+                      f"{o['map'].get('unsupported_by_evaluation', '–')} → {o['resumed_map'].get('unsupported_by_evaluation', '–')}"]
+                     for n, o in objects.items()]),
+             "## Figures\n\n"]
+    info = summary["figures"]
+    if not info.get("rendered"):
+        parts.append(f"The hand pictures (Figs. 3, 5, 7) were skipped: {info.get('message')}\n\n")
+    for name in info.get("figures", []):
+        parts.append(f"![{name}](figures/{name}.png)\n\n")
+    return "".join(parts)

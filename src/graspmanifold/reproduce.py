@@ -1,0 +1,200 @@
+"""`graspmanifold reproduce`: every figure and table of the paper from one command.
+
+    postures -> SOMs (one per object, one for all) -> evaluation (none / database / SOM / SOM of all
+    objects) -> resumed learning with the SOM's successful postures -> figures -> report
+
+Each stage writes its files into the output directory and a manifest in `stages/` with a key made
+from its parameters and the contents of the files it reads. A rerun skips every stage whose key
+is unchanged and whose files are there, so a run killed half-way picks up where it stopped, and
+changing one thing (a map size, the grid) redoes only what depends on it.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .analysis import RESUME_SCHEDULE
+from .evaluation import EvaluationResult, evaluate
+from .experience import PostureDatabase
+from .generator import PRESETS as DATASET_SIZES
+from .generator import GeneratorParams, generate_postures, remove_checkpoints
+from .io import library_version
+from .objects import PAPER_OBJECTS
+from .postureset import PostureSet
+from .report import RunData, write_figures, write_report
+from .som import SOM
+
+OBJECTS = tuple(PAPER_OBJECTS)
+METHODS = ("none", "database", "som", "som_all")
+
+
+@dataclass(frozen=True)
+class ReproduceConfig:
+    """Everything a run depends on."""
+
+    postures: dict[str, int]
+    grid: str | tuple = "quick"
+    map_size: tuple[int, int] = (25, 25)
+    epochs: int = 300
+    learning_rate: tuple[float, float] = (0.95, 0.05)
+    sigma: tuple[float, float] = (6.0, 0.7)
+    seed: int = 0
+    image_size: int = 120
+    generator: GeneratorParams = field(default_factory=GeneratorParams)
+
+    def to_json(self) -> dict:
+        config = asdict(self)
+        config["grid"] = self.grid if isinstance(self.grid, str) else [list(map(float, g)) for g in self.grid]
+        return config
+
+
+PRESETS: dict[str, ReproduceConfig] = {
+    "quick": ReproduceConfig(postures=dict(DATASET_SIZES["quick"]), grid="quick"),
+    "paper": ReproduceConfig(postures=dict(DATASET_SIZES["paper"]), grid="paper"),
+}
+
+
+def _digest(*parts: object) -> str:
+    h = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, Path):
+            h.update(part.read_bytes())
+        else:
+            h.update(json.dumps(part, sort_keys=True, default=str).encode())
+    return h.hexdigest()[:20]
+
+
+class _Stages:
+    """Runs a stage unless its manifest shows the same key and its outputs exist."""
+
+    def __init__(self, out: Path, log: Callable[[str], None]):
+        self.out, self.log = out, log
+        (out / "stages").mkdir(parents=True, exist_ok=True)
+        self.ran: list[str] = []
+        self.reused: list[str] = []
+
+    def run(self, name: str, key: str, outputs: list[Path], work: Callable[[], dict | None]) -> dict:
+        manifest = self.out / "stages" / f"{name}.json"
+        if manifest.exists() and all(p.exists() for p in outputs):
+            record = json.loads(manifest.read_text())
+            if record.get("key") == key:
+                self.reused.append(name)
+                return record.get("info", {})
+        self.log(f"[{name}] running")
+        start = time.perf_counter()
+        info = work() or {}
+        record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info}
+        tmp = manifest.with_suffix(".tmp")
+        tmp.write_text(json.dumps(record, indent=1))
+        os.replace(tmp, manifest)
+        self.ran.append(name)
+        self.log(f"[{name}] done in {record['seconds']:.1f} s")
+        return info
+
+
+def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
+    run_file = out / "run.json"
+    if run_file.exists():
+        previous = json.loads(run_file.read_text()).get("config")
+        if previous != json.loads(json.dumps(config.to_json())) and not force:
+            raise ValueError(f"{out} holds another run's files with other parameters; pass --force to "
+                             "replace them, or choose another directory")
+    elif out.exists() and any(out.iterdir()) and not force:
+        raise ValueError(f"{out} is not empty and holds no graspmanifold run; pass --force to write into it")
+
+
+def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", workers: int = 1, *,
+              force: bool = False, log: Callable[[str], None] = print) -> dict:
+    """Run (or resume) the whole pipeline into `out`; returns the summary written to summary.json."""
+    if isinstance(preset, str):
+        if preset not in PRESETS:
+            raise ValueError(f"unknown preset {preset!r}; expected one of {tuple(PRESETS)}")
+        config = PRESETS[preset]
+    else:
+        config = preset
+    out = Path(out)
+    _check_output(out, config, force)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "run.json").write_text(json.dumps({"config": config.to_json(), "library_version": library_version()},
+                                             indent=1))
+    stages = _Stages(out, log)
+    started = time.perf_counter()
+
+    # 1. posture sets
+    sets_paths = {name: out / "postures" / f"{name}.npz" for name in OBJECTS}
+    for name, path in sets_paths.items():
+        def generate(name=name, path=path):
+            parts = path.with_name(path.name + ".parts")
+            postures = generate_postures(name, config.postures[name], seed=config.seed, workers=workers,
+                                         params=config.generator, checkpoint_dir=parts, progress=True)
+            postures.save(path)
+            remove_checkpoints(parts)
+        stages.run(f"generate_{name}", _digest(name, config.postures[name], config.seed, asdict(config.generator)),
+                   [path], generate)
+    sets = {name: PostureSet.load(path) for name, path in sets_paths.items()}
+
+    # 2. maps: one per object and one for all objects
+    schedule = {"epochs": config.epochs, "learning_rate": config.learning_rate, "sigma": config.sigma}
+    map_paths = {name: out / "maps" / f"{name}.npz" for name in (*OBJECTS, "all")}
+    for name, path in map_paths.items():
+        inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
+
+        def train(name=name, path=path):
+            data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
+            SOM(*config.map_size, 22, seed=config.seed).fit(data, **schedule, progress=True).save(path)
+        stages.run(f"train_{name}", _digest(config.map_size, schedule, config.seed, *inputs), [path], train)
+    maps = {name: SOM.load(path) for name, path in map_paths.items()}
+
+    # 3. evaluation of every method on every object
+    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in OBJECTS for m in METHODS}
+    for (name, method), path in eval_paths.items():
+        inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]]}
+
+        def run_evaluation(name=name, method=method, path=path):
+            experience = {"none": None, "database": PostureDatabase(sets[name].postures),
+                          "som": maps[name], "som_all": maps["all"]}[method]
+            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, progress=True)
+            result.method = method
+            result.save(path)
+        stages.run(f"evaluate_{name}_{method}", _digest(config.to_json()["grid"], config.seed, method, *inputs[method]),
+                   [path], run_evaluation)
+    results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
+
+    # 4. resumed learning with the SOM's successful evaluation postures
+    resumed_paths = {name: out / "maps" / f"{name}_resumed.npz" for name in OBJECTS}
+    for name, path in resumed_paths.items():
+        def resume(name=name, path=path):
+            successes = results[(name, "som")].successful_postures()
+            resumed = copy.deepcopy(maps[name])
+            if len(successes):
+                resumed.fit(successes, **RESUME_SCHEDULE)
+            resumed.save(path)
+            return {"postures": int(len(successes))}
+        stages.run(f"resume_{name}", _digest(RESUME_SCHEDULE, map_paths[name], eval_paths[(name, "som")]), [path], resume)
+    resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
+
+    # 5. figures, 6. report
+    run = RunData(config, sets, maps, resumed_maps, results)
+    figure_key = _digest(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
+                         *eval_paths.values())
+    figure_info = stages.run("figures", figure_key, [out / "figures" / "rates.png"],
+                             lambda: write_figures(out / "figures", run, log))
+    summary = write_report(out, run, figure_info)
+    log(f"reproduce: {len(stages.ran)} stages ran, {len(stages.reused)} reused, "
+        f"{time.perf_counter() - started:.1f} s; report in {out / 'report.md'}")
+    return summary
+
+
+def _grid(config: ReproduceConfig) -> str | np.ndarray:
+    return config.grid if isinstance(config.grid, str) else np.asarray(config.grid, dtype=float)
+
+
