@@ -24,14 +24,14 @@ class RenderingUnavailable(RuntimeError):
     """No offscreen OpenGL context could be created."""
 
 
-def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] = BACKENDS) -> np.ndarray:
-    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), seen from the palm side."""
+def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
+    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
     postures = np.asarray(postures, dtype=float).reshape(-1, 22)
     errors = []
     with tempfile.TemporaryDirectory() as tmp:
         source, target = Path(tmp) / "postures.npy", Path(tmp) / "images.npy"
         np.save(source, postures)
-        for backend in backends:
+        for backend in backends or BACKENDS:
             env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
             run = subprocess.run([sys.executable, "-m", "graspmanifold.render", str(source), str(target), str(size)],
                                  env=env, capture_output=True, text=True)

@@ -176,8 +176,8 @@ def _markdown(run: RunData, summary: dict) -> str:
              "Inter-node distances over the 22 finger joints, in degrees, as in the paper's Section 5.\n\n",
              _table(["object", "min distance (°)", "paper min", "max distance (°)", "paper max", "distance CV",
                      "quantisation error (rad)", "topographic error", "nodes without training data"],
-                    [[n, _fmt(o["map"]["distance_min_deg"]), _fmt(o["paper_min_distance_deg"]),
-                      _fmt(o["map"]["distance_max_deg"]), _fmt(o["paper_max_distance_deg"]),
+                    [[n, _fmt(o["map"]["distance_min_deg"]), _fmt(o["paper_min_distance_deg"], 4),
+                      _fmt(o["map"]["distance_max_deg"]), _fmt(o["paper_max_distance_deg"], 4),
                       _fmt(o["map"]["distance_cv"]), _fmt(o["map"].get("quantization_error")),
                       _fmt(o["map"].get("topographic_error")),
                       f"{o['map'].get('unsupported_by_training')} of {o['map']['nodes']}"] for n, o in objects.items()]),
@@ -210,3 +210,24 @@ def _markdown(run: RunData, summary: dict) -> str:
     for name in info.get("figures", []):
         parts.append(f"![{name}](figures/{name}.png)\n\n")
     return "".join(parts)
+
+
+def figure_from_run(run_dir: str | os.PathLike, name: str, out_dir: str | os.PathLike | None = None) -> dict:
+    """Redraw one figure of a finished `reproduce` run (what the scripts in scripts/ call)."""
+    run = RunData.load(run_dir)
+    info = write_figures(Path(out_dir or Path(run_dir) / "figures"), run, only=name)
+    if name not in info["figures"]:
+        reason = info["message"] if name in RENDERED_FIGURES and not info["rendered"] else "unknown figure name"
+        raise ValueError(f"figure {name!r} was not drawn: {reason}")
+    return info
+
+
+def figure_script(name: str, description: str) -> None:
+    """The command line of the thin figure scripts: `python scripts/NAME.py RUN_DIR [--out DIR]`."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=description.strip().splitlines()[0])
+    parser.add_argument("run_dir", help="the output directory of `graspmanifold reproduce`")
+    parser.add_argument("--out", help="directory for the figure (default: RUN_DIR/figures)")
+    args = parser.parse_args()
+    figure_from_run(args.run_dir, name, args.out)

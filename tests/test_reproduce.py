@@ -1,0 +1,120 @@
+"""The reproduce pipeline end to end, on a reduced configuration."""
+
+import json
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold import render
+from graspmanifold.reproduce import ReproduceConfig, reproduce
+
+REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 12},
+                          grid=((0.0, 0.0, 0.01, 0.0), (0.01, 0.0, 0.02, 0.0)), map_size=(10, 10), epochs=4,
+                          image_size=48, generator=gm.GeneratorParams(job_size=6))
+FIGURES = ["fig3_cylinder_extract", "fig4_box", "fig4_cylinder", "fig4_sphere", "fig5_cylinder_border",
+           "fig6_cylinder_evaluation", "fig7_cylinder_resumed_extract", "fig8_cylinder_resumed", "rates"]
+
+
+def run(out, config=REDUCED, **kwargs):
+    lines = []
+    summary = reproduce(out, config, log=lines.append, **kwargs)
+    ran = [line.split("]")[0][1:] for line in lines if line.endswith("running")]
+    return summary, ran, lines
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    summary, ran, _ = run(out)
+    return out, summary, ran
+
+
+def hand_pixels(image):
+    """Fraction of pixels in the hand's beige (lit or shaded), not white background or black bars."""
+    rgb = image[..., :3]
+    return np.mean((rgb[..., 0] > 0.25) & (rgb[..., 0] < 0.97) & (rgb[..., 0] - rgb[..., 2] > 0.04))
+
+
+def test_every_promised_file_is_there(finished):
+    out, summary, ran = finished
+    assert len(ran) == 23
+    for name in ("box", "cylinder", "sphere"):
+        assert len(gm.PostureSet.load(out / "postures" / f"{name}.npz")) == 12
+        assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
+        for method in ("none", "database", "som", "som_all"):
+            assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2
+    assert gm.SOM.load(out / "maps" / "all.npz").history[0]["samples"] == 36
+    for figure in FIGURES:
+        for suffix in ("png", "pdf"):
+            assert (out / "figures" / f"{figure}.{suffix}").stat().st_size > 1000, figure
+    report = (out / "report.md").read_text()
+    for text in ("63.45", "4220", "Resumed learning", "figures/fig3_cylinder_extract.png", "som_all"):
+        assert text in report
+    saved = json.loads((out / "summary.json").read_text())
+    assert saved["objects"]["cylinder"]["dataset_size"] == 12 and len(saved["evaluation"]) == 12
+    assert saved["figures"]["rendered"]
+    cylinder = saved["objects"]["cylinder"]
+    assert cylinder["map"]["distance_max_deg"] > cylinder["map"]["distance_min_deg"] > 0
+
+
+def test_rendered_figures_show_hands(finished):
+    out, _, _ = finished
+    for figure in ("fig3_cylinder_extract", "fig5_cylinder_border", "fig7_cylinder_resumed_extract"):
+        image = matplotlib.image.imread(out / "figures" / f"{figure}.png")
+        assert image[..., :3].std() > 0.1, figure
+        assert hand_pixels(image) > 0.05, figure
+    pictures = render.render_postures(np.array([gm.open_posture(), gm.closed_posture()]), 64)
+    assert pictures.shape == (2, 64, 64, 3)
+    assert all(hand_pixels(p / 255.0) > 0.05 for p in pictures)
+    assert np.abs(pictures[0].astype(int) - pictures[1]).mean() > 5  # open and closed hands differ
+
+
+def test_a_second_run_reuses_everything(finished):
+    out, summary, _ = finished
+    again, ran, _ = run(out)
+    assert ran == []
+    assert again["evaluation"] == summary["evaluation"]
+
+
+def test_a_run_interrupted_during_evaluation_resumes(finished):
+    out, _, _ = finished
+    # as if killed while evaluating the sphere with the SOM: no manifest, no result file
+    (out / "stages" / "evaluate_sphere_som.json").unlink()
+    (out / "evaluation" / "sphere_som.npz").unlink()
+    _, ran, _ = run(out)
+    # only the unfinished stage runs; it is deterministic, so what depends on its file is still valid
+    assert ran == ["evaluate_sphere_som"]
+
+
+def test_another_runs_directory_is_refused_unless_forced(finished, tmp_path):
+    out, _, _ = finished
+    other = ReproduceConfig(**{**REDUCED.__dict__, "epochs": 5})
+    with pytest.raises(ValueError, match="another run"):
+        reproduce(out, other, log=lambda _: None)
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(ValueError, match="not empty"):
+        reproduce(tmp_path, REDUCED, log=lambda _: None)
+    with pytest.raises(ValueError, match="unknown preset"):
+        reproduce(tmp_path / "new", "huge", log=lambda _: None)
+
+
+def test_without_a_gl_context_the_pipeline_completes_and_says_how_to_render(finished, tmp_path, monkeypatch):
+    out, _, _ = finished
+    monkeypatch.setattr(render, "BACKENDS", ("no-such-backend",))
+    (out / "stages" / "figures.json").unlink()
+    target = tmp_path / "copy"
+    import shutil
+
+    shutil.copytree(out, target)
+    for rendered in ("fig3_cylinder_extract", "fig5_cylinder_border", "fig7_cylinder_resumed_extract"):
+        for suffix in ("png", "pdf"):
+            (target / "figures" / f"{rendered}.{suffix}").unlink()
+    summary, ran, lines = run(target)
+    assert ran == ["figures"]
+    assert not summary["figures"]["rendered"]
+    assert not (target / "figures" / "fig3_cylinder_extract.png").exists()
+    assert (target / "figures" / "fig4_cylinder.png").exists()
+    assert "apt-get install" in (target / "report.md").read_text()
+    assert any("skipping the rendered hand figures" in line for line in lines)
