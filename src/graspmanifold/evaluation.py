@@ -37,7 +37,7 @@ from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
 from .progress import Progress
 from .quality import epsilon_l1
-from .scene import Scene, compose, facing_pose, invert
+from .scene import Scene, facing_pose, invert
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 HOLD_SECONDS = 0.5
@@ -144,7 +144,7 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
         cycle()
     scene.set_object_support(0.0, 0.0)
     reading = scene.tactile()
-    centre = scene.data.xipos[scene._object_body].copy()
+    centre = scene.data.xipos[scene.object_body].copy()
     mu = max(scene.model.geom_friction[scene.object_geom, 0], 1.0)  # MuJoCo takes the larger friction
     epsilon = epsilon_l1(reading.points, reading.normals, centre, mu=mu) if len(reading.forces) else 0.0
     posture = scene.posture()

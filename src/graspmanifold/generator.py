@@ -77,7 +77,7 @@ class _SpringRig:
         body_of = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
         self.segment_geoms = [[g for g in range(model.ngeom) if body_of[g] == s] for s in SEGMENTS]
         self.distal_geoms = [model.geom(s).id for s in DISTAL_SEGMENTS]
-        self.finger_dofs = self.scene._hand_dof[2:]
+        self.finger_dofs = self.scene.hand_dofs[2:]
         self.limits = finger_limits()
         self._fromto = np.zeros(6)
         self._torque = np.zeros(3)
@@ -99,7 +99,7 @@ class _SpringRig:
 
     def move_to(self, pos: np.ndarray, quat: np.ndarray) -> None:
         """Glide the hand so the palm reaches a pose in `move_steps` physics steps, springs on."""
-        data, mount = self.scene.data, self.scene._mount
+        data, mount = self.scene.data, self.scene.mount_id
         start_pos, start_quat = data.mocap_pos[mount].copy(), data.mocap_quat[mount].copy()
         end_pos, end_quat = self.scene.mount_pose_for(pos, quat)
         turn = Rotation.from_quat(start_quat[[1, 2, 3, 0]])
@@ -127,7 +127,7 @@ class _SpringRig:
             return None
         clipped = np.clip(posture, self.limits[:, 0], self.limits[:, 1])
         saved = data.qpos.copy()
-        data.qpos[scene._finger_qpos] = clipped  # judge exactly what is stored
+        data.qpos[scene.finger_qpos] = clipped  # judge exactly what is stored
         mujoco.mj_kinematics(model, data)
         gap = lambda g: mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, self._fromto)  # noqa: E731
         try:

@@ -101,13 +101,14 @@ class Scene:
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.sensor = TactileSensor(self.model)
+        # addresses other modules use to read and write the hand's state directly
         joint_ids = [self.model.joint(name).id for name in HAND_JOINTS]
-        self._hand_qpos = self.model.jnt_qposadr[joint_ids]
-        self._hand_dof = self.model.jnt_dofadr[joint_ids]
-        self._finger_qpos = self._hand_qpos[2:]
-        self._mount = int(self.model.body("hand_mount").mocapid[0])
-        self._palm = self.model.body("palm").id
-        self._object_body = self.model.body("object").id
+        self.hand_qpos = self.model.jnt_qposadr[joint_ids]
+        self.hand_dofs = self.model.jnt_dofadr[joint_ids]
+        self.finger_qpos = self.hand_qpos[2:]
+        self.mount_id = int(self.model.body("hand_mount").mocapid[0])
+        self.palm_id = self.model.body("palm").id
+        self.object_body = self.model.body("object").id
         self.object_geom = self.model.geom("object").id
         self.set_gravity(gravity)
         self.reset()
@@ -159,12 +160,12 @@ class Scene:
     # -- hand placement --------------------------------------------------------------------------
     def object_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Current object pose in the world (position, quaternion)."""
-        return self.data.xpos[self._object_body].copy(), self.data.xquat[self._object_body].copy()
+        return self.data.xpos[self.object_body].copy(), self.data.xquat[self.object_body].copy()
 
     def hand_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Current palm pose in the object frame."""
         mujoco.mj_kinematics(self.model, self.data)
-        palm = self.data.xpos[self._palm], self.data.xquat[self._palm]
+        palm = self.data.xpos[self.palm_id], self.data.xquat[self.palm_id]
         return compose(*invert(*self.object_pose()), *palm)
 
     def mount_pose_for(self, pos: Iterable[float], quat: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -173,31 +174,31 @@ class Scene:
         pos, quat = _vec3(pos, "pos"), _quat(quat, "quat")
         mujoco.mj_kinematics(self.model, self.data)
         target = compose(*self.object_pose(), pos, quat)
-        mount = self.data.mocap_pos[self._mount].copy(), self.data.mocap_quat[self._mount].copy()
-        mount_to_palm = compose(*invert(*mount), self.data.xpos[self._palm], self.data.xquat[self._palm])
+        mount = self.data.mocap_pos[self.mount_id].copy(), self.data.mocap_quat[self.mount_id].copy()
+        mount_to_palm = compose(*invert(*mount), self.data.xpos[self.palm_id], self.data.xquat[self.palm_id])
         return compose(*target, *invert(*mount_to_palm))
 
     def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
         """Move the hand so that the palm frame has this pose in the object frame."""
-        self.data.mocap_pos[self._mount], self.data.mocap_quat[self._mount] = self.mount_pose_for(pos, quat)
+        self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
         self.forward()
 
     # -- postures --------------------------------------------------------------------------------
     def posture(self) -> np.ndarray:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
-        return self.data.qpos[self._finger_qpos].copy()
+        return self.data.qpos[self.finger_qpos].copy()
 
     def wrist(self) -> np.ndarray:
         """The current wrist angles (WRJ2, WRJ1)."""
-        return self.data.qpos[self._hand_qpos[:2]].copy()
+        return self.data.qpos[self.hand_qpos[:2]].copy()
 
     def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
         """Put the hand in a posture at rest and make the actuators hold it."""
         posture = validate_posture(posture, check_limits=True)
         ctrl = posture_to_ctrl(posture, wrist)
-        self.data.qpos[self._finger_qpos] = posture
-        self.data.qpos[self._hand_qpos[:2]] = ctrl[:2]
-        self.data.qvel[self._hand_dof] = 0.0
+        self.data.qpos[self.finger_qpos] = posture
+        self.data.qpos[self.hand_qpos[:2]] = ctrl[:2]
+        self.data.qvel[self.hand_dofs] = 0.0
         self.data.ctrl[:] = ctrl
         self.forward()
 

@@ -130,7 +130,7 @@ class _GraspGeometry:
 
     def distances(self, posture: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, ...]:
         scene, model, data = self.scene, self.scene.model, self.scene.data
-        data.qpos[scene._finger_qpos] = posture
+        data.qpos[scene.finger_qpos] = posture
         scene.set_hand_pose(pos, quat)  # runs mj_forward: kinematics for the distances below
         dist = lambda a, b: mujoco.mj_geomDistance(model, data, a, b, 0.3, self._fromto)  # noqa: E731
         distal = np.array([dist(g, self.obj_geom) for g in self.distal])
