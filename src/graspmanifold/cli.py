@@ -111,6 +111,7 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
 
 def _evaluate(args: argparse.Namespace) -> int:
     from .evaluation import Noise, evaluate, summary_json
+    from .io import write_text_atomic
 
     if args.experience not in ("none", "database", "som"):
         raise SystemExit(f"error: --experience must be none, database or som, got {args.experience!r}")
@@ -127,8 +128,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise SystemExit(f"error: {error}") from None
     out.mkdir(parents=True, exist_ok=True)
     result.save(out / "trials.npz")
-    (out / "summary.json").write_text(summary_json([result]) + "\n")
-    (out / "table.md").write_text(result.markdown())
+    write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
+    write_text_atomic(out / "table.md", result.markdown())
     print(result.markdown() + f"\n{len(result.trials)} trials in {time.perf_counter() - start:.1f} s; results in {out}")
     return 0
 

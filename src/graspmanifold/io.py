@@ -34,6 +34,21 @@ def fingerprint(array: np.ndarray) -> str:
     return digest.hexdigest()[:16]
 
 
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    """Write a text file through a temporary file and a rename: readers never see half of it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
 def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], metadata: dict,
              *, overwrite: bool = True) -> Path:
     """Write arrays and metadata to `path` atomically; refuse an existing file unless `overwrite`."""

@@ -12,7 +12,7 @@ import numpy as np
 
 from .analysis import smoothness
 from .evaluation import EvaluationResult
-from .io import library_version
+from .io import library_version, write_text_atomic
 from .postureset import PostureSet
 from .som import SOM
 
@@ -29,7 +29,7 @@ FIGURE_OBJECT = "cylinder"  # the paper's Figs. 3 and 5-8 show the cylinder map
 class RunData:
     """What a run produced: posture sets, maps, resumed maps and evaluation results."""
 
-    config: object
+    config: dict  # the run's configuration as written to run.json
     sets: dict[str, PostureSet]
     maps: dict[str, SOM]
     resumed: dict[str, SOM]
@@ -101,8 +101,7 @@ def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = pr
     import matplotlib
 
     matplotlib.use("Agg")
-    image_size = run.config.image_size if hasattr(run.config, "image_size") else run.config["image_size"]
-    render, message = _renderer(image_size)
+    render, message = _renderer(run.config["image_size"])
     if render is None:
         log(f"figures: skipping the rendered hand figures: {message}")
     directory.mkdir(parents=True, exist_ok=True)
@@ -148,8 +147,8 @@ def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
         }
     for result in run.results.values():
         summary["evaluation"].append(result.summary)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
-    (out / "report.md").write_text(_markdown(run, summary))
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
+    write_text_atomic(out / "report.md", _markdown(run, summary))
     return summary
 
 

@@ -27,7 +27,7 @@ from .evaluation import EvaluationResult, evaluate
 from .experience import PostureDatabase
 from .generator import PRESETS as DATASET_SIZES
 from .generator import GeneratorParams, generate_postures, remove_checkpoints
-from .io import library_version
+from .io import library_version, write_text_atomic
 from .objects import PAPER_OBJECTS
 from .postureset import PostureSet
 from .report import RunData, write_figures, write_report
@@ -93,9 +93,7 @@ class _Stages:
         start = time.perf_counter()
         info = work() or {}
         record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info}
-        tmp = manifest.with_suffix(".tmp")
-        tmp.write_text(json.dumps(record, indent=1))
-        os.replace(tmp, manifest)
+        write_text_atomic(manifest, json.dumps(record, indent=1))
         self.ran.append(name)
         self.log(f"[{name}] done in {record['seconds']:.1f} s")
         return info
@@ -124,8 +122,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     out = Path(out)
     _check_output(out, config, force)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "run.json").write_text(json.dumps({"config": config.to_json(), "library_version": library_version()},
-                                             indent=1))
+    write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version()},
+                                                    indent=1))
     stages = _Stages(out, log)
     started = time.perf_counter()
 
@@ -183,7 +181,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
 
     # 5. figures, 6. report
-    run = RunData(config, sets, maps, resumed_maps, results)
+    run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results)
     figure_key = _digest(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
                          *eval_paths.values())
     figure_info = stages.run("figures", figure_key, [out / "figures" / "rates.png"],
