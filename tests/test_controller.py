@@ -90,7 +90,7 @@ def test_a_centred_cylinder_is_grasped_and_held():
 
 
 def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
-    grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
+    grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, -0.3]])
     noise = gm.Noise(position=0.003, yaw=0.05, joints=0.01)
     a = gm.evaluate("cylinder", experience["som"], grid=grid, seed=5, noise=noise)
     b = gm.evaluate("cylinder", experience["som"], grid=grid, seed=5, noise=noise, workers=2)
@@ -118,6 +118,19 @@ def test_grid_presets_cover_enough_trials():
     for name in ("box", "cylinder", "sphere"):
         assert len(gm.grid_preset("quick", name)) >= 30
         assert len(gm.grid_preset("paper", name)) >= 200
+
+
+def test_trials_start_with_the_open_hand_clear_of_the_object():
+    from graspmanifold.evaluation import START_CLEARANCE, open_hand_clearance
+    for name in ("box", "cylinder", "sphere"):
+        for preset in ("quick", "paper"):
+            assert np.all(open_hand_clearance(name, gm.grid_preset(preset, name)) >= START_CLEARANCE)
+    # a long object turned so that its end comes down to the thumb sits deep inside the open thumb
+    inside = np.array([[0.0, 0.0, 0.01, 0.0], [-0.015, 0.0, 0.01, 0.5]])
+    assert open_hand_clearance("cylinder", inside)[1] < -0.005
+    assert gm.reachable("cylinder", inside).tolist() == [True, False]
+    with pytest.raises(ValueError, match=r"grid rows \[1\] put the object inside"):
+        gm.evaluate("cylinder", None, grid=inside)
 
 
 def test_resumed_learning_reports_smoothness_and_leaves_the_original(experience):

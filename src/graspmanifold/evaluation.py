@@ -13,8 +13,12 @@ without it the first touch would push a weightless object away); it is released 
 The grid is given in the palm frame around a nominal wrap placement (object long axis across the
 fingers, centred in front of the palm, see `scene.facing_pose`): shifts across the fingers (x) and
 along them (z), the gap between palm and object, and a yaw of the object's axis about the palm
-normal. It covers where the open hand can plausibly close on the object. Optional noise perturbs
-the true object pose around each grid pose and the joint angles the controller senses.
+normal. It covers where the open hand can plausibly close on the object: a regular grid, less the
+placements where the object would sit inside (or within 1 mm of) the open hand, which no hand could
+have reached (at the yaw that brings an end of a long object down to the thumb, most placements put
+the object 1-3 cm deep into the open thumb). Optional noise perturbs the true object pose around
+each grid pose (a draw that would start inside the open hand is redrawn) and the joint angles the
+controller senses.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from .experience import Experience
 from .hand import SEGMENTS
 from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
+from .posture import open_posture
 from .progress import Progress
 from .quality import epsilon_l1
 from .scene import Scene, facing_pose, invert
@@ -61,25 +66,51 @@ class Noise:
 
 
 GRID_COLUMNS = ("x", "z", "gap", "yaw")
+START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
 
 
 def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
     """Grid poses (n, 4): object shift across (x) and along (z) the fingers, palm gap, yaw (m, rad).
 
-    'quick': 36 poses; 'paper': 225 poses. A sphere has no yaw, so it gets more gaps instead.
+    A regular grid less the poses the open hand cannot reach (`reachable`). 'quick': x and z in
+    {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} (box 37, cylinder 30 poses);
+    'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over +-0.5 rad (box 263, cylinder 224).
+    A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225 poses, all reachable).
     """
     obj = get_object(obj)
     sphere = obj.shape == "sphere"
     if name == "quick":
         axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015],
-                [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], [0.0] if sphere else [0.0, 0.5])
+                [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], [0.0] if sphere else [-0.5, 0.0, 0.5])
     elif name == "paper":
         axes = (np.linspace(-0.02, 0.02, 5), np.linspace(-0.02, 0.02, 5),
                 np.linspace(0.01, 0.034, 9) if sphere else [0.01, 0.02, 0.03],
-                [0.0] if sphere else [-0.5, 0.0, 0.5])
+                [0.0] if sphere else np.linspace(-0.5, 0.5, 5))
     else:
         raise ValueError(f"unknown grid preset {name!r}; expected 'quick', 'paper' or an (n, 4) array")
-    return np.array(list(itertools.product(*axes)), dtype=float)
+    poses = np.array(list(itertools.product(*axes)), dtype=float)
+    return poses[reachable(obj, poses)]
+
+
+def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
+    """Distance (m) between the open hand and the object at each grid pose; negative when inside."""
+    obj = get_object(obj)
+    scene = Scene(obj, free_object=True)
+    model, data = scene.model, scene.data
+    hand_geoms = [g for g in range(model.ngeom) if model.body(model.geom_bodyid[g]).name in SEGMENTS]
+    fromto = np.zeros(6)
+    clearance = np.empty(len(grid))
+    for i, pose in enumerate(np.asarray(grid, dtype=float)):
+        scene.set_hand_pose(*palm_pose_for(obj, pose))
+        data.qpos[scene.finger_qpos] = open_posture()
+        mujoco.mj_kinematics(model, data)
+        clearance[i] = min(mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, fromto) for g in hand_geoms)
+    return clearance
+
+
+def reachable(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
+    """Which grid poses (bool, (n,)) leave the open hand clear of the object, so a trial can start there."""
+    return open_hand_clearance(obj, grid) >= START_CLEARANCE
 
 
 def check_grid(grid: object, obj: GraspObject) -> tuple[str, np.ndarray]:
@@ -91,6 +122,11 @@ def check_grid(grid: object, obj: GraspObject) -> tuple[str, np.ndarray]:
                          f"got shape {poses.shape}")
     if not np.all(np.isfinite(poses)):
         raise ValueError("grid poses must be finite")
+    inside = np.flatnonzero(~reachable(obj, poses))
+    if len(inside):
+        raise ValueError(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
+                         f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start; "
+                         "keep the reachable ones: grid[graspmanifold.reachable(obj, grid)]")
     return "custom", poses
 
 
@@ -123,14 +159,26 @@ class Trial:
         return self.epsilon > 0.0
 
 
+def _noisy_pose(obj: GraspObject, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
+                tries: int = 20) -> np.ndarray:
+    """The grid pose plus position and yaw noise, redrawn while it would put the object inside the open hand."""
+    if noise.position == 0.0 and noise.yaw == 0.0:
+        return grid_pose
+    for _ in range(tries):
+        pose = grid_pose + np.array([rng.normal(0, noise.position), rng.normal(0, noise.position), 0.0,
+                                     rng.normal(0, noise.yaw)])
+        if reachable(obj, pose[None])[0]:
+            return pose
+    return grid_pose
+
+
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
               rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None) -> Trial:
     """Place the object, let the controller grasp it, measure epsilon and the hold."""
     scene = Scene(obj, free_object=True, gravity=False)
     scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
     controller = GraspController(experience, params)
-    true_pose = np.asarray(grid_pose, dtype=float) + np.array(
-        [rng.normal(0, noise.position), rng.normal(0, noise.position), 0.0, rng.normal(0, noise.yaw)])
+    true_pose = _noisy_pose(obj, np.asarray(grid_pose, dtype=float), noise, rng)
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
     period = controller.params.control_period

@@ -23,12 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from .analysis import RESUME_SCHEDULE
-from .evaluation import EvaluationResult, evaluate
+from .evaluation import EvaluationResult, check_grid, evaluate
 from .experience import PostureDatabase
 from .generator import PRESETS as DATASET_SIZES
 from .generator import GeneratorParams, generate_postures, remove_checkpoints
 from .io import library_version, write_text_atomic
-from .objects import PAPER_OBJECTS
+from .objects import PAPER_OBJECTS, get_object
 from .postureset import PostureSet
 from .report import RunData, write_figures, write_report
 from .som import SOM
@@ -163,7 +163,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, progress=True)
             result.method = method
             result.save(path)
-        stages.run(f"evaluate_{name}_{method}", _digest(config.to_json()["grid"], config.seed, method, *inputs[method]),
+        poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
+        stages.run(f"evaluate_{name}_{method}", _digest(poses.tolist(), config.seed, method, *inputs[method]),
                    [path], run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
