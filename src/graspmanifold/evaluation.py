@@ -92,20 +92,21 @@ def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
     return poses[reachable(obj, poses)]
 
 
+def _clearance(scene: Scene, pose: np.ndarray) -> float:
+    """Distance (m) between the open hand and the object of `scene` at one grid pose (moves the hand there)."""
+    model, data = scene.model, scene.data
+    scene.set_hand_pose(*palm_pose_for(scene.object, pose))
+    data.qpos[scene.finger_qpos] = open_posture()
+    mujoco.mj_kinematics(model, data)
+    hand_geoms = np.flatnonzero(np.isin(model.geom_bodyid, [model.body(s).id for s in SEGMENTS]))
+    fromto = np.zeros(6)
+    return min(mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, fromto) for g in hand_geoms)
+
+
 def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
     """Distance (m) between the open hand and the object at each grid pose; negative when inside."""
-    obj = get_object(obj)
-    scene = Scene(obj, free_object=True)
-    model, data = scene.model, scene.data
-    hand_geoms = [g for g in range(model.ngeom) if model.body(model.geom_bodyid[g]).name in SEGMENTS]
-    fromto = np.zeros(6)
-    clearance = np.empty(len(grid))
-    for i, pose in enumerate(np.asarray(grid, dtype=float)):
-        scene.set_hand_pose(*palm_pose_for(obj, pose))
-        data.qpos[scene.finger_qpos] = open_posture()
-        mujoco.mj_kinematics(model, data)
-        clearance[i] = min(mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, fromto) for g in hand_geoms)
-    return clearance
+    scene = Scene(get_object(obj), free_object=True)
+    return np.array([_clearance(scene, pose) for pose in np.asarray(grid, dtype=float)])
 
 
 def reachable(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
@@ -159,7 +160,7 @@ class Trial:
         return self.epsilon > 0.0
 
 
-def _noisy_pose(obj: GraspObject, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
+def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
                 tries: int = 20) -> np.ndarray:
     """The grid pose plus position and yaw noise, redrawn while it would put the object inside the open hand."""
     if noise.position == 0.0 and noise.yaw == 0.0:
@@ -167,7 +168,7 @@ def _noisy_pose(obj: GraspObject, grid_pose: np.ndarray, noise: Noise, rng: np.r
     for _ in range(tries):
         pose = grid_pose + np.array([rng.normal(0, noise.position), rng.normal(0, noise.position), 0.0,
                                      rng.normal(0, noise.yaw)])
-        if reachable(obj, pose[None])[0]:
+        if _clearance(scene, pose) >= START_CLEARANCE:
             return pose
     return grid_pose
 
@@ -178,7 +179,7 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     scene = Scene(obj, free_object=True, gravity=False)
     scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
     controller = GraspController(experience, params)
-    true_pose = _noisy_pose(obj, np.asarray(grid_pose, dtype=float), noise, rng)
+    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
     period = controller.params.control_period
