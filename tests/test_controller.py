@@ -72,6 +72,45 @@ def test_phases_follow_the_contacts(experience):
     assert controller.done and controller.time_to_grasp <= params.timeout + 1e-9
 
 
+def _thumb_closure_after(controller, joints, forces, cycles):
+    """The thumb targets over `cycles` control cycles with the sensed joints and forces held fixed."""
+    thumb = [i for i, j in enumerate(gm.FINGER_JOINTS) if j.startswith("TH")]
+    return np.array([controller.step(joints, forces)[thumb] for _ in range(cycles)])
+
+
+def test_a_blocked_free_finger_closes_on(experience):
+    """A free finger stuck short of its matched posture (say, under another finger) is not left waiting."""
+    params = gm.ControllerParams(preshape_time=0.0)
+    controller = gm.GraspController(experience["database"], params)
+    forces = np.zeros(len(gm.SEGMENTS))
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0  # the index finger touches; the thumb never moves
+    targets = _thumb_closure_after(controller, gm.open_posture(), forces, 20)
+    closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
+    progress = (targets - targets[0]) @ closing
+    assert progress[-1] > 0.2 * closing @ closing  # it closes along the synergy from where it was sent
+    assert np.all(np.diff(progress) >= -1e-12)
+
+
+def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience):
+    params = gm.ControllerParams(preshape_time=0.0)
+    controller = gm.GraspController(experience["som"], params)
+    forces = np.zeros(len(gm.SEGMENTS))
+    held = gm.open_posture()
+    held[-5:] = [0.3, 1.0, 0.1, 0.3, 0.5]
+    forces[gm.SEGMENTS.index("ffdistal")] = forces[gm.SEGMENTS.index("thdistal")] = 1.0
+    _thumb_closure_after(controller, held, forces, 3)
+    forces[gm.SEGMENTS.index("thdistal")] = 0.0
+    targets = _thumb_closure_after(controller, held, forces, 30)
+    released = targets[round(params.release_time / params.control_period) + 1:]
+    closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
+    limits = gm.finger_limits()[-5:]
+    # after the release the thumb's target starts at the held thumb and moves along the closing synergy only
+    for target in released:
+        amount = (target[0] - held[-5]) / closing[0]
+        np.testing.assert_allclose(target, np.clip(held[-5:] + amount * closing, limits[:, 0], limits[:, 1]), atol=1e-9)
+    assert 0.0 <= (released[0][0] - held[-5]) < 0.1 < released[-1][0] - held[-5]
+
+
 def test_bad_experience_is_rejected():
     with pytest.raises(ValueError, match="experience must be None"):
         gm.GraspController(np.zeros((5, 22)))

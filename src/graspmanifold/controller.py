@@ -11,11 +11,14 @@ angles and the normal force on each tactile segment (what a tactile skin reports
     C  once anything touches: every cycle form the Partial Contact Posture (the joints the contacts
        make reliable, Eq. 1), find the best-matching experienced posture with the masked search
        (Eq. 2 / Eq. 4) and steer the free fingers towards it, re-matching as contacts appear; a free
-       finger that has reached its matched posture without touching closes on from there (D);
+       finger that has reached its matched posture without touching, or is stuck short of it (say,
+       under another finger), closes on from there (D);
     D  embedded in B and C: a generic closing heuristic. A finger not yet touching keeps closing
-       from its current base posture along the hand's closing synergy (closed hand minus open hand); a touching finger holds where
-       it touched and squeezes gently (and closes on if it loses the contact); the grasp ends when the set of touching fingers has been
-       stable for a while (and every finger touches or is fully closed) or at the timeout.
+       from its current base posture along the hand's closing synergy (closed hand minus open hand);
+       a touching finger holds where it touched and squeezes gently, and if it loses the contact it
+       closes on from where it held (the experience no longer steers it back); the grasp ends when
+       the set of touching fingers has been stable for a while (and every finger touches or is fully
+       closed) or at the timeout.
 
 Without an experience base (`experience=None`) the base posture is the open hand, so phases A and D
 alone remain: the purely tactile-driven baseline.
@@ -47,6 +50,8 @@ class ControllerParams:
     squeeze: float = 0.15  # rad beyond the touching posture, on the flexion joints
     release_time: float = 0.1  # a holding finger that lost its contact this long closes on
     arrive_tolerance: float = 0.1  # rad: a free finger this close to its matched posture closes further
+    stall_time: float = 0.1  # s: a free finger blocked this long short of its matched posture closes further too
+    stall_speed: float = 0.1  # rad/s: below this joint speed a finger counts as not moving
     stable_time: float = 0.3  # the touching set must stay unchanged this long to finish
     timeout: float = 3.0  # s after the start
 
@@ -84,7 +89,10 @@ class GraspController:
         self.matches = 0  # best-match queries made
         self._closure = dict.fromkeys(FINGERS, 0.0)
         self._held: dict[str, np.ndarray] = {}
+        self._lost: dict[str, np.ndarray] = {}  # fingers that lost their contact: the posture they held
         self._last_touch = dict.fromkeys(FINGERS, -np.inf)
+        self._moving_at = dict.fromkeys(FINGERS, 0.0)
+        self._previous: np.ndarray | None = None
         self._base = self.initial.copy()
         self._target = self.initial.copy()
         self._touching: frozenset[str] = frozenset()
@@ -100,6 +108,12 @@ class GraspController:
         self.time += dt
         if self.done:
             return self._target.copy()
+        if self._previous is not None:
+            speed = np.abs(joints - self._previous) / dt
+            for finger in FINGERS:
+                if np.max(speed[_FINGER_OF_JOINT == finger]) > self.params.stall_speed:
+                    self._moving_at[finger] = self.time
+        self._previous = joints
         touching_segments = [s for s, f in zip(SEGMENTS, forces) if f > 0.0]
         touching = frozenset(f for f in map(finger_of, touching_segments) if f is not None)
         if self.time <= self.params.preshape_time and not touching_segments:
@@ -117,8 +131,10 @@ class GraspController:
         for finger in touching:
             self._last_touch[finger] = self.time
             self._held.setdefault(finger, joints.copy())
+            self._lost.pop(finger, None)
         for finger in [f for f in self._held if self.time - self._last_touch[f] > self.params.release_time]:
-            del self._held[finger]  # lost its contact: close on
+            self._lost[finger] = self._held.pop(finger)  # lost its contact: close on from where it held
+            self._closure[finger] = 0.0
         target = np.empty(len(FINGER_JOINTS))
         for finger in FINGERS:
             joints_of = _FINGER_OF_JOINT == finger
@@ -127,9 +143,10 @@ class GraspController:
                 push = np.sign(self._closed[joints_of] - held) * _FLEXION[joints_of]
                 target[joints_of] = held + self.params.squeeze * push
             else:  # D: keep closing from the base posture
-                base = self._base[joints_of]
+                base = self._lost[finger][joints_of] if finger in self._lost else self._base[joints_of]
                 arrived = np.max(np.abs(joints[joints_of] - self._target[joints_of])) < self.params.arrive_tolerance
-                if self.phase == "B" or self.experience is None or arrived:
+                stalled = self.time - self._moving_at[finger] >= self.params.stall_time
+                if self.phase == "B" or self.experience is None or finger in self._lost or arrived or stalled:
                     self._closure[finger] = min(1.0, self._closure[finger] + self.params.closing_rate * dt)
                 target[joints_of] = base + self._closure[finger] * self._closing[joints_of]
         self._target = np.clip(target, self._limits[:, 0], self._limits[:, 1])
