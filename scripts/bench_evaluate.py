@@ -1,15 +1,19 @@
 """Benchmark and results of the grasp controller on the quick grid, every object and method.
 
-    python scripts/bench_evaluate.py [--data DIR] [--workers 2] [--grid quick]
+    python scripts/bench_evaluate.py [--data DIR] [--workers 2] [--grid quick|paper|wide]
 
 Uses the paper-size posture sets in DIR (generated there first if missing), trains one 25 x 25
 SOM per object and one for all objects (paper schedule, online), then evaluates none / database /
 SOM per object, the multi-object SOM per object, and the resumed learning. Prints markdown tables.
+
+`--grid wide` asks where experience could matter: the reachable poses of a grid well beyond the
+presets (x +-3 cm, z +-4 cm, gaps 1-5 cm, yaws +-1 rad), with force closure broken down by grid axis.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 from pathlib import Path
 
@@ -27,6 +31,26 @@ def posture_sets(directory: Path, workers: int) -> dict[str, gm.PostureSet]:
             gm.generate_postures(name, n, seed=0, workers=workers).save(path)
         sets[name] = gm.PostureSet.load(path)
     return sets
+
+
+def wide_grid(obj: str) -> np.ndarray:
+    """Reachable poses of a grid beyond the presets: x, z, gap, yaw (m, rad)."""
+    yaws = [0.0] if gm.get_object(obj).shape == "sphere" else [-1.0, -0.5, 0.0, 0.5, 1.0]
+    axes = ([-0.03, -0.015, 0.0, 0.015, 0.03], [-0.04, -0.02, 0.0, 0.02, 0.04], [0.01, 0.03, 0.05], yaws)
+    poses = np.array(list(itertools.product(*axes)))
+    return poses[gm.reachable(obj, poses)]
+
+
+def axis_breakdown(results: dict[str, gm.EvaluationResult]) -> None:
+    """Force-closure rate of each method for every value of every grid axis."""
+    labels = list(results)
+    print(f"| axis | value | trials | {' | '.join(labels)} |\n|---|---|---|{'---|' * len(labels)}")
+    grid = np.array([t.grid_pose for t in results[labels[0]].trials])
+    for column, axis in enumerate(("x", "z", "gap", "yaw")):
+        for value in np.unique(grid[:, column]):
+            rows = grid[:, column] == value
+            rates = [np.mean([t.force_closure for t, row in zip(results[m].trials, rows) if row]) for m in labels]
+            print(f"| {axis} | {value:+.3f} | {rows.sum()} | {' | '.join(f'{r:.0%}' for r in rates)} |")
 
 
 def trial_speed(obj: str, experience) -> tuple[float, float]:
@@ -58,13 +82,18 @@ def main() -> None:
         methods = {"none": None, "database": gm.PostureDatabase(s.postures), "som": maps[name], "som (all objects)": maps["all"]}
         for label, experience in methods.items():
             start = time.perf_counter()
-            r = gm.evaluate(name, experience, args.grid, seed=0, workers=args.workers)
+            grid = wide_grid(name) if args.grid == "wide" else args.grid
+            r = gm.evaluate(name, experience, grid, seed=0, workers=args.workers)
             seconds = time.perf_counter() - start
             results[(name, label)] = r
             m = r.summary
             print(f"| {name} | {label} | {m['trials']} | {m['force_closure_rate']:.0%} | {m['hold_rate']:.0%} | "
                   f"{m['mean_epsilon']:.4f} | {m['mean_time_to_grasp']:.2f} | {seconds:.1f} |", flush=True)
 
+    if args.grid == "wide":
+        for name in sets:
+            print(f"\n{name}: force closure by grid axis\n")
+            axis_breakdown({label: r for (n, label), r in results.items() if n == name})
     print("\nresumed learning (10 epochs, lr 0.1 -> 0.05, sigma 3 -> 0.7) with the SOM's successful postures:\n")
     print("| object | postures | distance CV before → after | max distance (°) before → after | "
           "unsupported by evaluation before → after | evaluation on training-unsupported nodes |")

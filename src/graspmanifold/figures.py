@@ -142,8 +142,9 @@ def rates_figure(summaries: list[dict]) -> Figure:
                       for o in objects]
             ax.bar(np.arange(len(objects)) + (m - (len(methods) - 1) / 2) * width, values, width, label=method)
         ax.set_xticks(range(len(objects)), objects)
-        ax.set_ylim(0, 1)
+        ax.set_ylim(0, 1.15)  # headroom for the legend above the bars
+        ax.set_yticks(np.linspace(0, 1, 6))
         ax.set_ylabel(f"{label} rate")
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=8, ncol=len(methods), loc="upper center")
     figure.tight_layout()
     return figure
