@@ -1,4 +1,4 @@
-"""Benchmark and results of the grasp controller on the quick grid, every object and method.
+"""Benchmark and results of the grasp controller on a grid (quick by default), every object and method.
 
     python scripts/bench_evaluate.py [--data DIR] [--workers 2] [--grid quick|paper|wide]
 

@@ -72,7 +72,7 @@ def test_phases_follow_the_contacts(experience):
     assert controller.done and controller.time_to_grasp <= params.timeout + 1e-9
 
 
-def _thumb_closure_after(controller, joints, forces, cycles):
+def _thumb_targets(controller, joints, forces, cycles):
     """The thumb targets over `cycles` control cycles with the sensed joints and forces held fixed."""
     thumb = [i for i, j in enumerate(gm.FINGER_JOINTS) if j.startswith("TH")]
     return np.array([controller.step(joints, forces)[thumb] for _ in range(cycles)])
@@ -84,7 +84,7 @@ def test_a_blocked_free_finger_closes_on(experience):
     controller = gm.GraspController(experience["database"], params)
     forces = np.zeros(len(gm.SEGMENTS))
     forces[gm.SEGMENTS.index("ffdistal")] = 1.0  # the index finger touches; the thumb never moves
-    targets = _thumb_closure_after(controller, gm.open_posture(), forces, 20)
+    targets = _thumb_targets(controller, gm.open_posture(), forces, 20)
     closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
     progress = (targets - targets[0]) @ closing
     assert progress[-1] > 0.2 * closing @ closing  # it closes along the synergy from where it was sent
@@ -98,9 +98,9 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
     held = gm.open_posture()
     held[-5:] = [0.3, 1.0, 0.1, 0.3, 0.5]
     forces[gm.SEGMENTS.index("ffdistal")] = forces[gm.SEGMENTS.index("thdistal")] = 1.0
-    _thumb_closure_after(controller, held, forces, 3)
+    _thumb_targets(controller, held, forces, 3)
     forces[gm.SEGMENTS.index("thdistal")] = 0.0
-    targets = _thumb_closure_after(controller, held, forces, 30)
+    targets = _thumb_targets(controller, held, forces, 30)
     released = targets[round(params.release_time / params.control_period) + 1:]
     closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
     limits = gm.finger_limits()[-5:]
