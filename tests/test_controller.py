@@ -78,17 +78,42 @@ def _thumb_targets(controller, joints, forces, cycles):
     return np.array([controller.step(joints, forces)[thumb] for _ in range(cycles)])
 
 
-def test_a_blocked_free_finger_closes_on(experience):
-    """A free finger stuck short of its matched posture (say, under another finger) is not left waiting."""
+def test_phase_b_target_changes_with_the_hand_posture_while_it_closes(experience):
+    """Phase B re-matches the whole sensed posture every cycle: other joints sensed, another target."""
+    forces = np.zeros(len(gm.SEGMENTS))
+    params = gm.ControllerParams(preshape_time=0.0)
+    rng = np.random.default_rng(0)
+    postures = experience["database"].postures
+    for kind in ("database", "som"):
+        a, b = gm.GraspController(experience[kind], params), gm.GraspController(experience[kind], params)
+        diverged = False
+        for cycle in range(10):
+            first = postures[rng.integers(len(postures))]
+            second = postures[rng.integers(len(postures))]
+            ta, tb = a.step(first, forces), b.step(second, forces)
+            assert a.phase == "B" and a.matches == cycle + 1  # a match every cycle
+            diverged |= not np.allclose(ta, tb)
+        assert diverged
+    # the plain heuristic's closing does not depend on the sensed posture in B
+    a, b = gm.GraspController(None, params), gm.GraspController(None, params)
+    for _ in range(5):
+        np.testing.assert_array_equal(a.step(postures[0], forces), b.step(postures[1], forces))
+
+
+def test_a_free_finger_never_waits_at_a_reset_closure(experience):
+    """After the first contact a free finger keeps closing every cycle, even when it cannot move."""
     params = gm.ControllerParams(preshape_time=0.0)
     controller = gm.GraspController(experience["database"], params)
     forces = np.zeros(len(gm.SEGMENTS))
-    forces[gm.SEGMENTS.index("ffdistal")] = 1.0  # the index finger touches; the thumb never moves
-    targets = _thumb_targets(controller, gm.open_posture(), forces, 20)
-    closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
-    progress = (targets - targets[0]) @ closing
-    assert progress[-1] > 0.2 * closing @ closing  # it closes along the synergy from where it was sent
-    assert np.all(np.diff(progress) >= -1e-12)
+    for _ in range(10):  # phase B
+        controller.step(gm.open_posture(), forces)
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0  # the index finger touches; the thumb is blocked where it is
+    targets = _thumb_targets(controller, gm.open_posture(), forces, 60)
+    closed = gm.closed_posture()[-5:]
+    distance = np.linalg.norm(targets - closed, axis=1)
+    moving = distance > 1e-9
+    assert np.all(np.diff(distance)[moving[1:]] < 0)  # closer to the closed thumb every cycle until there
+    assert distance[-1] < 1e-6
 
 
 def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience):
@@ -98,17 +123,43 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
     held = gm.open_posture()
     held[-5:] = [0.3, 1.0, 0.1, 0.3, 0.5]
     forces[gm.SEGMENTS.index("ffdistal")] = forces[gm.SEGMENTS.index("thdistal")] = 1.0
-    _thumb_targets(controller, held, forces, 3)
+    pressed = _thumb_targets(controller, held, forces, 3)[-1]
     forces[gm.SEGMENTS.index("thdistal")] = 0.0
-    targets = _thumb_targets(controller, held, forces, 30)
+    targets = _thumb_targets(controller, held, forces, 40)
     released = targets[round(params.release_time / params.control_period) + 1:]
-    closing = gm.closed_posture()[-5:] - gm.open_posture()[-5:]
-    limits = gm.finger_limits()[-5:]
-    # after the release the thumb's target starts at the held thumb and moves along the closing synergy only
-    for target in released:
-        amount = (target[0] - held[-5]) / closing[0]
-        np.testing.assert_allclose(target, np.clip(held[-5:] + amount * closing, limits[:, 0], limits[:, 1]), atol=1e-9)
-    assert 0.0 <= (released[0][0] - held[-5]) < 0.1 < released[-1][0] - held[-5]
+    closed = gm.closed_posture()[-5:]
+    # no jump back to a matched posture: the first released target is next to where the thumb held
+    # (within the squeeze it pressed with), and from there it closes on towards the closed thumb
+    assert np.linalg.norm(pressed - held[-5:]) > 0.1
+    assert np.linalg.norm(released[0] - held[-5:]) < params.squeeze
+    distance = np.linalg.norm(released - closed, axis=1)
+    assert np.all(np.diff(distance[2:]) <= 1e-12) and distance[-1] < 0.5 * distance[0]
+
+
+@pytest.mark.parametrize("field, value", [("control_period", 0.0), ("control_period", -0.02),
+                                          ("closing_rate", -1.0), ("timeout", float("nan")),
+                                          ("squeeze", -0.1), ("steered_fingers", ("ff", "toe")),
+                                          ("max_match_distance", 0.0)])
+def test_bad_controller_params_raise(field, value):
+    with pytest.raises(ValueError, match=field):
+        gm.ControllerParams(**{field: value})
+
+
+def test_switches_turn_experience_off(experience):
+    """With B's preshape and C's steering off, the experience controller acts as the plain heuristic."""
+    forces = np.zeros(len(gm.SEGMENTS))
+    off = gm.ControllerParams(experience_preshape=False, experience_steering=False)
+    a, b = gm.GraspController(experience["som"], off), gm.GraspController(None)
+    for cycle in range(40):
+        if cycle == 25:
+            forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+        np.testing.assert_allclose(a.step(gm.open_posture(), forces), b.step(gm.open_posture(), forces))
+    assert a.matches == 0
+    only_thumb = gm.GraspController(experience["som"], gm.ControllerParams(steered_fingers=("th",)))
+    plain = gm.GraspController(None)
+    for _ in range(30):
+        t, p = only_thumb.step(gm.open_posture(), forces), plain.step(gm.open_posture(), forces)
+    np.testing.assert_allclose(t[:17], p[:17])  # the other fingers close as the heuristic does
 
 
 def test_bad_experience_is_rejected():

@@ -8,7 +8,7 @@ import graspmanifold as gm
 from graspmanifold import generator
 from graspmanifold.cli import main as cli
 
-SMALL = gm.GeneratorParams(job_size=6)
+SMALL = gm.GeneratorParams(job_size=6, verify=False)  # every five-fingertip candidate, for exact counts
 
 
 def replay_distances(obj, posture, pose):
@@ -74,6 +74,28 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
     assert 0 < postures.metadata["acceptance_ratio"] <= 1
 
 
+def test_a_stored_experience_posture_is_a_verified_grasp():
+    """With verification (the default) every kept posture holds the object when replayed: the hand at
+    its palm pose, the fingers pressing with the controller's squeeze, gravity in six directions."""
+    from graspmanifold.controller import squeezed
+    from graspmanifold.judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+
+    verified = gm.generate_postures("box", 24, seed=0, params=gm.GeneratorParams(job_size=6))
+    unverified = gm.generate_postures("box", 24, seed=0, params=SMALL)
+    assert 0 < len(verified) < len(unverified)  # some candidates drop the box
+    assert verified.metadata["verified"] and verified.metadata["verified_ratio"] == len(verified) / 24
+    assert np.all(verified.epsilon >= 0) and np.all(verified.hold_displacement <= 0.02)
+    assert np.all(np.isnan(unverified.epsilon))
+    for posture, pose in zip(verified.postures, verified.hand_poses):
+        scene = gm.Scene("box", free_object=True)
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+        scene.set_hand_pose(pose[:3], pose[3:])
+        scene.set_posture(posture)
+        scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
+        scene.run(0.2)
+        assert judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False).hold
+
+
 def test_same_seed_same_set_whatever_the_worker_count(small_sets):
     again = gm.generate_postures("cylinder", 24, seed=3, params=SMALL, workers=2)
     first = small_sets["cylinder"]
@@ -84,7 +106,7 @@ def test_same_seed_same_set_whatever_the_worker_count(small_sets):
 
 
 def test_data_clusters_around_the_starting_postures():
-    postures = gm.generate_postures("cylinder", 80, seed=0, params=gm.GeneratorParams(job_size=20))
+    postures = gm.generate_postures("cylinder", 80, seed=0, params=SMALL)
     separation = postures.cluster_separation()
     assert separation["starts"] >= 3
     assert separation["ratio"] < 0.5, separation
@@ -153,12 +175,12 @@ def test_bad_generator_arguments_raise(call, message):
 
 def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / "data" / "sphere.npz"
-    assert cli(["generate", "--object", "sphere", "--n", "8", "--out", str(out)]) == 0
+    assert cli(["generate", "--object", "sphere", "--n", "8", "--no-verify", "--out", str(out)]) == 0
     assert len(gm.PostureSet.load(out)) == 8
     assert not (tmp_path / "data" / "sphere.npz.parts").exists()
     before = out.read_bytes()
     with pytest.raises(SystemExit, match="exists; pass --force"):
-        cli(["generate", "--object", "sphere", "--n", "8", "--out", str(out)])
+        cli(["generate", "--object", "sphere", "--n", "8", "--no-verify", "--out", str(out)])
     assert out.read_bytes() == before
     with pytest.raises(SystemExit, match="--n must be positive"):
         cli(["generate", "--object", "sphere", "--n", "0", "--out", str(tmp_path / "x.npz")])

@@ -5,27 +5,37 @@ angles and the normal force on each tactile segment (what a tactile skin reports
 22 joint targets. It never sees the object: not its shape, not its pose, not the contact points.
 
     A  preshape: actuate the initial open posture;
-    B  close until the first contact. With an experience base, the closing starts from the
-       experienced grasp posture nearest to the current hand posture (all 22 joints compared),
-       re-matched every cycle as the hand closes, so the hand preshapes towards known grasps;
+    B  close until the first contact, influenced by experience: every cycle the whole current
+       posture is matched against the experience base, and the match becomes the fingers' base;
     C  once anything touches: every cycle form the Partial Contact Posture (the joints the contacts
        make reliable, Eq. 1), find the best-matching experienced posture with the masked search
-       (Eq. 2 / Eq. 4) and steer the free fingers towards it, re-matching as contacts appear; a free
-       finger that has reached its matched posture without touching, or is stuck short of it (say,
-       under another finger), closes on from there (D);
-    D  embedded in B and C: a generic closing heuristic. A finger not yet touching keeps closing
-       from its current base posture along the hand's closing synergy (closed hand minus open hand);
-       a touching finger holds where it touched and squeezes gently, and if it loses the contact it
-       closes on from where it held (the experience no longer steers it back); the grasp ends when
-       the set of touching fingers has been stable for a while (and every finger touches or is fully
-       closed) or at the timeout.
+       (Eq. 2 / Eq. 4) and make it the base of the free fingers;
+    D  embedded in B and C: the generic closing heuristic. Every free finger has a closure c that
+       grows at `closing_rate` per second from the moment B starts and is never reset or held
+       back; its goal is its base posture closed by c towards the closed hand,
+       goal = base + c (closed - base). Without experience the base is the open hand, so the goal is
+       the plain heuristic's open + c (closed - open). The finger's target follows the goal at
+       most `follow_speed` times the heuristic's joint speed, so a new match moves it smoothly
+       and it meets the object on its way instead of jumping past it. A touching finger holds
+       where it touched and squeezes gently (`squeeze` on its flexion joints); if it loses the
+       contact it closes on from where it held. The grasp ends when the set of touching fingers
+       has been stable for `stable_time` and every finger touches or is fully closed, or at the
+       timeout.
 
-Without an experience base (`experience=None`) the base posture is the open hand, so phases A and D
-alone remain: the purely tactile-driven baseline.
+Closing from the matched posture towards the closed hand (not along the global open-to-closed
+synergy from it) keeps the closing in the direction the experienced grasp already faces: a matched
+thumb that is rotated under the palm closes to the closed thumb, not further under the palm.
+
+Every part of the experience mechanism can be switched off for ablations (`ControllerParams`):
+phase B's preshape (`experience_preshape`), phase C's steering (`experience_steering`; off, the
+free fingers keep the last phase-B match), which fingers experience steers (`steered_fingers`),
+and match confidence (`max_match_distance`: a best match farther from the sensed joints than this
+RMS distance over the matched joints is ignored and the base stays as it was).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,25 +45,43 @@ from .hand import FINGER_JOINTS, FINGERS, SEGMENTS, finger_limits, finger_of
 from .posture import closed_posture, open_posture, pcp_mask, validate_posture
 
 _FINGER_OF_JOINT = np.array([finger_of(j) for j in FINGER_JOINTS])
-_FINGER_OF_SEGMENT = [finger_of(s) for s in SEGMENTS]
+_JOINTS_OF = {f: _FINGER_OF_JOINT == f for f in FINGERS}
 #: joints that flex a finger around an object (the squeeze acts on these)
 _FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
 
 
 @dataclass(frozen=True)
 class ControllerParams:
-    """Timing and gains of the controller (s, rad, rad/s)."""
+    """Timing, gains and switches of the controller (s, rad, rad/s)."""
 
     control_period: float = 0.02  # 50 Hz
     preshape_time: float = 0.3  # phase A
     closing_rate: float = 0.8  # closure per second of a free finger (1 = fully closed)
+    follow_speed: float = 2.0  # a free finger's target moves at most this many times the heuristic's speed
     squeeze: float = 0.15  # rad beyond the touching posture, on the flexion joints
     release_time: float = 0.1  # a holding finger that lost its contact this long closes on
-    arrive_tolerance: float = 0.1  # rad: a free finger this close to its matched posture closes further
-    stall_time: float = 0.1  # s: a free finger blocked this long short of its matched posture closes further too
-    stall_speed: float = 0.1  # rad/s: below this joint speed a finger counts as not moving
     stable_time: float = 0.3  # the touching set must stay unchanged this long to finish
     timeout: float = 3.0  # s after the start
+    experience_preshape: bool = True  # phase B: match the whole posture every cycle
+    experience_steering: bool = True  # phase C: match the Partial Contact Posture every cycle
+    steered_fingers: tuple[str, ...] = FINGERS  # fingers whose base the experience sets
+    max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored
+
+    def __post_init__(self) -> None:
+        for name in ("control_period", "closing_rate", "follow_speed", "timeout"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
+        for name in ("preshape_time", "squeeze", "release_time", "stable_time"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
+        if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
+            raise ValueError(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
+                             f"got {self.max_match_distance!r}")
+        unknown = [f for f in self.steered_fingers if f not in FINGERS]
+        if unknown:
+            raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
 
 def check_experience(experience: object) -> Experience | None:
@@ -66,6 +94,15 @@ def check_experience(experience: object) -> Experience | None:
     return experience
 
 
+def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
+    """The posture with its flexion joints pushed `amount` rad further towards the closed hand:
+    the target that makes fingers touching an object press on it (clipped to the joint ranges)."""
+    closed = closed_posture()
+    target = posture + amount * np.sign(closed - posture) * _FLEXION
+    limits = finger_limits()
+    return np.clip(target, limits[:, 0], limits[:, 1])
+
+
 class GraspController:
     """Tactile grasp controller; call `step` once per control period."""
 
@@ -76,8 +113,11 @@ class GraspController:
         self.initial = validate_posture(open_posture() if initial_posture is None else initial_posture,
                                         name="initial_posture", check_limits=True)
         self._closed = closed_posture()
-        self._closing = self._closed - self.initial  # the closing synergy: open hand -> closed hand
         self._limits = finger_limits()
+        # the heuristic's joint speed per finger: the open-to-closed synergy at `closing_rate`
+        self._speed = {f: self.params.closing_rate * float(np.linalg.norm((self._closed - self.initial)[_JOINTS_OF[f]]))
+                       for f in FINGERS}
+        self._steered = np.isin(_FINGER_OF_JOINT, self.params.steered_fingers)
         self.reset()
 
     def reset(self) -> None:
@@ -86,13 +126,11 @@ class GraspController:
         self.phase = "A"
         self.done = False
         self.time_to_grasp: float | None = None
-        self.matches = 0  # best-match queries made
+        self.matches = 0  # best-match queries used
         self._closure = dict.fromkeys(FINGERS, 0.0)
         self._held: dict[str, np.ndarray] = {}
         self._lost: dict[str, np.ndarray] = {}  # fingers that lost their contact: the posture they held
         self._last_touch = dict.fromkeys(FINGERS, -np.inf)
-        self._moving_at = dict.fromkeys(FINGERS, 0.0)
-        self._previous: np.ndarray | None = None
         self._base = self.initial.copy()
         self._target = self.initial.copy()
         self._touching: frozenset[str] = frozenset()
@@ -104,59 +142,64 @@ class GraspController:
         forces = np.asarray(segment_forces, dtype=float)
         if forces.shape != (len(SEGMENTS),) or not np.all(np.isfinite(forces)):
             raise ValueError(f"segment_forces must be {len(SEGMENTS)} finite forces in SEGMENTS order")
-        dt = self.params.control_period
+        p, dt = self.params, self.params.control_period
         self.time += dt
         if self.done:
             return self._target.copy()
-        if self._previous is not None:
-            speed = np.abs(joints - self._previous) / dt
-            for finger in FINGERS:
-                if np.max(speed[_FINGER_OF_JOINT == finger]) > self.params.stall_speed:
-                    self._moving_at[finger] = self.time
-        self._previous = joints
         touching_segments = [s for s, f in zip(SEGMENTS, forces) if f > 0.0]
         touching = frozenset(f for f in map(finger_of, touching_segments) if f is not None)
-        if self.time <= self.params.preshape_time and not touching_segments:
+        if self.time <= p.preshape_time and not touching_segments:
             self._target = self.initial.copy()
             return self._target.copy()
 
-        entering_c = self.phase != "C" and bool(touching_segments)
         self.phase = "C" if touching_segments else "B"
-        if self.experience is not None and entering_c:
-            self._closure = dict.fromkeys(FINGERS, 0.0)  # steer to the matched posture first, then close on
-        if self.experience is not None and (touching or self.matches == 0):
-            # B: one match of the whole hand posture gives the preshape; C: re-match the PCP each cycle
-            self._base = self.experience.complete(joints, pcp_mask(touching_segments) if touching else None)
-            self.matches += 1
+        self._match(joints, touching_segments)
         for finger in touching:
             self._last_touch[finger] = self.time
             self._held.setdefault(finger, joints.copy())
             self._lost.pop(finger, None)
-        for finger in [f for f in self._held if self.time - self._last_touch[f] > self.params.release_time]:
+        for finger in [f for f in self._held if self.time - self._last_touch[f] > p.release_time]:
             self._lost[finger] = self._held.pop(finger)  # lost its contact: close on from where it held
             self._closure[finger] = 0.0
+
         target = np.empty(len(FINGER_JOINTS))
         for finger in FINGERS:
-            joints_of = _FINGER_OF_JOINT == finger
+            of = _JOINTS_OF[finger]
             if finger in self._held:  # D: hold where it touched and squeeze
-                held = self._held[finger][joints_of]
-                push = np.sign(self._closed[joints_of] - held) * _FLEXION[joints_of]
-                target[joints_of] = held + self.params.squeeze * push
-            else:  # D: keep closing from the base posture
-                base = self._lost[finger][joints_of] if finger in self._lost else self._base[joints_of]
-                arrived = np.max(np.abs(joints[joints_of] - self._target[joints_of])) < self.params.arrive_tolerance
-                stalled = self.time - self._moving_at[finger] >= self.params.stall_time
-                if self.phase == "B" or self.experience is None or finger in self._lost or arrived or stalled:
-                    self._closure[finger] = min(1.0, self._closure[finger] + self.params.closing_rate * dt)
-                target[joints_of] = base + self._closure[finger] * self._closing[joints_of]
+                target[of] = squeezed(self._held[finger], p.squeeze)[of]
+                continue
+            # D: close from the base towards the closed hand, following the goal at a bounded speed
+            self._closure[finger] = min(1.0, self._closure[finger] + p.closing_rate * dt)
+            base = self._lost[finger][of] if finger in self._lost else self._base[of]
+            goal = base + self._closure[finger] * (self._closed[of] - base)
+            move = goal - self._target[of]
+            limit = p.follow_speed * self._speed[finger] * dt
+            distance = float(np.linalg.norm(move))
+            target[of] = self._target[of] + (move if distance <= limit else move * (limit / distance))
         self._target = np.clip(target, self._limits[:, 0], self._limits[:, 1])
 
         if touching != self._touching:
             self._touching, self._stable_since = touching, self.time
         settled = all(f in touching or self._closure[f] >= 1.0 for f in FINGERS)
-        if (touching and settled and self.time - self._stable_since >= self.params.stable_time) \
-                or self.time >= self.params.timeout:
+        if (touching and settled and self.time - self._stable_since >= p.stable_time) or self.time >= p.timeout:
             self.done = True
             self.phase = "done"
             self.time_to_grasp = self.time
         return self._target.copy()
+
+    def _match(self, joints: np.ndarray, touching_segments: list[str]) -> None:
+        """Phase B / C: the best-matching experienced posture becomes the base of the steered fingers."""
+        p = self.params
+        wanted = p.experience_steering if touching_segments else p.experience_preshape
+        if self.experience is None or not wanted:
+            return
+        mask = pcp_mask(touching_segments) if touching_segments else np.ones(len(FINGER_JOINTS), dtype=bool)
+        if not mask.any():  # a palm contact alone specifies no joint
+            return
+        match = self.experience.complete(joints, mask)
+        if math.isfinite(p.max_match_distance):
+            rms = float(np.sqrt(np.mean((match - joints)[mask] ** 2)))
+            if rms > p.max_match_distance:
+                return
+        self.matches += 1
+        self._base = np.where(self._steered, match, self._base)

@@ -1,24 +1,21 @@
 """Evaluating a grasp controller over a grid of object positions and orientations (paper Section 5).
 
 A trial puts a free object (gravity off) in front of the open hand at one grid pose, runs the
-controller until it reports the grasp done, and then judges the grasp twice. While the hand closes,
-a stiff spring-damper support keeps the object near its place (as a table or a helper's hand would;
-without it the first touch would push a weightless object away); it is released before judging:
-
-- force closure: the Ferrari-Canny epsilon of the L1 grasp wrench space of the final contacts
-  (`quality.epsilon_l1`, friction as simulated) is positive, as in the paper;
-- hold: gravity is then switched on along +x, -x, +y, -y, +z and -z in turn (0.5 s each) while the
-  controller keeps its grasp; the object must stay within 2 cm of where it was grasped.
+controller until it reports the grasp done, and then judges the grasp (`judge.judge_grasp`: the
+hold test in six gravity directions, the disturbance margin, and epsilon for force closure). While
+the hand closes, a stiff spring-damper support keeps the object near its place (as a table or a
+helper's hand would; without it the first touch would push a weightless object away); it is
+released before judging.
 
 The grid is given in the palm frame around a nominal wrap placement (object long axis across the
 fingers, centred in front of the palm, see `scene.facing_pose`): shifts across the fingers (x) and
 along them (z), the gap between palm and object, and a yaw of the object's axis about the palm
-normal. It covers where the open hand can plausibly close on the object: a regular grid, less the
-placements where the object would sit inside (or within 1 mm of) the open hand, which no hand could
-have reached (at the yaw that brings an end of a long object down to the thumb, most placements put
-the object 1-3 cm deep into the open thumb). Optional noise perturbs the true object pose around
-each grid pose (a draw that would start inside the open hand is redrawn) and the joint angles the
-controller senses.
+normal. Presets (`grid_preset`): 'quick' and 'paper' cover where the open hand can plausibly close
+on the object; 'far' puts the object 3-5 cm out of the palm; 'hard' shifts it up to 3 cm and turns
+it up to 0.8 rad. Every preset is a regular grid less the placements where the object would sit
+inside (or within 1 mm of) the open hand, which no hand could have reached. Optional noise perturbs
+the true object pose around each grid pose (the paper's "vague object position"; a draw that would
+start inside the open hand is redrawn) and the joint angles the controller senses.
 """
 
 from __future__ import annotations
@@ -41,14 +38,9 @@ from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import open_posture
 from .progress import Progress
-from .quality import epsilon_l1
+from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
 from .scene import Scene, facing_pose, invert
-
-HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
-HOLD_SECONDS = 0.5
-HOLD_LIMIT = 0.02  # m
-SUPPORT_STIFFNESS = 2000.0  # N/m (and N m/rad): the object's support while the hand closes
-SUPPORT_DAMPING = 30.0  # N s/m (and N m s/rad): about critical for 0.1 kg
+from .stats import rate_text, wilson_interval
 
 
 @dataclass(frozen=True)
@@ -66,6 +58,7 @@ class Noise:
 
 
 GRID_COLUMNS = ("x", "z", "gap", "yaw")
+GRID_PRESETS = ("quick", "paper", "far", "hard")
 START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
 
 
@@ -76,18 +69,26 @@ def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
     {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} (box 37, cylinder 30 poses);
     'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over +-0.5 rad (box 263, cylinder 224).
     A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225 poses, all reachable).
+    'far': gaps 3, 4 and 5 cm, x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in {-0.5, 0, 0.5};
+    'hard': x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in {-0.8, -0.4, 0, 0.4, 0.8}.
     """
     obj = get_object(obj)
     sphere = obj.shape == "sphere"
+    yaws = {"quick": [-0.5, 0.0, 0.5], "paper": np.linspace(-0.5, 0.5, 5), "far": [-0.5, 0.0, 0.5],
+            "hard": [-0.8, -0.4, 0.0, 0.4, 0.8]}
+    if name not in GRID_PRESETS:
+        raise ValueError(f"unknown grid preset {name!r}; expected one of {GRID_PRESETS} or an (n, 4) array")
+    yaw = [0.0] if sphere else yaws[name]
     if name == "quick":
-        axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015],
-                [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], [0.0] if sphere else [-0.5, 0.0, 0.5])
+        axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015], [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], yaw)
     elif name == "paper":
         axes = (np.linspace(-0.02, 0.02, 5), np.linspace(-0.02, 0.02, 5),
-                np.linspace(0.01, 0.034, 9) if sphere else [0.01, 0.02, 0.03],
-                [0.0] if sphere else np.linspace(-0.5, 0.5, 5))
+                np.linspace(0.01, 0.034, 9) if sphere else [0.01, 0.02, 0.03], yaw)
+    elif name == "far":
+        axes = ([-0.015, 0.0, 0.015], [-0.02, 0.0, 0.02], [0.03, 0.035, 0.04, 0.045, 0.05] if sphere
+                else [0.03, 0.04, 0.05], yaw)
     else:
-        raise ValueError(f"unknown grid preset {name!r}; expected 'quick', 'paper' or an (n, 4) array")
+        axes = (np.linspace(-0.03, 0.03, 5), np.linspace(-0.03, 0.03, 5), [0.01, 0.025], yaw)
     poses = np.array(list(itertools.product(*axes)), dtype=float)
     return poses[reachable(obj, poses)]
 
@@ -119,7 +120,7 @@ def check_grid(grid: object, obj: GraspObject) -> tuple[str, np.ndarray]:
         return grid, grid_preset(grid, obj)
     poses = np.asarray(grid, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
-        raise ValueError(f"grid must be 'quick', 'paper' or a non-empty (n, 4) array of {GRID_COLUMNS}, "
+        raise ValueError(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
                          f"got shape {poses.shape}")
     if not np.all(np.isfinite(poses)):
         raise ValueError("grid poses must be finite")
@@ -154,10 +155,11 @@ class Trial:
     hold_displacement: float
     time_to_grasp: float
     matches: int
+    margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
 
     @property
     def force_closure(self) -> bool:
-        return self.epsilon > 0.0
+        return self.epsilon > EPSILON_THRESHOLD
 
 
 def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
@@ -175,7 +177,7 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
               rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None) -> Trial:
-    """Place the object, let the controller grasp it, measure epsilon and the hold."""
+    """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin)."""
     scene = Scene(obj, free_object=True, gravity=False)
     scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
     controller = GraspController(experience, params)
@@ -191,21 +193,12 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
 
     while not controller.done:
         cycle()
-    scene.set_object_support(0.0, 0.0)
     reading = scene.tactile()
-    centre = scene.data.xipos[scene.object_body].copy()
-    mu = max(scene.model.geom_friction[scene.object_geom, 0], 1.0)  # MuJoCo takes the larger friction
-    epsilon = epsilon_l1(reading.points, reading.normals, centre, mu=mu) if len(reading.forces) else 0.0
     posture = scene.posture()
-    start = scene.object_pose()[0]
-    worst = 0.0
-    for direction in HOLD_DIRECTIONS:
-        scene.set_gravity(9.81 * direction)
-        for _ in range(round(HOLD_SECONDS / period)):
-            cycle()
-            worst = max(worst, float(np.linalg.norm(scene.object_pose()[0] - start)))
+    judgement = judge_grasp(scene, cycle, period)
     return Trial(np.asarray(grid_pose, dtype=float), posture, np.array([reading.touches(s) for s in SEGMENTS]),
-                 float(epsilon), worst <= HOLD_LIMIT, worst, float(controller.time_to_grasp), controller.matches)
+                 judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
+                 controller.matches, judgement.margin)
 
 
 @dataclass
@@ -222,26 +215,38 @@ class EvaluationResult:
     @property
     def summary(self) -> dict[str, float | int | str]:
         eps = np.array([t.epsilon for t in self.trials])
+        n, holds, closures = len(self.trials), self.outcomes("hold").sum(), self.outcomes("force_closure").sum()
         return {
-            "object": self.object["name"], "method": self.method, "grid": self.grid_name, "trials": len(self.trials),
-            "force_closure_rate": float(np.mean(eps > 0)),
-            "hold_rate": float(np.mean([t.hold for t in self.trials])),
+            "object": self.object["name"], "method": self.method, "grid": self.grid_name, "trials": n,
+            "hold_rate": float(holds / n), "hold_interval": list(wilson_interval(int(holds), n)),
+            "force_closure_rate": float(closures / n), "force_closure_interval": list(wilson_interval(int(closures), n)),
+            "epsilon_threshold": EPSILON_THRESHOLD,
+            "mean_margin": float(np.mean([t.margin for t in self.trials])),
             "mean_epsilon": float(eps.mean()),
             "mean_time_to_grasp": float(np.mean([t.time_to_grasp for t in self.trials])),
             "mean_touching_segments": float(np.mean([t.touching.sum() for t in self.trials])),
         }
 
-    def successful_postures(self, require_hold: bool = False) -> np.ndarray:
-        """Final postures (m, 22) of the force-closure trials (and held ones, if asked): for retraining."""
-        keep = [t.posture for t in self.trials if t.force_closure and (t.hold or not require_hold)]
+    def outcomes(self, measure: str = "hold") -> np.ndarray:
+        """Success per trial (bool, grid order) by 'hold' or 'force_closure'."""
+        if measure not in ("hold", "force_closure"):
+            raise ValueError(f"measure must be 'hold' or 'force_closure', got {measure!r}")
+        return np.array([bool(getattr(t, measure)) for t in self.trials], dtype=bool)
+
+    def successful_postures(self, require_hold: bool = True) -> np.ndarray:
+        """Final postures (m, 22) of the trials that held (or, with require_hold=False, reached force
+        closure): the grasps that may join the experience."""
+        keep = [t.posture for t in self.trials if (t.hold if require_hold else t.force_closure)]
         return np.array(keep).reshape(-1, 22)
 
     def markdown(self) -> str:
         s = self.summary
-        return ("| object | method | trials | force closure | hold | mean ε | mean time to grasp (s) |\n"
-                "|---|---|---|---|---|---|---|\n"
-                f"| {s['object']} | {s['method']} | {s['trials']} | {s['force_closure_rate']:.0%} | "
-                f"{s['hold_rate']:.0%} | {s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
+        n = s["trials"]
+        return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
+                "| mean time to grasp (s) |\n|---|---|---|---|---|---|---|---|\n"
+                f"| {s['object']} | {s['method']} | {n} | {rate_text(round(s['hold_rate'] * n), n)} | "
+                f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_margin']:.2f} | "
+                f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         t = self.trials
@@ -251,17 +256,19 @@ class EvaluationResult:
                   "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
                   "hold_displacement": np.array([x.hold_displacement for x in t]),
                   "time_to_grasp": np.array([x.time_to_grasp for x in t]),
-                  "matches": np.array([x.matches for x in t])}
+                  "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t])}
         meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "summary": self.summary, "segments": list(SEGMENTS),
-                "units": "m, rad, s; epsilon per unit total normal force"}
+                "units": "m, rad, s, N; epsilon per unit total normal force"}
         return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EvaluationResult:
-        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, 22), "epsilon": (None,)})
+        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, 22), "epsilon": (None,),
+                                                "margin": (None,)})
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
-                        float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]))
+                        float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
+                        float(a["margin"][i]))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]))
 

@@ -6,8 +6,15 @@ only softly, so the fingers follow the springs. Around each starting posture the
 random walk through nearby positions and orientations, in steps small enough for the springs to
 keep up; after each step the hand settles and the posture is tested. Postures in which all five
 distal segments touch the object (gap <= 1 mm), nothing penetrates deeper than 2 mm, every joint is
-inside its range and the hand is at rest are kept. Because the walk stays near its starting
+inside its range and the hand is at rest are candidates. Because the walk stays near its starting
 posture, the data clusters around the starting postures, as the paper's did.
+
+The paper's experience is made of "hand postures which previously led to successful grasps", so
+every candidate is then verified as a grasp (`GeneratorParams.verify`, on by default): the hand is
+put at the candidate's palm pose in front of the free object, the fingers press with the
+controller's squeeze, the support is released and the hold test runs (`judge.judge_grasp`, six
+gravity directions of `verify_hold_seconds` each); only candidates that hold are kept, with their
+epsilon (at the object's friction) and largest displacement recorded in the set.
 
 Work is cut into jobs (a starting posture and a chunk of its quota) with their own random streams,
 so the set depends on the seed alone (not on the number of workers), jobs run in parallel
@@ -28,8 +35,10 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .hand import DISTAL_SEGMENTS, FINGERTIP_SITES, SEGMENTS, finger_limits
+from .controller import ControllerParams, squeezed
+from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, FINGERTIP_SITES, SEGMENTS, finger_limits
 from .io import library_version, load_npz, save_npz
+from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
 from .objects import GraspObject, get_object
 from .postureset import PostureSet
 from .posture import posture_to_ctrl
@@ -60,6 +69,40 @@ class GeneratorParams:
     rest_speed: float = 0.1  # rad/s, the hand is at rest below this joint speed
     job_size: int = 200  # postures per job (the unit of parallel work and of checkpoints)
     max_tries_per_posture: int = 40  # give up a job if acceptance falls below 1 in this many
+    verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
+    verify_hold_seconds: float = 0.25  # s per gravity direction of the verifying hold test
+    squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if name == "verify":
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+                raise ValueError(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
+        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
+                raise ValueError(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
+
+
+class _Verifier:
+    """Replays a candidate at its palm pose on the free object and runs the hold test."""
+
+    PERIOD = 0.02  # s between checks of the object's displacement
+
+    def __init__(self, obj: GraspObject, params: GeneratorParams):
+        self.scene = Scene(obj, free_object=True)
+        self.params = params
+
+    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
+        scene = self.scene
+        mujoco.mj_resetData(scene.model, scene.data)
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+        scene.set_hand_pose(hand_pos, hand_quat)
+        scene.set_posture(posture)
+        scene.set_target(squeezed(posture, self.params.squeeze))
+        scene.run(0.2)  # the fingers press
+        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD,
+                           hold_seconds=self.params.verify_hold_seconds, margin=False)
 
 
 class _SpringRig:
@@ -157,19 +200,20 @@ class _Job:
 
 def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
              ) -> dict[str, np.ndarray]:
-    """Walk around one starting posture until `job.quota` postures are accepted."""
+    """Walk around one starting posture until `job.quota` candidates are found; keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
     rig = _SpringRig(obj, params)
+    verifier = _Verifier(obj, params) if params.verify else None
     rig.reset_to(start)
     rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
     base = Rotation.from_quat(start.hand_quat[[1, 2, 3, 0]])
     offset, turn = np.zeros(3), np.zeros(3)
-    postures, poses, contacts = [], [], []
-    tries, misses = 0, 0
-    while len(postures) < job.quota:
+    postures, poses, contacts, epsilons, displacements = [], [], [], [], []
+    tries, misses, candidates = 0, 0, 0
+    while candidates < job.quota:
         tries += 1
         if tries > params.max_tries_per_posture * job.quota:
-            raise RuntimeError(f"the generator accepted only {len(postures)} of {tries} postures around "
+            raise RuntimeError(f"the generator accepted only {candidates} of {tries} postures around "
                                f"starting posture {start.name!r}; check the object and GeneratorParams")
         offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
         turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
@@ -183,11 +227,19 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
             continue
         misses = 0
         pos, quat = rig.scene.hand_pose()
+        candidates += 1
+        judgement = verifier(result[0], pos, quat) if verifier is not None else None
+        if judgement is not None and not judgement.hold:
+            continue
         postures.append(result[0])
         contacts.append(result[1])
         poses.append(np.concatenate([pos, quat]))
-    return {"postures": np.array(postures), "hand_poses": np.array(poses), "contacts": np.array(contacts),
-            "tries": np.array(tries)}
+        epsilons.append(np.nan if judgement is None else judgement.epsilon)
+        displacements.append(np.nan if judgement is None else judgement.displacement)
+    return {"postures": np.array(postures).reshape(-1, len(FINGER_JOINTS)), "hand_poses": np.array(poses).reshape(-1, 7),
+            "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
+            "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
+            "tries": np.array(tries), "candidates": np.array(candidates)}
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -220,7 +272,11 @@ def _job_worker(args: tuple) -> tuple[int, dict[str, np.ndarray]]:
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
                       progress: bool = False) -> PostureSet:
-    """Generate exactly n accepted grasp postures for an object (a name or a made object).
+    """Generate grasp postures for an object (a name or a made object) from n candidates.
+
+    Without verification (`params.verify=False`) every candidate is kept, so the set holds exactly
+    n postures; with it (the default) only the candidates that hold the object are kept, and the
+    metadata says how many were (`verified_ratio`, also per starting posture in `verified_by_start`).
 
     The same seed gives the same set, whatever the number of workers. With `checkpoint_dir`,
     every finished job is saved there, and a rerun with the same arguments picks them up.
@@ -244,36 +300,46 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         for index, job in enumerate(jobs):
             path = _job_file(directory, job)
             if path.exists():
-                arrays, meta = load_npz(path, "generator_job", {"postures": (job.quota, None)})
+                arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
                 if meta.get("signature") != signature:
                     raise ValueError(f"{directory} holds jobs of another run (other object, seed, n or "
                                      "parameters); remove it or choose another output")
                 results[index] = arrays
-    report = Progress(n, f"generate {obj.name}", "postures", enabled=progress)
+    report = Progress(n, f"generate {obj.name}", "candidates", enabled=progress)
     if results:
-        report.update(sum(len(r["postures"]) for r in results.values()))
+        report.update(sum(jobs[i].quota for i in results))
     pending = [(i, obj, starts[job.start_index], job, seed, params, directory, signature)
                for i, job in enumerate(jobs) if i not in results]
     if workers == 1:
         for args in pending:
             index, result = _job_worker(args)
             results[index] = result
-            report.update(len(result["postures"]))
+            report.update(jobs[index].quota)
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             for index, result in pool.map(_job_worker, pending):
                 results[index] = result
-                report.update(len(result["postures"]))
+                report.update(jobs[index].quota)
     ordered = [results[i] for i in range(len(jobs))]
     tries = int(sum(int(r["tries"]) for r in ordered))
+    kept = int(sum(len(r["postures"]) for r in ordered))
+    by_start = {s.name: [0, 0] for s in starts}
+    for r, job in zip(ordered, jobs):
+        by_start[starts[job.start_index].name][0] += len(r["postures"])
+        by_start[starts[job.start_index].name][1] += job.quota
     posture_set = PostureSet(
         postures=np.concatenate([r["postures"] for r in ordered]),
         hand_poses=np.concatenate([r["hand_poses"] for r in ordered]),
-        start_ids=np.concatenate([np.full(job.quota, job.start_index) for job in jobs]).astype(np.int64),
+        start_ids=np.concatenate([np.full(len(r["postures"]), job.start_index) for r, job in zip(ordered, jobs)]
+                                 ).astype(np.int64),
         contacts=np.concatenate([r["contacts"] for r in ordered]).astype(bool),
+        epsilon=np.concatenate([r["epsilon"] for r in ordered]),
+        hold_displacement=np.concatenate([r["hold_displacement"] for r in ordered]),
         start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
         metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
-                  "acceptance_ratio": n / tries, "library_version": library_version(),
+                  "acceptance_ratio": n / tries, "verified": params.verify, "candidates": int(n),
+                  "verified_ratio": kept / n, "verified_by_start": {k: v[0] / v[1] for k, v in by_start.items()},
+                  "library_version": library_version(),
                   "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
                                                  "posture": s.posture.tolist()} for s in starts}},
     )

@@ -14,6 +14,11 @@ import numpy as np
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere")
 
+#: Sliding friction of hand and object alike: a rubber-like fingertip skin on wood or hard plastic
+#: measures about 0.5-0.8; 0.6 sits inside that range. The scene gives every hand geom the object's
+#: friction, so the simulation and the force-closure test (epsilon) use one coefficient.
+DEFAULT_FRICTION = 0.6
+
 
 @dataclass(frozen=True)
 class GraspObject:
@@ -23,7 +28,7 @@ class GraspObject:
     shape: str
     half_sizes: tuple[float, ...]
     mass: float = 0.1
-    friction: float = 1.0
+    friction: float = DEFAULT_FRICTION
 
     @property
     def half_extents(self) -> np.ndarray:
@@ -137,7 +142,7 @@ def _positive(value: object, argument: str) -> float:
 
 def make_object(shape: str, *, radius: float | None = None, length: float | None = None,
                 size: tuple[float, float, float] | None = None, mass: float = 0.1,
-                friction: float = 1.0, name: str | None = None) -> GraspObject:
+                friction: float = DEFAULT_FRICTION, name: str | None = None) -> GraspObject:
     """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`) or sphere (`radius`).
 
     Sizes are in metres, mass in kg; `friction` is the sliding friction coefficient.

@@ -18,7 +18,9 @@ N_JOINTS = len(FINGER_JOINTS)
 class PostureSet:
     """n grasp postures (radians) with their palm poses in the object frame (x y z, qw qx qy qz),
     the starting posture each was generated around (`start_ids` into `start_names`), which segments
-    touch the object (`contacts`, columns in SEGMENTS order), and metadata."""
+    touch the object (`contacts`, columns in SEGMENTS order), each posture's grasp quality when it
+    was verified (`epsilon`, and `hold_displacement` in m during the hold test; NaN where not
+    verified), and metadata."""
 
     postures: np.ndarray
     hand_poses: np.ndarray
@@ -26,10 +28,16 @@ class PostureSet:
     contacts: np.ndarray
     start_names: tuple[str, ...]
     metadata: dict = field(default_factory=dict)
+    epsilon: np.ndarray | None = None
+    hold_displacement: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.postures)
-        expected = {"postures": (n, N_JOINTS), "hand_poses": (n, 7), "start_ids": (n,), "contacts": (n, len(SEGMENTS))}
+        for name in ("epsilon", "hold_displacement"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.full(n, np.nan))
+        expected = {"postures": (n, N_JOINTS), "hand_poses": (n, 7), "start_ids": (n,), "contacts": (n, len(SEGMENTS)),
+                    "epsilon": (n,), "hold_displacement": (n,)}
         for name, shape in expected.items():
             value = getattr(self, name)
             if np.shape(value) != shape:
@@ -45,7 +53,8 @@ class PostureSet:
     def subset(self, index: np.ndarray | slice) -> PostureSet:
         """The postures selected by an index array, boolean mask or slice."""
         return PostureSet(self.postures[index], self.hand_poses[index], self.start_ids[index],
-                          self.contacts[index], self.start_names, dict(self.metadata))
+                          self.contacts[index], self.start_names, dict(self.metadata),
+                          self.epsilon[index], self.hold_displacement[index])
 
     @classmethod
     def concatenate(cls, sets: list[PostureSet]) -> PostureSet:
@@ -59,7 +68,8 @@ class PostureSet:
         return cls(np.concatenate([s.postures for s in sets]), np.concatenate([s.hand_poses for s in sets]),
                    np.concatenate(remapped) if remapped else np.zeros(0, np.int64),
                    np.concatenate([s.contacts for s in sets]), tuple(names),
-                   {"concatenated_from": [s.metadata for s in sets]})
+                   {"concatenated_from": [s.metadata for s in sets]},
+                   np.concatenate([s.epsilon for s in sets]), np.concatenate([s.hold_displacement for s in sets]))
 
     def cluster_separation(self) -> dict[str, float]:
         """Mean posture distance (degrees, over 22 joints) within and between starting postures.
@@ -77,7 +87,7 @@ class PostureSet:
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         arrays = {"postures": self.postures, "hand_poses": self.hand_poses, "start_ids": self.start_ids,
-                  "contacts": self.contacts}
+                  "contacts": self.contacts, "epsilon": self.epsilon, "hold_displacement": self.hold_displacement}
         meta = {**self.metadata, "start_names": list(self.start_names), "joints": list(FINGER_JOINTS),
                 "segments": list(SEGMENTS), "units": "radians; hand poses in m and unit quaternions (w x y z)"}
         return save_npz(path, "posture_set", arrays, meta, overwrite=overwrite)
@@ -85,7 +95,8 @@ class PostureSet:
     @classmethod
     def load(cls, path: str | os.PathLike) -> PostureSet:
         arrays, meta = load_npz(path, "posture_set", {"postures": (None, N_JOINTS), "hand_poses": (None, 7),
-                                                      "start_ids": (None,), "contacts": (None, len(SEGMENTS))})
+                                                      "start_ids": (None,), "contacts": (None, len(SEGMENTS)),
+                                                      "epsilon": (None,), "hold_displacement": (None,)})
         if meta.get("joints") != list(FINGER_JOINTS) or meta.get("segments") != list(SEGMENTS):
             raise ValueError(f"{path} uses another joint or segment order than this library")
         names = tuple(meta.pop("start_names", ()))
@@ -93,6 +104,7 @@ class PostureSet:
             meta.pop(key, None)
         try:
             return cls(arrays["postures"].astype(float), arrays["hand_poses"].astype(float),
-                       arrays["start_ids"].astype(np.int64), arrays["contacts"].astype(bool), names, meta)
+                       arrays["start_ids"].astype(np.int64), arrays["contacts"].astype(bool), names, meta,
+                       arrays["epsilon"].astype(float), arrays["hold_displacement"].astype(float))
         except ValueError as error:
             raise ValueError(f"{path} is inconsistent: {error}") from None

@@ -80,6 +80,8 @@ class Scene:
 
     `free_object=False` welds the object to the world (the posture generator holds it fixed); with
     `free_object=True` it hangs on a free joint and can be pushed and dropped. Gravity starts off.
+    Every geom gets the object's sliding friction, so each hand-object contact has exactly that
+    coefficient (MuJoCo would otherwise take the larger of the two geoms' values).
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
@@ -99,6 +101,7 @@ class Scene:
         spec.add_exclude(bodyname1="object", bodyname2="forearm")
         self.spec = spec
         self.model = spec.compile()
+        self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
         self.data = mujoco.MjData(self.model)
         self.sensor = TactileSensor(self.model)
         # addresses other modules use to read and write the hand's state directly
