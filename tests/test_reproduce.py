@@ -10,7 +10,7 @@ import graspmanifold as gm
 from graspmanifold import render
 from graspmanifold.reproduce import ReproduceConfig, reproduce
 
-REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 12},
+REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 48},
                           grid=((0.0, 0.0, 0.01, 0.0), (0.01, 0.0, 0.02, 0.0)), map_size=(10, 10), epochs=4,
                           image_size=48, generator=gm.GeneratorParams(job_size=6))
 FIGURES = ["fig3_cylinder_extract", "fig4_box", "fig4_cylinder", "fig4_sphere", "fig5_cylinder_border",
@@ -40,20 +40,26 @@ def hand_pixels(image):
 def test_every_promised_file_is_there(finished):
     out, summary, ran = finished
     assert len(ran) == 23
-    for name in ("box", "cylinder", "sphere"):
-        assert len(gm.PostureSet.load(out / "postures" / f"{name}.npz")) == 12
+    sizes = {}
+    for name, candidates in REDUCED.postures.items():
+        postures = gm.PostureSet.load(out / "postures" / f"{name}.npz")
+        sizes[name] = len(postures)
+        assert 0 < len(postures) <= candidates and postures.metadata["verified"]  # only verified grasps
+        assert np.all(postures.hold_displacement <= 0.02)
         assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
         for method in ("none", "database", "som", "som_all"):
             assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2
-    assert gm.SOM.load(out / "maps" / "all.npz").history[0]["samples"] == 36
+    assert gm.SOM.load(out / "maps" / "all.npz").history[0]["samples"] == sum(sizes.values())
     for figure in FIGURES:
         for suffix in ("png", "pdf"):
             assert (out / "figures" / f"{figure}.{suffix}").stat().st_size > 1000, figure
     report = (out / "report.md").read_text()
-    for text in ("63.45", "4220", "Resumed learning", "figures/fig3_cylinder_extract.png", "som_all"):
+    for text in ("63.45", "4220", "Resumed learning", "figures/fig3_cylinder_extract.png", "som_all", "Verdict",
+                 "McNemar", "Target"):
         assert text in report
     saved = json.loads((out / "summary.json").read_text())
-    assert saved["objects"]["cylinder"]["dataset_size"] == 12 and len(saved["evaluation"]) == 12
+    assert saved["objects"]["cylinder"]["dataset_size"] == sizes["cylinder"] and len(saved["evaluation"]) == 12
+    assert saved["verdict"].startswith("Target") and len(saved["comparisons"]) == 9
     assert saved["figures"]["rendered"]
     cylinder = saved["objects"]["cylinder"]
     assert cylinder["map"]["distance_max_deg"] > cylinder["map"]["distance_min_deg"] > 0

@@ -322,3 +322,37 @@ def summary_json(results: list[EvaluationResult]) -> str:
     return json.dumps({"library_version": library_version(), "results": [r.summary for r in results]}, indent=2)
 
 
+
+
+def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -> np.ndarray:
+    """How near the experience comes to each grid pose, (n, 2): the distance (m) from the object's
+    centre seen from the palm at the grid pose to the nearest experienced one, and the angle (rad)
+    between the object's long axis seen from the palm there and at that nearest experience.
+
+    Seen from the palm, the centre and the long axis (up to its sign) do not change under the
+    object's symmetries (turning a cylinder about its axis, a sphere about anything), so a grasp
+    from the other side of a cylinder counts as the same placement. `hand_poses` (m, 7) are
+    experienced palm poses in the object frame (`PostureSet.hand_poses`).
+    """
+    obj = get_object(obj)
+    poses = np.asarray(hand_poses, dtype=float).reshape(-1, 7)
+    if not len(poses):
+        raise ValueError("hand_poses must hold at least one experienced palm pose (m, 7)")
+
+    def seen_from_palm(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        centre, inverse = invert(pos, quat)
+        axis = np.zeros(3)
+        mujoco.mju_rotVecQuat(axis, np.array([0.0, 0.0, 1.0]), inverse)
+        return centre, axis
+
+    experienced = [seen_from_palm(p[:3], p[3:]) for p in poses]
+    centres = np.array([c for c, _ in experienced])
+    axes = np.array([a for _, a in experienced])
+    out = np.empty((len(grid), 2))
+    for i, grid_pose in enumerate(np.asarray(grid, dtype=float)):
+        centre, axis = seen_from_palm(*palm_pose_for(obj, grid_pose))
+        distances = np.linalg.norm(centres - centre, axis=1)
+        nearest = int(np.argmin(distances))
+        angle = 0.0 if obj.shape == "sphere" else float(np.arccos(min(1.0, abs(float(axes[nearest] @ axis)))))
+        out[i] = distances[nearest], angle
+    return out

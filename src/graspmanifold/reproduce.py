@@ -1,6 +1,6 @@
 """`graspmanifold reproduce`: every figure and table of the paper from one command.
 
-    postures -> SOMs (one per object, one for all) -> evaluation (none / database / SOM / SOM of all
+    verified grasp postures -> SOMs (one per object, one for all) -> evaluation (none / database / SOM / SOM of all
     objects) -> resumed learning with the SOM's successful postures -> figures -> report
 
 Each stage writes its files into the output directory and a manifest in `stages/` with a key made
@@ -134,6 +134,9 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
             parts = path.with_name(path.name + ".parts")
             postures = generate_postures(name, config.postures[name], seed=config.seed, workers=workers,
                                          params=config.generator, checkpoint_dir=parts, progress=True)
+            if not len(postures):
+                raise RuntimeError(f"none of the {config.postures[name]} {name} candidates held the object when "
+                                   "verified; give more candidates (ReproduceConfig.postures)")
             postures.save(path)
             remove_checkpoints(parts)
         stages.run(f"generate_{name}", _digest(name, config.postures[name], config.seed, asdict(config.generator)),

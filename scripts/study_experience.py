@@ -1,0 +1,279 @@
+"""The experience study: does recalling experienced grasps beat the strongest simple control?
+
+    python scripts/study_experience.py [--quick] [--workers 2] [--out study] [--doc docs/experience_study.md]
+
+For each object: verified spring grasps (the generator replays every candidate and keeps those that
+hold), experience grown from the controller's own held grasps at noisy training poses (the paper's
+resumed learning as a loop, with its learning curve), then every method and control on the same
+poses of each grid, paired. Methods: `som` (25 x 25 map of spring + grown grasps), `database` (the
+same grasps, raw), `som_spring` (spring grasps only). Controls: `none` (the plain tactile
+heuristic), `none_fast` (the heuristic closing twice as fast: the experience controller's fingers
+may move up to twice the heuristic's speed), `none_preshape` (the best constant preshape: of the
+cluster means of the experience, the one that holds most often on the quick grid, used with no
+PCP steering). Ablations of `som`: phase B's preshape off, phase C's steering off, the thumb alone
+steered (on the paper grid). Grids: paper (every method), far, hard, and the paper grid with pose
+noise (1 cm, 0.2 rad) (the controls and `som`); a per-axis
+breakdown of the hard grid; friction sensitivity (0.4 and 0.8) on the quick grid.
+
+Every finished evaluation is kept in --out, so an interrupted study resumes. Writes
+`--out/study.json` and the markdown report `--doc`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import graspmanifold as gm
+from graspmanifold.evaluation import EvaluationResult, grid_preset
+from graspmanifold.io import write_text_atomic
+from graspmanifold.stats import rate_text
+from graspmanifold.study import (
+    TRAINING_NOISE, comparison_rows, closing_rate_params, constant_preshape_params, grow_experience, judge_target,
+    train_experience_map,
+)
+
+OBJECTS = ("box", "cylinder", "sphere")
+CONTROLS = ("none", "none_fast", "none_preshape")
+METHODS = ("som", "database", "som_spring")
+ABLATIONS = {"som_no_preshape": gm.ControllerParams(experience_preshape=False),
+             "som_no_steering": gm.ControllerParams(experience_steering=False),
+             "som_thumb_only": gm.ControllerParams(steered_fingers=("th",))}
+PAPER_NOISE = gm.Noise(position=0.01, yaw=0.2)
+
+
+class Study:
+    def __init__(self, args: argparse.Namespace):
+        self.args, self.out = args, Path(args.out)
+        (self.out / "evaluation").mkdir(parents=True, exist_ok=True)
+        self.results: dict[tuple[str, str, str], EvaluationResult] = {}
+        self.started = time.perf_counter()
+
+    def log(self, text: str) -> None:
+        print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
+
+    def evaluate(self, obj, grid_name: str, method: str, experience, params=None, noise=None, grid=None):
+        """One method on one grid, reused from --out when already there."""
+        name = obj if isinstance(obj, str) else obj.name
+        path = self.out / "evaluation" / f"{name}_{grid_name}_{method}.npz"
+        if path.exists():
+            result = EvaluationResult.load(path)
+        else:
+            poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
+            start = time.perf_counter()
+            result = gm.evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
+                                 params=params)
+            result.method, result.grid_name = method, grid_name
+            result.save(path)
+            s = result.summary
+            self.log(f"{name:8s} {grid_name:12s} {method:16s} n={s['trials']:3d} hold {s['hold_rate']:.0%} "
+                     f"fc {s['force_closure_rate']:.0%} ({time.perf_counter() - start:.0f} s)")
+        self.results[(name, grid_name, method)] = result
+        return result
+
+
+def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
+    """Verified spring grasps and the grown experience, cached in --out."""
+    args, out = study.args, study.out
+    spring_path = out / f"{obj}_spring.npz"
+    if not spring_path.exists():
+        gm.generate_postures(obj, args.candidates, seed=0, workers=args.workers).save(spring_path)
+    spring = gm.PostureSet.load(spring_path)
+    grown_path = out / f"{obj}_grown.npz"
+    curve: list[dict] = []
+    if not grown_path.exists():
+        def measure(r, som, postures):
+            result = study.evaluate(obj, "quick", f"learning_round{r}", som)
+            curve.append({"round": r, "experience": len(postures), "quick_hold": result.summary["hold_rate"],
+                          "quick_hold_text": rate_text(int(result.outcomes().sum()), len(result.trials))})
+        grown, records = grow_experience(gm.get_object(obj), spring.postures, grid_preset("quick", obj),
+                                         args.rounds, workers=args.workers, on_round=measure)
+        final = train_experience_map(grown)
+        measure(args.rounds, final, grown)
+        for record, point in zip(records, curve):
+            point.update(train_held=record["held"], train_trials=record["trials"])
+        np.savez(grown_path, postures=grown, curve=json.dumps(curve))
+    with np.load(grown_path) as f:
+        grown, curve = f["postures"], json.loads(str(f["curve"]))
+    return {"spring": spring, "grown": grown, "curve": curve}
+
+
+def best_constant_preshape(study: Study, obj: str, sets: dict) -> np.ndarray:
+    """Of the experience's cluster means (per starting posture, the grown grasps, all), the one that holds most."""
+    spring, grown = sets["spring"], sets["grown"]
+    candidates = [spring.postures[spring.start_ids == i].mean(axis=0) for i in np.unique(spring.start_ids)]
+    extra = grown[len(spring):]
+    if len(extra):
+        candidates.append(extra.mean(axis=0))
+    candidates.append(grown.mean(axis=0))
+    scores = []
+    for k, posture in enumerate(candidates):
+        result = study.evaluate(obj, "quick", f"preshape_candidate{k}", gm.PostureDatabase(posture[None]),
+                                constant_preshape_params())
+        scores.append(result.outcomes().mean())
+    return candidates[int(np.argmax(scores))]
+
+
+def run(study: Study) -> dict:
+    args = study.args
+    grids = ["quick"] if args.quick else ["paper", "far", "hard", "paper_noisy"]
+    info: dict = {"objects": {}, "grids": grids}
+    for obj in OBJECTS:
+        sets = experience_sets(study, obj)
+        spring, grown = sets["spring"], sets["grown"]
+        som, som_spring = train_experience_map(grown), (train_experience_map(spring.postures) if len(spring) else None)
+        preshape = best_constant_preshape(study, obj, sets)
+        methods = {"none": (None, None), "none_fast": (None, closing_rate_params(2.0)),
+                   "none_preshape": (gm.PostureDatabase(preshape[None]), constant_preshape_params()),
+                   "som": (som, None), "database": (gm.PostureDatabase(grown), None),
+                   "som_spring": (som_spring, None)}
+        methods.update({name: (som, params) for name, params in ABLATIONS.items()})
+        for grid in grids:
+            noise = PAPER_NOISE if grid.endswith("_noisy") else None
+            for method, (experience, params) in methods.items():
+                if experience is None and method.startswith("som"):
+                    continue  # no verified spring grasp for this object: nothing to map
+                if method not in (*CONTROLS, "som") and grid != grids[0]:
+                    continue  # the other grids compare the controls with the SOM alone
+                if method in ABLATIONS and args.quick:
+                    continue
+                study.evaluate(obj, grid, method, experience, params, noise)
+        coverage = gm.evaluation.coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses)
+        info["objects"][obj] = {
+            "spring_candidates": int(spring.metadata["candidates"]), "spring_verified": len(spring),
+            "verified_by_start": spring.metadata["verified_by_start"], "grown": int(len(grown) - len(spring)),
+            "learning_curve": sets["curve"],
+            "coverage_median_mm": float(np.median(coverage[:, 0]) * 1000) if len(spring) else None,
+            "coverage_within_5mm": float(np.mean(coverage[:, 0] <= 0.005)) if len(spring) else None}
+        if not args.quick:
+            friction_study(study, obj, som, info)
+    return info
+
+
+def friction_study(study: Study, obj: str, som, info: dict) -> None:
+    base = gm.get_object(obj)
+    for friction in (0.4, 0.8):
+        other = replace(base, friction=friction)
+        for method, experience in (("none", None), ("som", som)):
+            study.evaluate(other, f"quick_mu{friction}", method, experience, grid=grid_preset("quick", base))
+
+
+def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) -> str:
+    present = [m for m in methods if (obj, grid, m) in study.results]
+    poses = np.array([t.grid_pose for t in study.results[(obj, grid, present[0])].trials])
+    lines = [f"| axis | value | n | {' | '.join(present)} |", f"|---|---|---|{'---|' * len(present)}"]
+    for column, axis in enumerate(gm.evaluation.GRID_COLUMNS):
+        values = np.unique(poses[:, column])
+        if len(values) < 2:
+            continue
+        for value in values:
+            rows = poses[:, column] == value
+            rates = [study.results[(obj, grid, m)].outcomes()[rows].mean() for m in present]
+            lines.append(f"| {axis} | {value:+.3f} | {rows.sum()} | {' | '.join(f'{r:.0%}' for r in rates)} |")
+    return "\n".join(lines)
+
+
+def report(study: Study, info: dict) -> str:
+    results, args = study.results, study.args
+    main_methods = (*CONTROLS, *METHODS)
+    rows = comparison_rows(results, (*METHODS, *ABLATIONS), CONTROLS)
+    verdict = judge_target(rows)
+    lines = ["# Does experience pay? The experience study", "",
+             f"Generated by `python scripts/study_experience.py{' --quick' if args.quick else ''} --workers "
+             f"{args.workers}` in {time.perf_counter() - study.started:.0f} s on this machine. "
+             "Every rate is the hold test (six gravity directions, object within 2 cm) with its 95 % Wilson "
+             "interval; comparisons are paired on the same poses (McNemar's exact test).", "",
+             "## Verdict", "", verdict.text, ""]
+    lines += ["## Experience", "", "| object | spring candidates | verified (hold) | verified by starting posture | "
+              "grown from own grasps | grid poses: nearest experienced palm position (median) | within 5 mm |",
+              "|---|---|---|---|---|---|---|"]
+    for obj, o in info["objects"].items():
+        by_start = ", ".join(f"{k} {v:.0%}" for k, v in o["verified_by_start"].items())
+        median = "n/a" if o["coverage_median_mm"] is None else f"{o['coverage_median_mm']:.0f} mm"
+        within = "n/a" if o["coverage_within_5mm"] is None else f"{o['coverage_within_5mm']:.0%}"
+        lines.append(f"| {obj} | {o['spring_candidates']} | {o['spring_verified']} | {by_start} | {o['grown']} | "
+                     f"{median} | {within} |")
+    lines += ["", "Learning curve (quick grid, hold; each round grasps at noisy training poses, keeps what held "
+              f"and retrains; training noise {TRAINING_NOISE.position * 100:.0f} cm, {TRAINING_NOISE.yaw} rad):", "",
+              "| object | round | experience postures | quick-grid hold | held at training poses |", "|---|---|---|---|---|"]
+    for obj, o in info["objects"].items():
+        for point in o["learning_curve"]:
+            train = f"{point['train_held']} of {point['train_trials']}" if "train_held" in point else "-"
+            lines.append(f"| {obj} | {point['round']} | {point['experience']} | {point['quick_hold_text']} | {train} |")
+    lines += ["", "## Hold rate per object, grid and method", ""]
+    for grid in info["grids"]:
+        present = [m for m in (*main_methods, *ABLATIONS) if any((o, grid, m) in results for o in OBJECTS)]
+        lines += [f"### {grid}", "", f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
+        for obj in OBJECTS:
+            cells = []
+            for m in present:
+                r = results.get((obj, grid, m))
+                cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), len(r.trials))}")
+            lines.append(f"| {obj} | {' | '.join(cells)} |")
+        lines += ["", f"Force closure (ε > {gm.evaluation.EPSILON_THRESHOLD}) / mean margin (N) / mean time to grasp (s):", "",
+                  f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
+        for obj in OBJECTS:
+            cells = []
+            for m in present:
+                r = results.get((obj, grid, m))
+                s = r.summary if r is not None else None
+                cells.append("-" if s is None else
+                             f"{s['force_closure_rate']:.0%} / {s['mean_margin']:.1f} / {s['mean_time_to_grasp']:.2f}")
+            lines.append(f"| {obj} | {' | '.join(cells)} |")
+        lines.append("")
+    lines += ["## Paired comparisons against the strongest control", "",
+              "The strongest control is, per object and grid, the control with the highest hold rate there. "
+              "`only method` / `only control`: poses where just one of the two held.", "",
+              "| object | grid | method | hold | strongest control | its hold | only method | only control | p | verdict |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['object']} | {r['grid']} | {r['method']} | {r['rate_text']} | {r['control']} | "
+                     f"{r['control_text']} | {r['only_method']} | {r['only_control']} | {r['p_value']:.3g} | {r['verdict']} |")
+    hard = "hard" if "hard" in info["grids"] else info["grids"][0]
+    lines += ["", f"## Where each method fails: hold rate by axis of the {hard} grid", ""]
+    for obj in OBJECTS:
+        lines += [f"### {obj}", "", axis_breakdown(study, obj, hard, main_methods), ""]
+    friction = sorted({g for _, g, _ in results if g.startswith("quick_mu")})
+    if friction:
+        lines += ["## Sensitivity to friction (quick grid; experience built at μ = 0.6)", "",
+                  "| object | μ | none | som |", "|---|---|---|---|"]
+        for obj in OBJECTS:
+            for g in friction:
+                cells = [rate_text(int(results[(obj, g, m)].outcomes().sum()), len(results[(obj, g, m)].trials))
+                         for m in ("none", "som")]
+                lines.append(f"| {obj} | {g.removeprefix('quick_mu')} | {' | '.join(cells)} |")
+        lines.append("")
+    info.update(verdict=verdict.text, target_met=verdict.met, comparisons=rows,
+                summaries=[r.summary for r in results.values()], seconds=time.perf_counter() - study.started)
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="quick grid only, small experience (CI-sized)")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", default=None, help="data directory (default: study or study-quick)")
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/experience_study.md; "
+                        "with --quick: OUT/experience_study.md)")
+    parser.add_argument("--candidates", type=int, default=None, help="spring candidates per object")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds of growing experience")
+    args = parser.parse_args()
+    args.out = args.out or ("study-quick" if args.quick else "study")
+    args.candidates = args.candidates or (60 if args.quick else 600)
+    args.rounds = args.rounds if args.rounds is not None else (1 if args.quick else 2)
+    doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/experience_study.md"))
+    study = Study(args)
+    info = run(study)
+    text = report(study, info)
+    write_text_atomic(doc, text)
+    write_text_atomic(study.out / "study.json", json.dumps(info, indent=1, default=float))
+    print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {info['seconds']:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,58 @@
+"""Wilson intervals and McNemar's test against textbook values, and the study's verdict logic."""
+
+import numpy as np
+import pytest
+
+from graspmanifold.stats import mcnemar, rate_text, wilson_interval
+from graspmanifold.study import judge_target
+
+
+@pytest.mark.parametrize("k, n, low, high", [
+    (81, 263, 0.2553, 0.3662),  # Newcombe (1998), Stat. Med. 17:857, Table I, method 3
+    (15, 148, 0.0624, 0.1605),
+    (0, 20, 0.0, 0.1611),
+    (1, 29, 0.0061, 0.1718),
+])
+def test_wilson_interval_gives_the_textbook_values(k, n, low, high):
+    assert wilson_interval(k, n) == pytest.approx((low, high), abs=1e-4)
+
+
+def test_mcnemar_exact_test_on_a_hand_made_table():
+    # 9 poses only A holds, 1 only B, 5 both, 3 neither: p = 2 * P(X <= 1 | X ~ Bin(10, 1/2)) = 22 / 1024
+    a = np.array([True] * 9 + [False] + [True] * 5 + [False] * 3)
+    b = np.array([False] * 9 + [True] + [True] * 5 + [False] * 3)
+    result = mcnemar(a, b)
+    assert (result.n, result.both, result.only_a, result.only_b, result.neither) == (18, 5, 9, 1, 3)
+    assert result.p_value == pytest.approx(22 / 1024, rel=1e-12)
+    assert result.verdict() == "better" and mcnemar(b, a).verdict() == "worse"
+    assert result.difference == pytest.approx(8 / 18)
+    # equal discordant counts, or none at all: no difference, p = 1
+    assert mcnemar(a, a).p_value == 1.0 and mcnemar(a, a).verdict() == "no difference"
+    # 6 against 1 is not significant (p = 16 / 128 = 0.125)
+    six = np.array([True] * 6 + [False]), np.array([False] * 6 + [True])
+    assert mcnemar(*six).p_value == pytest.approx(0.125) and mcnemar(*six).verdict() == "no difference"
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: wilson_interval(5, 3), "exceed"),
+    (lambda: wilson_interval(-1, 3), "successes"),
+    (lambda: wilson_interval(1, 3, confidence=1.5), "confidence"),
+    (lambda: mcnemar([True, False], [True]), "one length"),
+    (lambda: mcnemar([1, 0], [0, 1]), "boolean"),
+])
+def test_bad_statistics_input_raises(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_rate_text_and_the_verdict():
+    assert rate_text(8, 10) == "80 % [49, 94]"
+    row = {"method": "som", "verdict": "better", "control_rate": 0.6, "p_value": 0.01}
+    rows = [{**row, "object": "box", "grid": "far"}, {**row, "object": "cylinder", "grid": "far"}]
+    assert judge_target(rows).met
+    assert not judge_target(rows[:1]).met  # one object is not enough
+    easy = [{**r, "control_rate": 0.9} for r in rows]
+    assert not judge_target(easy).met  # wins where the control already holds 90 % do not count
+    lost = rows + [{**row, "object": "sphere", "grid": "paper", "verdict": "worse"}]
+    verdict = judge_target(lost)
+    assert not verdict.met and verdict.losses == [("sphere", "paper")]
