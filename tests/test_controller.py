@@ -174,7 +174,7 @@ def test_bad_experience_is_rejected():
 def test_a_centred_cylinder_is_grasped_and_held():
     result = gm.evaluate("cylinder", None, grid=np.array([[0.0, 0.0, 0.01, 0.0]]))
     trial = result.trials[0]
-    assert trial.force_closure and trial.hold and trial.epsilon > 0.01
+    assert trial.force_closure and trial.hold and trial.margin > 0
     assert trial.touching[[gm.SEGMENTS.index(s) for s in gm.DISTAL_SEGMENTS]].sum() >= 4
     assert result.summary["trials"] == 1 and result.summary["force_closure_rate"] == 1.0
 
@@ -208,6 +208,26 @@ def test_grid_presets_cover_enough_trials():
     for name in ("box", "cylinder", "sphere"):
         assert len(gm.grid_preset("quick", name)) >= 30
         assert len(gm.grid_preset("paper", name)) >= 200
+        far = gm.grid_preset("far", name)
+        assert len(far) >= 40 and far[:, 2].min() >= 0.03  # 3-5 cm out of the palm
+        assert len(gm.grid_preset("hard", name)) >= 40
+
+
+def test_an_object_on_a_table_is_grasped_and_lifted_off():
+    """With a table the object stands on it under gravity while the hand closes; judging lifts it off."""
+    grid = gm.grid_preset("quick", "cylinder", table=True)
+    assert 0 < len(grid) < len(gm.grid_preset("quick", "cylinder"))  # the table is in the way of some poses
+    result = gm.evaluate("cylinder", None, grid=grid[:2], table=True)
+    assert all(t.hold and t.margin > 0 for t in result.trials)
+    scene = gm.Scene("cylinder", free_object=True, gravity=True, table=True)
+    scene.run(0.5)
+    assert abs(scene.object_pose()[0][2]) < 1e-3  # it stands on the table
+    scene.set_table(False)
+    scene.run(0.2)
+    assert scene.object_pose()[0][2] < -0.1  # and falls once the table is taken away
+    with pytest.raises(ValueError, match="table=True"):
+        gm.Scene("cylinder", free_object=True).set_table(False)
+    assert not gm.reachable("sphere", gm.grid_preset("quick", "sphere"), table=True).any()
 
 
 def test_trials_start_with_the_open_hand_clear_of_the_object():

@@ -9,6 +9,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from .evaluation import GRID_PRESETS
 from .objects import PAPER_OBJECTS
 from .posture import closed_posture, open_posture
 from .scene import Scene, facing_pose
@@ -123,7 +124,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
         start = time.perf_counter()
         result = evaluate(args.object, experience, args.grid, seed=args.seed, workers=args.workers,
-                          noise=noise, progress=True)
+                          noise=noise, table=args.table, progress=True)
     except (ValueError, FileNotFoundError) as error:
         raise SystemExit(f"error: {error}") from None
     out.mkdir(parents=True, exist_ok=True)
@@ -184,7 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--experience", default="som", help="none (plain tactile heuristic), database or som")
     evaluate.add_argument("--postures", nargs="*", help="posture set file(s) for the database or the SOM")
     evaluate.add_argument("--som", help="a trained SOM file (instead of training one on --postures)")
-    evaluate.add_argument("--grid", choices=("quick", "paper"), default="quick")
+    evaluate.add_argument("--grid", choices=GRID_PRESETS, default="quick")
+    evaluate.add_argument("--table", action="store_true",
+                          help="the object stands on a table (gravity on) instead of a spring support")
     evaluate.add_argument("--workers", type=int, default=1)
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")

@@ -29,8 +29,10 @@ thumb that is rotated under the palm closes to the closed thumb, not further und
 Every part of the experience mechanism can be switched off for ablations (`ControllerParams`):
 phase B's preshape (`experience_preshape`), phase C's steering (`experience_steering`; off, the
 free fingers keep the last phase-B match), which fingers experience steers (`steered_fingers`),
-and match confidence (`max_match_distance`: a best match farther from the sensed joints than this
-RMS distance over the matched joints is ignored and the base stays as it was).
+which of their joints (`steered_joints`: all, or only the spread joints, leaving flexion to the
+closing heuristic so that experience chooses where a finger closes and touch decides how far), and
+match confidence (`max_match_distance`: a best match farther from the sensed joints than this RMS
+distance over the matched joints is ignored and the base stays as it was).
 """
 
 from __future__ import annotations
@@ -50,6 +52,12 @@ _JOINTS_OF = {f: _FINGER_OF_JOINT == f for f in FINGERS}
 _FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
 
 
+#: which joints of a steered finger take the matched posture: all, or only the spread joints (finger
+#: abduction, little-finger cupping, thumb rotation, abduction and roll); flexion is then left to the
+#: closing heuristic, which stops at the contact
+STEERED_JOINTS = {"all": np.ones(len(FINGER_JOINTS), dtype=bool), "spread": ~_FLEXION}
+
+
 @dataclass(frozen=True)
 class ControllerParams:
     """Timing, gains and switches of the controller (s, rad, rad/s)."""
@@ -65,6 +73,7 @@ class ControllerParams:
     experience_preshape: bool = True  # phase B: match the whole posture every cycle
     experience_steering: bool = True  # phase C: match the Partial Contact Posture every cycle
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose base the experience sets
+    steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger
     max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored
 
     def __post_init__(self) -> None:
@@ -79,6 +88,9 @@ class ControllerParams:
         if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
             raise ValueError(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
                              f"got {self.max_match_distance!r}")
+        if self.steered_joints not in STEERED_JOINTS:
+            raise ValueError(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
+                             f"got {self.steered_joints!r}")
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
             raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
@@ -117,7 +129,7 @@ class GraspController:
         # the heuristic's joint speed per finger: the open-to-closed synergy at `closing_rate`
         self._speed = {f: self.params.closing_rate * float(np.linalg.norm((self._closed - self.initial)[_JOINTS_OF[f]]))
                        for f in FINGERS}
-        self._steered = np.isin(_FINGER_OF_JOINT, self.params.steered_fingers)
+        self._steered = np.isin(_FINGER_OF_JOINT, self.params.steered_fingers) & STEERED_JOINTS[self.params.steered_joints]
         self.reset()
 
     def reset(self) -> None:

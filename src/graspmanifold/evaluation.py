@@ -62,7 +62,7 @@ GRID_PRESETS = ("quick", "paper", "far", "hard")
 START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
 
 
-def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
+def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
     """Grid poses (n, 4): object shift across (x) and along (z) the fingers, palm gap, yaw (m, rad).
 
     A regular grid less the poses the open hand cannot reach (`reachable`). 'quick': x and z in
@@ -90,7 +90,7 @@ def grid_preset(name: str, obj: str | GraspObject) -> np.ndarray:
     else:
         axes = (np.linspace(-0.03, 0.03, 5), np.linspace(-0.03, 0.03, 5), [0.01, 0.025], yaw)
     poses = np.array(list(itertools.product(*axes)), dtype=float)
-    return poses[reachable(obj, poses)]
+    return poses[reachable(obj, poses, table)]
 
 
 def _clearance(scene: Scene, pose: np.ndarray) -> float:
@@ -101,30 +101,33 @@ def _clearance(scene: Scene, pose: np.ndarray) -> float:
     mujoco.mj_kinematics(model, data)
     hand_geoms = np.flatnonzero(np.isin(model.geom_bodyid, [model.body(s).id for s in SEGMENTS]))
     fromto = np.zeros(6)
-    return min(mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, fromto) for g in hand_geoms)
+    others = [scene.object_geom] + ([scene.table_geom] if scene.table_geom is not None else [])
+    return min(mujoco.mj_geomDistance(model, data, g, other, 0.05, fromto) for g in hand_geoms for other in others)
 
 
-def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
-    """Distance (m) between the open hand and the object at each grid pose; negative when inside."""
-    scene = Scene(get_object(obj), free_object=True)
+def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
+    """Distance (m) between the open hand and the object (and the table, with one) at each grid pose;
+    negative when inside."""
+    scene = Scene(get_object(obj), free_object=True, table=table)
     return np.array([_clearance(scene, pose) for pose in np.asarray(grid, dtype=float)])
 
 
-def reachable(obj: str | GraspObject, grid: np.ndarray) -> np.ndarray:
-    """Which grid poses (bool, (n,)) leave the open hand clear of the object, so a trial can start there."""
-    return open_hand_clearance(obj, grid) >= START_CLEARANCE
+def reachable(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
+    """Which grid poses (bool, (n,)) leave the open hand clear of the object (and the table, with one),
+    so a trial can start there."""
+    return open_hand_clearance(obj, grid, table) >= START_CLEARANCE
 
 
-def check_grid(grid: object, obj: GraspObject) -> tuple[str, np.ndarray]:
+def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str, np.ndarray]:
     if isinstance(grid, str):
-        return grid, grid_preset(grid, obj)
+        return grid, grid_preset(grid, obj, table)
     poses = np.asarray(grid, dtype=float)
     if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
         raise ValueError(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
                          f"got shape {poses.shape}")
     if not np.all(np.isfinite(poses)):
         raise ValueError("grid poses must be finite")
-    inside = np.flatnonzero(~reachable(obj, poses))
+    inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
         raise ValueError(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
                          f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start; "
@@ -176,10 +179,15 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
-              rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None) -> Trial:
-    """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin)."""
-    scene = Scene(obj, free_object=True, gravity=False)
-    scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+              rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
+              table: bool = False) -> Trial:
+    """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
+
+    The object is held by a spring support with gravity off, or (`table=True`) stands on a table
+    with gravity on while the hand closes."""
+    scene = Scene(obj, free_object=True, gravity=table, table=table)
+    if not table:
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
     controller = GraspController(experience, params)
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
@@ -280,38 +288,43 @@ def method_name(experience: Experience | None) -> str:
 _WORKER: dict = {}
 
 
-def _init_worker(obj: GraspObject, experience: Experience | None, noise: Noise, params: ControllerParams | None) -> None:
-    _WORKER.update(obj=obj, experience=experience, noise=noise, params=params)
+def _init_worker(obj: GraspObject, experience: Experience | None, noise: Noise, params: ControllerParams | None,
+                 table: bool) -> None:
+    _WORKER.update(obj=obj, experience=experience, noise=noise, params=params, table=table)
 
 
 def _trial_worker(args: tuple[int, np.ndarray, int]) -> tuple[int, Trial]:
     index, grid_pose, seed = args
     rng = np.random.default_rng([seed, index])
     w = _WORKER
-    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"])
+    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"], w["table"])
 
 
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
-             progress: bool = False) -> EvaluationResult:
-    """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose."""
+             table: bool = False, progress: bool = False) -> EvaluationResult:
+    """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
+
+    `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
+    held by a spring; grid poses where the open hand would touch the table are left out of presets
+    (and refused in a custom grid)."""
     obj = get_object(obj)
     experience = check_experience(experience)
     noise = noise or Noise()
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
-    grid_name, poses = check_grid(grid, obj)
+    grid_name, poses = check_grid(grid, obj, table)
     tasks = [(i, pose, seed) for i, pose in enumerate(poses)]
     trials: list[Trial | None] = [None] * len(tasks)
     report = Progress(len(tasks), f"evaluate {obj.name} / {method_name(experience)}", "trials", enabled=progress)
     if workers == 1:
-        _init_worker(obj, experience, noise, params)
+        _init_worker(obj, experience, noise, params, table)
         for task in tasks:
             index, trial = _trial_worker(task)
             trials[index] = trial
             report.update()
     else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(obj, experience, noise, params)) as pool:
+        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(obj, experience, noise, params, table)) as pool:
             for index, trial in pool.map(_trial_worker, tasks, chunksize=max(1, len(tasks) // (4 * workers))):
                 trials[index] = trial
                 report.update()

@@ -1,7 +1,7 @@
 """Judging a grasp in the simulation: force closure, the hold test and the disturbance margin.
 
-A grasp is judged once the hand has closed on a free object (gravity off) that a support spring
-has kept in place; the support is released first. Three measures, primary first:
+A grasp is judged once the hand has closed on a free object that a support has kept in place (a
+spring with gravity off, or a table with gravity on); the support is released first. Three measures, primary first:
 
 - hold: gravity is switched on along +x, -x, +y, -y, +z and -z in turn (`hold_seconds` each)
   while the hand keeps its grasp; the object must stay within `HOLD_LIMIT` of where it was grasped;
@@ -63,6 +63,8 @@ def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, hold_
                 margin: bool = True) -> Judgement:
     """Release the support and judge the grasp; `cycle()` advances one control period of `period` s."""
     scene.set_object_support(0.0, 0.0)
+    if scene.table_geom is not None:
+        scene.set_table(False)  # lifted off the table
     epsilon = grasp_epsilon(scene)
     start = scene.object_pose()[0]
     moved = lambda: float(np.linalg.norm(scene.object_pose()[0] - start))  # noqa: E731

@@ -80,12 +80,14 @@ class Scene:
 
     `free_object=False` welds the object to the world (the posture generator holds it fixed); with
     `free_object=True` it hangs on a free joint and can be pushed and dropped. Gravity starts off.
+    `table=True` adds a table top under the object (the object stands on it along its z axis, the
+    world's z); `set_table(False)` takes it away, as lifting the object off it would.
     Every geom gets the object's sliding friction, so each hand-object contact has exactly that
     coefficient (MuJoCo would otherwise take the larger of the two geoms' values).
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
-                 gravity: bool = False):
+                 gravity: bool = False, table: bool = False):
         self.object = get_object(obj)
         self.free_object = free_object
         spec = hand_spec()
@@ -99,6 +101,11 @@ class Scene:
                       mass=self.object.mass, friction=[self.object.friction, 0.005, 0.0001],
                       condim=4, contype=1, conaffinity=1, solref=[0.004, 1.0], rgba=OBJECT_RGBA)
         spec.add_exclude(bodyname1="object", bodyname2="forearm")
+        if table:  # a table top under the object, which stands on it along its z axis
+            top = -float(self.object.half_extents[2])
+            spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.25, 0.25, 0.01],
+                                    pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
+                                    solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
         self.spec = spec
         self.model = spec.compile()
         self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
@@ -113,6 +120,7 @@ class Scene:
         self.palm_id = self.model.body("palm").id
         self.object_body = self.model.body("object").id
         self.object_geom = self.model.geom("object").id
+        self.table_geom = self.model.geom("table").id if table else None
         self.set_gravity(gravity)
         self.reset()
 
@@ -149,6 +157,12 @@ class Scene:
         joint = self.model.joint("object_free")
         self.model.jnt_stiffness[joint.id] = stiffness
         self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
+
+    def set_table(self, present: bool) -> None:
+        """Put the table back (True) or take it away (False); needs a Scene made with table=True."""
+        if self.table_geom is None:
+            raise ValueError("set_table needs a Scene made with table=True")
+        self.model.geom_contype[self.table_geom] = self.model.geom_conaffinity[self.table_geom] = int(bool(present))
 
     def set_gravity(self, gravity: bool | Iterable[float]) -> None:
         """Gravity on (True: -z of the world), off (False), or an explicit vector (m/s^2)."""
