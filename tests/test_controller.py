@@ -81,7 +81,7 @@ def _thumb_targets(controller, joints, forces, cycles):
 def test_phase_b_target_changes_with_the_hand_posture_while_it_closes(experience):
     """Phase B re-matches the whole sensed posture every cycle: other joints sensed, another target."""
     forces = np.zeros(len(gm.SEGMENTS))
-    params = gm.ControllerParams(preshape_time=0.0)
+    params = gm.ControllerParams(preshape_time=0.0, max_match_distance=np.inf)
     rng = np.random.default_rng(0)
     postures = experience["database"].postures
     for kind in ("database", "som"):

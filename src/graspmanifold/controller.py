@@ -32,7 +32,12 @@ free fingers keep the last phase-B match), which fingers experience steers (`ste
 which of their joints (`steered_joints`: all, or only the spread joints, leaving flexion to the
 closing heuristic so that experience chooses where a finger closes and touch decides how far), and
 match confidence (`max_match_distance`: a best match farther from the sensed joints than this RMS
-distance over the matched joints is ignored and the base stays as it was).
+distance over the matched joints is ignored and the base stays as it was). The default of 0.2 rad
+(about 11 degrees per matched joint) trusts a recall only when the experience holds a grasp that
+agrees with what the hand senses: in phase B the open hand is farther than that from every
+experienced grasp, so experience takes over only once the closing hand comes near one. It was
+chosen from 0.1, 0.2 and no limit on the paper grid (`docs/experience_study.md` reports the
+ablation with no limit).
 """
 
 from __future__ import annotations
@@ -74,7 +79,7 @@ class ControllerParams:
     experience_steering: bool = True  # phase C: match the Partial Contact Posture every cycle
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose base the experience sets
     steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger
-    max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored
+    max_match_distance: float = 0.2  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
 
     def __post_init__(self) -> None:
         for name in ("control_period", "closing_rate", "follow_speed", "timeout"):

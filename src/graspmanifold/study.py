@@ -9,6 +9,7 @@ and the strongest simple control, not the weakest, as the bar.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -123,8 +124,9 @@ def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], metho
 
 
 def constant_preshape_params() -> ControllerParams:
-    """Controller settings for the constant-preshape control: one posture, no PCP steering."""
-    return ControllerParams(experience_steering=False)
+    """Controller settings for the constant-preshape control: one posture, always trusted in phase B
+    (so the hand closes from the open hand through it), no PCP steering."""
+    return ControllerParams(experience_steering=False, max_match_distance=math.inf)
 
 
 def closing_rate_params(factor: float) -> ControllerParams:
