@@ -7,7 +7,9 @@ hold), experience grown from the controller's own held grasps at training poses 
 poses perturbed by 1 cm and 0.2 rad, a fresh draw per round, never the test poses themselves: the
 paper's resumed learning as a loop, with its learning curve on the quick grid), then every method and control on the same
 poses of each grid, paired. Methods: `som` (25 x 25 map of spring + grown grasps), `database` (the
-same grasps, raw), `som_spring` (spring grasps only). Controls: `none` (the plain tactile
+same grasps, raw), `som_spring` (spring grasps only), `som_preshaped` (the SOM's PCP steering in
+phase C after the best constant preshape in phase B: does recall add anything to the strongest
+control?). Controls: `none` (the plain tactile
 heuristic), `none_fast` (the heuristic closing twice as fast: the experience controller's fingers
 may move up to twice the heuristic's speed), `none_preshape` (the best constant preshape: of the
 cluster means of the experience, the one that holds most often on the quick grid, used with no
@@ -35,13 +37,12 @@ from graspmanifold.evaluation import EvaluationResult, grid_preset
 from graspmanifold.io import write_text_atomic
 from graspmanifold.stats import rate_text
 from graspmanifold.study import (
-    TRAINING_NOISE, comparison_rows, closing_rate_params, constant_preshape_params, grow_experience, judge_target,
-    train_experience_map,
+    TRAINING_NOISE, closing_rate_params, comparison_rows, grow_experience, judge_target, train_experience_map,
 )
 
 OBJECTS = ("box", "cylinder", "sphere")
 CONTROLS = ("none", "none_fast", "none_preshape")
-METHODS = ("som", "database", "som_spring")
+METHODS = ("som", "som_preshaped", "database", "som_spring")
 ABLATIONS = {"som_no_preshape": gm.ControllerParams(experience_preshape=False),
              "som_no_steering": gm.ControllerParams(experience_steering=False),
              "som_trust_every_match": gm.ControllerParams(max_match_distance=float("inf"))}
@@ -59,7 +60,8 @@ class Study:
     def log(self, text: str) -> None:
         print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
 
-    def evaluate(self, obj, grid_name: str, method: str, experience, params=None, noise=None, grid=None):
+    def evaluate(self, obj, grid_name: str, method: str, experience, params=None, noise=None, grid=None,
+                 preshape=None):
         """One method on one grid, reused from --out when already there."""
         name = obj if isinstance(obj, str) else obj.name
         path = self.out / "evaluation" / f"{name}_{grid_name}_{method}.npz"
@@ -70,7 +72,7 @@ class Study:
             poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
             start = time.perf_counter()
             result = gm.evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
-                                 params=params)
+                                 params=params, preshape=preshape)
             result.method, result.grid_name = method, grid_name
             result.save(path)
             self.computed += 1
@@ -119,8 +121,7 @@ def best_constant_preshape(study: Study, obj: str, sets: dict) -> np.ndarray:
     candidates.append(grown.mean(axis=0))
     scores = []
     for k, posture in enumerate(candidates):
-        result = study.evaluate(obj, "quick", f"preshape_candidate{k}", gm.PostureDatabase(posture[None]),
-                                constant_preshape_params())
+        result = study.evaluate(obj, "quick", f"preshape_candidate{k}", None, preshape=posture)
         scores.append(result.outcomes().mean())
     return candidates[int(np.argmax(scores))]
 
@@ -134,21 +135,21 @@ def run(study: Study) -> dict:
         spring, grown = sets["spring"], sets["grown"]
         som, som_spring = train_experience_map(grown), (train_experience_map(spring.postures) if len(spring) else None)
         preshape = best_constant_preshape(study, obj, sets)
-        methods = {"none": (None, None), "none_fast": (None, closing_rate_params(2.0)),
-                   "none_preshape": (gm.PostureDatabase(preshape[None]), constant_preshape_params()),
-                   "som": (som, None), "database": (gm.PostureDatabase(grown), None),
-                   "som_spring": (som_spring, None)}
-        methods.update({name: (som, params) for name, params in ABLATIONS.items()})
+        methods = {"none": (None, None, None), "none_fast": (None, closing_rate_params(2.0), None),
+                   "none_preshape": (None, None, preshape), "som": (som, None, None),
+                   "som_preshaped": (som, None, preshape), "database": (gm.PostureDatabase(grown), None, None),
+                   "som_spring": (som_spring, None, None)}
+        methods.update({name: (som, params, None) for name, params in ABLATIONS.items()})
         for grid in grids:
             noise = PAPER_NOISE if grid.endswith("_noisy") else None
-            for method, (experience, params) in methods.items():
+            for method, (experience, params, fixed) in methods.items():
                 if experience is None and method.startswith("som"):
                     continue  # no verified spring grasp for this object: nothing to map
-                if method not in (*CONTROLS, "som") and grid != grids[0]:
-                    continue  # the other grids compare the controls with the SOM alone
+                if method not in (*CONTROLS, "som", "som_preshaped") and grid != grids[0]:
+                    continue  # the other grids compare the controls with the SOMs alone
                 if method in ABLATIONS and args.quick:
                     continue
-                study.evaluate(obj, grid, method, experience, params, noise)
+                study.evaluate(obj, grid, method, experience, params, noise, preshape=fixed)
         coverage = gm.evaluation.coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses)
         info["objects"][obj] = {
             "spring_candidates": int(spring.metadata["candidates"]), "spring_verified": len(spring),

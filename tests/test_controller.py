@@ -254,3 +254,25 @@ def test_resumed_learning_reports_smoothness_and_leaves_the_original(experience)
     assert resumed.quantization_error(new) < som.quantization_error(new)
     for key in ("distance_cv", "distance_max_deg", "unsupported_by_evaluation"):
         assert key in report["before"] and key in report["after"]
+
+
+def test_a_constant_preshape_replaces_phase_b_matching(experience):
+    """`preshape` is the phase-B base; phase C still steers with the experience."""
+    preshape = experience["database"].postures[3]
+    forces = np.zeros(len(gm.SEGMENTS))
+    params = gm.ControllerParams(preshape_time=0.0)
+    fixed = gm.GraspController(None, params, preshape=preshape)
+    recalled = gm.GraspController(gm.PostureDatabase(preshape[None]),
+                                  gm.ControllerParams(preshape_time=0.0, max_match_distance=np.inf))
+    for _ in range(10):
+        np.testing.assert_allclose(fixed.step(gm.open_posture(), forces), recalled.step(gm.open_posture(), forces))
+    assert fixed.matches == 0
+    steered = gm.GraspController(experience["som"], params, preshape=preshape)
+    for _ in range(10):
+        steered.step(gm.open_posture(), forces)
+    assert steered.matches == 0
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+    steered.step(experience["database"].postures[0], forces)
+    assert steered.matches == 1  # the PCP is matched once something touches
+    with pytest.raises(ValueError, match="preshape"):
+        gm.GraspController(None, preshape=np.full(22, 5.0))

@@ -124,11 +124,14 @@ class GraspController:
     """Tactile grasp controller; call `step` once per control period."""
 
     def __init__(self, experience: Experience | None = None, params: ControllerParams | None = None,
-                 initial_posture: np.ndarray | None = None):
+                 initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None):
+        """`preshape`: a fixed base posture for phase B (a constant preshape) instead of matching the
+        experience there; phase C still steers with the experience, if any."""
         self.experience = check_experience(experience)
         self.params = params or ControllerParams()
         self.initial = validate_posture(open_posture() if initial_posture is None else initial_posture,
                                         name="initial_posture", check_limits=True)
+        self.preshape = None if preshape is None else validate_posture(preshape, name="preshape", check_limits=True)
         self._closed = closed_posture()
         self._limits = finger_limits()
         # the heuristic's joint speed per finger: the open-to-closed synergy at `closing_rate`
@@ -207,6 +210,9 @@ class GraspController:
     def _match(self, joints: np.ndarray, touching_segments: list[str]) -> None:
         """Phase B / C: the best-matching experienced posture becomes the base of the steered fingers."""
         p = self.params
+        if not touching_segments and self.preshape is not None:
+            self._base = self.preshape.copy()
+            return
         wanted = p.experience_steering if touching_segments else p.experience_preshape
         if self.experience is None or not wanted:
             return

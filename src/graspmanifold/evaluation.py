@@ -180,7 +180,7 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
               rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
-              table: bool = False) -> Trial:
+              table: bool = False, preshape: np.ndarray | None = None) -> Trial:
     """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
 
     The object is held by a spring support with gravity off, or (`table=True`) stands on a table
@@ -188,7 +188,7 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     scene = Scene(obj, free_object=True, gravity=table, table=table)
     if not table:
         scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
-    controller = GraspController(experience, params)
+    controller = GraspController(experience, params, preshape=preshape)
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
@@ -289,25 +289,26 @@ _WORKER: dict = {}
 
 
 def _init_worker(obj: GraspObject, experience: Experience | None, noise: Noise, params: ControllerParams | None,
-                 table: bool) -> None:
-    _WORKER.update(obj=obj, experience=experience, noise=noise, params=params, table=table)
+                 table: bool, preshape: np.ndarray | None) -> None:
+    _WORKER.update(obj=obj, experience=experience, noise=noise, params=params, table=table, preshape=preshape)
 
 
 def _trial_worker(args: tuple[int, np.ndarray, int]) -> tuple[int, Trial]:
     index, grid_pose, seed = args
     rng = np.random.default_rng([seed, index])
     w = _WORKER
-    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"], w["table"])
+    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"], w["table"],
+                            w["preshape"])
 
 
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
-             table: bool = False, progress: bool = False) -> EvaluationResult:
+             table: bool = False, preshape: np.ndarray | None = None, progress: bool = False) -> EvaluationResult:
     """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
 
     `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
     held by a spring; grid poses where the open hand would touch the table are left out of presets
-    (and refused in a custom grid)."""
+    (and refused in a custom grid). `preshape`: a constant phase-B posture (see `GraspController`)."""
     obj = get_object(obj)
     experience = check_experience(experience)
     noise = noise or Noise()
@@ -318,13 +319,14 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     trials: list[Trial | None] = [None] * len(tasks)
     report = Progress(len(tasks), f"evaluate {obj.name} / {method_name(experience)}", "trials", enabled=progress)
     if workers == 1:
-        _init_worker(obj, experience, noise, params, table)
+        _init_worker(obj, experience, noise, params, table, preshape)
         for task in tasks:
             index, trial = _trial_worker(task)
             trials[index] = trial
             report.update()
     else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(obj, experience, noise, params, table)) as pool:
+        initargs = (obj, experience, noise, params, table, preshape)
+        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=initargs) as pool:
             for index, trial in pool.map(_trial_worker, tasks, chunksize=max(1, len(tasks) // (4 * workers))):
                 trials[index] = trial
                 report.update()

@@ -9,7 +9,6 @@ and the strongest simple control, not the weakest, as the bar.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -121,12 +120,6 @@ def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], metho
                          "only_method": paired.only_a, "only_control": paired.only_b,
                          "p_value": paired.p_value, "verdict": paired.verdict()})
     return rows
-
-
-def constant_preshape_params() -> ControllerParams:
-    """Controller settings for the constant-preshape control: one posture, always trusted in phase B
-    (so the hand closes from the open hand through it), no PCP steering."""
-    return ControllerParams(experience_steering=False, max_match_distance=math.inf)
 
 
 def closing_rate_params(factor: float) -> ControllerParams:
