@@ -3,20 +3,22 @@
     python scripts/study_experience.py [--quick] [--workers 2] [--out study] [--doc docs/experience_study.md]
 
 For each object: verified spring grasps (the generator replays every candidate and keeps those that
-hold), experience grown from the controller's own held grasps at training poses (the paper grid's
-poses perturbed by 1 cm and 0.2 rad, a fresh draw per round, never the test poses themselves: the
-paper's resumed learning as a loop, with its learning curve on the quick grid), then every method and control on the same
-poses of each grid, paired. Methods: `som` (25 x 25 map of spring + grown grasps), `database` (the
-same grasps, raw), `som_spring` (spring grasps only), `som_preshaped` (the SOM's PCP steering in
-phase C after the best constant preshape in phase B: does recall add anything to the strongest
-control?). Controls: `none` (the plain tactile
-heuristic), `none_fast` (the heuristic closing twice as fast: the experience controller's fingers
-may move up to twice the heuristic's speed), `none_preshape` (the best constant preshape: of the
-cluster means of the experience, the one that holds most often on the quick grid, used with no
-PCP steering). Ablations of `som` (on the paper grid): phase B's preshape off, phase C's steering
-off, every match trusted (no match-distance limit). Grids: paper (every method), far, hard, and the paper grid with pose
-noise (1 cm, 0.2 rad) (the controls and `som`); a per-axis
-breakdown of the hard grid; friction sensitivity (0.4 and 0.8) on the quick grid.
+hold), and experience grown from the controller's own held grasps at training poses (the paper
+grid's poses perturbed by 1 cm and 0.2 rad, a fresh draw per round, never the test poses
+themselves: the paper's resumed learning as a loop, with its learning curve on the quick grid;
+round 0 is the map of the verified spring grasps alone). Then every method and control runs on the
+same poses of each grid, paired.
+
+Methods: `som` (25 x 25 map of spring + grown grasps), `database` (the same grasps, raw),
+`som_preshaped` (the best constant preshape in phase B, the SOM's PCP steering in phase C: does
+recall add anything to the strongest control?). Controls: `none` (the plain tactile heuristic),
+`none_fast` (the heuristic closing twice as fast: the experience controller's fingers may move up
+to twice the heuristic's speed), `none_preshape` (the best constant preshape: of the cluster means
+of the experience, the one that holds most often on the quick grid, with no recall). Ablations of
+`som` on the paper grid: phase B's preshape off, phase C's steering off, every match trusted.
+Grids: paper (every method), far, hard, and the paper grid with pose noise (1 cm, 0.2 rad) (the
+controls and the SOMs); a per-axis breakdown of the hard grid; friction sensitivity (0.4 and 0.8)
+on the quick grid.
 
 Every finished evaluation is kept in --out, so an interrupted study resumes. Writes
 `--out/study.json` and the markdown report `--doc`.
@@ -37,12 +39,12 @@ from graspmanifold.evaluation import EvaluationResult, grid_preset
 from graspmanifold.io import write_text_atomic
 from graspmanifold.stats import rate_text
 from graspmanifold.study import (
-    TRAINING_NOISE, closing_rate_params, comparison_rows, grow_experience, judge_target, train_experience_map,
+    TRAINING_NOISE, compare, closing_rate_params, comparison_rows, grow_experience, judge_target, train_experience_map,
 )
 
 OBJECTS = ("box", "cylinder", "sphere")
 CONTROLS = ("none", "none_fast", "none_preshape")
-METHODS = ("som", "som_preshaped", "database", "som_spring")
+METHODS = ("som", "som_preshaped", "database")
 ABLATIONS = {"som_no_preshape": gm.ControllerParams(experience_preshape=False),
              "som_no_steering": gm.ControllerParams(experience_steering=False),
              "som_trust_every_match": gm.ControllerParams(max_match_distance=float("inf"))}
@@ -119,6 +121,8 @@ def best_constant_preshape(study: Study, obj: str, sets: dict) -> np.ndarray:
     if len(extra):
         candidates.append(extra.mean(axis=0))
     candidates.append(grown.mean(axis=0))
+    if study.args.quick:
+        candidates = candidates[-2:]  # CI-sized: the grown grasps' mean and the mean of all
     scores = []
     for k, posture in enumerate(candidates):
         result = study.evaluate(obj, "quick", f"preshape_candidate{k}", None, preshape=posture)
@@ -133,12 +137,11 @@ def run(study: Study) -> dict:
     for obj in OBJECTS:
         sets = experience_sets(study, obj)
         spring, grown = sets["spring"], sets["grown"]
-        som, som_spring = train_experience_map(grown), (train_experience_map(spring.postures) if len(spring) else None)
+        som = train_experience_map(grown)
         preshape = best_constant_preshape(study, obj, sets)
         methods = {"none": (None, None, None), "none_fast": (None, closing_rate_params(2.0), None),
                    "none_preshape": (None, None, preshape), "som": (som, None, None),
-                   "som_preshaped": (som, None, preshape), "database": (gm.PostureDatabase(grown), None, None),
-                   "som_spring": (som_spring, None, None)}
+                   "som_preshaped": (som, None, preshape), "database": (gm.PostureDatabase(grown), None, None)}
         methods.update({name: (som, params, None) for name, params in ABLATIONS.items()})
         for grid in grids:
             noise = PAPER_NOISE if grid.endswith("_noisy") else None
@@ -185,6 +188,67 @@ def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) 
     return "\n".join(lines)
 
 
+def why(study: Study, rows: list[dict], info: dict) -> list[str]:
+    """What the ablations and controls say about the verdict, computed from this run's results."""
+    results = study.results
+
+    def hold(obj: str, grid: str, method: str) -> str:
+        r = results.get((obj, grid, method))
+        return "-" if r is None else f"{r.outcomes().mean():.0%}"
+
+    main = info["grids"][0]
+    strongest = [r for r in rows if r["method"] == "som"]
+    preshape_best = sum(r["control"] == "none_preshape" for r in strongest if not r["grid"].startswith("quick_mu"))
+    pairs = sum(not r["grid"].startswith("quick_mu") for r in strongest)
+    lines = [f"- The strongest control is the best constant preshape (`none_preshape`) on {preshape_best} of "
+             f"{pairs} object/grid pairs: one fixed posture to close from, chosen by trial, is worth as much "
+             "as recalling experienced grasps (hold on the {0} grid, none / none_preshape / som: {1}).".format(
+                 main, "; ".join(f"{o} {hold(o, main, 'none')} / {hold(o, main, 'none_preshape')} / "
+                                 f"{hold(o, main, 'som')}" for o in OBJECTS))]
+    on_top = [r for r in comparison_rows(results, ("som_preshaped",), ("none_preshape",))]
+    if on_top:
+        lines.append("- Recall on top of that preshape (`som_preshaped`: the best preshape in phase B, the SOM's "
+                     "PCP steering in phase C) against the preshape alone: " + "; ".join(
+                         f"{r['object']}/{r['grid']} +{r['only_method']} -{r['only_control']} (p = {r['p_value']:.2g})"
+                         for r in on_top) + (". PCP steering after the first contact adds nothing measurable."
+                                            if all(r["verdict"] == "no difference" for r in on_top) else "."))
+    if any((o, main, "som_no_steering") in results for o in OBJECTS):
+        ablated = [compare(results[(o, main, "som")], results[(o, main, a)]) for o in OBJECTS for a in ABLATIONS
+                   if (o, main, "som") in results and (o, main, a) in results]
+        differs = sum(c.verdict() != "no difference" for c in ablated)
+        lines.append("- Ablations on the {0} grid (hold, som / without phase-B preshape / without phase-C steering "
+                     "/ trusting every match): {1}; {2} of {3} ablations differ significantly from the full "
+                     "mechanism.".format(main, "; ".join(f"{o} {hold(o, main, 'som')} / {hold(o, main, 'som_no_preshape')} / "
+                                                          f"{hold(o, main, 'som_no_steering')} / "
+                                                          f"{hold(o, main, 'som_trust_every_match')}" for o in OBJECTS),
+                                         differs, len(ablated)))
+    rounds = [(o, study.results.get((o, "quick", "learning_round0")),
+               study.results.get((o, "quick", f"learning_round{study.args.rounds}"))) for o in OBJECTS]
+    curve = "; ".join(f"{o} {a.outcomes().mean():.0%} -> {b.outcomes().mean():.0%} (p = {compare(b, a).p_value:.2g})"
+                      for o, a, b in rounds if a is not None and b is not None)
+    if curve:
+        lines.append(f"- Growing the experience from the controller's own held grasps, round 0 against the last "
+                     f"round on the quick grid: {curve}.")
+    hard = "hard" if "hard" in info["grids"] else main
+    hopeless = []
+    for obj in OBJECTS:
+        present = [m for m in (*CONTROLS, "som") if (obj, hard, m) in results]
+        if not present:
+            continue
+        poses = np.array([t.grid_pose for t in results[(obj, hard, present[0])].trials])
+        for column, axis in enumerate(gm.evaluation.GRID_COLUMNS):
+            for value in np.unique(poses[:, column]):
+                rows_at = poses[:, column] == value
+                best = max(results[(obj, hard, m)].outcomes()[rows_at].mean() for m in present)
+                if best < 0.2 and len(np.unique(poses[:, column])) > 1:
+                    hopeless.append(f"{obj} {axis} {value:+.2f} (best {best:.0%})")
+    if hopeless:
+        lines.append(f"- On the {hard} grid every method fails together at: {', '.join(hopeless)}. There the "
+                     "hand does not reach round the object from that placement; a recalled finger posture cannot "
+                     "move the wrist, and the experience holds no grasp there to recall.")
+    return lines
+
+
 def report(study: Study, info: dict) -> str:
     results, args = study.results, study.args
     main_methods = (*CONTROLS, *METHODS)
@@ -197,6 +261,7 @@ def report(study: Study, info: dict) -> str:
              "Every rate is the hold test (six gravity directions, object within 2 cm) with its 95 % Wilson "
              "interval; comparisons are paired on the same poses (McNemar's exact test).", "",
              "## Verdict", "", verdict.text, ""]
+    lines += ["## Why", ""] + why(study, rows, info) + [""]
     lines += ["## Experience", "", "| object | spring candidates | verified (hold) | verified by starting posture | "
               "grown from own grasps | grid poses: nearest experienced palm position (median) | within 5 mm |",
               "|---|---|---|---|---|---|---|"]

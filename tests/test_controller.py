@@ -276,3 +276,18 @@ def test_a_constant_preshape_replaces_phase_b_matching(experience):
     assert steered.matches == 1  # the PCP is matched once something touches
     with pytest.raises(ValueError, match="preshape"):
         gm.GraspController(None, preshape=np.full(22, 5.0))
+
+
+def test_coverage_sees_placements_up_to_the_objects_symmetry():
+    from graspmanifold.evaluation import coverage
+    from graspmanifold.scene import compose
+
+    grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
+    turn = np.array([np.cos(0.5), 0.0, 0.0, np.sin(0.5)])  # 1 rad about the cylinder's axis
+    experienced = [np.concatenate(compose(np.zeros(3), turn, *palm_pose_for(gm.get_object("cylinder"), g)))
+                   for g in grid]
+    np.testing.assert_allclose(coverage("cylinder", grid, np.array(experienced)), 0.0, atol=1e-6)
+    shifted = coverage("cylinder", grid + [0.0, 0.0, 0.005, 0.0], np.array(experienced))
+    np.testing.assert_allclose(shifted[:, 0], 0.005, atol=1e-6)
+    with pytest.raises(ValueError, match="hand_poses"):
+        coverage("cylinder", grid, np.zeros((0, 7)))
