@@ -55,7 +55,7 @@ def test_controller_reads_only_joints_and_forces(experience):
 
 
 def test_phases_follow_the_contacts(experience):
-    params = gm.ControllerParams(preshape_time=0.04)
+    params = gm.ControllerParams(preshape_time=0.04, max_match_distance=np.inf)
     controller = gm.GraspController(experience["database"], params)
     forces = np.zeros(len(gm.SEGMENTS))
     controller.step(gm.open_posture(), forces)
@@ -70,6 +70,23 @@ def test_phases_follow_the_contacts(experience):
     for _ in range(300):
         controller.step(gm.open_posture(), forces)
     assert controller.done and controller.time_to_grasp <= params.timeout + 1e-9
+
+
+def test_matches_far_from_the_sensed_joints_are_not_trusted(experience):
+    """With a match-confidence gate, a best match farther than it from the sensed joints is ignored."""
+    forces = np.zeros(len(gm.SEGMENTS))
+    database = experience["database"]
+    near = database.postures[0]
+    counts = {}
+    for gate in (1e-6, np.inf):
+        for sensed_name, sensed in (("open", gm.open_posture()), ("near", near)):
+            controller = gm.GraspController(database, gm.ControllerParams(preshape_time=0.0, max_match_distance=gate))
+            for _ in range(3):
+                controller.step(sensed, forces)
+            counts[gate, sensed_name] = controller.matches
+    assert counts[np.inf, "open"] > 0 and counts[np.inf, "near"] > 0
+    assert counts[1e-6, "open"] == 0  # the open hand is far from every experienced grasp
+    assert counts[1e-6, "near"] > 0   # an experienced posture matches itself exactly
 
 
 def _thumb_targets(controller, joints, forces, cycles):
