@@ -35,8 +35,8 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.evaluation import EvaluationResult, grid_preset
-from graspmanifold.io import write_text_atomic
+from graspmanifold.evaluation import EvaluationResult, grid_preset, trial_count
+from graspmanifold.io import atomic_write, write_npz, write_text_atomic
 from graspmanifold.stats import rate_text
 from graspmanifold.study import (
     TRAINING_NOISE, compare, closing_rate_params, comparison_rows, grow_experience, judge_target, train_experience_map,
@@ -80,7 +80,7 @@ class Study:
             self.computed += 1
             self.evaluation_seconds += time.perf_counter() - start
             s = result.summary
-            self.log(f"{name:8s} {grid_name:12s} {method:16s} n={s['trials']:3d} hold {s['hold_rate']:.0%} "
+            self.log(f"{name:8s} {grid_name:12s} {method:16s} n={trial_count(s):>3s} hold {s['hold_rate']:.0%} "
                      f"fc {s['force_closure_rate']:.0%} ({time.perf_counter() - start:.0f} s)")
         self.results[(name, grid_name, method)] = result
         return result
@@ -99,7 +99,7 @@ def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
         def measure(r, som, postures):
             result = study.evaluate(obj, "quick", f"learning_round{r}", som)
             curve.append({"round": r, "experience": len(postures), "quick_hold": result.summary["hold_rate"],
-                          "quick_hold_text": rate_text(int(result.outcomes().sum()), len(result.trials))})
+                          "quick_hold_text": rate_text(int(result.outcomes().sum()), result.summary["trials"])})
         training = grid_preset("quick" if args.quick else "paper", obj)  # perturbed by TRAINING_NOISE
         grown, records = grow_experience(gm.get_object(obj), spring.postures, training,
                                          args.rounds, workers=args.workers, on_round=measure)
@@ -107,7 +107,8 @@ def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
         measure(args.rounds, final, grown)
         for record, point in zip(records, curve):
             point.update(train_held=record["held"], train_trials=record["trials"])
-        np.savez(grown_path, postures=grown, curve=json.dumps(curve))
+        with atomic_write(grown_path) as handle:
+            write_npz(handle, {"postures": grown, "curve": np.array(json.dumps(curve))})
     with np.load(grown_path) as f:
         grown, curve = f["postures"], json.loads(str(f["curve"]))
     return {"spring": spring, "grown": grown, "curve": curve}
@@ -126,7 +127,7 @@ def best_constant_preshape(study: Study, obj: str, sets: dict) -> np.ndarray:
     scores = []
     for k, posture in enumerate(candidates):
         result = study.evaluate(obj, "quick", f"preshape_candidate{k}", None, preshape=posture)
-        scores.append(result.outcomes().mean())
+        scores.append(result.rate())
     return candidates[int(np.argmax(scores))]
 
 
@@ -183,7 +184,7 @@ def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) 
             continue
         for value in values:
             rows = poses[:, column] == value
-            rates = [study.results[(obj, grid, m)].outcomes()[rows].mean() for m in present]
+            rates = [study.results[(obj, grid, m)].rate(rows=rows) for m in present]
             lines.append(f"| {axis} | {value:+.3f} | {rows.sum()} | {' | '.join(f'{r:.0%}' for r in rates)} |")
     return "\n".join(lines)
 
@@ -194,7 +195,7 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
 
     def hold(obj: str, grid: str, method: str) -> str:
         r = results.get((obj, grid, method))
-        return "-" if r is None else f"{r.outcomes().mean():.0%}"
+        return "-" if r is None else f"{r.rate():.0%}"
 
     main = info["grids"][0]
     strongest = [r for r in rows if r["method"] == "som"]
@@ -224,7 +225,7 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
                                          differs, len(ablated)))
     rounds = [(o, study.results.get((o, "quick", "learning_round0")),
                study.results.get((o, "quick", f"learning_round{study.args.rounds}"))) for o in OBJECTS]
-    curve = "; ".join(f"{o} {a.outcomes().mean():.0%} -> {b.outcomes().mean():.0%} (p = {compare(b, a).p_value:.2g})"
+    curve = "; ".join(f"{o} {a.rate():.0%} -> {b.rate():.0%} (p = {compare(b, a).p_value:.2g})"
                       for o, a, b in rounds if a is not None and b is not None)
     if curve:
         lines.append(f"- Growing the experience from the controller's own held grasps, round 0 against the last "
@@ -239,7 +240,7 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
         for column, axis in enumerate(gm.evaluation.GRID_COLUMNS):
             for value in np.unique(poses[:, column]):
                 rows_at = poses[:, column] == value
-                best = max(results[(obj, hard, m)].outcomes()[rows_at].mean() for m in present)
+                best = max(results[(obj, hard, m)].rate(rows=rows_at) for m in present)
                 if best < 0.2 and len(np.unique(poses[:, column])) > 1:
                     hopeless.append(f"{obj} {axis} {value:+.2f} (best {best:.0%})")
     if hopeless:
@@ -286,7 +287,7 @@ def report(study: Study, info: dict) -> str:
             cells = []
             for m in present:
                 r = results.get((obj, grid, m))
-                cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), len(r.trials))}")
+                cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), r.summary['trials'])}")
             lines.append(f"| {obj} | {' | '.join(cells)} |")
         lines += ["", f"Force closure (ε > {gm.evaluation.EPSILON_THRESHOLD}) / mean margin (N) / mean time to grasp (s):", "",
                   f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
@@ -317,7 +318,7 @@ def report(study: Study, info: dict) -> str:
                   "| object | μ | none | som |", "|---|---|---|---|"]
         for obj in OBJECTS:
             for g in friction:
-                cells = [rate_text(int(results[(obj, g, m)].outcomes().sum()), len(results[(obj, g, m)].trials))
+                cells = [rate_text(int(results[(obj, g, m)].outcomes().sum()), results[(obj, g, m)].summary["trials"])
                          for m in ("none", "som")]
                 lines.append(f"| {obj} | {g.removeprefix('quick_mu')} | {' | '.join(cells)} |")
         lines.append("")

@@ -124,3 +124,59 @@ def test_without_a_gl_context_the_pipeline_completes_and_says_how_to_render(fini
     assert (target / "figures" / "fig4_cylinder.png").exists()
     assert "apt-get install" in (target / "report.md").read_text()
     assert any("skipping the rendered hand figures" in line for line in lines)
+
+
+KILLED_RUN = """
+import os, sys
+sys.path.insert(0, {tests!r})
+from test_reproduce import REDUCED
+from graspmanifold.reproduce import reproduce
+
+seen, real_replace = [], os.replace
+
+def replace(source, target):  # a kill right after a file's bytes are written, before its rename
+    seen.append(str(target))
+    if {pattern!r} in str(target) and sum({pattern!r} in s for s in seen) == {nth}:
+        os._exit(9)
+    real_replace(source, target)
+
+os.replace = replace
+reproduce({out!r}, REDUCED, log=lambda line: None)
+"""
+
+
+def data_files(out):
+    return sorted(p.relative_to(out) for d in ("postures", "maps", "evaluation") for p in (out / d).glob("*.npz"))
+
+
+def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path):
+    """Killed at five places (a generator checkpoint, a map, an evaluation checkpoint, a figure, the
+    summary), then with a map replaced by another object's, an evaluation truncated, a figure deleted
+    and a manifest truncated: the run that follows equals a clean run byte for byte."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    clean, _, _ = finished
+    out = tmp_path / "run"
+    tests = str(Path(__file__).parent)
+    for pattern, nth in (("job_", 2), ("maps/cylinder.npz", 1), ("part_", 3), ("fig4_sphere.pdf", 1),
+                         ("summary.json", 1)):
+        code = KILLED_RUN.format(tests=tests, pattern=pattern, nth=nth, out=str(out))
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+        assert done.returncode == 9, (pattern, done.stderr[-2000:])
+    (out / "maps" / "box.npz").write_bytes((out / "maps" / "sphere.npz").read_bytes())
+    truncated = out / "evaluation" / "box_som.npz"
+    truncated.write_bytes(truncated.read_bytes()[:300])
+    (out / "figures" / "rates.png").unlink()
+    manifest = out / "stages" / "train_all.json"
+    manifest.write_text(manifest.read_text()[:20])
+    _, ran, lines = run(out)
+    assert {"train_box", "evaluate_box_som", "figures", "train_all"} <= set(ran)
+    assert any("outputs are missing or changed" in line for line in lines)
+    assert data_files(out) == data_files(clean) and len(data_files(out)) == 3 + 7 + 12
+    for name in data_files(clean):
+        assert (out / name).read_bytes() == (clean / name).read_bytes(), name
+    assert (out / "summary.json").read_bytes() == (clean / "summary.json").read_bytes()
+    assert (out / "figures" / "rates.png").exists()
+    assert not list(out.rglob(".*.tmp"))  # the killed runs' temporary files are cleared

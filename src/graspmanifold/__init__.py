@@ -35,8 +35,8 @@ from .posture import (
     within_limits,
 )
 from .postureset import PostureSet
-from .quality import epsilon_l1
-from .scene import Scene, facing_pose
+from .quality import QualityError, epsilon_l1
+from .scene import Scene, SimulationError, facing_pose
 from .starts import StartingPosture, starting_postures
 from .som import SOM
 from .tactile import TactileReading, TactileSensor
@@ -48,7 +48,7 @@ __all__ = [
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "clip_posture",
-    "epsilon_l1", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",
 ]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -57,11 +58,18 @@ def _check_output(path: str, force: bool) -> Path:
         raise SystemExit(f"error: --out must end in .npz, got {path!r}")
     if out.exists() and not force:
         raise SystemExit(f"error: {out} exists; pass --force to overwrite it")
-    parent = out.resolve().parent
-    existing = next(p for p in (parent, *parent.parents) if p.exists())
-    if not os.access(existing, os.W_OK) or not existing.is_dir():
-        raise SystemExit(f"error: cannot write to {out} ({existing} is not a writable directory)")
+    _check_writable_directory(out.parent)
     return out
+
+
+def _check_writable_directory(out: Path) -> None:
+    """Make `out` and write a probe file in it, before any work that would be lost if it failed."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as error:
+        raise SystemExit(f"error: cannot write results to {out}: {error.strerror or error}") from None
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -74,15 +82,13 @@ def _generate(args: argparse.Namespace) -> int:
     checkpoints = out.with_name(out.name + ".parts")
     params = GeneratorParams(verify=not args.no_verify)
     start = time.perf_counter()
+    if args.force:
+        remove_checkpoints(checkpoints)
     try:
         postures = generate_postures(args.object, n, seed=args.seed, workers=args.workers, params=params,
                                      checkpoint_dir=checkpoints, progress=True)
     except ValueError as error:
-        if not (args.force and "another run" in str(error)):
-            raise SystemExit(f"error: {error}") from None
-        remove_checkpoints(checkpoints)
-        postures = generate_postures(args.object, n, seed=args.seed, workers=args.workers, params=params,
-                                     checkpoint_dir=checkpoints, progress=True)
+        raise SystemExit(f"error: {error}") from None
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = f"{len(postures)} of {n} candidates hold" if params.verify else "not verified"
@@ -112,25 +118,31 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
 
 def _evaluate(args: argparse.Namespace) -> int:
     from .evaluation import Noise, evaluate, summary_json
+    from .generator import remove_checkpoints
     from .io import write_text_atomic
 
     if args.experience not in ("none", "database", "som"):
         raise SystemExit(f"error: --experience must be none, database or som, got {args.experience!r}")
     out = Path(args.out)
-    if out.exists() and any(out.iterdir()) and not args.force:
-        raise SystemExit(f"error: {out} is not empty; pass --force to overwrite its results")
+    checkpoints = out / "trials.parts"
+    results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
+    if any(p.exists() for p in results) and not args.force:
+        raise SystemExit(f"error: {out} holds results already; pass --force to overwrite them")
+    _check_writable_directory(out)
+    if args.force:
+        remove_checkpoints(checkpoints)
     try:
         noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
         experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
         start = time.perf_counter()
         result = evaluate(args.object, experience, args.grid, seed=args.seed, workers=args.workers,
-                          noise=noise, table=args.table, progress=True)
+                          noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True)
     except (ValueError, FileNotFoundError) as error:
         raise SystemExit(f"error: {error}") from None
-    out.mkdir(parents=True, exist_ok=True)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
+    remove_checkpoints(checkpoints)
     print(result.markdown() + f"\n{len(result.trials)} trials in {time.perf_counter() - start:.1f} s; results in {out}")
     return 0
 
@@ -205,9 +217,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: what an interrupted command kept, and how to go on
+_ON_INTERRUPT = {
+    "generate": "finished jobs are kept in {out}.parts; run the same command again to resume",
+    "reproduce": "finished stages are kept in {out}; run the same command again to resume",
+    "evaluate": "finished trials are kept in {out}/trials.parts; run the same command again to resume",
+}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return args.run(args)
+    try:
+        return args.run(args)
+    except KeyboardInterrupt:
+        kept = _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", ""))
+        print(f"\ninterrupted: {kept}", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -16,14 +16,21 @@ it up to 0.8 rad. Every preset is a regular grid less the placements where the o
 inside (or within 1 mm of) the open hand, which no hand could have reached. Optional noise perturbs
 the true object pose around each grid pose (the paper's "vague object position"; a draw that would
 start inside the open hand is redrawn) and the joint angles the controller senses.
+
+A trial whose physics failed (a MuJoCo warning, a non-finite state, or a contact deeper than
+`scene.PENETRATION_LIMIT`) is kept but marked invalid with the reason (`Trial.fault`): it counts as
+neither a success nor a failure of the controller; summaries report rates over the valid trials and
+the number of invalid ones, and paired comparisons skip a pose invalid for either method.
 """
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import os
-from concurrent.futures import ProcessPoolExecutor
+import pickle
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -38,8 +45,10 @@ from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import open_posture
 from .progress import Progress
+from .workers import worker_pool
+from .quality import QualityError
 from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
-from .scene import Scene, facing_pose, invert
+from .scene import PENETRATION_LIMIT, Scene, SimulationError, facing_pose, invert
 from .stats import rate_text, wilson_interval
 
 
@@ -159,10 +168,17 @@ class Trial:
     time_to_grasp: float
     matches: int
     margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
+    penetration: float = 0.0  # m, the deepest contact seen at the end of any control cycle
+    fault: str = ""  # why the physics of this trial failed; empty when it did not
+
+    @property
+    def valid(self) -> bool:
+        """The physics of this trial worked: its outcome says something about the controller."""
+        return not self.fault
 
     @property
     def force_closure(self) -> bool:
-        return self.epsilon > EPSILON_THRESHOLD
+        return self.valid and self.epsilon > EPSILON_THRESHOLD
 
 
 def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
@@ -193,20 +209,31 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
     period = controller.params.control_period
+    deepest = 0.0
 
     def cycle() -> None:
+        nonlocal deepest
         sensed = scene.posture() + rng.normal(0.0, noise.joints, 22) if noise.joints else scene.posture()
         scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
         scene.run(period)
+        deepest = max(deepest, scene.penetration())
+        if deepest > PENETRATION_LIMIT:
+            raise SimulationError(f"a contact penetrated {deepest * 1000:.1f} mm at t = {scene.time:.3f} s "
+                                  f"(limit {PENETRATION_LIMIT * 1000:.0f} mm)")
 
-    while not controller.done:
-        cycle()
-    reading = scene.tactile()
-    posture = scene.posture()
-    judgement = judge_grasp(scene, cycle, period)
-    return Trial(np.asarray(grid_pose, dtype=float), posture, np.array([reading.touches(s) for s in SEGMENTS]),
+    grid_pose = np.asarray(grid_pose, dtype=float)
+    try:
+        while not controller.done:
+            cycle()
+        reading = scene.tactile()
+        posture = scene.posture()
+        judgement = judge_grasp(scene, cycle, period)
+    except (SimulationError, QualityError) as error:
+        return Trial(grid_pose, scene.posture(), np.zeros(len(SEGMENTS), dtype=bool), 0.0, False, np.inf,
+                     float(scene.time), controller.matches, 0.0, deepest, str(error))
+    return Trial(grid_pose, posture, np.array([reading.touches(s) for s in SEGMENTS]),
                  judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
-                 controller.matches, judgement.margin)
+                 controller.matches, judgement.margin, deepest)
 
 
 @dataclass
@@ -222,29 +249,48 @@ class EvaluationResult:
 
     @property
     def summary(self) -> dict[str, float | int | str]:
-        eps = np.array([t.epsilon for t in self.trials])
-        n, holds, closures = len(self.trials), self.outcomes("hold").sum(), self.outcomes("force_closure").sum()
+        """Rates (with 95 % Wilson intervals) and means over the valid trials; `trials` counts
+        them, `invalid_trials` the trials whose physics failed (see the module doc)."""
+        valid = [t for t in self.trials if t.valid]
+        n, holds, closures = len(valid), sum(t.hold for t in valid), sum(t.force_closure for t in valid)
+
+        def mean(values: list[float]) -> float:
+            return float(np.mean(values)) if values else float("nan")
+
         return {
             "object": self.object["name"], "method": self.method, "grid": self.grid_name, "trials": n,
-            "hold_rate": float(holds / n), "hold_interval": list(wilson_interval(int(holds), n)),
-            "force_closure_rate": float(closures / n), "force_closure_interval": list(wilson_interval(int(closures), n)),
+            "invalid_trials": len(self.trials) - n,
+            "hold_rate": holds / n if n else float("nan"), "hold_interval": list(wilson_interval(int(holds), n)),
+            "force_closure_rate": closures / n if n else float("nan"),
+            "force_closure_interval": list(wilson_interval(int(closures), n)),
             "epsilon_threshold": EPSILON_THRESHOLD,
-            "mean_margin": float(np.mean([t.margin for t in self.trials])),
-            "mean_epsilon": float(eps.mean()),
-            "mean_time_to_grasp": float(np.mean([t.time_to_grasp for t in self.trials])),
-            "mean_touching_segments": float(np.mean([t.touching.sum() for t in self.trials])),
+            "mean_margin": mean([t.margin for t in valid]),
+            "mean_epsilon": mean([t.epsilon for t in valid]),
+            "mean_time_to_grasp": mean([t.time_to_grasp for t in valid]),
+            "mean_touching_segments": mean([t.touching.sum() for t in valid]),
+            "max_penetration": max([t.penetration for t in valid], default=0.0),
         }
 
+    def valid(self) -> np.ndarray:
+        """Which trials' physics worked (bool, grid order)."""
+        return np.array([t.valid for t in self.trials], dtype=bool)
+
     def outcomes(self, measure: str = "hold") -> np.ndarray:
-        """Success per trial (bool, grid order) by 'hold' or 'force_closure'."""
+        """Success per trial (bool, grid order) by 'hold' or 'force_closure'; an invalid trial
+        reads False here, so pair it with `valid()` (or use `rate`)."""
         if measure not in ("hold", "force_closure"):
             raise ValueError(f"measure must be 'hold' or 'force_closure', got {measure!r}")
-        return np.array([bool(getattr(t, measure)) for t in self.trials], dtype=bool)
+        return np.array([t.valid and bool(getattr(t, measure)) for t in self.trials], dtype=bool)
+
+    def rate(self, measure: str = "hold", rows: np.ndarray | None = None) -> float:
+        """The success rate over the valid trials (of `rows`, a bool mask in grid order, if given)."""
+        keep = self.valid() if rows is None else self.valid() & np.asarray(rows, dtype=bool)
+        return float(self.outcomes(measure)[keep].mean()) if keep.any() else float("nan")
 
     def successful_postures(self, require_hold: bool = True) -> np.ndarray:
         """Final postures (m, 22) of the trials that held (or, with require_hold=False, reached force
         closure): the grasps that may join the experience."""
-        keep = [t.posture for t in self.trials if (t.hold if require_hold else t.force_closure)]
+        keep = [t.posture for t in self.trials if t.valid and (t.hold if require_hold else t.force_closure)]
         return np.array(keep).reshape(-1, 22)
 
     def markdown(self) -> str:
@@ -252,11 +298,12 @@ class EvaluationResult:
         n = s["trials"]
         return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
                 "| mean time to grasp (s) |\n|---|---|---|---|---|---|---|---|\n"
-                f"| {s['object']} | {s['method']} | {n} | {rate_text(round(s['hold_rate'] * n), n)} | "
+                f"| {s['object']} | {s['method']} | {trial_count(s)} | {rate_text(round(s['hold_rate'] * n), n)} | "
                 f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_margin']:.2f} | "
                 f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
 
-    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
+        """Write the trials and the summary (plus `extra` metadata) to an .npz file."""
         t = self.trials
         arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
                   "postures": np.array([x.posture for x in t]).reshape(-1, 22),
@@ -264,21 +311,29 @@ class EvaluationResult:
                   "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
                   "hold_displacement": np.array([x.hold_displacement for x in t]),
                   "time_to_grasp": np.array([x.time_to_grasp for x in t]),
-                  "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t])}
+                  "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
+                  "penetration": np.array([x.penetration for x in t]),
+                  "fault": np.array([x.fault for x in t], dtype=str)}
         meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "summary": self.summary, "segments": list(SEGMENTS),
-                "units": "m, rad, s, N; epsilon per unit total normal force"}
+                "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
         return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EvaluationResult:
         a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, 22), "epsilon": (None,),
-                                                "margin": (None,)})
+                                                "margin": (None,), "penetration": (None,), "fault": (None,)})
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
-                        float(a["margin"][i]))
+                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]))
+
+
+def trial_count(summary: dict) -> str:
+    """The valid trials of a summary, and the invalid ones when there are any ("225 (+2 invalid)")."""
+    invalid = summary.get("invalid_trials", 0)
+    return f"{summary['trials']}" + (f" (+{invalid} invalid)" if invalid else "")
 
 
 def method_name(experience: Experience | None) -> str:
@@ -293,44 +348,105 @@ def _init_worker(obj: GraspObject, experience: Experience | None, noise: Noise, 
     _WORKER.update(obj=obj, experience=experience, noise=noise, params=params, table=table, preshape=preshape)
 
 
-def _trial_worker(args: tuple[int, np.ndarray, int]) -> tuple[int, Trial]:
-    index, grid_pose, seed = args
-    rng = np.random.default_rng([seed, index])
+#: trials per checkpoint part of an evaluation at most (the unit of parallel work and of resuming)
+CHECKPOINT_TRIALS = 16
+
+
+def _chunk_worker(args: tuple[list[int], np.ndarray, int]) -> list[tuple[int, Trial]]:
+    indices, poses, seed = args
     w = _WORKER
-    return index, run_trial(w["obj"], w["experience"], grid_pose, rng, w["noise"], w["params"], w["table"],
-                            w["preshape"])
+    return [(index, run_trial(w["obj"], w["experience"], pose, np.random.default_rng([seed, index]), w["noise"],
+                              w["params"], w["table"], w["preshape"]))
+            for index, pose in zip(indices, poses)]
+
+
+def _signature(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int, noise: Noise,
+               params: ControllerParams | None, table: bool, preshape: np.ndarray | None) -> str:
+    """A digest of everything a trial's outcome depends on: checkpoint parts of another
+    configuration are never mixed in."""
+    digest = hashlib.sha256(json.dumps({"object": obj.params(), "seed": int(seed), "noise": asdict(noise),
+                                        "params": asdict(params or ControllerParams()), "table": bool(table)},
+                                       sort_keys=True, default=str).encode())
+    digest.update(np.ascontiguousarray(poses, dtype=float).tobytes())
+    digest.update(pickle.dumps(experience))
+    digest.update(b"" if preshape is None else np.ascontiguousarray(preshape, dtype=float).tobytes())
+    return digest.hexdigest()[:20]
+
+
+def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dict[int, list[Trial]]:
+    """Finished chunks from an earlier run with this signature; other or unreadable parts are removed."""
+    found, discarded = {}, []
+    for path in sorted(directory.glob("part_*.npz")):
+        try:
+            _, meta = load_npz(path, "evaluation", {})
+            trials = EvaluationResult.load(path).trials
+        except ValueError:
+            meta, trials = {}, []
+        first = int(meta.get("first", -1))
+        number = next((k for k, chunk in enumerate(chunks) if chunk[0] == first), None)
+        if meta.get("signature") == signature and number is not None and len(trials) == len(chunks[number]):
+            found[number] = trials
+        else:
+            discarded.append(path.name)
+            path.unlink()
+    if discarded:
+        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
+                      f"configuration or could not be read: {', '.join(discarded[:4])}"
+                      f"{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
+    return found
 
 
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
-             table: bool = False, preshape: np.ndarray | None = None, progress: bool = False) -> EvaluationResult:
+             table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
+             progress: bool = False) -> EvaluationResult:
     """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
 
     `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
     held by a spring; grid poses where the open hand would touch the table are left out of presets
-    (and refused in a custom grid). `preshape`: a constant phase-B posture (see `GraspController`)."""
+    (and refused in a custom grid). `preshape`: a constant phase-B posture (see `GraspController`).
+    With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun with
+    the same arguments picks them up (parts of another configuration are discarded with a warning).
+    The same seed gives the same trials, whatever the number of workers or interruptions."""
     obj = get_object(obj)
     experience = check_experience(experience)
     noise = noise or Noise()
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     grid_name, poses = check_grid(grid, obj, table)
-    tasks = [(i, pose, seed) for i, pose in enumerate(poses)]
-    trials: list[Trial | None] = [None] * len(tasks)
-    report = Progress(len(tasks), f"evaluate {obj.name} / {method_name(experience)}", "trials", enabled=progress)
+    size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (4 * workers))))  # at least 4 chunks per worker
+    chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
+    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
+    signature = _signature(obj, experience, poses, seed, noise, params, table, preshape)
+    done: dict[int, list[Trial]] = {}
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
+        done = _load_parts(directory, signature, chunks)
+    method = method_name(experience)
+    report = Progress(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
+    report.update(sum(len(t) for t in done.values()))
+    pending = [k for k in range(len(chunks)) if k not in done]
+    tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
+
+    def keep(number: int, trials: list[Trial]) -> None:
+        done[number] = trials
+        if directory is not None:
+            EvaluationResult(obj.params(), method, grid_name, seed, trials, noise).save(
+                directory / f"part_{chunks[number][0]:05d}.npz", extra={"signature": signature,
+                                                                         "first": chunks[number][0]})
+        report.update(len(trials))
+
+    initargs = (obj, experience, noise, params, table, preshape)
     if workers == 1:
-        _init_worker(obj, experience, noise, params, table, preshape)
-        for task in tasks:
-            index, trial = _trial_worker(task)
-            trials[index] = trial
-            report.update()
+        _init_worker(*initargs)
+        for number, task in zip(pending, tasks):
+            keep(number, [trial for _, trial in _chunk_worker(task)])
     else:
-        initargs = (obj, experience, noise, params, table, preshape)
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=initargs) as pool:
-            for index, trial in pool.map(_trial_worker, tasks, chunksize=max(1, len(tasks) // (4 * workers))):
-                trials[index] = trial
-                report.update()
-    return EvaluationResult(obj.params(), method_name(experience), grid_name, seed, trials, noise)  # type: ignore[arg-type]
+        with worker_pool(workers, _init_worker, initargs) as pool:
+            for number, chunk in zip(pending, pool.map(_chunk_worker, tasks)):
+                keep(number, [trial for _, trial in chunk])
+    trials = [trial for k in range(len(chunks)) for trial in done[k]]
+    return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise)
 
 
 def summary_json(results: list[EvaluationResult]) -> str:

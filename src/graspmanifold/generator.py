@@ -27,7 +27,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
-from concurrent.futures import ProcessPoolExecutor
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -43,7 +43,8 @@ from .objects import GraspObject, get_object
 from .postureset import PostureSet
 from .posture import posture_to_ctrl
 from .progress import Progress
-from .scene import Scene
+from .workers import worker_pool
+from .scene import PENETRATION_LIMIT, Scene, SimulationError
 from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
 
 #: The paper's dataset sizes (Section 5), and a small set for tests and demos.
@@ -101,8 +102,13 @@ class _Verifier:
         scene.set_posture(posture)
         scene.set_target(squeezed(posture, self.params.squeeze))
         scene.run(0.2)  # the fingers press
-        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD,
-                           hold_seconds=self.params.verify_hold_seconds, margin=False)
+
+        def cycle() -> None:
+            if scene.penetration() > PENETRATION_LIMIT:
+                raise SimulationError(f"a contact penetrated {scene.penetration() * 1000:.1f} mm")
+            scene.run(self.PERIOD)
+
+        return judge_grasp(scene, cycle, self.PERIOD, hold_seconds=self.params.verify_hold_seconds, margin=False)
 
 
 class _SpringRig:
@@ -209,7 +215,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     base = Rotation.from_quat(start.hand_quat[[1, 2, 3, 0]])
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
-    tries, misses, candidates = 0, 0, 0
+    tries, misses, candidates, faults = 0, 0, 0, 0
     while candidates < job.quota:
         tries += 1
         if tries > params.max_tries_per_posture * job.quota:
@@ -218,7 +224,13 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
         offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
         turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
         rig.move_to(start.hand_pos + offset, (Rotation.from_rotvec(turn) * base).as_quat()[[3, 0, 1, 2]])
-        result = rig.accepted_posture() if rig.settle() else None
+        settled = rig.settle()
+        if rig.scene.faults():  # the physics failed: nothing of this walk can be trusted
+            faults += 1
+            rig.reset_to(start)
+            offset, turn, misses = np.zeros(3), np.zeros(3), 0
+            continue
+        result = rig.accepted_posture() if settled else None
         if result is None:
             misses += 1
             if misses >= 5:  # lost the grasp: back to the starting posture
@@ -228,7 +240,11 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
         misses = 0
         pos, quat = rig.scene.hand_pose()
         candidates += 1
-        judgement = verifier(result[0], pos, quat) if verifier is not None else None
+        try:
+            judgement = verifier(result[0], pos, quat) if verifier is not None else None
+        except SimulationError:  # the replay's physics failed: not a verified grasp
+            faults += 1
+            continue
         if judgement is not None and not judgement.hold:
             continue
         postures.append(result[0])
@@ -239,7 +255,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     return {"postures": np.array(postures).reshape(-1, len(FINGER_JOINTS)), "hand_poses": np.array(poses).reshape(-1, 7),
             "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
             "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
-            "tries": np.array(tries), "candidates": np.array(candidates)}
+            "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults)}
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -297,14 +313,22 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     results: dict[int, dict[str, np.ndarray]] = {}
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
-        for index, job in enumerate(jobs):
-            path = _job_file(directory, job)
-            if path.exists():
+        wanted = {_job_file(directory, job): index for index, job in enumerate(jobs)}
+        discarded = []
+        for path in sorted(directory.glob("job_*.npz")):
+            try:
                 arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
-                if meta.get("signature") != signature:
-                    raise ValueError(f"{directory} holds jobs of another run (other object, seed, n or "
-                                     "parameters); remove it or choose another output")
-                results[index] = arrays
+            except ValueError:
+                meta = {}
+            if path in wanted and meta.get("signature") == signature:
+                results[wanted[path]] = arrays
+            else:
+                discarded.append(path.name)
+                path.unlink()
+        if discarded:
+            warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
+                          "configuration (object, seed, n or parameters) or could not be read: "
+                          f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=2)
     report = Progress(n, f"generate {obj.name}", "candidates", enabled=progress)
     if results:
         report.update(sum(jobs[i].quota for i in results))
@@ -316,12 +340,13 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             results[index] = result
             report.update(jobs[index].quota)
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with worker_pool(workers) as pool:
             for index, result in pool.map(_job_worker, pending):
                 results[index] = result
                 report.update(jobs[index].quota)
     ordered = [results[i] for i in range(len(jobs))]
     tries = int(sum(int(r["tries"]) for r in ordered))
+    faults = int(sum(int(r.get("faults", 0)) for r in ordered))
     kept = int(sum(len(r["postures"]) for r in ordered))
     by_start = {s.name: [0, 0] for s in starts}
     for r, job in zip(ordered, jobs):
@@ -337,7 +362,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         hold_displacement=np.concatenate([r["hold_displacement"] for r in ordered]),
         start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
         metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
-                  "acceptance_ratio": n / tries, "verified": params.verify, "candidates": int(n),
+                  "acceptance_ratio": n / tries, "simulation_faults": faults, "verified": params.verify, "candidates": int(n),
                   "verified_ratio": kept / n, "verified_by_start": {k: v[0] / v[1] for k, v in by_start.items()},
                   "library_version": library_version(),
                   "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),

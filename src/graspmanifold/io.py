@@ -2,7 +2,8 @@
 
 Every file the library writes carries `{"schema": ..., "kind": ..., "library_version": ...}` plus
 whatever the writer adds (units, seed, parameters). A temporary file is renamed into place only
-once it is complete, so an interrupted write never leaves a half-written file behind.
+once it is complete and on disk, so an interrupted write never leaves a half-written file behind;
+files get the permissions the user's umask gives.
 """
 
 from __future__ import annotations
@@ -12,7 +13,10 @@ import json
 import os
 import tempfile
 import zipfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import IO
 
 import numpy as np
 
@@ -34,19 +38,39 @@ def fingerprint(array: np.ndarray) -> str:
     return digest.hexdigest()[:16]
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
-    """Write a text file through a temporary file and a rename: readers never see half of it."""
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+@contextmanager
+def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
+    """Open a temporary file beside `path` for writing; on success it is flushed to disk (fsync),
+    given the mode the user's umask gives new files, and renamed into place, so readers never see
+    half of it; on any error it is removed and `path` is untouched."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
+        with os.fdopen(fd, mode, **({"encoding": "utf-8"} if mode == "w" else {})) as handle:
+            yield handle
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    return path
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    """Write a text file atomically (see `atomic_write`)."""
+    with atomic_write(path, "w") as handle:
+        handle.write(text)
+    return Path(path)
 
 
 def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], metadata: dict,
@@ -60,16 +84,19 @@ def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], 
     if _METADATA_KEY in arrays:
         raise ValueError(f"{_METADATA_KEY!r} is reserved")
     meta = {"schema": SCHEMA_VERSION, "kind": kind, "library_version": library_version(), **metadata}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            np.savez(handle, **arrays, **{_METADATA_KEY: np.array(json.dumps(meta))})
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_write(path, "wb") as handle:
+        write_npz(handle, {**arrays, _METADATA_KEY: np.array(json.dumps(meta))})
     return path
+
+
+def write_npz(handle: IO[bytes], arrays: dict[str, np.ndarray]) -> None:
+    """`np.savez` with a fixed timestamp on every member, so the same arrays give the same bytes
+    (np.savez stamps the current time into the zip)."""
+    with zipfile.ZipFile(handle, "w", zipfile.ZIP_STORED, allowZip64=True) as archive:
+        for name, value in arrays.items():
+            member = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            with archive.open(member, "w", force_zip64=True) as out:
+                np.lib.format.write_array(out, np.asanyarray(value), allow_pickle=False)
 
 
 def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int | None, ...]]

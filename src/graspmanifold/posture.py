@@ -15,6 +15,7 @@ from .hand import (
     ACTUATORS,
     FINGER_JOINTS,
     FINGER_SEGMENTS,
+    JOINT_RANGES,
     JOINT_SEGMENT,
     SEGMENTS,
     WRIST_JOINTS,
@@ -102,6 +103,10 @@ def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) ->
     wrist = np.asarray(tuple(wrist), dtype=float)
     if wrist.shape != (2,) or not np.all(np.isfinite(wrist)):
         raise ValueError(f"wrist must be two finite angles (WRJ2, WRJ1), got {wrist!r}")
+    for name, angle in zip(WRIST_JOINTS, wrist):
+        low, high = JOINT_RANGES[name]
+        if not low - 1e-9 <= angle <= high + 1e-9:
+            raise ValueError(f"wrist angle {name} = {angle:.4g} rad is outside its range [{low:.4g}, {high:.4g}]")
     ctrl[:2] = wrist
     return ctrl
 

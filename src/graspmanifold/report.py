@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from .analysis import smoothness
-from .evaluation import EPSILON_THRESHOLD, EvaluationResult
-from .io import library_version, write_text_atomic
+from .evaluation import EPSILON_THRESHOLD, EvaluationResult, trial_count
+from .io import atomic_write, library_version, write_text_atomic
 from .postureset import PostureSet
 from .som import SOM
 from .stats import rate_text
@@ -113,7 +113,9 @@ def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = pr
             continue
         figure = build()
         for suffix in ("png", "pdf"):
-            figure.savefig(directory / f"{name}.{suffix}", dpi=110)
+            with atomic_write(directory / f"{name}.{suffix}") as handle:
+                figure.savefig(handle, format=suffix, dpi=110,
+                               metadata={"CreationDate": None} if suffix == "pdf" else None)
         written.append(name)
     return {"rendered": render is not None, "message": message, "figures": written}
 
@@ -193,7 +195,7 @@ def _markdown(run: RunData, summary: dict) -> str:
              "one map trained on all three objects.\n\n",
              _table(["object", "method", "trials", "hold", "force closure", "mean margin (N)", "mean ε",
                      "time to grasp (s)"],
-                    [[s["object"], s["method"], s["trials"],
+                    [[s["object"], s["method"], trial_count(s),
                       rate_text(round(s["hold_rate"] * s["trials"]), s["trials"]),
                       rate_text(round(s["force_closure_rate"] * s["trials"]), s["trials"]), _fmt(s["mean_margin"]),
                       _fmt(s["mean_epsilon"]), _fmt(s["mean_time_to_grasp"])] for s in summary["evaluation"]]),

@@ -4,9 +4,10 @@
     objects) -> resumed learning with the SOM's successful postures -> figures -> report
 
 Each stage writes its files into the output directory and a manifest in `stages/` with a key made
-from its parameters and the contents of the files it reads. A rerun skips every stage whose key
-is unchanged and whose files are there, so a run killed half-way picks up where it stopped, and
-changing one thing (a map size, the grid) redoes only what depends on it.
+from its parameters and the contents of the files it reads, and a digest of every file it wrote. A
+rerun skips every stage whose key is unchanged and whose files are there with those digests, so a
+run killed half-way picks up where it stopped, a missing, truncated or replaced output is made again
+(and the log says why), and changing one thing (a map size, the grid) redoes only what depends on it.
 """
 
 from __future__ import annotations
@@ -63,6 +64,20 @@ PRESETS: dict[str, ReproduceConfig] = {
 }
 
 
+def _file_digests(outputs: list[Path], root: Path) -> dict[str, str] | None:
+    """Digests of the output files (a directory stands for every file in it), by path relative to
+    `root`; None when one is missing."""
+    files: list[Path] = []
+    for path in outputs:
+        if path.is_dir():
+            files.extend(sorted(p for p in path.iterdir() if p.is_file() and not p.name.startswith(".")))
+        elif path.is_file():
+            files.append(path)
+        else:
+            return None
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()[:20] for p in files}
+
+
 def _digest(*parts: object) -> str:
     h = hashlib.sha256()
     for part in parts:
@@ -84,15 +99,22 @@ class _Stages:
 
     def run(self, name: str, key: str, outputs: list[Path], work: Callable[[], dict | None]) -> dict:
         manifest = self.out / "stages" / f"{name}.json"
-        if manifest.exists() and all(p.exists() for p in outputs):
-            record = json.loads(manifest.read_text())
+        if manifest.exists():
+            try:
+                record = json.loads(manifest.read_text())
+            except (json.JSONDecodeError, UnicodeDecodeError, OSError):
+                self.log(f"[{name}] its manifest {manifest} is unreadable: running again")
+                record = {}
             if record.get("key") == key:
-                self.reused.append(name)
-                return record.get("info", {})
+                if _file_digests(outputs, self.out) == record.get("outputs"):
+                    self.reused.append(name)
+                    return record.get("info", {})
+                self.log(f"[{name}] its outputs are missing or changed since it ran: running again")
         self.log(f"[{name}] running")
         start = time.perf_counter()
         info = work() or {}
-        record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info}
+        record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info,
+                  "outputs": _file_digests(outputs, self.out)}
         write_text_atomic(manifest, json.dumps(record, indent=1))
         self.ran.append(name)
         self.log(f"[{name}] done in {record['seconds']:.1f} s")
@@ -102,7 +124,12 @@ class _Stages:
 def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
     run_file = out / "run.json"
     if run_file.exists():
-        previous = json.loads(run_file.read_text()).get("config")
+        try:
+            previous = json.loads(run_file.read_text()).get("config")
+        except (json.JSONDecodeError, UnicodeDecodeError, AttributeError) as error:
+            if not force:
+                raise ValueError(f"{run_file} is unreadable ({error}); pass --force to start the run again") from None
+            previous = None
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise ValueError(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
@@ -122,6 +149,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     out = Path(out)
     _check_output(out, config, force)
     out.mkdir(parents=True, exist_ok=True)
+    for stale in out.rglob(".*.tmp"):  # left by a run killed while writing a file
+        stale.unlink()
     write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version()},
                                                     indent=1))
     stages = _Stages(out, log)
@@ -163,9 +192,12 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         def run_evaluation(name=name, method=method, path=path):
             experience = {"none": None, "database": PostureDatabase(sets[name].postures),
                           "som": maps[name], "som_all": maps["all"]}[method]
-            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, progress=True)
+            parts = path.with_name(path.stem + ".parts")
+            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers,
+                              checkpoint_dir=parts, progress=True)
             result.method = method
             result.save(path)
+            remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
         stages.run(f"evaluate_{name}_{method}", _digest(poses.tolist(), config.seed, method, *inputs[method]),
                    [path], run_evaluation)
@@ -188,7 +220,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results)
     figure_key = _digest(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
                          *eval_paths.values())
-    figure_info = stages.run("figures", figure_key, [out / "figures" / "rates.png"],
+    figure_info = stages.run("figures", figure_key, [out / "figures"],
                              lambda: write_figures(out / "figures", run, log))
     summary = write_report(out, run, figure_info)
     log(f"reproduce: {len(stages.ran)} stages ran, {len(stages.reused)} reused, "

@@ -7,6 +7,7 @@ palm frame in the object frame (position in m, quaternion w x y z).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 import mujoco
@@ -21,6 +22,19 @@ GRAVITY = 9.81
 OBJECT_RGBA = (0.25, 0.45, 0.8, 1.0)
 _GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
                "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
+
+#: A contact deeper than this (m) is a failure of the simulation, not a grasp: soft contacts of a
+#: squeezing hand stay below about 1 mm (see RELIABILITY.md for the measurement)
+PENETRATION_LIMIT = 0.005
+
+
+_WARNINGS = sorted((int(getattr(mujoco.mjtWarning, name)), name.removeprefix("mjWARN_"))
+                   for name in dir(mujoco.mjtWarning) if name.startswith("mjWARN_"))
+
+
+class SimulationError(RuntimeError):
+    """The physics failed: MuJoCo raised a warning (it resets a diverging state) or the state is not finite."""
+
 
 #: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
 GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
@@ -135,12 +149,43 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
-        """Advance the physics by n timesteps."""
+        """Advance the physics by n timesteps; SimulationError when the physics fails (see `check`)."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise ValueError(f"n must be a whole number of timesteps >= 0, got {n!r}")
         for _ in range(int(n)):
             mujoco.mj_step(self.model, self.data)
+        self.check()
+
+    def faults(self) -> list[str]:
+        """What went wrong in the physics since the last reset: MuJoCo's warnings (by name, with
+        their count) and a non-finite state; empty when healthy."""
+        found = [f"MuJoCo warning {name} x{self.data.warning[index].number}"
+                 for index, name in _WARNINGS if self.data.warning[index].number > 0]
+        if not (np.all(np.isfinite(self.data.qpos)) and np.all(np.isfinite(self.data.qvel))):
+            found.append("non-finite joint positions or velocities")
+        return found
+
+    def check(self) -> None:
+        """Raise SimulationError if the physics failed since the last reset (see `faults`). MuJoCo
+        itself warns about (and resets) non-finite or huge positions, velocities and accelerations,
+        so its warning counters are what this reads."""
+        if self.data.warning.number.any():
+            found = self.faults()
+            raise SimulationError(f"the simulation of the {self.object.name} scene failed at "
+                                  f"t = {self.data.time:.3f} s: {'; '.join(found)}; its state is not "
+                                  "physical (reset() to start again)")
+
+    def penetration(self) -> float:
+        """The deepest penetration (m) of any contact now (0 when nothing overlaps)."""
+        if self.data.ncon == 0:
+            return 0.0
+        return max(0.0, -float(np.min(self.data.contact.dist[: self.data.ncon])))
 
     def run(self, seconds: float) -> None:
-        """Advance the physics by (about) `seconds` of simulated time."""
+        """Advance the physics by (about) `seconds` of simulated time (at least one timestep)."""
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) \
+                or seconds <= 0:
+            raise ValueError(f"seconds must be a positive finite duration, got {seconds!r}")
         self.step(max(1, round(seconds / self.model.opt.timestep)))
 
     @property

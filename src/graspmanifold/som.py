@@ -51,8 +51,14 @@ def decay_schedule(start: float, end: float, epochs: int) -> np.ndarray:
     return start * (end / start) ** (np.arange(epochs) / (epochs - 1))
 
 
+#: the largest magnitude a SOM accepts in its data: the batch map scores in float32, whose squares
+#: overflow near 1e19; anything this large is a unit error rather than a posture
+MAX_ABS_VALUE = 1e15
+
+
 def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
-    """X as a float (n, dim) array with n >= 1 and only finite values; errors name the bad row."""
+    """X as a float (n, dim) array with n >= 1 and only finite values of magnitude at most
+    MAX_ABS_VALUE; errors name the bad row."""
     data = np.asarray(X, dtype=float)
     if data.ndim != 2 or data.shape[1] != dim or len(data) == 0:
         raise ValueError(f"{name} must have shape (n, {dim}) with n >= 1, got {data.shape}")
@@ -60,10 +66,15 @@ def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
     if not finite.all():
         row = int(np.flatnonzero(~finite)[0])
         raise ValueError(f"{name} row {row} has non-finite values: {data[row].tolist()}")
+    huge = (np.abs(data) > MAX_ABS_VALUE).any(axis=1)
+    if huge.any():
+        row = int(np.flatnonzero(huge)[0])
+        raise ValueError(f"{name} row {row} has values beyond +-{MAX_ABS_VALUE:g}: {data[row].tolist()}")
     return np.ascontiguousarray(data)
 
 
 def _pair(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
+    """A decaying (start, end) schedule: positive, below `upper`, start >= end."""
     try:
         start, end = (float(v) for v in value)  # type: ignore[union-attr]
     except (TypeError, ValueError):
@@ -72,6 +83,8 @@ def _pair(value: object, name: str, upper: float | None = None) -> tuple[float, 
         if not math.isfinite(v) or v <= 0 or (upper is not None and v >= upper):
             bound = f" and below {upper}" if upper is not None else ""
             raise ValueError(f"{name} values must be positive{bound}, got {value!r}")
+    if start < end:
+        raise ValueError(f"{name} must decay: (start, end) with start >= end, got {value!r} (reversed?)")
     return start, end
 
 

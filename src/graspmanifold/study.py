@@ -28,12 +28,14 @@ HARD_FOR_CONTROL = 0.8
 
 
 def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> PairedComparison:
-    """McNemar's test of method a against method b; both must have run on the same poses."""
+    """McNemar's test of method a against method b; both must have run on the same poses. Poses
+    where either trial's physics failed (`Trial.valid`) are left out of the pairs."""
     grid_a = np.array([t.grid_pose for t in a.trials])
     grid_b = np.array([t.grid_pose for t in b.trials])
     if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
         raise ValueError(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
-    return mcnemar(a.outcomes(measure), b.outcomes(measure))
+    both = a.valid() & b.valid()
+    return mcnemar(a.outcomes(measure)[both], b.outcomes(measure)[both])
 
 
 def train_experience_map(postures: np.ndarray, seed: int = 0, shape: tuple[int, int] = (25, 25)) -> SOM:
@@ -105,18 +107,17 @@ def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], metho
         present = [c for c in controls if (obj, grid, c) in results]
         if not present:
             continue
-        rate = {c: results[(obj, grid, c)].outcomes(measure).mean() for c in present}
+        rate = {c: results[(obj, grid, c)].rate(measure) for c in present}
         strongest = max(present, key=lambda c: (rate[c], -present.index(c)))
         for method in methods:
             if (obj, grid, method) not in results:
                 continue
             mine = results[(obj, grid, method)]
             paired = compare(mine, results[(obj, grid, strongest)], measure)
-            k = int(mine.outcomes(measure).sum())
+            k, k_control = paired.only_a + paired.both, paired.only_b + paired.both
             rows.append({"object": obj, "grid": grid, "method": method, "control": strongest, "n": paired.n,
                          "rate": k / paired.n, "rate_text": rate_text(k, paired.n),
-                         "control_rate": float(rate[strongest]),
-                         "control_text": rate_text(int(round(rate[strongest] * paired.n)), paired.n),
+                         "control_rate": k_control / paired.n, "control_text": rate_text(k_control, paired.n),
                          "only_method": paired.only_a, "only_control": paired.only_b,
                          "p_value": paired.p_value, "verdict": paired.verdict()})
     return rows

@@ -1,0 +1,262 @@
+"""Faults a hostile user or a failing simulation can cause, and what the library does about them
+(the catalogue is RELIABILITY.md)."""
+
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold.evaluation import EvaluationResult, run_trial
+from graspmanifold.scene import PENETRATION_LIMIT, SimulationError
+from graspmanifold.study import compare
+
+
+# -- simulation faults -----------------------------------------------------------------------------
+
+def test_a_diverging_simulation_raises_instead_of_resetting_silently():
+    scene = gm.Scene("sphere", free_object=True)
+    scene.set_object_support(1e12, 30.0)  # far too stiff for the timestep: MuJoCo's BADQACC reset
+    scene.set_hand_pose(*gm.facing_pose("sphere", clearance=0.0))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    with pytest.raises(SimulationError, match="BADQACC"):
+        scene.run(1.0)
+    assert scene.faults()
+    scene.reset()
+    assert scene.faults() == []
+
+
+def test_a_healthy_grasp_has_no_faults_and_shallow_contacts():
+    scene = gm.Scene("cylinder")
+    scene.set_hand_pose(*gm.facing_pose("cylinder"))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    scene.run(1.5)
+    assert scene.faults() == [] and scene.tactile().segments
+    assert 0.0 < scene.penetration() < PENETRATION_LIMIT / 2
+
+
+def test_a_trial_whose_physics_failed_is_invalid_not_a_result(tmp_path):
+    feather = gm.make_object("cylinder", radius=0.03, length=0.16, mass=1e-6, name="feather")
+    pose = np.array([0.0, 0.0, 0.01, 0.0])
+    trial = run_trial(feather, None, pose, np.random.default_rng(0))
+    assert not trial.valid and "penetrated" in trial.fault and trial.penetration > PENETRATION_LIMIT
+    assert not trial.force_closure and not trial.hold
+    healthy = run_trial(gm.get_object("cylinder"), None, pose, np.random.default_rng(0))
+    assert healthy.valid and healthy.penetration < PENETRATION_LIMIT and healthy.hold
+
+    result = EvaluationResult(feather.params(), "none", "custom", 0, [trial, healthy])
+    s = result.summary
+    assert s["trials"] == 1 and s["invalid_trials"] == 1 and s["hold_rate"] == 1.0
+    assert result.rate() == 1.0 and result.valid().tolist() == [False, True]
+    assert "(+1 invalid)" in result.markdown()
+    loaded = EvaluationResult.load(result.save(tmp_path / "e.npz"))
+    assert loaded.trials[0].fault == trial.fault and loaded.summary == s
+    # a pose invalid for either method is left out of the pairs
+    other = EvaluationResult(feather.params(), "other", "custom", 0, [healthy, healthy])
+    assert compare(other, result).n == 1
+
+
+# -- parameters that hung, ran backwards or slipped through ------------------------------------------
+
+@pytest.mark.parametrize("seconds", [0, -1, float("nan"), float("inf"), "1", True])
+def test_scene_run_refuses_durations_that_are_not_positive(seconds):
+    with pytest.raises(ValueError, match="seconds"):
+        gm.Scene("box").run(seconds)
+
+
+@pytest.mark.parametrize("wrist", [(10.0, 10.0), (0.0, -1.0), (0.3, 0.0)])
+def test_a_wrist_outside_its_range_is_refused(wrist):
+    with pytest.raises(ValueError, match="outside its range"):
+        gm.Scene("box").set_posture(gm.open_posture(), wrist=wrist)
+
+
+@pytest.mark.parametrize("field, value", [("control_period", 0.0), ("control_period", -0.02),
+                                          ("closing_rate", -1.0), ("timeout", float("nan"))])
+def test_controller_params_that_hang_or_run_backwards_are_refused(field, value):
+    with pytest.raises(ValueError, match=field):
+        gm.ControllerParams(**{field: value})
+
+
+def test_generator_job_size_zero_is_refused():
+    with pytest.raises(ValueError, match="job_size"):
+        gm.GeneratorParams(job_size=0)
+
+
+@pytest.mark.parametrize("schedule", [{"learning_rate": (0.05, 0.95)}, {"sigma": (0.7, 6.0)}])
+def test_reversed_som_schedules_are_refused(schedule):
+    with pytest.raises(ValueError, match="decay"):
+        gm.SOM(3, 3, 2, seed=0).fit(np.zeros((5, 2)), epochs=2, **schedule)
+
+
+def test_som_data_too_large_to_train_on_is_refused():
+    data = np.random.default_rng(0).normal(size=(20, 3))
+    data[7] *= 1e30
+    with pytest.raises(ValueError, match="row 7"):
+        gm.SOM(3, 3, 3, seed=0).fit(data, epochs=2, algorithm="batch")
+
+
+# -- the quality measure ---------------------------------------------------------------------------
+
+def _grasp_contacts() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    scene = gm.Scene("cylinder")
+    scene.set_hand_pose(*gm.facing_pose("cylinder"))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    scene.run(1.5)
+    reading = scene.tactile()
+    return reading.points, reading.normals, scene.data.xipos[scene.object_body].copy()
+
+
+def test_many_cone_edges_do_not_turn_a_grasp_into_no_force_closure():
+    """64 edges made Qhull fail on this grasp (a precision error), which used to read as epsilon 0."""
+    points, normals, centre = _grasp_contacts()
+    coarse = gm.epsilon_l1(points, normals, centre, mu=0.6, num_edges=16)
+    fine = gm.epsilon_l1(points, normals, centre, mu=0.6, num_edges=64)
+    assert coarse > 0.1 and coarse <= fine + 1e-9 and fine - coarse < 0.02
+
+
+def test_degenerate_wrench_sets_still_give_zero():
+    points = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
+    normals = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    assert gm.epsilon_l1(points, normals, np.zeros(3), mu=0.0) == 0.0  # frictionless pinch: rank < 6
+    assert gm.epsilon_l1(points[:1], normals[:1], np.zeros(3)) == 0.0
+
+
+# -- files ----------------------------------------------------------------------------------------
+
+def test_written_files_get_the_umask_mode_and_failed_writes_leave_nothing(tmp_path):
+    import os
+
+    from graspmanifold.io import atomic_write, save_npz, write_text_atomic
+
+    old = os.umask(0o022)
+    try:
+        text = write_text_atomic(tmp_path / "a.md", "hello")
+        data = save_npz(tmp_path / "b.npz", "thing", {"x": np.zeros(3)}, {})
+        with atomic_write(tmp_path / "c.png") as handle:
+            handle.write(b"png")
+    finally:
+        os.umask(old)
+    for path in (text, data, tmp_path / "c.png"):
+        assert path.stat().st_mode & 0o777 == 0o644, path
+    with pytest.raises(RuntimeError, match="boom"):
+        with atomic_write(tmp_path / "c.png") as handle:
+            handle.write(b"half")
+            raise RuntimeError("boom")
+    assert (tmp_path / "c.png").read_bytes() == b"png"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.md", "b.npz", "c.png"]
+
+
+# -- worker processes ------------------------------------------------------------------------------
+
+def _children(pid: int) -> list[int]:
+    """Live (non-zombie) processes whose parent is `pid`."""
+    from pathlib import Path
+
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            found.append(int(stat.parent.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    from pathlib import Path
+
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _start_generate(tmp_path):
+    import subprocess
+    import sys
+    import time
+
+    command = [sys.executable, "-c", "import sys; from graspmanifold.cli import main; sys.exit(main())",
+               "generate", "--object", "cylinder", "--n", "2000", "--workers", "2", "--out", str(tmp_path / "x.npz")]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while len(_children(process.pid)) < 2:
+        assert process.poll() is None and time.monotonic() < deadline, "the workers never started"
+        time.sleep(0.2)
+    time.sleep(1.0)  # the workers are busy with their first jobs
+    return process, _children(process.pid)
+
+
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="reads /proc")
+def test_workers_die_with_a_killed_parent(tmp_path):
+    import signal
+    import time
+
+    process, workers = _start_generate(tmp_path)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    deadline = time.monotonic() + 5
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(w) for w in workers), "a worker outlived its killed parent"
+
+
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="reads /proc")
+def test_ctrl_c_stops_at_once_with_one_line_and_no_traceback(tmp_path):
+    import signal
+    import time
+
+    process, workers = _start_generate(tmp_path)
+    started = time.monotonic()
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=30)
+    assert time.monotonic() - started < 5 and process.returncode == 130
+    assert "Traceback" not in stderr and "interrupted: finished jobs are kept in" in stderr
+    assert not any(_alive(w) for w in workers)
+
+
+# -- no work lost at the end -----------------------------------------------------------------------
+
+def test_evaluate_refuses_an_unwritable_output_before_running_any_trial(tmp_path, monkeypatch):
+    from graspmanifold import evaluation
+    from graspmanifold.cli import main as cli
+
+    calls = []
+    monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: calls.append(a))
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    with pytest.raises(SystemExit, match="cannot write results"):
+        cli(["evaluate", "--object", "box", "--experience", "none", "--out", str(blocker / "out")])
+    assert calls == []
+
+
+def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_path, monkeypatch):
+    from graspmanifold import evaluation
+
+    grid = evaluation.grid_preset("quick", "box")[:10]
+    parts = tmp_path / "parts"
+    real = evaluation.run_trial
+    calls = []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 7:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "run_trial", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        gm.evaluate("box", None, grid, seed=3, checkpoint_dir=parts)
+    kept = sorted(p.name for p in parts.glob("part_*.npz"))
+    assert kept and not list(parts.glob("*.tmp"))
+    calls.clear()
+    monkeypatch.setattr(evaluation, "run_trial", lambda *a, **k: calls.append(1) or real(*a, **k))
+    resumed = gm.evaluate("box", None, grid, seed=3, checkpoint_dir=parts)
+    assert len(calls) < 10  # the finished trials were not run again
+    fresh = gm.evaluate("box", None, grid, seed=3)
+    assert [t.hold for t in resumed.trials] == [t.hold for t in fresh.trials]
+    assert np.array_equal([t.posture for t in resumed.trials], [t.posture for t in fresh.trials])
+    with pytest.warns(UserWarning, match="discarded"):  # another seed: the parts are not mixed in
+        gm.evaluate("box", None, grid, seed=4, checkpoint_dir=parts)
