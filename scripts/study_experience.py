@@ -36,6 +36,7 @@ import numpy as np
 
 import graspmanifold as gm
 from graspmanifold.evaluation import EvaluationResult, grid_preset, trial_count
+from graspmanifold.generator import remove_checkpoints
 from graspmanifold.io import atomic_write, write_npz, write_text_atomic
 from graspmanifold.stats import rate_text
 from graspmanifold.study import (
@@ -67,16 +68,22 @@ class Study:
         """One method on one grid, reused from --out when already there."""
         name = obj if isinstance(obj, str) else obj.name
         path = self.out / "evaluation" / f"{name}_{grid_name}_{method}.npz"
+        result = None
         if path.exists():
-            result = EvaluationResult.load(path)
-            self.reused += 1
-        else:
+            try:
+                result = EvaluationResult.load(path)
+                self.reused += 1
+            except ValueError as error:  # truncated, or written by an older version of the library
+                self.log(f"{path} is not reusable ({error}); running it again")
+        if result is None:
             poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
             start = time.perf_counter()
+            parts = path.with_suffix(".parts")
             result = gm.evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
-                                 params=params, preshape=preshape)
+                                 params=params, preshape=preshape, checkpoint_dir=parts)
             result.method, result.grid_name = method, grid_name
             result.save(path)
+            remove_checkpoints(parts)
             self.computed += 1
             self.evaluation_seconds += time.perf_counter() - start
             s = result.summary

@@ -39,7 +39,7 @@ def test_a_trial_whose_physics_failed_is_invalid_not_a_result(tmp_path):
     feather = gm.make_object("cylinder", radius=0.03, length=0.16, mass=1e-6, name="feather")
     pose = np.array([0.0, 0.0, 0.01, 0.0])
     trial = run_trial(feather, None, pose, np.random.default_rng(0))
-    assert not trial.valid and "penetrated" in trial.fault and trial.penetration > PENETRATION_LIMIT
+    assert not trial.valid and "penetrates" in trial.fault and trial.penetration > PENETRATION_LIMIT
     assert not trial.force_closure and not trial.hold
     healthy = run_trial(gm.get_object("cylinder"), None, pose, np.random.default_rng(0))
     assert healthy.valid and healthy.penetration < PENETRATION_LIMIT and healthy.hold
@@ -108,11 +108,31 @@ def _grasp_contacts() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_many_cone_edges_do_not_turn_a_grasp_into_no_force_closure():
-    """64 edges made Qhull fail on this grasp (a precision error), which used to read as epsilon 0."""
+    """64 edges made Qhull fail on this grasp (a precision error), which used to read as epsilon 0;
+    128 took over a minute. Finer cones only add wrenches, so epsilon can only grow with them."""
     points, normals, centre = _grasp_contacts()
-    coarse = gm.epsilon_l1(points, normals, centre, mu=0.6, num_edges=16)
-    fine = gm.epsilon_l1(points, normals, centre, mu=0.6, num_edges=64)
-    assert coarse > 0.1 and coarse <= fine + 1e-9 and fine - coarse < 0.02
+    values = [gm.epsilon_l1(points, normals, centre, mu=0.6, num_edges=k) for k in (8, 16, 32, 64, 128)]
+    assert values[0] > 0.1 and all(a <= b + 1e-9 for a, b in zip(values, values[1:]))
+    assert values[-1] - values[0] < 0.03
+
+
+def test_epsilon_grown_from_a_coarse_hull_equals_the_full_hull():
+    from scipy.spatial import ConvexHull
+
+    from graspmanifold.quality import contact_wrenches
+
+    rng = np.random.default_rng(2)
+    checked = 0
+    for _ in range(12):
+        k = int(rng.integers(3, 9))
+        points = rng.normal(size=(k, 3))
+        points *= 0.03 / np.linalg.norm(points, axis=1, keepdims=True)
+        normals = -points / 0.03 + rng.normal(scale=0.1, size=(k, 3))
+        mu = float(rng.uniform(0.3, 1.0))
+        full = -ConvexHull(contact_wrenches(points, normals, np.zeros(3), mu, 16)).equations[:, -1].max()
+        assert gm.epsilon_l1(points, normals, np.zeros(3), mu, 16) == pytest.approx(max(full, 0.0), abs=1e-9)
+        checked += full > 0
+    assert checked >= 6  # most of them are force closure, so the comparison is not all zeros
 
 
 def test_degenerate_wrench_sets_still_give_zero():
@@ -260,3 +280,21 @@ def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_p
     assert np.array_equal([t.posture for t in resumed.trials], [t.posture for t in fresh.trials])
     with pytest.warns(UserWarning, match="discarded"):  # another seed: the parts are not mixed in
         gm.evaluate("box", None, grid, seed=4, checkpoint_dir=parts)
+
+
+def test_a_hand_placed_inside_an_object_is_a_fault_not_a_huge_force():
+    scene = gm.Scene(gm.make_object("sphere", radius=0.12, name="ball"))
+    scene.set_hand_pose(*gm.facing_pose("sphere", clearance=0.0))  # a 3 cm sphere's pose: deep inside this one
+    assert not scene.healthy() and any("penetrates" in f for f in scene.faults())
+    with pytest.raises(SimulationError, match="penetrates"):
+        scene.run(0.01)
+
+
+@pytest.mark.parametrize("change, field", [({"postures": {"box": 0, "cylinder": 4, "sphere": 4}}, "postures"),
+                                           ({"postures": {"box": 4}}, "postures"), ({"map_size": (0, 5)}, "map_size"),
+                                           ({"epochs": 0}, "epochs"), ({"sigma": (0.5, 6.0)}, "sigma")])
+def test_a_bad_reproduce_config_is_refused_before_any_work(change, field):
+    from graspmanifold.reproduce import ReproduceConfig
+
+    with pytest.raises(ValueError, match=field):
+        ReproduceConfig(**{"postures": {"box": 4, "cylinder": 4, "sphere": 4}, **change})

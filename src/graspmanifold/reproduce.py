@@ -32,7 +32,7 @@ from .io import library_version, write_text_atomic
 from .objects import PAPER_OBJECTS, get_object
 from .postureset import PostureSet
 from .report import RunData, write_figures, write_report
-from .som import SOM
+from .som import SOM, check_schedule
 
 OBJECTS = tuple(PAPER_OBJECTS)
 METHODS = ("none", "database", "som", "som_all")
@@ -51,6 +51,22 @@ class ReproduceConfig:
     seed: int = 0
     image_size: int = 120
     generator: GeneratorParams = field(default_factory=GeneratorParams)
+
+    def __post_init__(self) -> None:
+        def positive_int(value: object) -> bool:
+            return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > 0
+
+        if not isinstance(self.postures, dict) or set(self.postures) != set(OBJECTS) \
+                or not all(positive_int(v) for v in self.postures.values()):
+            raise ValueError(f"ReproduceConfig.postures must give a positive number of candidates for each of "
+                             f"{OBJECTS}, got {self.postures!r}")
+        if len(self.map_size) != 2 or not all(positive_int(v) for v in self.map_size):
+            raise ValueError(f"ReproduceConfig.map_size must be two positive integers, got {self.map_size!r}")
+        for name in ("epochs", "image_size"):
+            if not positive_int(getattr(self, name)):
+                raise ValueError(f"ReproduceConfig.{name} must be a positive integer, got {getattr(self, name)!r}")
+        check_schedule(self.learning_rate, "ReproduceConfig.learning_rate", upper=1.0)
+        check_schedule(self.sigma, "ReproduceConfig.sigma")
 
     def to_json(self) -> dict:
         config = asdict(self)

@@ -157,19 +157,26 @@ class Scene:
         self.check()
 
     def faults(self) -> list[str]:
-        """What went wrong in the physics since the last reset: MuJoCo's warnings (by name, with
-        their count) and a non-finite state; empty when healthy."""
+        """What is wrong with the physics: MuJoCo's warnings since the last reset (by name, with
+        their count), a non-finite state, a contact deeper than PENETRATION_LIMIT now; empty when healthy."""
         found = [f"MuJoCo warning {name} x{self.data.warning[index].number}"
                  for index, name in _WARNINGS if self.data.warning[index].number > 0]
         if not (np.all(np.isfinite(self.data.qpos)) and np.all(np.isfinite(self.data.qvel))):
             found.append("non-finite joint positions or velocities")
+        if self.penetration() > PENETRATION_LIMIT:
+            found.append(f"a contact penetrates {self.penetration() * 1000:.1f} mm "
+                         f"(limit {PENETRATION_LIMIT * 1000:.0f} mm)")
         return found
 
+    def healthy(self) -> bool:
+        """No fault (see `faults`), checked fast: MuJoCo itself warns about (and resets) non-finite
+        or huge positions, velocities and accelerations, so its warning counters and the deepest
+        contact are all this reads."""
+        return not self.data.warning.number.any() and self.penetration() <= PENETRATION_LIMIT
+
     def check(self) -> None:
-        """Raise SimulationError if the physics failed since the last reset (see `faults`). MuJoCo
-        itself warns about (and resets) non-finite or huge positions, velocities and accelerations,
-        so its warning counters are what this reads."""
-        if self.data.warning.number.any():
+        """Raise SimulationError if the physics failed (see `faults`)."""
+        if not self.healthy():
             found = self.faults()
             raise SimulationError(f"the simulation of the {self.object.name} scene failed at "
                                   f"t = {self.data.time:.3f} s: {'; '.join(found)}; its state is not "

@@ -73,7 +73,7 @@ def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
     return np.ascontiguousarray(data)
 
 
-def _pair(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
+def check_schedule(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
     """A decaying (start, end) schedule: positive, below `upper`, start >= end."""
     try:
         start, end = (float(v) for v in value)  # type: ignore[union-attr]
@@ -183,8 +183,8 @@ class SOM:
         epochs = _positive_int(epochs, "epochs")
         if algorithm not in ALGORITHMS:
             raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
-        rates = decay_schedule(*_pair(learning_rate, "learning_rate", upper=1.0), epochs)
-        widths = decay_schedule(*_pair(sigma, "sigma"), epochs)
+        rates = decay_schedule(*check_schedule(learning_rate, "learning_rate", upper=1.0), epochs)
+        widths = decay_schedule(*check_schedule(sigma, "sigma"), epochs)
         if restart or not self.is_fitted:
             self.history = []
             self.initialize(data)
