@@ -169,7 +169,7 @@ class Trial:
     time_to_grasp: float
     matches: int
     margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
-    penetration: float = 0.0  # m, the deepest contact seen at the end of any control cycle
+    penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
     fault: str = ""  # why the physics of this trial failed; empty when it did not
 
     @property
@@ -210,16 +210,11 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
     period = controller.params.control_period
-    deepest = 0.0
 
     def cycle() -> None:
-        nonlocal deepest
         sensed = scene.posture() + rng.normal(0.0, noise.joints, 22) if noise.joints else scene.posture()
         scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
-        try:
-            scene.run(period)
-        finally:
-            deepest = max(deepest, scene.penetration())
+        scene.run(period)
 
     grid_pose = np.asarray(grid_pose, dtype=float)
     try:
@@ -230,10 +225,10 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
         judgement = judge_grasp(scene, cycle, period)
     except (SimulationError, QualityError) as error:
         return Trial(grid_pose, scene.posture(), np.zeros(len(SEGMENTS), dtype=bool), 0.0, False, np.inf,
-                     float(scene.time), controller.matches, 0.0, deepest, str(error))
+                     float(scene.time), controller.matches, 0.0, scene.max_penetration, str(error))
     return Trial(grid_pose, posture, np.array([reading.touches(s) for s in SEGMENTS]),
                  judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
-                 controller.matches, judgement.margin, deepest)
+                 controller.matches, judgement.margin, scene.max_penetration)
 
 
 @dataclass

@@ -94,25 +94,26 @@ def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: 
     wrenches = contact_wrenches(points, normals, center, mu, num_edges, torque_scale)
     if len(points) < 2:
         return 0.0
-    every = np.unique(np.round(wrenches, 12), axis=0)  # coinciding contacts give the same edges
-    if np.linalg.matrix_rank(every, tol=1e-9) < 6:
+    every, row = np.unique(np.round(wrenches, 12), axis=0, return_inverse=True)  # coinciding contacts
+    if np.linalg.matrix_rank(every, tol=1e-9) < 6:                                  # give the same edges
         return 0.0
     coarse = np.zeros(num_edges, dtype=bool)  # COARSE_EDGES evenly spaced edges of every cone
-    coarse[np.floor(np.arange(min(COARSE_EDGES, num_edges)) * num_edges / min(COARSE_EDGES, num_edges)).astype(int)] = True
-    subset = np.unique(np.round(wrenches[np.tile(coarse, len(points))], 12), axis=0)
-    if np.linalg.matrix_rank(subset, tol=1e-9) < 6:
-        subset = every
+    count = min(COARSE_EDGES, num_edges)
+    coarse[np.floor(np.arange(count) * num_edges / count).astype(int)] = True
+    chosen = np.zeros(len(every), dtype=bool)
+    chosen[row.ravel()[np.tile(coarse, len(points))]] = True
+    if np.linalg.matrix_rank(every[chosen], tol=1e-9) < 6:
+        chosen[:] = True
     tolerance = 1e-10 * float(np.abs(every).max())
     while True:
-        hull = _hull(subset)
+        hull = _hull(every[chosen])
         facet = int(np.argmax(hull.equations[:, -1]))  # unit normal . x + offset <= 0 inside
         normal, distance = hull.equations[facet, :-1], -hull.equations[facet, -1]
         heights = every @ normal
-        beyond = np.flatnonzero(heights > distance + tolerance)
+        beyond = np.flatnonzero((heights > distance + tolerance) & ~chosen)
         if not len(beyond):  # the nearest facet supports every wrench: it is the whole set's nearest too
             return float(distance) if distance > 1e-12 else 0.0
-        highest = beyond[np.argsort(-heights[beyond])[:REFINE_WRENCHES]]
-        subset = np.unique(np.vstack([subset, every[highest]]), axis=0)
+        chosen[beyond[np.argsort(-heights[beyond])[:REFINE_WRENCHES]]] = True
 
 
 class QualityError(RuntimeError):

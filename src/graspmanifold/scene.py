@@ -142,6 +142,7 @@ class Scene:
     def reset(self) -> None:
         """Back to the model's initial state: hand open and straight, 5 cm in front of the object."""
         mujoco.mj_resetData(self.model, self.data)
+        self.max_penetration = 0.0  # m, the deepest contact `check` has seen since the reset
         self.set_hand_pose(*facing_pose(self.object, clearance=0.05))
 
     def forward(self) -> None:
@@ -175,8 +176,11 @@ class Scene:
         return not self.data.warning.number.any() and self.penetration() <= PENETRATION_LIMIT
 
     def check(self) -> None:
-        """Raise SimulationError if the physics failed (see `faults`)."""
-        if not self.healthy():
+        """Raise SimulationError if the physics failed (see `faults`); `step` and `run` call it.
+        Keeps `max_penetration` up to date."""
+        depth = self.penetration()
+        self.max_penetration = max(self.max_penetration, depth)
+        if self.data.warning.number.any() or depth > PENETRATION_LIMIT:
             found = self.faults()
             raise SimulationError(f"the simulation of the {self.object.name} scene failed at "
                                   f"t = {self.data.time:.3f} s: {'; '.join(found)}; its state is not "
@@ -184,9 +188,8 @@ class Scene:
 
     def penetration(self) -> float:
         """The deepest penetration (m) of any contact now (0 when nothing overlaps)."""
-        if self.data.ncon == 0:
-            return 0.0
-        return max(0.0, -float(np.min(self.data.contact.dist[: self.data.ncon])))
+        ncon = self.data.ncon
+        return max(0.0, -float(self.data.contact.dist[:ncon].min())) if ncon else 0.0
 
     def run(self, seconds: float) -> None:
         """Advance the physics by (about) `seconds` of simulated time (at least one timestep)."""
