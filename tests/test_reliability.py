@@ -194,13 +194,16 @@ def _alive(pid: int) -> bool:
 
 
 def _start_generate(tmp_path):
+    import signal
     import subprocess
     import sys
     import time
 
     command = [sys.executable, "-c", "import sys; from graspmanifold.cli import main; sys.exit(main())",
                "generate", "--object", "cylinder", "--n", "2000", "--workers", "2", "--out", str(tmp_path / "x.npz")]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # a background job's SIGINT is ignored and the child would inherit that: give it the default back
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while len(_children(process.pid)) < 2:
         assert process.poll() is None and time.monotonic() < deadline, "the workers never started"
