@@ -43,6 +43,19 @@ from .tactile import TactileReading, TactileSensor
 
 __version__ = "0.1.0"
 
+#: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
+#: plotting pulls in matplotlib, which a simulation-only user does not need
+_SUBMODULES = ("analysis", "evaluation", "figures", "io", "judge", "plots", "quality", "render", "report",
+               "reproduce", "stats", "study", "workers")
+
+
+def __getattr__(name: str) -> object:
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'graspmanifold' has no attribute {name!r}")
+
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",

@@ -1,4 +1,9 @@
-"""The `graspmanifold` command."""
+"""graspmanifold: experience-based tactile grasping with the Shadow Hand in MuJoCo.
+
+Commands: `reproduce` regenerates the paper's figures and tables, `generate` makes grasp postures,
+`evaluate` runs the controller over a grid of object poses, `demo` closes the hand once, `view`
+opens MuJoCo's viewer. `graspmanifold COMMAND --help` shows each command's options and defaults.
+"""
 
 from __future__ import annotations
 
@@ -121,8 +126,6 @@ def _evaluate(args: argparse.Namespace) -> int:
     from .generator import remove_checkpoints
     from .io import write_text_atomic
 
-    if args.experience not in ("none", "database", "som"):
-        raise SystemExit(f"error: --experience must be none, database or som, got {args.experience!r}")
     out = Path(args.out)
     checkpoints = out / "trials.parts"
     results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
@@ -161,57 +164,74 @@ def _reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__)
-    commands = parser.add_subparsers(dest="command", required=True)
+#: one default for every command that runs workers: the machine's cores, at most two
+DEFAULT_WORKERS = max(1, min(2, os.cpu_count() or 1))
 
-    reproduce = commands.add_parser("reproduce", help="regenerate every figure and table of the paper")
-    reproduce.add_argument("--preset", default="quick", help="quick (minutes) or paper (the paper's sizes)")
-    reproduce.add_argument("--out", default="reproduction", help="output directory (default: reproduction)")
-    reproduce.add_argument("--workers", type=int, default=max(1, min(2, os.cpu_count() or 1)))
+
+def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    formatter = argparse.ArgumentDefaultsHelpFormatter
+    parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__, formatter_class=formatter)
+    parser.add_argument("--version", action="version", version=f"graspmanifold {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def command(name: str, help: str) -> argparse.ArgumentParser:
+        return commands.add_parser(name, help=help, description=help, formatter_class=formatter)
+
+    def workers(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
+
+    reproduce = command("reproduce", "regenerate every figure and table of the paper into one directory")
+    reproduce.add_argument("--preset", choices=("quick", "paper"), default="quick",
+                           help="quick (minutes) or paper (the paper's sizes)")
+    reproduce.add_argument("--out", default="reproduction", help="output directory")
+    workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
     reproduce.set_defaults(run=_reproduce)
 
-    demo = commands.add_parser("demo", help="close the hand on an object and print the touching segments")
-    demo.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
-    demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close (default 2)")
-    demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m (default 0.01)")
-    demo.set_defaults(run=_demo)
-
-    generate = commands.add_parser("generate", help="generate grasp postures with the spring generator")
+    generate = command("generate", "generate grasp postures with the spring generator (verified as grasps)")
     generate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
     generate.add_argument("--n", type=int, help="number of candidate postures (default: the preset's size for the "
                           "object); only the candidates that hold are kept unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every five-fingertip candidate without replaying it as a grasp")
-    generate.add_argument("--preset", choices=("paper", "quick"), default="paper",
-                          help="dataset sizes when --n is not given: paper (box 4069, cylinder 4220, sphere 1885) or quick")
+    generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
+                          help="dataset sizes when --n is not given: quick (box 240, cylinder 240, sphere 160) or "
+                               "paper (box 4069, cylinder 4220, sphere 1885)")
     generate.add_argument("--out", required=True, help="output .npz file")
-    generate.add_argument("--workers", type=int, default=1, help="parallel worker processes (default 1)")
+    workers(generate)
     generate.add_argument("--seed", type=int, default=0)
     generate.add_argument("--force", action="store_true", help="overwrite an existing output file")
     generate.set_defaults(run=_generate)
 
-    evaluate = commands.add_parser("evaluate", help="run the grasp controller over a grid of object poses")
+    evaluate = command("evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
     evaluate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
-    evaluate.add_argument("--experience", default="som", help="none (plain tactile heuristic), database or som")
+    evaluate.add_argument("--experience", choices=("none", "database", "som"), default="som",
+                          help="none (plain tactile heuristic), a database of --postures, or a SOM")
     evaluate.add_argument("--postures", nargs="*", help="posture set file(s) for the database or the SOM")
     evaluate.add_argument("--som", help="a trained SOM file (instead of training one on --postures)")
     evaluate.add_argument("--grid", choices=GRID_PRESETS, default="quick")
     evaluate.add_argument("--table", action="store_true",
                           help="the object stands on a table (gravity on) instead of a spring support")
-    evaluate.add_argument("--workers", type=int, default=1)
+    workers(evaluate)
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
-    evaluate.add_argument("--force", action="store_true", help="overwrite results in a non-empty --out")
+    evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)
 
-    view = commands.add_parser("view", help="open MuJoCo's interactive viewer on a scene")
+    demo = command("demo", "close the hand on an object and print the touching segments")
+    demo.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close")
+    demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
+    demo.set_defaults(run=_demo)
+
+    view = command("view", "open MuJoCo's interactive viewer on a scene (needs a display)")
     view.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
-    view.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m (default 0.01)")
+    view.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     view.add_argument("--close", action="store_true", help="command the closed posture (press space to run)")
     view.set_defaults(run=_view)
     return parser

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .experience import Experience
+from .experience import Experience, check_experience
 from .hand import FINGER_JOINTS, FINGERS, SEGMENTS, finger_limits, finger_of
 from .posture import closed_posture, open_posture, pcp_mask, validate_posture
 
@@ -101,16 +101,6 @@ class ControllerParams:
             raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
 
-def check_experience(experience: object) -> Experience | None:
-    if experience is None:
-        return None
-    if not isinstance(experience, Experience):
-        raise ValueError(f"experience must be None, a PostureDatabase or a SOM, got {type(experience).__name__}")
-    if experience.dim != len(FINGER_JOINTS):
-        raise ValueError(f"experience must hold {len(FINGER_JOINTS)}-joint postures, it has dim {experience.dim}")
-    return experience
-
-
 def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
     """The posture with its flexion joints pushed `amount` rad further towards the closed hand:
     the target that makes fingers touching an object press on it (clipped to the joint ranges)."""
@@ -155,6 +145,11 @@ class GraspController:
         self._target = self.initial.copy()
         self._touching: frozenset[str] = frozenset()
         self._stable_since = 0.0
+
+    def __repr__(self) -> str:
+        experience = "none" if self.experience is None else type(self.experience).__name__
+        return (f"GraspController(experience {experience}, phase {self.phase}, {self.matches} matches"
+                f"{', done' if self.done else ''})")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
         """One control cycle: sensed joint angles (22,) and normal force per segment -> joint targets (22,)."""

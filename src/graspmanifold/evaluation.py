@@ -39,8 +39,8 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .controller import ControllerParams, GraspController, check_experience
-from .experience import Experience
+from .controller import ControllerParams, GraspController
+from .experience import Experience, check_experience
 from .hand import SEGMENTS
 from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
@@ -172,6 +172,12 @@ class Trial:
     penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
     fault: str = ""  # why the physics of this trial failed; empty when it did not
 
+    def __repr__(self) -> str:
+        outcome = f"invalid: {self.fault}" if self.fault else (
+            f"{'held' if self.hold else 'dropped'}, epsilon {self.epsilon:.3f}, margin {self.margin:.1f} N, "
+            f"{self.time_to_grasp:.2f} s")
+        return f"Trial(pose {np.round(self.grid_pose, 3).tolist()}: {outcome})"
+
     @property
     def valid(self) -> bool:
         """The physics of this trial worked: its outcome says something about the controller."""
@@ -241,6 +247,14 @@ class EvaluationResult:
     seed: int
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return (f"EvaluationResult({s['object']} / {self.method} on the {self.grid_name} grid: "
+                f"{trial_count(s)} trials, hold {s['hold_rate']:.0%}, force closure {s['force_closure_rate']:.0%})")
+
+    def _repr_markdown_(self) -> str:
+        return self.markdown()
 
     @property
     def summary(self) -> dict[str, float | int | str]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from .io import fingerprint, load_npz, save_npz
 from .nearest import MaskedNearest, check_queries, check_query
+from .postureset import N_JOINTS, PostureSet
 from .som import check_data
 
 
@@ -73,3 +74,18 @@ class PostureDatabase:
 
     def __repr__(self) -> str:
         return f"PostureDatabase({len(self)} postures, dim={self.dim})"
+
+
+def check_experience(experience: object) -> Experience | None:
+    """The experience base a controller uses: None (the purely tactile controller), any `Experience`
+    (a PostureDatabase, a SOM), or a PostureSet, which becomes the database of its postures."""
+    if experience is None:
+        return None
+    if isinstance(experience, PostureSet):
+        experience = PostureDatabase(experience.postures)
+    if not isinstance(experience, Experience):
+        raise ValueError(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
+                         f"got {type(experience).__name__}")
+    if experience.dim != N_JOINTS:
+        raise ValueError(f"experience must hold {N_JOINTS}-joint postures, it has dim {experience.dim}")
+    return experience

@@ -17,9 +17,10 @@ HIT_COLOUR = (0.35, 0.8, 0.35)
 
 
 def _new_axes(size: float = 5.0) -> Axes:
-    from matplotlib.figure import Figure
+    """Axes on a new pyplot figure, so `plt.show()` and notebooks display it."""
+    import matplotlib.pyplot as plt
 
-    return Figure(figsize=(size, size)).add_subplot()
+    return plt.figure(figsize=(size, size)).add_subplot()
 
 
 def plot_lattice(som: SOM, ax: Axes | None = None, *, hits: np.ndarray | None = None,

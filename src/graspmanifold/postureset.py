@@ -50,6 +50,23 @@ class PostureSet:
     def __len__(self) -> int:
         return len(self.postures)
 
+    def __array__(self, dtype: object = None, copy: bool | None = None) -> np.ndarray:
+        """The (n, 22) postures, so a PostureSet goes wherever postures do (`np.asarray`, `SOM.fit`)."""
+        return self.postures if dtype is None else self.postures.astype(dtype)
+
+    def __getitem__(self, index: int | np.ndarray | slice) -> np.ndarray | PostureSet:
+        """One posture (22,) for an integer; a PostureSet of the selection for a slice, mask or index array."""
+        if isinstance(index, (int, np.integer)):
+            return self.postures[index]
+        return self.subset(index)
+
+    def __repr__(self) -> str:
+        obj = self.metadata.get("object", {})
+        name = obj.get("name", "?") if isinstance(obj, dict) else "?"
+        verified = np.isfinite(self.epsilon).sum()
+        return (f"PostureSet({len(self)} postures of {name}, {len(self.start_names)} starting postures, "
+                f"{verified} verified)")
+
     def subset(self, index: np.ndarray | slice) -> PostureSet:
         """The postures selected by an index array, boolean mask or slice."""
         return PostureSet(self.postures[index], self.hand_poses[index], self.start_ids[index],

@@ -138,6 +138,12 @@ class Scene:
         self.set_gravity(gravity)
         self.reset()
 
+    def __repr__(self) -> str:
+        support = "free" if self.free_object else "welded"
+        extras = ", table" if self.table_geom is not None else ""
+        return (f"Scene({self.object.name} ({self.object.shape}, {support}{extras}), t = {self.time:.3f} s, "
+                f"{self.data.ncon} contacts)")
+
     # -- state -----------------------------------------------------------------------------------
     def reset(self) -> None:
         """Back to the model's initial state: hand open and straight, 5 cm in front of the object."""
