@@ -68,3 +68,35 @@ def test_the_command_line_is_consistent(capsys):
     with pytest.raises(SystemExit):
         cli(["evaluate", "--experience", "oracle", "--out", "x"])
     assert "invalid choice: 'oracle'" in capsys.readouterr().err
+
+
+def test_a_scene_draws_itself_from_named_cameras():
+    from graspmanifold.scene import CAMERAS
+
+    scene = gm.Scene("cylinder")
+    scene.set_hand_pose(*gm.facing_pose("cylinder"))
+    pictures = {name: scene.render(name, 96, 64) for name in CAMERAS}
+    for name, picture in pictures.items():
+        assert picture.shape == (64, 96, 3) and picture.dtype == np.uint8 and picture.std() > 10, name
+    assert np.abs(pictures["hand"].astype(int) - pictures["top"]).mean() > 5  # other viewpoints, other pictures
+    assert scene._repr_png_().startswith(b"\x89PNG")
+    with pytest.raises(ValueError, match="unknown camera"):
+        scene.render("ceiling")
+    with pytest.raises(ValueError, match="width"):
+        scene.render("hand", width=0)
+
+
+def test_a_recorded_trial_is_the_evaluated_trial_and_animates(tmp_path):
+    pose = (0.0, 0.0, 0.01, 0.0)
+    recording = gm.record_trial("box", None, pose, seed=5, every=10)
+    evaluated = gm.evaluate("box", None, np.array([pose]), seed=5).trials[0]
+    assert recording.trial.hold == evaluated.hold
+    assert np.array_equal(recording.trial.posture, evaluated.posture)
+    assert len(recording.states) > 10 and recording.period == pytest.approx(0.2)
+    path = recording.save_gif(tmp_path / "grasp.gif", width=64, height=48)
+    from PIL import Image
+
+    with Image.open(path) as gif:
+        assert gif.n_frames > 5 and gif.size == (64, 48)
+    with pytest.raises(ValueError, match="every"):
+        gm.record_trial("box", every=0)

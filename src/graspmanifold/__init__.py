@@ -19,7 +19,7 @@ from .hand import (
 )
 from .analysis import resume_learning, smoothness
 from .controller import ControllerParams, GraspController
-from .evaluation import EvaluationResult, Noise, evaluate, grid_preset, reachable
+from .evaluation import EvaluationResult, Noise, Recording, evaluate, grid_preset, reachable, record_trial
 from .experience import Experience, PostureDatabase
 from .generator import PRESETS, GeneratorParams, generate_postures
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
@@ -60,7 +60,7 @@ __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "clip_posture",
+    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
     "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",

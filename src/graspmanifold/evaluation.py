@@ -32,6 +32,7 @@ import json
 import os
 import pickle
 import warnings
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -203,11 +204,13 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
               rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
-              table: bool = False, preshape: np.ndarray | None = None) -> Trial:
+              table: bool = False, preshape: np.ndarray | None = None,
+              observer: Callable[[Scene], None] | None = None) -> Trial:
     """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
 
     The object is held by a spring support with gravity off, or (`table=True`) stands on a table
-    with gravity on while the hand closes."""
+    with gravity on while the hand closes. `observer(scene)` is called after the start and after
+    every control period, the judging included (`record_trial` keeps the states it sees)."""
     scene = Scene(obj, free_object=True, gravity=table, table=table)
     if not table:
         scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
@@ -216,11 +219,15 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(controller.initial)
     period = controller.params.control_period
+    if observer is not None:
+        observer(scene)
 
     def cycle() -> None:
         sensed = scene.posture() + rng.normal(0.0, noise.joints, 22) if noise.joints else scene.posture()
         scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
         scene.run(period)
+        if observer is not None:
+            observer(scene)
 
     grid_pose = np.asarray(grid_pose, dtype=float)
     try:
@@ -337,6 +344,57 @@ class EvaluationResult:
                         float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]))
+
+
+@dataclass
+class Recording:
+    """A trial with the scene's state every `period` seconds, for pictures and animations."""
+
+    trial: Trial
+    scene: Scene
+    states: np.ndarray  # (k, len(Scene.state()))
+    period: float
+
+    def frames(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
+        """Pictures (k, height, width, 3) uint8 of every recorded state from a named camera."""
+        from .render import render_states
+
+        return render_states(self.scene, self.states, camera, width, height)
+
+    def save_gif(self, path: str | os.PathLike, camera: str = "hand", width: int = 320, height: int = 240,
+                 speed: float = 1.0) -> Path:
+        """An animated GIF of the trial, `speed` times real time."""
+        from .render import save_animation
+
+        return save_animation(self.frames(camera, width, height), path, fps=speed / self.period)
+
+
+def record_trial(obj: str | GraspObject, experience: Experience | None = None,
+                 grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
+                 noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
+                 preshape: np.ndarray | None = None) -> Recording:
+    """Run one trial as `evaluate` would at this grid pose (x, z, gap, yaw) and keep the scene's
+    state every `every` control periods: `record_trial("box").save_gif("grasp.gif")`, or
+    `recording.scene.render()` for its final state."""
+    obj = get_object(obj)
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValueError(f"every must be a positive whole number of control periods, got {every!r}")
+    grid_pose = np.asarray(tuple(grid_pose), dtype=float)
+    if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
+        raise ValueError(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
+    states: list[np.ndarray] = []
+    scenes: list[Scene] = []
+
+    def observe(scene: Scene) -> None:
+        if not scenes:
+            scenes.append(scene)
+        if len(scenes) == 1 and (len(states) == 0 or (round(scene.time / period) % every == 0)):
+            states.append(scene.state())
+
+    period = (params or ControllerParams()).control_period
+    trial = run_trial(obj, check_experience(experience), grid_pose, np.random.default_rng([seed, 0]),
+                      noise or Noise(), params, table, preshape, observer=observe)
+    return Recording(trial, scenes[0], np.array(states), every * period)
 
 
 def trial_count(summary: dict) -> str:

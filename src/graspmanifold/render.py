@@ -1,4 +1,5 @@
-"""Offscreen pictures of hand postures with MuJoCo's renderer, on a headless machine.
+"""Offscreen pictures of hand postures and of scenes with MuJoCo's renderer, on a headless machine,
+and animations of them (GIF, through Pillow).
 
 MuJoCo picks its OpenGL backend when it is first imported, so the pictures are made in a child
 process with MUJOCO_GL set explicitly (EGL first, then OSMesa). Where neither works,
@@ -7,13 +8,18 @@ process with MUJOCO_GL set explicitly (EGL first, then OSMesa). Where neither wo
 
 from __future__ import annotations
 
+import io
 import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 BACKENDS = ("egl", "osmesa")
 HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get install libegl1 libgl1 "
@@ -24,16 +30,15 @@ class RenderingUnavailable(RuntimeError):
     """No offscreen OpenGL context could be created."""
 
 
-def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
-    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
-    postures = np.asarray(postures, dtype=float).reshape(-1, 22)
+def _in_child(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.ndarray:
+    """Run a drawing job in a child process with each offscreen backend in turn; its images."""
     errors = []
     with tempfile.TemporaryDirectory() as tmp:
-        source, target = Path(tmp) / "postures.npy", Path(tmp) / "images.npy"
-        np.save(source, postures)
+        source, target = Path(tmp) / "job.npz", Path(tmp) / "images.npy"
+        np.savez(source, **job)
         for backend in backends or BACKENDS:
             env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
-            run = subprocess.run([sys.executable, "-m", "graspmanifold.render", str(source), str(target), str(size)],
+            run = subprocess.run([sys.executable, "-m", "graspmanifold.render", str(source), str(target)],
                                  env=env, capture_output=True, text=True)
             if run.returncode == 0 and target.exists():
                 return np.load(target)
@@ -41,7 +46,63 @@ def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, 
     raise RenderingUnavailable(f"no offscreen OpenGL context ({'; '.join(errors)}); to enable, {HOW_TO_ENABLE}")
 
 
-def _render_in_this_process(postures: np.ndarray, size: int) -> np.ndarray:
+def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
+    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
+    postures = np.asarray(postures, dtype=float).reshape(-1, 22)
+    return _in_child({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size))}, backends)
+
+
+def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
+                  backends: tuple[str, ...] | None = None) -> np.ndarray:
+    """Images (k, height, width, 3) uint8 of a scene in each of k states (`Scene.state()`), from
+    one of its named cameras (`scene.CAMERAS`)."""
+    from .scene import CAMERAS
+
+    if camera not in CAMERAS:
+        raise ValueError(f"unknown camera {camera!r}; expected one of {tuple(CAMERAS)}")
+    for name, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 16 <= value <= 4096:
+            raise ValueError(f"{name} must be a whole number of pixels in 16 ... 4096, got {value!r}")
+    states = np.asarray(states, dtype=float)
+    if states.ndim != 2 or states.shape[1] != len(scene.state()) or not np.all(np.isfinite(states)):
+        raise ValueError(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
+                         f"got {states.shape}")
+    return _in_child({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
+                      "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height))},
+                     backends)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An RGB image (h, w, 3) uint8 as PNG bytes."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.asarray(image, dtype=np.uint8)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def save_animation(frames: np.ndarray, path: str | os.PathLike, fps: float = 25.0) -> Path:
+    """Write frames (k, h, w, 3) uint8 as an animated GIF that loops (Pillow), atomically."""
+    from PIL import Image
+
+    from .io import atomic_write
+
+    frames = np.asarray(frames)
+    if frames.ndim != 4 or frames.shape[-1] != 3 or not len(frames):
+        raise ValueError(f"frames must have shape (k, height, width, 3) with k >= 1, got {frames.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be positive, got {fps!r}")
+    path = Path(path)
+    if path.suffix.lower() != ".gif":
+        raise ValueError(f"path must end in .gif, got {str(path)!r}")
+    images = [Image.fromarray(frame.astype(np.uint8)) for frame in frames]
+    with atomic_write(path) as handle:
+        images[0].save(handle, format="GIF", save_all=True, append_images=images[1:],
+                       duration=round(1000 / fps), loop=0)
+    return path
+
+
+def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
     import mujoco
 
     from .hand import load_hand
@@ -79,6 +140,30 @@ def _render_in_this_process(postures: np.ndarray, size: int) -> np.ndarray:
     return images
 
 
+def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: int) -> np.ndarray:
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    data = mujoco.MjData(model)
+    renderer = mujoco.Renderer(model, height, width)
+    images = np.empty((len(states), height, width, 3), dtype=np.uint8)
+    for i, state in enumerate(states):
+        data.qpos[:] = state[: model.nq]
+        data.mocap_pos[0], data.mocap_quat[0] = state[model.nq: model.nq + 3], state[model.nq + 3:]
+        mujoco.mj_forward(model, data)
+        renderer.update_scene(data, camera)
+        images[i] = renderer.render()
+    renderer.close()
+    return images
+
+
 if __name__ == "__main__":
-    source, target, pixels = sys.argv[1], sys.argv[2], int(sys.argv[3])
-    np.save(target, _render_in_this_process(np.load(source), pixels))
+    with np.load(sys.argv[1]) as job:
+        if str(job["kind"]) == "postures":
+            pictures = _draw_postures(job["postures"], int(job["size"]))
+        else:
+            pictures = _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]),
+                                   int(job["height"]))
+    np.save(sys.argv[2], pictures)

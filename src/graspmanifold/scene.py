@@ -89,6 +89,24 @@ def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float =
     return pos, quat
 
 
+#: Named cameras of every scene (see `Scene.render`), all aimed at the object: `hand` rides on the
+#: palm (the same view of every grasp), `front` looks at the palm through the object in the nominal
+#: placement, `side` from beyond the fingertips, `top` from above.
+CAMERAS: dict[str, tuple[str, tuple[float, float, float]]] = {
+    "hand": ("palm", (0.2, -0.33, 0.16)),
+    "front": ("world", (-0.4, 0.05, 0.12)),
+    "side": ("world", (0.05, 0.4, 0.12)),
+    "top": ("world", (0.05, 0.0, 0.42)),
+}
+
+
+def _add_cameras(spec: mujoco.MjSpec) -> None:
+    for name, (parent, pos) in CAMERAS.items():
+        body = spec.worldbody if parent == "world" else spec.body(parent)
+        body.add_camera(name=name, pos=list(pos), mode=mujoco.mjtCamLight.mjCAMLIGHT_TARGETBODY,
+                        targetbody="object", fovy=40.0)
+
+
 class Scene:
     """The hand and one object in a MuJoCo model, with helpers to pose, actuate and sense.
 
@@ -120,6 +138,7 @@ class Scene:
             spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.25, 0.25, 0.01],
                                     pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
                                     solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
+        _add_cameras(spec)
         self.spec = spec
         self.model = spec.compile()
         self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
@@ -283,6 +302,28 @@ class Scene:
     def set_target(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
         """Command the actuators towards a posture (the hand moves when the physics steps)."""
         self.data.ctrl[:] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True), wrist)
+
+    # -- pictures --------------------------------------------------------------------------------
+    def state(self) -> np.ndarray:
+        """What a picture of the scene depends on, as one flat array: joint positions and the
+        hand mount's pose (`render_states` draws a list of them, e.g. the frames of a trial)."""
+        return np.concatenate([self.data.qpos, self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id]])
+
+    def render(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
+        """An RGB picture (height, width, 3) uint8 of the scene now from a named camera (CAMERAS).
+        Drawn offscreen in a child process (see `render`), so it works on a headless machine."""
+        from .render import render_states
+
+        return render_states(self, self.state()[None], camera, width, height)[0]
+
+    def _repr_png_(self) -> bytes | None:
+        """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""
+        from .render import RenderingUnavailable, png_bytes
+
+        try:
+            return png_bytes(self.render())
+        except RenderingUnavailable:
+            return None
 
     # -- sensing ---------------------------------------------------------------------------------
     def tactile(self) -> TactileReading:
