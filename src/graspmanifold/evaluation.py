@@ -46,7 +46,7 @@ from .hand import SEGMENTS
 from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import open_posture
-from .progress import Progress
+from .progress import progress_bar
 from .workers import worker_pool
 from .quality import QualityError
 from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
@@ -490,10 +490,9 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         directory.mkdir(parents=True, exist_ok=True)
         done = _load_parts(directory, signature, chunks)
     method = method_name(experience)
-    report = Progress(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
-    report.update(sum(len(t) for t in done.values()))
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
+    report = progress_bar(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
 
     def keep(number: int, trials: list[Trial]) -> None:
         done[number] = trials
@@ -504,14 +503,16 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         report.update(len(trials))
 
     initargs = (obj, experience, noise, params, table, preshape)
-    if workers == 1:
-        _init_worker(*initargs)
-        for number, task in zip(pending, tasks):
-            keep(number, [trial for _, trial in _chunk_worker(task)])
-    else:
-        with worker_pool(workers, _init_worker, initargs) as pool:
-            for number, chunk in zip(pending, pool.map(_chunk_worker, tasks)):
-                keep(number, [trial for _, trial in chunk])
+    with report:
+        report.update(sum(len(t) for t in done.values()))
+        if workers == 1:
+            _init_worker(*initargs)
+            for number, task in zip(pending, tasks):
+                keep(number, [trial for _, trial in _chunk_worker(task)])
+        else:
+            with worker_pool(workers, _init_worker, initargs) as pool:
+                for number, chunk in zip(pending, pool.map(_chunk_worker, tasks)):
+                    keep(number, [trial for _, trial in chunk])
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
     return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise)
 

@@ -42,7 +42,7 @@ from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
 from .objects import GraspObject, get_object
 from .postureset import PostureSet
 from .posture import posture_to_ctrl
-from .progress import Progress
+from .progress import progress_bar
 from .workers import worker_pool
 from .scene import Scene, SimulationError
 from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
@@ -323,21 +323,20 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
                           "configuration (object, seed, n or parameters) or could not be read: "
                           f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=2)
-    report = Progress(n, f"generate {obj.name}", "candidates", enabled=progress)
-    if results:
-        report.update(sum(jobs[i].quota for i in results))
     pending = [(i, obj, starts[job.start_index], job, seed, params, directory, signature)
                for i, job in enumerate(jobs) if i not in results]
-    if workers == 1:
-        for args in pending:
-            index, result = _job_worker(args)
-            results[index] = result
-            report.update(jobs[index].quota)
-    else:
-        with worker_pool(workers) as pool:
-            for index, result in pool.map(_job_worker, pending):
+    with progress_bar(n, f"generate {obj.name}", "candidates", enabled=progress) as report:
+        report.update(sum(jobs[i].quota for i in results))
+        if workers == 1:
+            for args in pending:
+                index, result = _job_worker(args)
                 results[index] = result
                 report.update(jobs[index].quota)
+        else:
+            with worker_pool(workers) as pool:
+                for index, result in pool.map(_job_worker, pending):
+                    results[index] = result
+                    report.update(jobs[index].quota)
     ordered = [results[i] for i in range(len(jobs))]
     tries = int(sum(int(r["tries"]) for r in ordered))
     faults = int(sum(int(r.get("faults", 0)) for r in ordered))

@@ -100,18 +100,15 @@ def _renderer(image_size: int) -> tuple[Callable | None, str]:
 def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = print,
                   only: str | None = None) -> dict:
     """Write every figure (or only one) as PNG and PDF; hand pictures only where OpenGL works."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     render, message = _renderer(run.config["image_size"])
     if render is None:
         log(f"figures: skipping the rendered hand figures: {message}")
     directory.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, build in _figure_builders(run, render).items():
-        if only is not None and name != only:
-            continue
-        figure = build()
+    builders = {name: build for name, build in _figure_builders(run, render).items() if only in (None, name)}
+    for number, (name, build) in enumerate(builders.items(), start=1):
+        log(f"figures: {name} ({number} of {len(builders)})")
+        figure = build()  # a matplotlib Figure, no pyplot: nothing global is touched
         for suffix in ("png", "pdf"):
             with atomic_write(directory / f"{name}.{suffix}") as handle:
                 figure.savefig(handle, format=suffix, dpi=110,

@@ -107,8 +107,8 @@ def _digest(*parts: object) -> str:
 class _Stages:
     """Runs a stage unless its manifest shows the same key and its outputs exist."""
 
-    def __init__(self, out: Path, log: Callable[[str], None]):
-        self.out, self.log = out, log
+    def __init__(self, out: Path, log: Callable[[str], None], total: int):
+        self.out, self.log, self.total = out, log, total
         (out / "stages").mkdir(parents=True, exist_ok=True)
         self.ran: list[str] = []
         self.reused: list[str] = []
@@ -126,7 +126,7 @@ class _Stages:
                     self.reused.append(name)
                     return record.get("info", {})
                 self.log(f"[{name}] its outputs are missing or changed since it ran: running again")
-        self.log(f"[{name}] running")
+        self.log(f"[{name}] stage {len(self.ran) + len(self.reused) + 1} of {self.total}: running")
         start = time.perf_counter()
         info = work() or {}
         record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info,
@@ -169,7 +169,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         stale.unlink()
     write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version()},
                                                     indent=1))
-    stages = _Stages(out, log)
+    stages = _Stages(out, log, total=3 * len(OBJECTS) + 2 + len(OBJECTS) * len(METHODS))
     started = time.perf_counter()
 
     # 1. posture sets

@@ -34,10 +34,11 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg.blas import dger
 from threadpoolctl import threadpool_limits
+from tqdm import tqdm
 
 from .io import fingerprint, load_npz, save_npz
 from .nearest import MaskedNearest, check_queries, check_query
-from .progress import Progress
+from .progress import progress_bar
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -189,12 +190,12 @@ class SOM:
             self.history = []
             self.initialize(data)
         rng = np.random.default_rng([self.seed, len(self.history)])
-        report = Progress(epochs, f"SOM {self.rows}x{self.cols} {algorithm}", "epochs", enabled=progress)
-        if algorithm == "online":
-            with threadpool_limits(limits=1, user_api="blas"):  # tiny BLAS calls: threads only add latency
-                weights = self._train_online(data, rates, widths, rng, report)
-        else:
-            weights = self._train_batch(data, widths, report)
+        with progress_bar(epochs, f"SOM {self.rows}x{self.cols} {algorithm}", "epochs", enabled=progress) as report:
+            if algorithm == "online":
+                with threadpool_limits(limits=1, user_api="blas"):  # tiny BLAS calls: threads only add latency
+                    weights = self._train_online(data, rates, widths, rng, report)
+            else:
+                weights = self._train_batch(data, widths, report)
         self.weights = weights
         self.history.append({"algorithm": algorithm, "epochs": epochs, "learning_rate": list(map(float, learning_rate)),
                              "sigma": list(map(float, sigma)), "samples": len(data),
@@ -202,7 +203,7 @@ class SOM:
         return self
 
     def _train_online(self, data: np.ndarray, rates: np.ndarray, widths: np.ndarray,
-                      rng: np.random.Generator, report: Progress) -> np.ndarray:
+                      rng: np.random.Generator, report: tqdm) -> np.ndarray:
         n_nodes, cols = self.n_nodes, self.cols
         scale = np.asfortranarray(self._require_weights().reshape(n_nodes, self.dim))  # V, with w = alpha * v
         alpha = np.ones(n_nodes)
@@ -250,7 +251,7 @@ class SOM:
         table[table < _NEGLIGIBLE * rate] = 0.0
         return table
 
-    def _train_batch(self, data: np.ndarray, widths: np.ndarray, report: Progress) -> np.ndarray:
+    def _train_batch(self, data: np.ndarray, widths: np.ndarray, report: tqdm) -> np.ndarray:
         rows, cols, dim = self.rows, self.cols, self.dim
         centre = data.mean(axis=0)
         centred = data - centre
