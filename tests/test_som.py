@@ -101,17 +101,20 @@ def test_online_training_equals_the_textbook_update_and_is_no_worse(rng):
     assert som.quantization_error(data) <= reference.quantization_error(data) + 1e-9
 
 
-def test_resumed_fit_continues_from_the_trained_weights(rng):
+def test_resume_continues_from_the_trained_weights_and_fit_starts_afresh(rng):
     data = clustered_postures(rng, n=300)
     som = gm.SOM(6, 6, 22, seed=2).fit(data, epochs=5)
     before = som.weights.copy()
     more = clustered_postures(rng, n=100)
-    som.fit(more, epochs=2, learning_rate=(0.1, 0.05), sigma=(3.0, 0.7))
+    som.resume(more, epochs=2, learning_rate=(0.1, 0.05), sigma=(3.0, 0.7))
     assert len(som.history) == 2
     expected = textbook_online(before, more, 2, (0.1, 0.05), (3.0, 0.7), seed=2, fit_index=1)
     np.testing.assert_allclose(som.weights, expected, atol=1e-9)
-    som.fit(data, epochs=1, restart=True)
+    som.fit(data, epochs=1)  # fit always starts afresh, as in scikit-learn
     assert len(som.history) == 1
+    np.testing.assert_array_equal(som.weights, gm.SOM(6, 6, 22, seed=2).fit(data, epochs=1).weights)
+    with pytest.raises(RuntimeError, match="fit"):
+        gm.SOM(6, 6, 22).resume(more)
 
 
 def test_batch_training_orders_the_map_and_fits_the_data(rng):
@@ -246,3 +249,16 @@ def test_lattice_plots_render_headless(trained, tmp_path):
     assert image[..., :3].std() > 0.05  # not blank: lines, nodes and green hits
     green = (image[..., 1] > 0.7) & (image[..., 0] < 0.5) & (image[..., 2] < 0.5)
     assert green.sum() > 50
+
+
+def test_the_schedule_lives_in_the_constructor_and_survives_saving(rng, tmp_path):
+    data = clustered_postures(rng, n=120)
+    som = gm.SOM(5, 5, 22, seed=3, epochs=4, learning_rate=(0.5, 0.1), sigma=(2.0, 0.5), algorithm="batch")
+    som.fit(data)
+    assert som.history[0]["epochs"] == 4 and som.history[0]["algorithm"] == "batch"
+    loaded = gm.SOM.load(som.save(tmp_path / "map.npz"))
+    assert (loaded.epochs, loaded.learning_rate, loaded.sigma, loaded.algorithm) == (4, (0.5, 0.1), (2.0, 0.5), "batch")
+    with pytest.raises(ValueError, match="epochs"):
+        gm.SOM(5, 5, 22, epochs=0)
+    with pytest.raises(ValueError, match="algorithm"):
+        gm.SOM(5, 5, 22, algorithm="magic")

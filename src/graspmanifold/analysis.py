@@ -47,5 +47,5 @@ def resume_learning(som: SOM, postures: np.ndarray, *, epochs: int = RESUME_SCHE
     """A copy of `som` trained further on `postures` (the paper's second phase), with the
     smoothness report before and after. `som` itself is left unchanged."""
     before = smoothness(som, training, postures)
-    resumed = copy.deepcopy(som).fit(postures, epochs=epochs, learning_rate=learning_rate, sigma=sigma)
+    resumed = copy.deepcopy(som).resume(postures, epochs=epochs, learning_rate=learning_rate, sigma=sigma)
     return resumed, {"before": before, "after": smoothness(resumed, training, postures)}

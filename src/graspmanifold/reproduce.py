@@ -226,7 +226,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
             successes = results[(name, "som")].successful_postures()
             resumed = copy.deepcopy(maps[name])
             if len(successes):
-                resumed.fit(successes, **RESUME_SCHEDULE)
+                resumed.resume(successes, **RESUME_SCHEDULE)
             resumed.save(path)
             return {"postures": int(len(successes))}
         stages.run(f"resume_{name}", _digest(RESUME_SCHEDULE, map_paths[name], eval_paths[(name, "som")]), [path], resume)

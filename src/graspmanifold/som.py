@@ -1,9 +1,15 @@
 """A Self-Organising Map on a rectangular lattice, vectorised with NumPy (paper Sections 3-5).
 
     som = SOM(25, 25, 22, seed=0).fit(postures)                         # the paper's schedule
-    som.fit(new_postures, epochs=10, learning_rate=(0.1, 0.05), sigma=(3.0, 0.7))   # resumed
+    som.resume(new_postures)                   # resumed learning: 10 epochs, lr 0.1 -> 0.05, sigma 3 -> 0.7
     node = som.best_match(pcp, mask)                                      # Eq. 3 with Eq. 4
     posture = som.complete(pcp, mask)                                     # associative completion
+
+Conventions follow scikit-learn where it has one: the training schedule is given to the
+constructor (`epochs`, `learning_rate`, `sigma`, `algorithm`; the paper's values by default), and
+`fit` always trains afresh. Continuing a trained map, the paper's resumed learning, is the explicit
+`resume` (its own, gentler schedule). Unlike scikit-learn, fitted state has no trailing underscore
+(`weights`, `history`), and `fit` accepts the schedule's values as keyword overrides for one run.
 
 Training schedule. Learning rate and neighbourhood width decay exponentially from their start to
 their end value over the run, one value per epoch: v_e = v_0 (v_end / v_0)^(e / (epochs - 1)).
@@ -89,6 +95,19 @@ def check_schedule(value: object, name: str, upper: float | None = None) -> tupl
     return start, end
 
 
+def _schedule(epochs: object, learning_rate: object, sigma: object, algorithm: object
+              ) -> tuple[int, tuple[float, float], tuple[float, float], str]:
+    """A checked training schedule."""
+    return (_positive_int(epochs, "epochs"), check_schedule(learning_rate, "learning_rate", upper=1.0),
+            check_schedule(sigma, "sigma"), _algorithm(algorithm))
+
+
+def _algorithm(value: object) -> str:
+    if value not in ALGORITHMS:
+        raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {value!r}")
+    return str(value)
+
+
 def _positive_int(value: object, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -98,13 +117,21 @@ def _positive_int(value: object, name: str) -> int:
 class SOM:
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
-    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0):
+    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0, epochs: int = 300,
+                 learning_rate: tuple[float, float] = (0.95, 0.05), sigma: tuple[float, float] = (6.0, 0.7),
+                 algorithm: str = "online"):
+        """The lattice, the seed (presentation order) and the training schedule `fit` uses (the
+        paper's: 300 epochs, learning rate 0.95 -> 0.05, sigma 6 -> 0.7, online)."""
         self.rows = _positive_int(rows, "rows")
         self.cols = _positive_int(cols, "cols")
         self.dim = _positive_int(dim, "dim")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
         self.seed = int(seed)
+        self.epochs = _positive_int(epochs, "epochs")
+        self.learning_rate = check_schedule(learning_rate, "learning_rate", upper=1.0)
+        self.sigma = check_schedule(sigma, "sigma")
+        self.algorithm = _algorithm(algorithm)
         self.history: list[dict] = []
         self._weights: np.ndarray | None = None
         self._search: MaskedNearest | None = None
@@ -175,20 +202,33 @@ class SOM:
         self.weights = weights
         return self
 
-    def fit(self, X: np.ndarray, epochs: int = 300, learning_rate: tuple[float, float] = (0.95, 0.05),
-            sigma: tuple[float, float] = (6.0, 0.7), algorithm: str = "online", *, restart: bool = False,
-            progress: bool = False) -> SOM:
-        """Train on X (n, dim). A trained map continues from its weights (resumed learning) unless
-        `restart=True`, which initialises it afresh. Returns self."""
+    def fit(self, X: np.ndarray, *, epochs: int | None = None, learning_rate: tuple[float, float] | None = None,
+            sigma: tuple[float, float] | None = None, algorithm: str | None = None, progress: bool = False) -> SOM:
+        """Train afresh on X (n, dim) with the constructor's schedule (or these overrides): the map
+        is initialised from the data's principal components and its history starts over. Returns self."""
         data = check_data(X, self.dim)
-        epochs = _positive_int(epochs, "epochs")
-        if algorithm not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {algorithm!r}")
-        rates = decay_schedule(*check_schedule(learning_rate, "learning_rate", upper=1.0), epochs)
-        widths = decay_schedule(*check_schedule(sigma, "sigma"), epochs)
-        if restart or not self.is_fitted:
-            self.history = []
-            self.initialize(data)
+        schedule = _schedule(self.epochs if epochs is None else epochs,
+                             self.learning_rate if learning_rate is None else learning_rate,
+                             self.sigma if sigma is None else sigma, algorithm or self.algorithm)
+        self.history = []
+        self.initialize(data)
+        return self._train(data, *schedule, progress)
+
+    def resume(self, X: np.ndarray, *, epochs: int = 10, learning_rate: tuple[float, float] = (0.1, 0.05),
+               sigma: tuple[float, float] = (3.0, 0.7), algorithm: str | None = None, progress: bool = False) -> SOM:
+        """Resumed learning (paper Section 5): continue training the fitted map on X from its current
+        weights, by default with the paper's gentle schedule (10 epochs, lr 0.1 -> 0.05, sigma
+        3 -> 0.7), so new experience is folded in without unfolding the map. Returns self."""
+        data = check_data(X, self.dim)
+        schedule = _schedule(epochs, learning_rate, sigma, algorithm or self.algorithm)
+        if not self.is_fitted:
+            raise RuntimeError("resume() continues a fitted map: call fit() first")
+        return self._train(data, *schedule, progress)
+
+    def _train(self, data: np.ndarray, epochs: int, learning_rate: tuple[float, float], sigma: tuple[float, float],
+               algorithm: str, progress: bool) -> SOM:
+        rates = decay_schedule(*learning_rate, epochs)
+        widths = decay_schedule(*sigma, epochs)
         rng = np.random.default_rng([self.seed, len(self.history)])
         with progress_bar(epochs, f"SOM {self.rows}x{self.cols} {algorithm}", "epochs", enabled=progress) as report:
             if algorithm == "online":
@@ -350,15 +390,18 @@ class SOM:
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         """Write the map to a .npz file (atomically) with its shape, seed and training history."""
         meta = {"rows": self.rows, "cols": self.cols, "dim": self.dim, "seed": self.seed, "history": self.history,
+                "schedule": {"epochs": self.epochs, "learning_rate": list(self.learning_rate),
+                             "sigma": list(self.sigma), "algorithm": self.algorithm},
                 "units": "as the training data (radians for postures)"}
         return save_npz(path, "som", {"weights": self._require_weights()}, meta, overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> SOM:
-        """Read a map written by `save`, checking kind, schema and shapes."""
+        """Read a map written by `save`, checking kind, schema and shapes (maps saved before the
+        schedule was stored get the paper's)."""
         arrays, meta = load_npz(path, "som", {"weights": (None, None, None)})
         try:
-            som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"])
+            som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"], **meta.get("schedule", {}))
         except KeyError as missing:
             raise ValueError(f"{path} lacks SOM metadata {missing}") from None
         som.weights = arrays["weights"]
