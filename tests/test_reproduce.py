@@ -180,3 +180,15 @@ def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path
     assert (out / "summary.json").read_bytes() == (clean / "summary.json").read_bytes()
     assert (out / "figures" / "rates.png").exists()
     assert not list(out.rglob(".*.tmp"))  # the killed runs' temporary files are cleared
+
+
+def test_the_figure_command_redraws_one_figure(finished, tmp_path):
+    from graspmanifold.cli import main as cli
+
+    out, _, _ = finished
+    assert cli(["figure", "fig4_box", str(out), "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "fig4_box.png").stat().st_size > 1000 and (tmp_path / "fig4_box.pdf").exists()
+    with pytest.raises(SystemExit):
+        cli(["figure", "fig99", str(out)])
+    with pytest.raises(SystemExit, match="error"):
+        cli(["figure", "rates", str(tmp_path / "no-run")])

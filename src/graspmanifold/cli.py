@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .evaluation import GRID_PRESETS
+from .report import FIGURES
 from .objects import PAPER_OBJECTS
 from .posture import closed_posture, open_posture
 from .scene import Scene, facing_pose
@@ -150,6 +151,17 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _figure(args: argparse.Namespace) -> int:
+    from .report import figure_from_run
+
+    try:
+        figure_from_run(args.run_dir, args.name, args.out)
+    except (ValueError, FileNotFoundError) as error:
+        raise SystemExit(f"error: {error}") from None
+    print(f"wrote {args.name}.png and {args.name}.pdf to {args.out or Path(args.run_dir) / 'figures'}")
+    return 0
+
+
 def _reproduce(args: argparse.Namespace) -> int:
     from .reproduce import PRESETS, reproduce
 
@@ -228,6 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close")
     demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     demo.set_defaults(run=_demo)
+
+    figure = command("figure", "redraw one figure of a finished `reproduce` run (PNG and PDF)")
+    figure.add_argument("name", choices=FIGURES, help="the figure")
+    figure.add_argument("run_dir", help="the output directory of `graspmanifold reproduce`")
+    figure.add_argument("--out", help="directory for the figure (default: RUN_DIR/figures)")
+    figure.set_defaults(run=_figure)
 
     view = command("view", "open MuJoCo's interactive viewer on a scene (needs a display)")
     view.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")

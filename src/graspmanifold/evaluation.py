@@ -45,7 +45,7 @@ from .experience import Experience, check_experience
 from .hand import SEGMENTS
 from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
-from .posture import open_posture
+from .posture import N_FINGER_JOINTS, open_posture
 from .progress import progress_bar
 from .workers import worker_pool
 from .quality import QualityError
@@ -223,7 +223,7 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
         observer(scene)
 
     def cycle() -> None:
-        sensed = scene.posture() + rng.normal(0.0, noise.joints, 22) if noise.joints else scene.posture()
+        sensed = scene.posture() + rng.normal(0.0, noise.joints, N_FINGER_JOINTS) if noise.joints else scene.posture()
         scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
         scene.run(period)
         if observer is not None:
@@ -307,7 +307,7 @@ class EvaluationResult:
         """Final postures (m, 22) of the trials that held (or, with require_hold=False, reached force
         closure): the grasps that may join the experience."""
         keep = [t.posture for t in self.trials if t.valid and (t.hold if require_hold else t.force_closure)]
-        return np.array(keep).reshape(-1, 22)
+        return np.array(keep).reshape(-1, N_FINGER_JOINTS)
 
     def markdown(self) -> str:
         s = self.summary
@@ -322,7 +322,7 @@ class EvaluationResult:
         """Write the trials and the summary (plus `extra` metadata) to an .npz file."""
         t = self.trials
         arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
-                  "postures": np.array([x.posture for x in t]).reshape(-1, 22),
+                  "postures": np.array([x.posture for x in t]).reshape(-1, N_FINGER_JOINTS),
                   "touching": np.array([x.touching for x in t]).reshape(-1, len(SEGMENTS)),
                   "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
                   "hold_displacement": np.array([x.hold_displacement for x in t]),
@@ -337,7 +337,7 @@ class EvaluationResult:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EvaluationResult:
-        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, 22), "epsilon": (None,),
+        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
                                                 "margin": (None,), "penetration": (None,), "fault": (None,)})
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),

@@ -85,6 +85,9 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
 
 
 RENDERED_FIGURES = ("fig3_cylinder_extract", "fig5_cylinder_border", "fig7_cylinder_resumed_extract")
+#: every figure of a run, by name (the rendered ones need an offscreen OpenGL context)
+FIGURES = ("fig4_box", "fig4_cylinder", "fig4_sphere", "fig6_cylinder_evaluation", "fig8_cylinder_resumed", "rates",
+           *RENDERED_FIGURES)
 
 
 def _renderer(image_size: int) -> tuple[Callable | None, str]:
@@ -230,21 +233,10 @@ def _markdown(run: RunData, summary: dict) -> str:
 
 
 def figure_from_run(run_dir: str | os.PathLike, name: str, out_dir: str | os.PathLike | None = None) -> dict:
-    """Redraw one figure of a finished `reproduce` run (what the scripts in scripts/ call)."""
+    """Redraw one figure of a finished `reproduce` run (`graspmanifold figure NAME RUN_DIR`)."""
     run = RunData.load(run_dir)
     info = write_figures(Path(out_dir or Path(run_dir) / "figures"), run, only=name)
     if name not in info["figures"]:
         reason = info["message"] if name in RENDERED_FIGURES and not info["rendered"] else "unknown figure name"
         raise ValueError(f"figure {name!r} was not drawn: {reason}")
     return info
-
-
-def figure_script(name: str, description: str) -> None:
-    """The command line of the thin figure scripts: `python scripts/NAME.py RUN_DIR [--out DIR]`."""
-    import argparse
-
-    parser = argparse.ArgumentParser(description=description.strip().splitlines()[0])
-    parser.add_argument("run_dir", help="the output directory of `graspmanifold reproduce`")
-    parser.add_argument("--out", help="directory for the figure (default: RUN_DIR/figures)")
-    args = parser.parse_args()
-    figure_from_run(args.run_dir, name, args.out)

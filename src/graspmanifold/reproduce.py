@@ -30,6 +30,7 @@ from .generator import PRESETS as DATASET_SIZES
 from .generator import GeneratorParams, generate_postures, remove_checkpoints
 from .io import library_version, write_text_atomic
 from .objects import PAPER_OBJECTS, get_object
+from .posture import N_FINGER_JOINTS
 from .postureset import PostureSet
 from .report import RunData, write_figures, write_report
 from .som import SOM, check_schedule
@@ -196,7 +197,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
 
         def train(name=name, path=path):
             data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
-            SOM(*config.map_size, 22, seed=config.seed).fit(data, **schedule, progress=True).save(path)
+            SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
         stages.run(f"train_{name}", _digest(config.map_size, schedule, config.seed, *inputs), [path], train)
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
 

@@ -285,10 +285,6 @@ class Scene:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
         return self.data.qpos[self.finger_qpos].copy()
 
-    def wrist(self) -> np.ndarray:
-        """The current wrist angles (WRJ2, WRJ1)."""
-        return self.data.qpos[self.hand_qpos[:2]].copy()
-
     def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
         """Put the hand in a posture at rest and make the actuators hold it."""
         posture = validate_posture(posture, check_limits=True)

@@ -173,12 +173,6 @@ class SOM:
             self._search = MaskedNearest(self._require_weights().reshape(-1, self.dim))
         return self._search
 
-    def node_position(self, index: int) -> tuple[int, int]:
-        """(row, col) of a flat node index."""
-        if not 0 <= index < self.n_nodes:
-            raise ValueError(f"node index must be in [0, {self.n_nodes}), got {index}")
-        return divmod(int(index), self.cols)
-
     # -- training --------------------------------------------------------------------------------
     def initialize(self, X: np.ndarray) -> SOM:
         """Place the lattice on the data's first two principal axes (deterministic)."""

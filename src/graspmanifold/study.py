@@ -17,6 +17,7 @@ import numpy as np
 from .controller import ControllerParams
 from .evaluation import EvaluationResult, Noise, evaluate
 from .objects import GraspObject
+from .posture import N_FINGER_JOINTS
 from .som import SOM
 from .stats import PairedComparison, mcnemar, rate_text
 
@@ -54,7 +55,7 @@ def grow_experience(obj: GraspObject, postures: np.ndarray, grid: np.ndarray, ro
     with each round's map before it grasps (to measure a learning curve). Returns the grown
     postures (the given ones first) and one record per round.
     """
-    grown = np.asarray(postures, dtype=float).reshape(-1, 22)
+    grown = np.asarray(postures, dtype=float).reshape(-1, N_FINGER_JOINTS)
     records = []
     for r in range(rounds):
         som = train_experience_map(grown, seed) if len(grown) else None

@@ -13,7 +13,6 @@ import mujoco
 import numpy as np
 
 from .hand import SEGMENTS
-from .posture import pcp_mask
 
 _SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
 
@@ -54,10 +53,6 @@ class TactileReading:
     def max_penetration(self) -> float:
         """Deepest hand-object penetration (m), 0 without contact."""
         return float(self.depths.max()) if len(self.depths) else 0.0
-
-    def pcp_mask(self) -> np.ndarray:
-        """The Partial Contact Posture mask (22,) of this reading (paper Eq. 1)."""
-        return pcp_mask(self.segments)
 
 
 class TactileSensor:

@@ -1,8 +1,0 @@
-"""Fig. 4 a/b: inter-node distances and training-data nodes of the sphere map (from a `graspmanifold reproduce` run; PNG and PDF).
-
-    python scripts/fig4_sphere.py RUN_DIR [--out DIR]
-"""
-
-from graspmanifold.report import figure_script
-
-figure_script("fig4_sphere", __doc__)
