@@ -297,7 +297,7 @@ def test_a_constant_preshape_replaces_phase_b_matching(experience):
 
 def test_coverage_sees_placements_up_to_the_objects_symmetry():
     from graspmanifold.evaluation import coverage
-    from graspmanifold.scene import compose
+    from graspmanifold.poses import compose
 
     grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
     turn = np.array([np.cos(0.5), 0.0, 0.0, np.sin(0.5)])  # 1 rad about the cylinder's axis

@@ -50,7 +50,8 @@ from .progress import progress_bar
 from .workers import worker_pool
 from .quality import QualityError
 from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
-from .scene import Scene, SimulationError, facing_pose, invert
+from .poses import compose, invert, rotate, to_quat
+from .scene import Scene, SimulationError, facing_pose
 from .stats import rate_text, wilson_interval
 
 
@@ -150,11 +151,9 @@ def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, 
     """Palm pose in the object frame that places the object at a grid pose relative to the palm."""
     x, z, gap, yaw = grid_pose
     object_in_palm = invert(*facing_pose(obj, clearance=gap))
-    turn = Rotation.from_rotvec([0.0, yaw, 0.0]).as_quat()[[3, 0, 1, 2]]  # about the palm normal
-    pos = object_in_palm[0] + np.array([x, 0.0, z])
-    quat = np.zeros(4)
-    mujoco.mju_mulQuat(quat, turn, object_in_palm[1])
-    return invert(pos, quat)
+    turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
+    _, quat = compose(np.zeros(3), turn, np.zeros(3), object_in_palm[1])
+    return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)
 
 
 @dataclass
@@ -540,9 +539,7 @@ def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -
 
     def seen_from_palm(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         centre, inverse = invert(pos, quat)
-        axis = np.zeros(3)
-        mujoco.mju_rotVecQuat(axis, np.array([0.0, 0.0, 1.0]), inverse)
-        return centre, axis
+        return centre, rotate(np.array([0.0, 0.0, 1.0]), inverse)
 
     experienced = [seen_from_palm(p[:3], p[3:]) for p in poses]
     centres = np.array([c for c, _ in experienced])

@@ -44,6 +44,7 @@ from .postureset import PostureSet
 from .posture import posture_to_ctrl
 from .progress import progress_bar
 from .workers import worker_pool
+from .poses import to_quat, to_rotation
 from .scene import Scene, SimulationError
 from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
 
@@ -145,13 +146,13 @@ class _SpringRig:
         data, mount = self.scene.data, self.scene.mount_id
         start_pos, start_quat = data.mocap_pos[mount].copy(), data.mocap_quat[mount].copy()
         end_pos, end_quat = self.scene.mount_pose_for(pos, quat)
-        turn = Rotation.from_quat(start_quat[[1, 2, 3, 0]])
-        delta = (turn.inv() * Rotation.from_quat(end_quat[[1, 2, 3, 0]])).as_rotvec()
+        turn = to_rotation(start_quat)
+        delta = (turn.inv() * to_rotation(end_quat)).as_rotvec()
         steps = self.params.move_steps
         for k in range(1, steps + 1):
             f = k / steps
             data.mocap_pos[mount] = start_pos + f * (end_pos - start_pos)
-            data.mocap_quat[mount] = (turn * Rotation.from_rotvec(f * delta)).as_quat()[[3, 0, 1, 2]]
+            data.mocap_quat[mount] = to_quat(turn * Rotation.from_rotvec(f * delta))
             self.simulate(1)
 
     def settle(self) -> bool:
@@ -206,7 +207,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     verifier = _Verifier(obj, params) if params.verify else None
     rig.reset_to(start)
     rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
-    base = Rotation.from_quat(start.hand_quat[[1, 2, 3, 0]])
+    base = to_rotation(start.hand_quat)
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
     tries, misses, candidates, faults = 0, 0, 0, 0
@@ -217,7 +218,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
                                f"starting posture {start.name!r}; check the object and GeneratorParams")
         offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
         turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
-        rig.move_to(start.hand_pos + offset, (Rotation.from_rotvec(turn) * base).as_quat()[[3, 0, 1, 2]])
+        rig.move_to(start.hand_pos + offset, to_quat(Rotation.from_rotvec(turn) * base))
         settled = rig.settle()
         if not rig.scene.healthy():  # the physics failed: nothing of this walk can be trusted
             faults += 1

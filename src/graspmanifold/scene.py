@@ -15,6 +15,7 @@ import numpy as np
 
 from .hand import HAND_JOINTS, hand_spec
 from .objects import GraspObject, get_object
+from .poses import check_quat, check_vec3, compose, invert
 from .posture import posture_to_ctrl, validate_posture
 from .tactile import TactileReading, TactileSensor
 
@@ -39,37 +40,6 @@ class SimulationError(RuntimeError):
 #: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
 GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
 PALM_HALF_THICKNESS = 0.013
-
-
-def _quat(quat: Iterable[float], name: str) -> np.ndarray:
-    q = np.asarray(tuple(quat), dtype=float)
-    if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-9:
-        raise ValueError(f"{name} must be a non-zero finite quaternion (w, x, y, z), got {quat!r}")
-    return q / np.linalg.norm(q)
-
-
-def _vec3(vec: Iterable[float], name: str) -> np.ndarray:
-    v = np.asarray(tuple(vec), dtype=float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be three finite numbers, got {vec!r}")
-    return v
-
-
-def compose(pos_a: np.ndarray, quat_a: np.ndarray, pos_b: np.ndarray, quat_b: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Pose product a * b of two (position, quaternion) poses."""
-    pos, quat = np.zeros(3), np.zeros(4)
-    mujoco.mju_rotVecQuat(pos, pos_b, quat_a)
-    mujoco.mju_mulQuat(quat, quat_a, quat_b)
-    return pos + pos_a, quat
-
-
-def invert(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of a (position, quaternion) pose."""
-    inv_quat, inv_pos = np.zeros(4), np.zeros(3)
-    mujoco.mju_negQuat(inv_quat, quat)
-    mujoco.mju_rotVecQuat(inv_pos, -np.asarray(pos, dtype=float), inv_quat)
-    return inv_pos, inv_quat
 
 
 def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float = 0.0
@@ -251,7 +221,7 @@ class Scene:
         elif gravity is False:
             vector = np.zeros(3)
         else:
-            vector = _vec3(gravity, "gravity")
+            vector = check_vec3(gravity, "gravity")
         self.model.opt.gravity[:] = vector
 
     # -- hand placement --------------------------------------------------------------------------
@@ -268,7 +238,7 @@ class Scene:
     def mount_pose_for(self, pos: Iterable[float], quat: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
         """The pose of the mocap body `hand_mount` that puts the palm at (pos, quat) in the object
         frame, for the current joint angles."""
-        pos, quat = _vec3(pos, "pos"), _quat(quat, "quat")
+        pos, quat = check_vec3(pos, "pos"), check_quat(quat, "quat")
         mujoco.mj_kinematics(self.model, self.data)
         target = compose(*self.object_pose(), pos, quat)
         mount = self.data.mocap_pos[self.mount_id].copy(), self.data.mocap_quat[self.mount_id].copy()

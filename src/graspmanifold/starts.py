@@ -23,6 +23,7 @@ from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_l
 from .io import load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import dict_to_posture
+from .poses import to_quat, to_rotation
 from .scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
 
 STARTS_FILE = "starting_postures.npz"
@@ -146,11 +147,11 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     geometry = _GraspGeometry(scene)
     limits = finger_limits()
     lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
-    base_rotation = Rotation.from_quat(quat[[1, 2, 3, 0]])
+    base_rotation = to_rotation(quat)
 
     def unpack(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         rotation = Rotation.from_rotvec(v[25:28]) * base_rotation
-        q = rotation.as_quat()[[3, 0, 1, 2]]
+        q = to_quat(rotation)
         return v[:22], pos + v[22:25], q
 
     def residuals(v: np.ndarray) -> np.ndarray:

@@ -1,0 +1,60 @@
+"""Pose algebra: (position, quaternion) poses with MuJoCo's w x y z quaternions, and the
+conversions to and from scipy's rotations (x y z w), in one place."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def check_quat(quat: Iterable[float], name: str) -> np.ndarray:
+    """A unit quaternion (w, x, y, z) from any non-zero finite 4-vector, or ValueError naming it."""
+    q = np.asarray(tuple(quat), dtype=float)
+    if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-9:
+        raise ValueError(f"{name} must be a non-zero finite quaternion (w, x, y, z), got {quat!r}")
+    return q / np.linalg.norm(q)
+
+
+def check_vec3(vec: Iterable[float], name: str) -> np.ndarray:
+    """Three finite numbers, or ValueError naming them."""
+    v = np.asarray(tuple(vec), dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be three finite numbers, got {vec!r}")
+    return v
+
+
+def compose(pos_a: np.ndarray, quat_a: np.ndarray, pos_b: np.ndarray, quat_b: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Pose product a * b of two (position, quaternion) poses."""
+    pos, quat = np.zeros(3), np.zeros(4)
+    mujoco.mju_rotVecQuat(pos, pos_b, quat_a)
+    mujoco.mju_mulQuat(quat, quat_a, quat_b)
+    return pos + pos_a, quat
+
+
+def invert(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of a (position, quaternion) pose."""
+    inv_quat, inv_pos = np.zeros(4), np.zeros(3)
+    mujoco.mju_negQuat(inv_quat, quat)
+    mujoco.mju_rotVecQuat(inv_pos, -np.asarray(pos, dtype=float), inv_quat)
+    return inv_pos, inv_quat
+
+
+def rotate(vec: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """A vector rotated by a quaternion (w, x, y, z)."""
+    out = np.zeros(3)
+    mujoco.mju_rotVecQuat(out, np.asarray(vec, dtype=float), quat)
+    return out
+
+
+def to_rotation(quat: np.ndarray) -> Rotation:
+    """scipy's Rotation of a quaternion (w, x, y, z)."""
+    return Rotation.from_quat(np.asarray(quat, dtype=float)[[1, 2, 3, 0]])
+
+
+def to_quat(rotation: Rotation) -> np.ndarray:
+    """The quaternion (w, x, y, z) of a scipy Rotation."""
+    return rotation.as_quat()[[3, 0, 1, 2]]
