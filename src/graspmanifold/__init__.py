@@ -38,7 +38,7 @@ from .postureset import PostureSet
 from .quality import QualityError, epsilon_l1
 from .scene import Scene, SimulationError, facing_pose
 from .starts import StartingPosture, starting_postures
-from .som import SOM
+from .som import SOM, SOMSchedule
 from .tactile import TactileReading, TactileSensor
 
 __version__ = "0.1.0"
@@ -59,7 +59,7 @@ def __getattr__(name: str) -> object:
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
-    "PostureDatabase", "PostureSet", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
+    "PostureDatabase", "PostureSet", "SOMSchedule", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
     "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",

@@ -7,10 +7,7 @@ import copy
 
 import numpy as np
 
-from .som import SOM
-
-#: The paper's resumed learning: 10 epochs, learning rate 0.1 -> 0.05, sigma 3 -> 0.7.
-RESUME_SCHEDULE = {"epochs": 10, "learning_rate": (0.1, 0.05), "sigma": (3.0, 0.7)}
+from .som import RESUME, SOM
 
 
 def smoothness(som: SOM, training: np.ndarray | None = None, evaluation: np.ndarray | None = None
@@ -40,9 +37,9 @@ def smoothness(som: SOM, training: np.ndarray | None = None, evaluation: np.ndar
     return report
 
 
-def resume_learning(som: SOM, postures: np.ndarray, *, epochs: int = RESUME_SCHEDULE["epochs"],
-                    learning_rate: tuple[float, float] = RESUME_SCHEDULE["learning_rate"],
-                    sigma: tuple[float, float] = RESUME_SCHEDULE["sigma"], training: np.ndarray | None = None
+def resume_learning(som: SOM, postures: np.ndarray, *, epochs: int = RESUME.epochs,
+                    learning_rate: tuple[float, float] = RESUME.learning_rate,
+                    sigma: tuple[float, float] = RESUME.sigma, training: np.ndarray | None = None
                     ) -> tuple[SOM, dict[str, dict]]:
     """A copy of `som` trained further on `postures` (the paper's second phase), with the
     smoothness report before and after. `som` itself is left unchanged."""

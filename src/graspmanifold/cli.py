@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .evaluation import GRID_PRESETS
+from .generator import PRESETS as DATASET_PRESETS
 from .report import FIGURES
 from .objects import PAPER_OBJECTS
 from .posture import closed_posture, open_posture
@@ -209,8 +210,9 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every five-fingertip candidate without replaying it as a grasp")
     generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
-                          help="dataset sizes when --n is not given: quick (box 240, cylinder 240, sphere 160) or "
-                               "paper (box 4069, cylinder 4220, sphere 1885)")
+                          help="dataset sizes when --n is not given: " + "; ".join(
+                              f"{name} ({', '.join(f'{o} {n}' for o, n in sizes.items())})"
+                              for name, sizes in DATASET_PRESETS.items()))
     generate.add_argument("--out", required=True, help="output .npz file")
     workers(generate)
     generate.add_argument("--seed", type=int, default=0)

@@ -15,12 +15,13 @@ from .evaluation import EPSILON_THRESHOLD, EvaluationResult, trial_count
 from .io import atomic_write, library_version, write_text_atomic
 from .postureset import PostureSet
 from .som import SOM
+from .generator import PRESETS as DATASET_PRESETS
 from .stats import rate_text
 from .study import comparison_rows, judge_target
 
 #: The paper's own numbers, shown beside ours (Section 5).
 PAPER_VALUES = {
-    "dataset_size": {"box": 4069, "cylinder": 4220, "sphere": 1885},
+    "dataset_size": dict(DATASET_PRESETS["paper"]),
     "max_distance_deg": {"box": 55.06, "cylinder": 63.45, "sphere": 66.23},
     "min_distance_deg": {"box": 0.013, "cylinder": 0.013, "sphere": 0.007},
 }

@@ -23,7 +23,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import RESUME_SCHEDULE
 from .evaluation import EvaluationResult, check_grid, evaluate
 from .experience import PostureDatabase
 from .generator import PRESETS as DATASET_SIZES
@@ -33,7 +32,7 @@ from .objects import PAPER_OBJECTS, get_object
 from .posture import N_FINGER_JOINTS
 from .postureset import PostureSet
 from .report import RunData, write_figures, write_report
-from .som import SOM, check_schedule
+from .som import PAPER, RESUME, SOM, check_schedule
 
 OBJECTS = tuple(PAPER_OBJECTS)
 METHODS = ("none", "database", "som", "som_all")
@@ -46,9 +45,9 @@ class ReproduceConfig:
     postures: dict[str, int]
     grid: str | tuple = "quick"
     map_size: tuple[int, int] = (25, 25)
-    epochs: int = 300
-    learning_rate: tuple[float, float] = (0.95, 0.05)
-    sigma: tuple[float, float] = (6.0, 0.7)
+    epochs: int = PAPER.epochs
+    learning_rate: tuple[float, float] = PAPER.learning_rate
+    sigma: tuple[float, float] = PAPER.sigma
     seed: int = 0
     image_size: int = 120
     generator: GeneratorParams = field(default_factory=GeneratorParams)
@@ -227,10 +226,10 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
             successes = results[(name, "som")].successful_postures()
             resumed = copy.deepcopy(maps[name])
             if len(successes):
-                resumed.resume(successes, **RESUME_SCHEDULE)
+                resumed.resume(successes, **RESUME.as_dict())
             resumed.save(path)
             return {"postures": int(len(successes))}
-        stages.run(f"resume_{name}", _digest(RESUME_SCHEDULE, map_paths[name], eval_paths[(name, "som")]), [path], resume)
+        stages.run(f"resume_{name}", _digest(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]), [path], resume)
     resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
 
     # 5. figures, 6. report

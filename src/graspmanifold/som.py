@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +96,23 @@ def check_schedule(value: object, name: str, upper: float | None = None) -> tupl
     return start, end
 
 
+@dataclass(frozen=True)
+class SOMSchedule:
+    """A training schedule: `epochs`, and the learning rate and neighbourhood width decaying from
+    their first to their second value (see the module doc). PAPER trains a map, RESUME continues one."""
+
+    epochs: int
+    learning_rate: tuple[float, float]
+    sigma: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        _schedule(self.epochs, self.learning_rate, self.sigma, ALGORITHMS[0])
+
+    def as_dict(self) -> dict:
+        """epochs, learning_rate and sigma as keyword arguments (of `SOM.fit` and `SOM.resume`)."""
+        return {"epochs": self.epochs, "learning_rate": self.learning_rate, "sigma": self.sigma}
+
+
 def _schedule(epochs: object, learning_rate: object, sigma: object, algorithm: object
               ) -> tuple[int, tuple[float, float], tuple[float, float], str]:
     """A checked training schedule."""
@@ -114,11 +132,16 @@ def _positive_int(value: object, name: str) -> int:
     return int(value)
 
 
+#: the paper's schedules: training (Section 4) and resumed learning (Section 5)
+PAPER = SOMSchedule(300, (0.95, 0.05), (6.0, 0.7))
+RESUME = SOMSchedule(10, (0.1, 0.05), (3.0, 0.7))
+
+
 class SOM:
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
-    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0, epochs: int = 300,
-                 learning_rate: tuple[float, float] = (0.95, 0.05), sigma: tuple[float, float] = (6.0, 0.7),
+    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0, epochs: int = PAPER.epochs,
+                 learning_rate: tuple[float, float] = PAPER.learning_rate, sigma: tuple[float, float] = PAPER.sigma,
                  algorithm: str = "online"):
         """The lattice, the seed (presentation order) and the training schedule `fit` uses (the
         paper's: 300 epochs, learning rate 0.95 -> 0.05, sigma 6 -> 0.7, online)."""
@@ -208,8 +231,8 @@ class SOM:
         self.initialize(data)
         return self._train(data, *schedule, progress)
 
-    def resume(self, X: np.ndarray, *, epochs: int = 10, learning_rate: tuple[float, float] = (0.1, 0.05),
-               sigma: tuple[float, float] = (3.0, 0.7), algorithm: str | None = None, progress: bool = False) -> SOM:
+    def resume(self, X: np.ndarray, *, epochs: int = RESUME.epochs, learning_rate: tuple[float, float] = RESUME.learning_rate,
+               sigma: tuple[float, float] = RESUME.sigma, algorithm: str | None = None, progress: bool = False) -> SOM:
         """Resumed learning (paper Section 5): continue training the fitted map on X from its current
         weights, by default with the paper's gentle schedule (10 epochs, lr 0.1 -> 0.05, sigma
         3 -> 0.7), so new experience is folded in without unfolding the map. Returns self."""
