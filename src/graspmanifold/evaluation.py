@@ -42,7 +42,7 @@ from scipy.spatial.transform import Rotation
 
 from .controller import ControllerParams, GraspController
 from .experience import Experience, check_experience
-from .hand import SEGMENTS
+from .hand import SEGMENTS, segment_of_geoms
 from .io import library_version, load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import N_FINGER_JOINTS, open_posture
@@ -111,7 +111,7 @@ def _clearance(scene: Scene, pose: np.ndarray) -> float:
     scene.set_hand_pose(*palm_pose_for(scene.object, pose))
     data.qpos[scene.finger_qpos] = open_posture()
     mujoco.mj_kinematics(model, data)
-    hand_geoms = np.flatnonzero(np.isin(model.geom_bodyid, [model.body(s).id for s in SEGMENTS]))
+    hand_geoms = np.flatnonzero(segment_of_geoms(model) >= 0)
     fromto = np.zeros(6)
     others = [scene.object_geom] + ([scene.table_geom] if scene.table_geom is not None else [])
     return min(mujoco.mj_geomDistance(model, data, g, other, 0.05, fromto) for g in hand_geoms for other in others)

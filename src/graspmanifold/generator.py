@@ -36,7 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .controller import ControllerParams, squeezed
-from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, FINGERTIP_SITES, SEGMENTS, finger_limits
+from .hand import DISTAL_SEGMENTS, FINGERTIP_SITES, FINGER_JOINTS, SEGMENTS, finger_limits, segment_of_geoms
 from .io import library_version, load_npz, save_npz
 from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
 from .objects import GraspObject, get_object
@@ -118,8 +118,8 @@ class _SpringRig:
         model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
         self.tip_sites = [model.site(s).id for s in FINGERTIP_SITES]
         self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
-        body_of = [model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)]
-        self.segment_geoms = [[g for g in range(model.ngeom) if body_of[g] == s] for s in SEGMENTS]
+        segment_of = segment_of_geoms(model)
+        self.segment_geoms = [[int(g) for g in np.flatnonzero(segment_of == i)] for i in range(len(SEGMENTS))]
         self.distal_geoms = [model.geom(s).id for s in DISTAL_SEGMENTS]
         self.finger_dofs = self.scene.hand_dofs[2:]
         self.limits = finger_limits()

@@ -119,3 +119,10 @@ def finger_of(name: str) -> str | None:
 def finger_limits() -> np.ndarray:
     """(22, 2) array of [lower, upper] joint limits in posture order (radians)."""
     return np.array([JOINT_RANGES[j] for j in FINGER_JOINTS], dtype=float)
+
+
+def segment_of_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """For every geom of a model holding the hand, the index in SEGMENTS of the segment (body) it
+    belongs to, -1 for geoms that are not the hand's (the object, a table)."""
+    index = {name: i for i, name in enumerate(SEGMENTS)}
+    return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) for g in range(model.ngeom)], dtype=int)

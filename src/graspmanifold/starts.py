@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_limits, finger_of
+from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_limits, finger_of, segment_of_geoms
 from .io import load_npz, save_npz
 from .objects import GraspObject, get_object
 from .posture import dict_to_posture
@@ -117,11 +117,11 @@ class _GraspGeometry:
         self.scene = scene
         model = scene.model
         self.obj_geom = scene.object_geom
-        body_of = {model.geom(g).name: model.body(model.geom_bodyid[g]).name for g in range(model.ngeom)}
-        hand_geoms = [g for g in range(model.ngeom) if body_of[model.geom(g).name] in SEGMENTS]
+        segment_of = segment_of_geoms(model)
+        hand_geoms = [int(g) for g in np.flatnonzero(segment_of >= 0)]
         self.distal = [model.geom(s).id for s in DISTAL_SEGMENTS]
-        self.other = [g for g in hand_geoms if g not in self.distal and body_of[model.geom(g).name] != "forearm"]
-        fingers = {g: finger_of(body_of[model.geom(g).name]) for g in hand_geoms}
+        self.other = [g for g in hand_geoms if g not in self.distal and SEGMENTS[segment_of[g]] != "forearm"]
+        fingers = {g: finger_of(SEGMENTS[segment_of[g]]) for g in hand_geoms}
         order = ["ff", "mf", "rf", "lf"]
         self.pairs = [(a, b) for a in hand_geoms for b in hand_geoms if a < b and fingers[a] and fingers[b]
                       and fingers[a] != fingers[b]

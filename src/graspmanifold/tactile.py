@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from .hand import SEGMENTS
+from .hand import SEGMENTS, segment_of_geoms
 
 _SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
 
@@ -65,11 +65,7 @@ class TactileSensor:
             raise ValueError(f"the model has no body named {object_body!r}") from None
         self.model = model
         self.min_force = float(min_force)
-        self._segment_of_geom = np.full(model.ngeom, -1)
-        for geom in range(model.ngeom):
-            body = model.body(model.geom_bodyid[geom]).name
-            if body in _SEGMENT_INDEX:
-                self._segment_of_geom[geom] = _SEGMENT_INDEX[body]
+        self._segment_of_geom = segment_of_geoms(model)
         self._is_object_geom = model.geom_bodyid == object_id
         self._wrench = np.zeros(6)
 
