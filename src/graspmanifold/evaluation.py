@@ -336,13 +336,17 @@ class EvaluationResult:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EvaluationResult:
+        return cls._load_with_metadata(path)[0]
+
+    @classmethod
+    def _load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
         a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
                                                 "margin": (None,), "penetration": (None,), "fault": (None,)})
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
                         float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]))
                   for i in range(len(a["epsilon"]))]
-        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]))
+        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"])), meta
 
 
 @dataclass
@@ -382,18 +386,17 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise ValueError(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
     states: list[np.ndarray] = []
-    scenes: list[Scene] = []
+    seen: dict[str, Scene] = {}
 
     def observe(scene: Scene) -> None:
-        if not scenes:
-            scenes.append(scene)
-        if len(scenes) == 1 and (len(states) == 0 or (round(scene.time / period) % every == 0)):
+        seen["scene"] = scene  # the trial's one scene
+        if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
     period = (params or ControllerParams()).control_period
     trial = run_trial(obj, check_experience(experience), grid_pose, np.random.default_rng([seed, 0]),
                       noise or Noise(), params, table, preshape, observer=observe)
-    return Recording(trial, scenes[0], np.array(states), every * period)
+    return Recording(trial, seen["scene"], np.array(states), every * period)
 
 
 def trial_count(summary: dict) -> str:
@@ -444,9 +447,9 @@ def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dic
     found, discarded = {}, []
     for path in sorted(directory.glob("part_*.npz")):
         try:
-            _, meta = load_npz(path, "evaluation", {})
-            trials = EvaluationResult.load(path).trials
-        except ValueError:
+            part, meta = EvaluationResult._load_with_metadata(path)
+            trials = part.trials
+        except (ValueError, KeyError):  # truncated, or not a part of ours
             meta, trials = {}, []
         first = int(meta.get("first", -1))
         number = next((k for k, chunk in enumerate(chunks) if chunk[0] == first), None)
