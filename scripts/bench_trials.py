@@ -2,7 +2,7 @@
 
     python scripts/bench_trials.py [--repeats 3]
 
-A trial is the grasp, the six-direction hold test and the margin ramp (`evaluation.run_trial`).
+A trial is the grasp, the six-direction hold test and the margin ramp (`trial.run_trial`).
 Prints the best of `--repeats` wall times per object and trials per second; run it with another
 checkout's `src` on PYTHONPATH to compare two versions on the same machine.
 """

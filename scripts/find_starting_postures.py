@@ -12,7 +12,12 @@ import time
 from pathlib import Path
 
 from graspmanifold.objects import PAPER_OBJECTS
-from graspmanifold.starts import GRASP_DESIGNS, STARTS_FILE, find_starting_postures, save_starting_postures
+from graspmanifold.starts import (
+    GRASP_DESIGNS,
+    STARTS_FILE,
+    find_starting_postures,
+    save_starting_postures,
+)
 
 
 def main() -> None:

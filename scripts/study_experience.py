@@ -35,12 +35,20 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.evaluation import EvaluationResult, grid_preset, trial_count
+from graspmanifold.evaluation import EvaluationResult, trial_count
 from graspmanifold.generator import remove_checkpoints
+from graspmanifold.grid import GRID_COLUMNS, coverage, grid_preset
 from graspmanifold.io import atomic_write, write_npz, write_text_atomic
+from graspmanifold.judge import EPSILON_THRESHOLD
 from graspmanifold.stats import rate_text
 from graspmanifold.study import (
-    TRAINING_NOISE, compare, closing_rate_params, comparison_rows, grow_experience, judge_target, train_experience_map,
+    TRAINING_NOISE,
+    closing_rate_params,
+    compare,
+    comparison_rows,
+    grow_experience,
+    judge_target,
+    train_experience_map,
 )
 
 OBJECTS = ("box", "cylinder", "sphere")
@@ -161,13 +169,13 @@ def run(study: Study) -> dict:
                 if method in ABLATIONS and args.quick:
                     continue
                 study.evaluate(obj, grid, method, experience, params, noise, preshape=fixed)
-        coverage = gm.evaluation.coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses)
+        near = coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses)
         info["objects"][obj] = {
             "spring_candidates": int(spring.metadata["candidates"]), "spring_verified": len(spring),
             "verified_by_start": spring.metadata["verified_by_start"], "grown": int(len(grown) - len(spring)),
             "learning_curve": sets["curve"],
-            "coverage_median_mm": float(np.median(coverage[:, 0]) * 1000) if len(spring) else None,
-            "coverage_within_5mm": float(np.mean(coverage[:, 0] <= 0.005)) if len(spring) else None}
+            "coverage_median_mm": float(np.median(near[:, 0]) * 1000) if len(spring) else None,
+            "coverage_within_5mm": float(np.mean(near[:, 0] <= 0.005)) if len(spring) else None}
         if not args.quick:
             friction_study(study, obj, som, info)
     return info
@@ -185,7 +193,7 @@ def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) 
     present = [m for m in methods if (obj, grid, m) in study.results]
     poses = np.array([t.grid_pose for t in study.results[(obj, grid, present[0])].trials])
     lines = [f"| axis | value | n | {' | '.join(present)} |", f"|---|---|---|{'---|' * len(present)}"]
-    for column, axis in enumerate(gm.evaluation.GRID_COLUMNS):
+    for column, axis in enumerate(GRID_COLUMNS):
         values = np.unique(poses[:, column])
         if len(values) < 2:
             continue
@@ -244,7 +252,7 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
         if not present:
             continue
         poses = np.array([t.grid_pose for t in results[(obj, hard, present[0])].trials])
-        for column, axis in enumerate(gm.evaluation.GRID_COLUMNS):
+        for column, axis in enumerate(GRID_COLUMNS):
             for value in np.unique(poses[:, column]):
                 rows_at = poses[:, column] == value
                 best = max(results[(obj, hard, m)].rate(rows=rows_at) for m in present)
@@ -296,7 +304,7 @@ def report(study: Study, info: dict) -> str:
                 r = results.get((obj, grid, m))
                 cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), r.summary['trials'])}")
             lines.append(f"| {obj} | {' | '.join(cells)} |")
-        lines += ["", f"Force closure (ε > {gm.evaluation.EPSILON_THRESHOLD}) / mean margin (N) / mean time to grasp (s):", "",
+        lines += ["", f"Force closure (ε > {EPSILON_THRESHOLD}) / mean margin (N) / mean time to grasp (s):", "",
                   f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
         for obj in OBJECTS:
             cells = []

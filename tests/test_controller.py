@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.evaluation import palm_pose_for
+from graspmanifold.grid import palm_pose_for
 
 
 @pytest.fixture(scope="module")
@@ -248,7 +248,7 @@ def test_an_object_on_a_table_is_grasped_and_lifted_off():
 
 
 def test_trials_start_with_the_open_hand_clear_of_the_object():
-    from graspmanifold.evaluation import START_CLEARANCE, open_hand_clearance
+    from graspmanifold.grid import START_CLEARANCE, open_hand_clearance
     for name in ("box", "cylinder", "sphere"):
         for preset in ("quick", "paper"):
             assert np.all(open_hand_clearance(name, gm.grid_preset(preset, name)) >= START_CLEARANCE)
@@ -296,7 +296,7 @@ def test_a_constant_preshape_replaces_phase_b_matching(experience):
 
 
 def test_coverage_sees_placements_up_to_the_objects_symmetry():
-    from graspmanifold.evaluation import coverage
+    from graspmanifold.grid import coverage
     from graspmanifold.poses import compose
 
     grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])

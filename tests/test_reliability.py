@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.evaluation import EvaluationResult, run_trial
+from graspmanifold.evaluation import EvaluationResult
 from graspmanifold.scene import PENETRATION_LIMIT, SimulationError
 from graspmanifold.study import compare
-
+from graspmanifold.trial import run_trial
 
 # -- simulation faults -----------------------------------------------------------------------------
 
@@ -258,7 +258,7 @@ def test_evaluate_refuses_an_unwritable_output_before_running_any_trial(tmp_path
 def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_path, monkeypatch):
     from graspmanifold import evaluation
 
-    grid = evaluation.grid_preset("quick", "box")[:10]
+    grid = gm.grid_preset("quick", "box")[:10]
     parts = tmp_path / "parts"
     real = evaluation.run_trial
     calls = []

@@ -4,6 +4,12 @@ An implementation (and extension) of "SOM-based experience representation for de
 (WSOM 2007) on a MuJoCo model of the 24-joint Shadow Dexterous Hand.
 """
 
+from .analysis import resume_learning, smoothness
+from .controller import ControllerParams, GraspController
+from .evaluation import EvaluationResult, evaluate
+from .experience import Experience, PostureDatabase
+from .generator import PRESETS, GeneratorParams, generate_postures
+from .grid import grid_preset, reachable
 from .hand import (
     ACTUATORS,
     DISTAL_SEGMENTS,
@@ -17,11 +23,6 @@ from .hand import (
     finger_limits,
     load_hand,
 )
-from .analysis import resume_learning, smoothness
-from .controller import ControllerParams, GraspController
-from .evaluation import EvaluationResult, Noise, Recording, evaluate, grid_preset, reachable, record_trial
-from .experience import Experience, PostureDatabase
-from .generator import PRESETS, GeneratorParams, generate_postures
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import (
     clip_posture,
@@ -37,16 +38,16 @@ from .posture import (
 from .postureset import PostureSet
 from .quality import QualityError, epsilon_l1
 from .scene import Scene, SimulationError, facing_pose
-from .starts import StartingPosture, starting_postures
 from .som import SOM, SOMSchedule
+from .starts import StartingPosture, starting_postures
 from .tactile import TactileReading, TactileSensor
-
-__version__ = "0.1.0"
+from .trial import Noise, Recording, record_trial
+from .version import __version__
 
 #: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
 #: plotting pulls in matplotlib, which a simulation-only user does not need
-_SUBMODULES = ("analysis", "evaluation", "figures", "io", "judge", "plots", "quality", "render", "report",
-               "reproduce", "stats", "study", "workers")
+_SUBMODULES = ("analysis", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
+               "reproduce", "stats", "study", "trial", "validation", "workers")
 
 
 def __getattr__(name: str) -> object:

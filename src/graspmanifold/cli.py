@@ -15,12 +15,13 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from .evaluation import GRID_PRESETS
 from .generator import PRESETS as DATASET_PRESETS
-from .report import FIGURES
+from .grid import GRID_PRESETS
 from .objects import PAPER_OBJECTS
 from .posture import closed_posture, open_posture
+from .report import FIGURES
 from .scene import Scene, facing_pose
+from .version import __version__
 
 
 def _closed_scene(object_name: str, seconds: float, clearance: float) -> Scene:
@@ -80,7 +81,12 @@ def _check_writable_directory(out: Path) -> None:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from .generator import PRESETS, GeneratorParams, generate_postures, remove_checkpoints
+    from .generator import (
+        PRESETS,
+        GeneratorParams,
+        generate_postures,
+        remove_checkpoints,
+    )
 
     out = _check_output(args.out, args.force)
     n = args.n if args.n is not None else PRESETS[args.preset][args.object]
@@ -124,9 +130,10 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from .evaluation import Noise, evaluate, summary_json
+    from .evaluation import evaluate, summary_json
     from .generator import remove_checkpoints
     from .io import write_text_atomic
+    from .trial import Noise
 
     out = Path(args.out)
     checkpoints = out / "trials.parts"
@@ -182,8 +189,6 @@ DEFAULT_WORKERS = max(1, min(2, os.cpu_count() or 1))
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
-
     formatter = argparse.ArgumentDefaultsHelpFormatter
     parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__, formatter_class=formatter)
     parser.add_argument("--version", action="version", version=f"graspmanifold {__version__}")

@@ -18,7 +18,7 @@ import numpy as np
 from .io import fingerprint, load_npz, save_npz
 from .nearest import MaskedNearest, check_queries, check_query
 from .postureset import N_JOINTS, PostureSet
-from .som import check_data
+from .validation import check_data
 
 
 @runtime_checkable

@@ -36,17 +36,25 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .controller import ControllerParams, squeezed
-from .hand import DISTAL_SEGMENTS, FINGERTIP_SITES, FINGER_JOINTS, SEGMENTS, finger_limits, segment_of_geoms
+from .hand import (
+    DISTAL_SEGMENTS,
+    FINGER_JOINTS,
+    FINGERTIP_SITES,
+    SEGMENTS,
+    finger_limits,
+    segment_of_geoms,
+)
 from .io import library_version, load_npz, save_npz
 from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
 from .objects import GraspObject, get_object
-from .postureset import PostureSet
-from .posture import posture_to_ctrl
-from .progress import progress_bar
-from .workers import worker_pool
 from .poses import to_quat, to_rotation
+from .posture import posture_to_ctrl
+from .postureset import PostureSet
+from .progress import progress_bar
 from .scene import Scene, SimulationError
 from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
+from .validation import check_int
+from .workers import parallel_map
 
 #: The paper's dataset sizes (Section 5), and a small set for tests and demos.
 PRESETS: dict[str, dict[str, int]] = {
@@ -293,10 +301,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     every finished job is saved there, and a rerun with the same arguments picks them up.
     """
     obj = get_object(obj)
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
-        raise ValueError(f"n must be a positive integer, got {n!r}")
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    n, workers = check_int(n, "n"), check_int(workers, "workers")
     params = params or GeneratorParams()
     starts = starting_postures(obj)
     if not starts:
@@ -328,16 +333,13 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                for i, job in enumerate(jobs) if i not in results]
     with progress_bar(n, f"generate {obj.name}", "candidates", enabled=progress) as report:
         report.update(sum(jobs[i].quota for i in results))
-        if workers == 1:
-            for args in pending:
-                index, result = _job_worker(args)
-                results[index] = result
-                report.update(jobs[index].quota)
-        else:
-            with worker_pool(workers) as pool:
-                for index, result in pool.map(_job_worker, pending):
-                    results[index] = result
-                    report.update(jobs[index].quota)
+
+        def keep(_: int, finished: tuple[int, dict[str, np.ndarray]]) -> None:
+            index, result = finished
+            results[index] = result
+            report.update(jobs[index].quota)
+
+        parallel_map(_job_worker, pending, workers, keep)
     ordered = [results[i] for i in range(len(jobs))]
     tries = int(sum(int(r["tries"]) for r in ordered))
     faults = int(sum(int(r.get("faults", 0)) for r in ordered))

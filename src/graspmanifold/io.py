@@ -20,13 +20,13 @@ from typing import IO
 
 import numpy as np
 
+from .version import __version__
+
 SCHEMA_VERSION = 2
 _METADATA_KEY = "__metadata__"
 
 
 def library_version() -> str:
-    from . import __version__
-
     return __version__
 
 

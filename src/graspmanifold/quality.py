@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from .validation import check_int
 
 #: epsilon with many cone edges starts from this many per cone and adds, round by round, at most
 #: REFINE_WRENCHES of the other edges beyond the nearest facet (see `epsilon_l1`)
@@ -61,8 +62,7 @@ def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray
     center = _array(center, (3,), "center")
     if not np.isfinite(mu) or mu < 0:
         raise ValueError(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
-    if isinstance(num_edges, bool) or not isinstance(num_edges, (int, np.integer)) or num_edges < 3:
-        raise ValueError(f"num_edges must be an integer >= 3, got {num_edges!r}")
+    check_int(num_edges, "num_edges", low=3)
     length = np.linalg.norm(normals, axis=1)
     if np.any(length < 1e-12):
         raise ValueError("normals must be non-zero vectors")

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .validation import check_int
+
 if TYPE_CHECKING:
     from .scene import Scene
 
@@ -56,13 +58,11 @@ def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width:
                   backends: tuple[str, ...] | None = None) -> np.ndarray:
     """Images (k, height, width, 3) uint8 of a scene in each of k states (`Scene.state()`), from
     one of its named cameras (`scene.CAMERAS`)."""
-    from .scene import CAMERAS
-
-    if camera not in CAMERAS:
-        raise ValueError(f"unknown camera {camera!r}; expected one of {tuple(CAMERAS)}")
+    cameras = tuple(scene.model.camera(i).name for i in range(scene.model.ncam))
+    if camera not in cameras:
+        raise ValueError(f"unknown camera {camera!r}; expected one of {cameras}")
     for name, value in (("width", width), ("height", height)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 16 <= value <= 4096:
-            raise ValueError(f"{name} must be a whole number of pixels in 16 ... 4096, got {value!r}")
+        check_int(value, f"{name} (pixels)", low=16, high=4096)
     states = np.asarray(states, dtype=float)
     if states.ndim != 2 or states.shape[1] != len(scene.state()) or not np.all(np.isfinite(states)):
         raise ValueError(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "

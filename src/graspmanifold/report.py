@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from .analysis import smoothness
-from .evaluation import EPSILON_THRESHOLD, EvaluationResult, trial_count
+from .evaluation import EvaluationResult, trial_count
+from .generator import PRESETS as DATASET_PRESETS
 from .io import atomic_write, library_version, write_text_atomic
+from .judge import EPSILON_THRESHOLD
 from .postureset import PostureSet
 from .som import SOM
-from .generator import PRESETS as DATASET_PRESETS
 from .stats import rate_text
 from .study import comparison_rows, judge_target
 

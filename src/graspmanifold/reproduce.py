@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .evaluation import EvaluationResult, check_grid, evaluate
+from .evaluation import EvaluationResult, evaluate
 from .experience import PostureDatabase
 from .generator import PRESETS as DATASET_SIZES
 from .generator import GeneratorParams, generate_postures, remove_checkpoints
+from .grid import check_grid
 from .io import library_version, write_text_atomic
 from .objects import PAPER_OBJECTS, get_object
 from .posture import N_FINGER_JOINTS

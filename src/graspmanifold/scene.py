@@ -18,6 +18,7 @@ from .objects import GraspObject, get_object
 from .poses import check_quat, check_vec3, compose, invert
 from .posture import posture_to_ctrl, validate_posture
 from .tactile import TactileReading, TactileSensor
+from .validation import check_int
 
 GRAVITY = 9.81
 OBJECT_RGBA = (0.25, 0.45, 0.8, 1.0)
@@ -146,9 +147,7 @@ class Scene:
 
     def step(self, n: int = 1) -> None:
         """Advance the physics by n timesteps; SimulationError when the physics fails (see `check`)."""
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise ValueError(f"n must be a whole number of timesteps >= 0, got {n!r}")
-        for _ in range(int(n)):
+        for _ in range(check_int(n, "n (timesteps)", low=0)):
             mujoco.mj_step(self.model, self.data)
         self.check()
 

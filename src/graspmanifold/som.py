@@ -46,6 +46,7 @@ from tqdm import tqdm
 from .io import fingerprint, load_npz, save_npz
 from .nearest import MaskedNearest, check_queries, check_query
 from .progress import progress_bar
+from .validation import check_data, check_int
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -57,28 +58,6 @@ def decay_schedule(start: float, end: float, epochs: int) -> np.ndarray:
     if epochs == 1:
         return np.array([float(start)])
     return start * (end / start) ** (np.arange(epochs) / (epochs - 1))
-
-
-#: the largest magnitude a SOM accepts in its data: the batch map scores in float32, whose squares
-#: overflow near 1e19; anything this large is a unit error rather than a posture
-MAX_ABS_VALUE = 1e15
-
-
-def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
-    """X as a float (n, dim) array with n >= 1 and only finite values of magnitude at most
-    MAX_ABS_VALUE; errors name the bad row."""
-    data = np.asarray(X, dtype=float)
-    if data.ndim != 2 or data.shape[1] != dim or len(data) == 0:
-        raise ValueError(f"{name} must have shape (n, {dim}) with n >= 1, got {data.shape}")
-    finite = np.isfinite(data).all(axis=1)
-    if not finite.all():
-        row = int(np.flatnonzero(~finite)[0])
-        raise ValueError(f"{name} row {row} has non-finite values: {data[row].tolist()}")
-    huge = (np.abs(data) > MAX_ABS_VALUE).any(axis=1)
-    if huge.any():
-        row = int(np.flatnonzero(huge)[0])
-        raise ValueError(f"{name} row {row} has values beyond +-{MAX_ABS_VALUE:g}: {data[row].tolist()}")
-    return np.ascontiguousarray(data)
 
 
 def check_schedule(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
@@ -116,7 +95,7 @@ class SOMSchedule:
 def _schedule(epochs: object, learning_rate: object, sigma: object, algorithm: object
               ) -> tuple[int, tuple[float, float], tuple[float, float], str]:
     """A checked training schedule."""
-    return (_positive_int(epochs, "epochs"), check_schedule(learning_rate, "learning_rate", upper=1.0),
+    return (check_int(epochs, "epochs"), check_schedule(learning_rate, "learning_rate", upper=1.0),
             check_schedule(sigma, "sigma"), _algorithm(algorithm))
 
 
@@ -124,12 +103,6 @@ def _algorithm(value: object) -> str:
     if value not in ALGORITHMS:
         raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {value!r}")
     return str(value)
-
-
-def _positive_int(value: object, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 #: the paper's schedules: training (Section 4) and resumed learning (Section 5)
@@ -145,13 +118,11 @@ class SOM:
                  algorithm: str = "online"):
         """The lattice, the seed (presentation order) and the training schedule `fit` uses (the
         paper's: 300 epochs, learning rate 0.95 -> 0.05, sigma 6 -> 0.7, online)."""
-        self.rows = _positive_int(rows, "rows")
-        self.cols = _positive_int(cols, "cols")
-        self.dim = _positive_int(dim, "dim")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-        self.seed = int(seed)
-        self.epochs = _positive_int(epochs, "epochs")
+        self.rows = check_int(rows, "rows")
+        self.cols = check_int(cols, "cols")
+        self.dim = check_int(dim, "dim")
+        self.seed = check_int(seed, "seed", low=0)
+        self.epochs = check_int(epochs, "epochs")
         self.learning_rate = check_schedule(learning_rate, "learning_rate", upper=1.0)
         self.sigma = check_schedule(sigma, "sigma")
         self.algorithm = _algorithm(algorithm)

@@ -19,11 +19,19 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from .hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_limits, finger_of, segment_of_geoms
+from .hand import (
+    DISTAL_SEGMENTS,
+    FINGER_JOINTS,
+    SEGMENTS,
+    asset_path,
+    finger_limits,
+    finger_of,
+    segment_of_geoms,
+)
 from .io import load_npz, save_npz
 from .objects import GraspObject, get_object
-from .posture import dict_to_posture
 from .poses import to_quat, to_rotation
+from .posture import dict_to_posture
 from .scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
 
 STARTS_FILE = "starting_postures.npz"

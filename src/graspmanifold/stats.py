@@ -13,11 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binomtest, norm
 
-
-def _count(value: object, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
-    return int(value)
+from .validation import check_int
 
 
 def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -26,7 +22,7 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
     Unlike the normal approximation it stays inside [0, 1] and behaves at 0 and n successes.
     No trials give (0, 1): nothing is known.
     """
-    k, n = _count(successes, "successes"), _count(trials, "trials")
+    k, n = check_int(successes, "successes", low=0), check_int(trials, "trials", low=0)
     if k > n:
         raise ValueError(f"successes ({k}) must not exceed trials ({n})")
     if not 0.0 < confidence < 1.0:

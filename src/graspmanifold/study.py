@@ -15,11 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .controller import ControllerParams
-from .evaluation import EvaluationResult, Noise, evaluate
+from .evaluation import EvaluationResult, evaluate
 from .objects import GraspObject
 from .posture import N_FINGER_JOINTS
 from .som import SOM
 from .stats import PairedComparison, mcnemar, rate_text
+from .trial import Noise
 
 #: Where the controller gathers its own experience: grid poses perturbed by this much, so the poses
 #: it learns from are never the poses it is tested on.

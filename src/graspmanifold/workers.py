@@ -1,4 +1,10 @@
-"""Worker processes that die with their parent and stop at once on Ctrl-C.
+"""Parallel work: one runner (`parallel_map`) for every long job, in worker processes that die
+with their parent and stop at once on Ctrl-C.
+
+`parallel_map` is what the generator and the evaluation run their independent jobs through:
+results come back in task order, the runner draws no random numbers (each task carries its seed),
+and workers keep no state between tasks (the function, with everything it needs bound, travels
+with each task), so a result never depends on the number of workers.
 
 A `ProcessPoolExecutor`'s workers outlive a parent killed with SIGKILL (they wait forever for work
 that never comes), and on Ctrl-C the pool waits for every running task before it lets go. The pool
@@ -16,9 +22,15 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
+from typing import TypeVar
+
+from .validation import check_int
+
+Task = TypeVar("Task")
+Result = TypeVar("Result")
 
 _PR_SET_PDEATHSIG = 1
 _WATCH_SECONDS = 1.0
@@ -42,19 +54,16 @@ def _die_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="parent-watchdog", daemon=True).start()
 
 
-def _start_worker(parent: int, initializer: Callable[..., None] | None, initargs: tuple) -> None:
+def _start_worker(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     _die_with_parent(parent)
-    if initializer is not None:
-        initializer(*initargs)
 
 
 @contextmanager
-def worker_pool(workers: int, initializer: Callable[..., None] | None = None,
-                initargs: tuple = ()) -> Iterator[ProcessPoolExecutor]:
+def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     """A process pool whose workers die with this process; leaving the block by an exception
     (Ctrl-C included) cancels what has not started and terminates the workers at once."""
-    pool = ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(os.getpid(), initializer, initargs))
+    pool = ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(os.getpid(),))
     try:
         yield pool
     except BaseException:
@@ -66,3 +75,29 @@ def worker_pool(workers: int, initializer: Callable[..., None] | None = None,
             process.join(timeout=5)
         raise
     pool.shutdown(wait=True)
+
+
+def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], workers: int = 1,
+                 on_result: Callable[[int, Result], None] | None = None) -> list[Result]:
+    """`function(task)` for every task, in this process (`workers=1`) or in a `worker_pool`.
+
+    Results are returned, and handed to `on_result(index, result)` as they arrive (for progress
+    and checkpoints), in task order. `function` must be picklable: a module-level function, or a
+    `functools.partial` of one with the shared inputs bound.
+    """
+    check_int(workers, "workers")
+    results: list[Result] = []
+
+    def keep(result: Result) -> None:
+        if on_result is not None:
+            on_result(len(results), result)
+        results.append(result)
+
+    if workers == 1:
+        for task in tasks:
+            keep(function(task))
+    else:
+        with worker_pool(workers) as pool:
+            for result in pool.map(function, tasks):
+                keep(result)
+    return results
