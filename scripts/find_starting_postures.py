@@ -1,8 +1,9 @@
-"""Find the starting postures of the paper's three objects and ship them in assets/.
+"""Find the starting postures of the paper's objects and the object family, and ship them in assets/.
 
-    python scripts/find_starting_postures.py [--out assets/starting_postures.npz]
+    python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz]
 
-Deterministic: a least-squares search from each grasp design (graspmanifold.starts.GRASP_DESIGNS).
+Deterministic: a least-squares search from each grasp design (graspmanifold.starts.designs_for).
+Objects not shipped (other sizes, the user's meshes) get theirs computed on first use, the same way.
 """
 
 from __future__ import annotations
@@ -11,26 +12,32 @@ import argparse
 import time
 from pathlib import Path
 
-from graspmanifold.objects import PAPER_OBJECTS
+from graspmanifold.family import FAMILY
+from graspmanifold.objects import PAPER_OBJECTS, get_object
 from graspmanifold.starts import (
-    GRASP_DESIGNS,
     STARTS_FILE,
+    designs_for,
     find_starting_postures,
     save_starting_postures,
 )
+from graspmanifold.workers import parallel_map
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "assets" / STARTS_FILE))
+    parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    found = {}
-    for name, obj in PAPER_OBJECTS.items():
-        start = time.perf_counter()
-        found[name] = find_starting_postures(obj)
-        print(f"{name}: {len(found[name])} of {len(GRASP_DESIGNS[obj.shape])} designs are valid five-fingertip "
-              f"grasps ({', '.join(s.name for s in found[name])}) in {time.perf_counter() - start:.1f} s")
-    save_starting_postures(args.out, found)
+    names = [*PAPER_OBJECTS, *FAMILY]
+    start = time.perf_counter()
+
+    def report(index: int, starts: list) -> None:
+        obj = get_object(names[index])
+        print(f"{obj.name}: {len(starts)} of {len(designs_for(obj))} designs are valid five-fingertip grasps "
+              f"({', '.join(s.name for s in starts)}); {time.perf_counter() - start:.0f} s so far", flush=True)
+
+    found = parallel_map(find_starting_postures, names, args.workers, report)
+    save_starting_postures(args.out, dict(zip(names, found)))
     print(f"wrote {args.out}")
 
 

@@ -15,18 +15,34 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from .family import FAMILY
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
-from .objects import PAPER_OBJECTS
+from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
 from .scene import Scene, facing_pose
 from .version import __version__
 
 
-def _closed_scene(object_name: str, seconds: float, clearance: float) -> Scene:
-    scene = Scene(object_name)
-    scene.set_hand_pose(*facing_pose(object_name, clearance=clearance))
+def _object(args: argparse.Namespace) -> GraspObject:
+    """The object --object names: a paper object, a family member, or a mesh file (times --scale)."""
+    text = args.object
+    try:
+        if text in PAPER_OBJECTS or text in FAMILY:
+            if args.scale != 1.0:
+                raise ValueError(f"--scale is for mesh files, not the named object {text!r}")
+            return get_object(text)
+        if Path(text).suffix or os.sep in text:
+            return make_object("mesh", mesh=text, scale=args.scale)
+        return get_object(text)
+    except (ValueError, ImportError) as error:
+        raise SystemExit(f"error: --object: {error}") from None
+
+
+def _closed_scene(obj: GraspObject, seconds: float, clearance: float) -> Scene:
+    scene = Scene(obj)
+    scene.set_hand_pose(*facing_pose(obj, clearance=clearance))
     scene.set_posture(open_posture())
     scene.set_target(closed_posture())
     scene.run(seconds)
@@ -35,10 +51,11 @@ def _closed_scene(object_name: str, seconds: float, clearance: float) -> Scene:
 
 def _demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
-    scene = _closed_scene(args.object, args.seconds, args.clearance)
+    obj = _object(args)
+    scene = _closed_scene(obj, args.seconds, args.clearance)
     wall = time.perf_counter() - start
     reading = scene.tactile()
-    print(f"closed the hand on the {args.object} for {scene.time:.2f} s of simulated time "
+    print(f"closed the hand on the {obj.name} for {scene.time:.2f} s of simulated time "
           f"({scene.time / wall:.0f}x real time)")
     print(f"{len(reading.segments)} segments touch the object:")
     for segment in reading.segments:
@@ -50,8 +67,9 @@ def _demo(args: argparse.Namespace) -> int:
 def _view(args: argparse.Namespace) -> int:
     import mujoco.viewer  # imported here: it needs a display
 
-    scene = Scene(args.object)
-    scene.set_hand_pose(*facing_pose(args.object, clearance=args.clearance))
+    obj = _object(args)
+    scene = Scene(obj)
+    scene.set_hand_pose(*facing_pose(obj, clearance=args.clearance))
     scene.set_posture(open_posture())
     if args.close:
         scene.set_target(closed_posture())
@@ -88,8 +106,9 @@ def _generate(args: argparse.Namespace) -> int:
         remove_checkpoints,
     )
 
+    obj = _object(args)
     out = _check_output(args.out, args.force)
-    n = args.n if args.n is not None else PRESETS[args.preset][args.object]
+    n = args.n if args.n is not None else PRESETS[args.preset].get(obj.name, PRESETS[args.preset]["cylinder"])
     if n <= 0:
         raise SystemExit(f"error: --n must be positive, got {n}")
     checkpoints = out.with_name(out.name + ".parts")
@@ -98,14 +117,14 @@ def _generate(args: argparse.Namespace) -> int:
     if args.force:
         remove_checkpoints(checkpoints)
     try:
-        postures = generate_postures(args.object, n, seed=args.seed, workers=args.workers, params=params,
+        postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
                                      checkpoint_dir=checkpoints, progress=True)
     except ValueError as error:
         raise SystemExit(f"error: {error}") from None
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = f"{len(postures)} of {n} candidates hold" if params.verify else "not verified"
-    print(f"wrote {len(postures)} {args.object} postures to {out} in {time.perf_counter() - start:.1f} s "
+    print(f"wrote {len(postures)} {obj.name} postures to {out} in {time.perf_counter() - start:.1f} s "
           f"({verified}; acceptance {postures.metadata['acceptance_ratio']:.2f})")
     return 0
 
@@ -135,6 +154,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     from .io import write_text_atomic
     from .trial import Noise
 
+    obj = _object(args)
     out = Path(args.out)
     checkpoints = out / "trials.parts"
     results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
@@ -147,7 +167,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
         experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
         start = time.perf_counter()
-        result = evaluate(args.object, experience, args.grid, seed=args.seed, workers=args.workers,
+        result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
                           noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True)
     except (ValueError, FileNotFoundError) as error:
         raise SystemExit(f"error: {error}") from None
@@ -197,6 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
     def command(name: str, help: str) -> argparse.ArgumentParser:
         return commands.add_parser(name, help=help, description=help, formatter_class=formatter)
 
+    def object_options(sub: argparse.ArgumentParser) -> None:
+        sub.add_argument("--object", default="cylinder", help="a paper object (box, cylinder, sphere), a family "
+                         "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.family.FAMILY) or a mesh file "
+                         "(.stl, .obj, .ply, ...: a watertight solid)")
+        sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
+
     def workers(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
 
@@ -209,9 +235,9 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.set_defaults(run=_reproduce)
 
     generate = command("generate", "generate grasp postures with the spring generator (verified as grasps)")
-    generate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    object_options(generate)
     generate.add_argument("--n", type=int, help="number of candidate postures (default: the preset's size for the "
-                          "object); only the candidates that hold are kept unless --no-verify")
+                          "object, the cylinder's for objects outside the paper); only the candidates that hold are kept unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every five-fingertip candidate without replaying it as a grasp")
     generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
@@ -225,7 +251,7 @@ def build_parser() -> argparse.ArgumentParser:
     generate.set_defaults(run=_generate)
 
     evaluate = command("evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
-    evaluate.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    object_options(evaluate)
     evaluate.add_argument("--experience", choices=("none", "database", "som"), default="som",
                           help="none (plain tactile heuristic), a database of --postures, or a SOM")
     evaluate.add_argument("--postures", nargs="*", help="posture set file(s) for the database or the SOM")
@@ -243,7 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.set_defaults(run=_evaluate)
 
     demo = command("demo", "close the hand on an object and print the touching segments")
-    demo.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    object_options(demo)
     demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close")
     demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     demo.set_defaults(run=_demo)
@@ -255,7 +281,7 @@ def build_parser() -> argparse.ArgumentParser:
     figure.set_defaults(run=_figure)
 
     view = command("view", "open MuJoCo's interactive viewer on a scene (needs a display)")
-    view.add_argument("--object", choices=sorted(PAPER_OBJECTS), default="cylinder")
+    object_options(view)
     view.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     view.add_argument("--close", action="store_true", help="command the closed posture (press space to run)")
     view.set_defaults(run=_view)

@@ -131,7 +131,6 @@ class _SpringRig:
         self.distal_geoms = [model.geom(s).id for s in DISTAL_SEGMENTS]
         self.finger_dofs = self.scene.hand_dofs[2:]
         self.limits = finger_limits()
-        self._fromto = np.zeros(6)
         self._torque = np.zeros(3)
 
     def apply_springs(self) -> None:
@@ -181,7 +180,7 @@ class _SpringRig:
         saved = data.qpos.copy()
         data.qpos[scene.finger_qpos] = clipped  # judge exactly what is stored
         mujoco.mj_kinematics(model, data)
-        gap = lambda g: mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.05, self._fromto)  # noqa: E731
+        gap = scene.distance_to_object
         try:
             if any(gap(g) > CONTACT_GAP for g in self.distal_geoms):
                 return None

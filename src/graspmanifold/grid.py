@@ -68,8 +68,9 @@ def clearance(scene: Scene, pose: np.ndarray) -> float:
     mujoco.mj_kinematics(model, data)
     hand_geoms = np.flatnonzero(segment_of_geoms(model) >= 0)
     fromto = np.zeros(6)
-    others = [scene.object_geom] + ([scene.table_geom] if scene.table_geom is not None else [])
-    return min(mujoco.mj_geomDistance(model, data, g, other, 0.05, fromto) for g in hand_geoms for other in others)
+    table = [mujoco.mj_geomDistance(model, data, g, scene.table_geom, 0.05, fromto)
+             for g in hand_geoms] if scene.table_geom is not None else []
+    return min([scene.distance_to_object(g) for g in hand_geoms] + table)
 
 
 def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:

@@ -1,18 +1,27 @@
-"""Grasp objects: the paper's box, cylinder and sphere, and other sizes of the same shapes.
+"""Grasp objects: the paper's box, cylinder and sphere, other sizes of them, and any watertight mesh.
 
-An object is centred at its origin with its long axis along z. Besides what MuJoCo needs to
-simulate it, each object answers exact geometric queries (closest surface point, signed
-distance) that the posture generator's springs rely on.
+An object is centred at its origin with its long axis along z (a mesh: at its centre of mass, on
+its principal axes, see `meshes.py`). Besides what MuJoCo needs to simulate it, each object answers
+the geometric queries the posture generator's springs rely on through one interface (closest
+surface point, signed distance, surface normal): exact formulas for the primitives, trimesh's
+proximity queries for a mesh.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
 
 import numpy as np
+import trimesh
 
-SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere")
+from .family import FAMILY, family_mesh
+from .meshes import convex_parts, load_mesh, mesh_digest, object_frame
+
+SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
 
 #: Sliding friction of hand and object alike: a rubber-like fingertip skin on wood or hard plastic
 #: measures about 0.5-0.8; 0.6 sits inside that range. The scene gives every hand geom the object's
@@ -22,18 +31,23 @@ DEFAULT_FRICTION = 0.6
 
 @dataclass(frozen=True)
 class GraspObject:
-    """A rigid primitive object. `half_sizes`: box (hx, hy, hz), cylinder (radius, half length), sphere (radius,)."""
+    """A rigid object. `half_sizes`: box (hx, hy, hz), cylinder (radius, half length), sphere (radius,),
+    mesh (the largest |x|, |y|, |z| of its vertices). A mesh object also holds the mesh in the object
+    frame and its convex parts (what MuJoCo collides); `mesh_digest` tells two meshes apart."""
 
     name: str
     shape: str
     half_sizes: tuple[float, ...]
     mass: float = 0.1
     friction: float = DEFAULT_FRICTION
+    mesh: trimesh.Trimesh | None = field(default=None, compare=False, repr=False)
+    parts: tuple[trimesh.Trimesh, ...] = field(default=(), compare=False, repr=False)
+    mesh_digest: str = ""
 
     @property
     def half_extents(self) -> np.ndarray:
         """Half extents of the axis-aligned bounding box (3,)."""
-        if self.shape == "box":
+        if self.shape in ("box", "mesh"):
             return np.array(self.half_sizes)
         if self.shape == "cylinder":
             r, h = self.half_sizes
@@ -41,26 +55,51 @@ class GraspObject:
         return np.full(3, self.half_sizes[0])
 
     def params(self) -> dict[str, object]:
-        """Plain parameters for metadata and for `make_object(**params)`."""
-        return {"name": self.name, "shape": self.shape, "half_sizes": list(self.half_sizes),
-                "mass": self.mass, "friction": self.friction}
+        """Plain parameters for metadata (a mesh is named by its digest, not written out)."""
+        params = {"name": self.name, "shape": self.shape, "half_sizes": list(self.half_sizes),
+                  "mass": self.mass, "friction": self.friction}
+        return params | ({"mesh_digest": self.mesh_digest} if self.shape == "mesh" else {})
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (m) of points (n, 3) or (3,) in the object frame to the surface; < 0 inside."""
-        return self._closest_and_distance(points)[1]
+        p, single = _check_points(points)
+        if self.mesh is not None:
+            distance = -trimesh.proximity.signed_distance(self.mesh, p)  # trimesh counts inside as positive
+        else:
+            distance = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[1]
+        return distance[0] if single else distance
 
     def closest_point(self, points: np.ndarray) -> np.ndarray:
-        """Exact closest surface points for points (n, 3) or (3,) in the object frame."""
-        return self._closest_and_distance(points)[0]
+        """Closest surface points for points (n, 3) or (3,) in the object frame."""
+        p, single = _check_points(points)
+        if self.mesh is not None:
+            closest = trimesh.proximity.closest_point(self.mesh, p)[0]
+        else:
+            closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
+        return closest[0] if single else closest
 
-    def _closest_and_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p = np.asarray(points, dtype=float)
-        single = p.ndim == 1
-        p = np.atleast_2d(p)
-        if p.shape[1] != 3 or not np.all(np.isfinite(p)):
-            raise ValueError(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
-        closest, distance = _SURFACE_QUERIES[self.shape](p, self.half_sizes)
-        return (closest[0], distance[0]) if single else (closest, distance)
+    def surface_normal(self, points: np.ndarray) -> np.ndarray:
+        """Outward unit normals of the surface at the closest points to points (n, 3) or (3,): a mesh's
+        face normal there, a primitive's gradient of the signed distance (central differences)."""
+        p, single = _check_points(points)
+        if self.mesh is not None:
+            normal = self.mesh.face_normals[trimesh.proximity.closest_point(self.mesh, p)[2]]
+        else:
+            closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
+            step = 1e-6 * np.eye(3)
+            query = lambda q: _SURFACE_QUERIES[self.shape](q, self.half_sizes)[1]  # noqa: E731
+            gradient = np.column_stack([query(closest + h) - query(closest - h) for h in step])
+            normal = gradient / np.linalg.norm(gradient, axis=1, keepdims=True)
+        return normal[0] if single else normal
+
+
+def _check_points(points: object) -> tuple[np.ndarray, bool]:
+    p = np.asarray(points, dtype=float)
+    single = p.ndim == 1
+    p = np.atleast_2d(p)
+    if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
+        raise ValueError(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
+    return p, single
 
 
 def _box_query(p: np.ndarray, half: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -141,12 +180,31 @@ def _positive(value: object, argument: str) -> float:
 
 
 def make_object(shape: str, *, radius: float | None = None, length: float | None = None,
-                size: tuple[float, float, float] | None = None, mass: float = 0.1,
-                friction: float = DEFAULT_FRICTION, name: str | None = None) -> GraspObject:
-    """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`) or sphere (`radius`).
+                size: tuple[float, float, float] | None = None,
+                mesh: trimesh.Trimesh | str | os.PathLike | None = None, scale: float | None = None,
+                mass: float = 0.1, friction: float = DEFAULT_FRICTION, name: str | None = None) -> GraspObject:
+    """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`), sphere (`radius`) or
+    mesh (`mesh`: a trimesh or a mesh file, times `scale`, default 1).
 
-    Sizes are in metres, mass in kg; `friction` is the sliding friction coefficient.
+    Sizes are in metres, mass in kg; `friction` is the sliding friction coefficient. A mesh must be a
+    watertight solid 5 mm to 30 cm across; it is moved to its centre of mass and turned onto its
+    principal axes (long axis z), and a non-convex one is split into convex parts for MuJoCo
+    (`meshes.py` says how).
     """
+    if shape == "mesh":
+        if mesh is None:
+            raise ValueError("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
+        extra = [k for k, v in {"radius": radius, "length": length, "size": size}.items() if v is not None]
+        if extra:
+            raise ValueError(f"a mesh takes mesh= and scale=, not {extra}")
+        solid = object_frame(load_mesh(mesh, 1.0 if scale is None else scale))
+        digest = mesh_digest(solid)
+        label = name or (Path(mesh).stem if isinstance(mesh, (str, os.PathLike)) else f"mesh_{digest[:8]}")
+        return GraspObject(name=label, shape="mesh", half_sizes=tuple(np.abs(solid.vertices).max(axis=0).tolist()),
+                           mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
+                           parts=tuple(convex_parts(solid)), mesh_digest=digest)
+    if mesh is not None or scale is not None:
+        raise ValueError(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
     given = {"radius": radius, "length": length, "size": size}
     needed = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
     if shape not in needed:
@@ -182,10 +240,19 @@ PAPER_OBJECTS: dict[str, GraspObject] = {
 
 
 def get_object(obj: str | GraspObject) -> GraspObject:
-    """The object itself, or the paper's object of that name."""
+    """The object itself, the paper's object of that name, or a member of the object family
+    (`family.FAMILY`, e.g. "capsule_m", "ring_l", "cylinder_mesh")."""
     if isinstance(obj, GraspObject):
         return obj
     if isinstance(obj, str) and obj in PAPER_OBJECTS:
         return PAPER_OBJECTS[obj]
-    raise ValueError(f"unknown object {obj!r}; expected one of {tuple(PAPER_OBJECTS)} or an object "
-                     "made by make_object()")
+    if isinstance(obj, str) and obj in FAMILY:
+        return _family_object(obj)
+    raise ValueError(f"unknown object {obj!r}; expected one of {tuple(PAPER_OBJECTS)}, a family name "
+                     f"({', '.join(FAMILY[:3])}, ...; see graspmanifold.family.FAMILY) or an object made by "
+                     "make_object()")
+
+
+@cache
+def _family_object(name: str) -> GraspObject:
+    return make_object("mesh", mesh=family_mesh(name), name=name)

@@ -71,6 +71,26 @@ CAMERAS: dict[str, tuple[str, tuple[float, float, float]]] = {
 }
 
 
+def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObject) -> None:
+    """The object's collision geometry: one primitive geom, or a mesh geom per convex part of a mesh
+    (whose mass and inertia come from the whole mesh, not from the parts' hulls)."""
+    contact = dict(friction=[obj.friction, 0.005, 0.0001], condim=4, contype=1, conaffinity=1, solref=[0.004, 1.0],
+                   rgba=OBJECT_RGBA)
+    if obj.shape != "mesh":
+        size = np.zeros(3)
+        size[: len(obj.half_sizes)] = obj.half_sizes
+        body.add_geom(name="object", type=_GEOM_TYPES[obj.shape], size=size, mass=obj.mass, **contact)
+        return
+    body.explicitinertial = True
+    body.mass = obj.mass
+    body.ipos = [0.0, 0.0, 0.0]  # the object frame is at the centre of mass, on the principal axes
+    body.inertia = np.diag(obj.mesh.moment_inertia) * obj.mass / obj.mesh.mass
+    for i, part in enumerate(obj.parts):
+        name = "object" if i == 0 else f"object_{i}"
+        spec.add_mesh(name=f"{name}_mesh", uservert=part.vertices.ravel().tolist(), userface=part.faces.ravel().tolist())
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", **contact)
+
+
 def _add_cameras(spec: mujoco.MjSpec) -> None:
     for name, (parent, pos) in CAMERAS.items():
         body = spec.worldbody if parent == "world" else spec.body(parent)
@@ -98,11 +118,7 @@ class Scene:
         body = spec.worldbody.add_body(name="object")
         if free_object:
             body.add_freejoint(name="object_free")
-        size = np.zeros(3)
-        size[: len(self.object.half_sizes)] = self.object.half_sizes
-        body.add_geom(name="object", type=_GEOM_TYPES[self.object.shape], size=size,
-                      mass=self.object.mass, friction=[self.object.friction, 0.005, 0.0001],
-                      condim=4, contype=1, conaffinity=1, solref=[0.004, 1.0], rgba=OBJECT_RGBA)
+        _add_object_geoms(spec, body, self.object)
         spec.add_exclude(bodyname1="object", bodyname2="forearm")
         if table:  # a table top under the object, which stands on it along its z axis
             top = -float(self.object.half_extents[2])
@@ -123,7 +139,7 @@ class Scene:
         self.mount_id = int(self.model.body("hand_mount").mocapid[0])
         self.palm_id = self.model.body("palm").id
         self.object_body = self.model.body("object").id
-        self.object_geom = self.model.geom("object").id
+        self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
         self.table_geom = self.model.geom("table").id if table else None
         self.set_gravity(gravity)
         self.reset()
@@ -250,6 +266,12 @@ class Scene:
         self.forward()
 
     # -- postures --------------------------------------------------------------------------------
+    def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:
+        """Distance (m) from a geom to the object's collision geometry at the current kinematics (the
+        nearest of a mesh's convex parts); negative when they overlap, `cutoff` when farther."""
+        fromto = np.zeros(6)
+        return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, fromto) for g in self.object_geoms)
+
     def posture(self) -> np.ndarray:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
         return self.data.qpos[self.finger_qpos].copy()

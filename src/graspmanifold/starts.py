@@ -6,13 +6,16 @@ deterministic least-squares search over the 22 joints and a small hand-pose corr
 brings all five distal segments onto the surface, keeps every other segment out of the object and
 the fingers out of each other. The paper's three objects ship their starting postures in
 `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`); other objects get
-theirs computed on first use.
+theirs computed on first use. A mesh object is searched with the designs of the primitive it is
+closest to in proportion (`designs_for`): the designs place the palm relative to the object's
+principal axes and its extents, and the least-squares refinement brings the fingertips onto the
+actual surface, so any watertight solid of hand size gets its five-fingertip grasps this way.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, lru_cache
 
 import mujoco
 import numpy as np
@@ -88,6 +91,31 @@ def _designs(shape: str) -> tuple[GraspDesign, ...]:
 
 GRASP_DESIGNS = {shape: _designs(shape) for shape in ("box", "cylinder", "sphere")}
 
+#: a mesh whose longest extent is at most this many times its shortest is grasped like a sphere
+ROUND_RATIO = 1.3
+#: an elongated mesh whose two short extents differ by at most this factor is grasped like a cylinder
+ROUND_SECTION_RATIO = 1.1
+
+
+def nearest_primitive(obj: GraspObject) -> str:
+    """The paper shape an object is closest to in proportion: its own for a primitive; for a mesh a
+    sphere when it is about as long as it is wide (`ROUND_RATIO`), a cylinder when it is elongated
+    with a round-ish section (`ROUND_SECTION_RATIO`), otherwise a box."""
+    if obj.shape != "mesh":
+        return obj.shape
+    x, y, z = np.sort(obj.half_extents)
+    if z <= ROUND_RATIO * x:
+        return "sphere"
+    return "cylinder" if y <= ROUND_SECTION_RATIO * x else "box"
+
+
+def designs_for(obj: GraspObject) -> tuple[GraspDesign, ...]:
+    """The grasp designs to search for an object: those of its `nearest_primitive` (a cylinder's:
+    wraps about the long axis z, tilted, low, end-on; a box's add a wrap rolled 45 degrees). The
+    refinement then adapts them to the actual surface."""
+    return GRASP_DESIGNS[nearest_primitive(obj)]
+
+
 _HALF_CLOSED = dict_to_posture({
     **{f"{f}J{j}": a for f in ("FF", "MF", "RF", "LF") for j, a in ((3, 0.7), (2, 0.6), (1, 0.5))},
     "FFJ4": 0.0, "MFJ4": 0.0, "RFJ4": 0.0, "LFJ4": 0.0, "LFJ5": 0.2,
@@ -124,7 +152,6 @@ class _GraspGeometry:
     def __init__(self, scene: Scene):
         self.scene = scene
         model = scene.model
-        self.obj_geom = scene.object_geom
         segment_of = segment_of_geoms(model)
         hand_geoms = [int(g) for g in np.flatnonzero(segment_of >= 0)]
         self.distal = [model.geom(s).id for s in DISTAL_SEGMENTS]
@@ -142,8 +169,8 @@ class _GraspGeometry:
         data.qpos[scene.finger_qpos] = posture
         scene.set_hand_pose(pos, quat)  # runs mj_forward: kinematics for the distances below
         dist = lambda a, b: mujoco.mj_geomDistance(model, data, a, b, 0.3, self._fromto)  # noqa: E731
-        distal = np.array([dist(g, self.obj_geom) for g in self.distal])
-        other = np.array([dist(g, self.obj_geom) for g in self.other])
+        distal = np.array([scene.distance_to_object(g, 0.3) for g in self.distal])
+        other = np.array([scene.distance_to_object(g, 0.3) for g in self.other])
         pairs = np.array([dist(a, b) for a, b in self.pairs])
         return distal, other, pairs
 
@@ -195,7 +222,7 @@ def find_starting_postures(obj: str | GraspObject) -> list[StartingPosture]:
     """Search every grasp design of the object's shape; keep the valid five-fingertip grasps."""
     obj = get_object(obj)
     found = []
-    for design in GRASP_DESIGNS[obj.shape]:
+    for design in designs_for(obj):
         pos, quat = design_pose(obj, design)
         start = refine(obj, pos, quat, _HALF_CLOSED, design.name)
         if is_five_fingertip_grasp(obj, start):
@@ -220,14 +247,19 @@ def _shipped() -> tuple[dict[str, np.ndarray], dict]:
 
 
 def starting_postures(obj: str | GraspObject) -> list[StartingPosture]:
-    """The starting postures of an object: shipped for the paper's objects, else computed."""
-    obj = get_object(obj)
+    """The starting postures of an object: shipped for the paper's objects, else computed (once per
+    object and process)."""
+    return list(_starting_postures(get_object(obj)))
+
+
+@lru_cache(maxsize=32)
+def _starting_postures(obj: GraspObject) -> tuple[StartingPosture, ...]:
     try:
         arrays, meta = _shipped()
     except FileNotFoundError:
         arrays, meta = {}, {"objects": {}}
     entry = meta["objects"].get(obj.name)
     if entry is not None and entry["object"] == obj.params():
-        return [StartingPosture(n, arrays[f"{obj.name}/pos"][i], arrays[f"{obj.name}/quat"][i],
-                                arrays[f"{obj.name}/posture"][i]) for i, n in enumerate(entry["names"])]
-    return find_starting_postures(obj)
+        return tuple(StartingPosture(n, arrays[f"{obj.name}/pos"][i], arrays[f"{obj.name}/quat"][i],
+                                     arrays[f"{obj.name}/posture"][i]) for i, n in enumerate(entry["names"]))
+    return tuple(find_starting_postures(obj))

@@ -1,0 +1,88 @@
+"""Does experience carry over to objects it was not built from? Paper experience on unseen objects.
+
+    python scripts/bench_unseen.py [--preset quick|paper] [--size m] [--workers 2] [--out unseen]
+
+Experience is built from the paper's three objects (verified spring postures of the preset's sizes):
+one 25 x 25 map per object, one map of all three, and the raw database of all three. It is then
+used, unchanged, on objects it never saw: the object family (one size) and the paper's objects
+20 % smaller and larger. On every target the plain heuristic (`none`) and the database and maps of
+the paper objects run on the same quick-grid poses; the map built from the nearest paper object
+(`starts.nearest_primitive`, by proportions) is `som_nearest`.
+Finally experience built from each family object itself (`som_own`) shows what seen experience buys
+there. Every rate has a Wilson interval and every method is compared with `none` by McNemar's test
+on the hold outcomes. Writes `OUT/unseen.md` and prints it; posture sets are cached in OUT.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import graspmanifold as gm
+from graspmanifold.family import SHAPES
+from graspmanifold.generator import PRESETS
+from graspmanifold.io import write_text_atomic
+from graspmanifold.starts import nearest_primitive
+from graspmanifold.stats import rate_text
+from graspmanifold.study import compare, train_experience_map
+
+
+def posture_set(out: Path, obj: gm.GraspObject, n: int, workers: int) -> gm.PostureSet:
+    path = out / f"{obj.name}.npz"
+    if not path.exists():
+        gm.generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=out / f"{obj.name}.parts").save(path)
+    return gm.PostureSet.load(path)
+
+
+def targets(size: str) -> list[gm.GraspObject]:
+    resized = []
+    for factor in (0.8, 1.2):
+        resized += [gm.make_object("cylinder", radius=0.03 * factor, length=0.16 * factor),
+                    gm.make_object("sphere", radius=0.03 * factor),
+                    gm.make_object("box", size=(0.04 * factor, 0.04 * factor, 0.16 * factor))]
+    return [gm.get_object(f"{shape}_{size}") for shape in SHAPES] + resized
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
+    parser.add_argument("--size", choices=("s", "m", "l"), default="m", help="size of the family objects")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", default="unseen")
+    args = parser.parse_args()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    paper = {name: posture_set(out, gm.get_object(name), n, args.workers) for name, n in PRESETS[args.preset].items()}
+    everything = gm.PostureSet.concatenate(list(paper.values()))
+    maps = {name: train_experience_map(s.postures) for name, s in paper.items()}
+    maps["all"] = train_experience_map(everything.postures)
+    lines = [f"# Paper experience on unseen objects ({args.preset} preset, family size {args.size})", "",
+             f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures. Quick grid, "
+             "seed 0; hold [95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
+             "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for obj in targets(args.size):
+        methods = {"none": None, "database_all": gm.PostureDatabase(everything.postures), "som_all": maps["all"],
+                   "som_nearest": maps[nearest_primitive(obj)]}
+        if obj.shape == "mesh":
+            own = posture_set(out, obj, PRESETS[args.preset]["cylinder"], args.workers)
+            if len(own):
+                methods["som_own"] = train_experience_map(own.postures)
+        results = {m: gm.evaluate(obj, e, "quick", seed=0, workers=args.workers) for m, e in methods.items()}
+        for method, result in results.items():
+            s, n = result.summary, result.summary["trials"]
+            versus = "" if method == "none" else (lambda c: f"{c.verdict()} (+{c.only_a}/−{c.only_b}, p {c.p_value:.2f})")(
+                compare(result, results["none"]))
+            lines.append(f"| {obj.name} | {method} | {n} | {rate_text(round(s['hold_rate'] * n), n)} | "
+                         f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_epsilon']:.4f} | "
+                         f"{s['mean_time_to_grasp']:.2f} | {versus} |")
+        print("\n".join(lines[-len(results):]), flush=True)
+    lines += ["", f"{time.perf_counter() - started:.0f} s on this machine with {args.workers} workers."]
+    write_text_atomic(out / "unseen.md", "\n".join(lines) + "\n")
+    print(f"wrote {out / 'unseen.md'}")
+
+
+if __name__ == "__main__":
+    main()

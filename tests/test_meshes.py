@@ -1,0 +1,173 @@
+"""Mesh objects through trimesh: checks, the object frame, queries against the exact primitives,
+MuJoCo collision geometry, the object family, and the whole pipeline on meshes."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import trimesh
+
+import graspmanifold as gm
+from graspmanifold.family import FAMILY, SHAPES, family_mesh
+
+RNG = np.random.default_rng(0)
+
+
+def cylinder_mesh(sections: int = 64) -> trimesh.Trimesh:
+    return trimesh.creation.cylinder(radius=0.03, height=0.16, sections=sections)
+
+
+# -- bad input -------------------------------------------------------------------------------------
+
+def test_an_open_mesh_is_refused():
+    open_mesh = cylinder_mesh()
+    open_mesh.update_faces(np.arange(len(open_mesh.faces)) != 0)  # one triangle missing: a hole
+    with pytest.raises(ValueError, match="not watertight"):
+        gm.make_object("mesh", mesh=open_mesh)
+
+
+def test_a_zero_volume_mesh_is_refused():
+    flat = trimesh.Trimesh(vertices=[[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], faces=[[0, 1, 2], [0, 2, 1]])
+    with pytest.raises(ValueError, match="volume|watertight"):
+        gm.make_object("mesh", mesh=flat)
+
+
+def test_a_mesh_two_metres_across_is_refused_with_the_unit_hint():
+    with pytest.raises(ValueError, match=r"2\.00 m across.*scale=0\.001"):
+        gm.make_object("mesh", mesh=trimesh.creation.box(extents=(2.0, 0.5, 0.5)))
+
+
+def test_missing_and_unreadable_files_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="does not exist"):
+        gm.make_object("mesh", mesh=tmp_path / "nothing.stl")
+    garbage = tmp_path / "garbage.stl"
+    garbage.write_bytes(b"\x00\x01 this is not a mesh")
+    with pytest.raises(ValueError, match="garbage.stl"):
+        gm.make_object("mesh", mesh=garbage)
+    with pytest.raises(ValueError, match="mesh must be"):
+        gm.make_object("mesh", mesh=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="needs mesh="):
+        gm.make_object("mesh")
+    with pytest.raises(ValueError, match="mesh= and scale="):
+        gm.make_object("sphere", radius=0.03, mesh=cylinder_mesh())
+
+
+def test_a_file_in_millimetres_loads_with_its_scale(tmp_path):
+    path = tmp_path / "can.stl"
+    trimesh.creation.cylinder(radius=30.0, height=160.0, sections=48).export(path)
+    with pytest.raises(ValueError, match="scale"):
+        gm.make_object("mesh", mesh=path)
+    obj = gm.make_object("mesh", mesh=path, scale=0.001)
+    assert obj.name == "can"
+    np.testing.assert_allclose(obj.half_extents, [0.03, 0.03, 0.08], atol=5e-4)
+
+
+# -- the object frame and the queries -----------------------------------------------------------------
+
+def test_a_mesh_is_centred_at_its_centre_of_mass_on_its_principal_axes_long_axis_z():
+    turned = cylinder_mesh()
+    turned.apply_transform(trimesh.transformations.rotation_matrix(0.7, [1.0, 0.3, 0.0]))
+    turned.apply_translation([0.3, -0.2, 0.1])
+    obj = gm.make_object("mesh", mesh=turned)
+    np.testing.assert_allclose(obj.mesh.center_mass, 0.0, atol=1e-9)
+    np.testing.assert_allclose(obj.half_extents, [0.03, 0.03, 0.08], atol=5e-4)
+    frustum = gm.get_object("frustum_m")  # its centre of mass lies towards the wide end
+    assert frustum.mesh.bounds[1, 2] > -frustum.mesh.bounds[0, 2]
+
+
+def test_mesh_queries_agree_with_the_exact_primitive():
+    mesh, exact = gm.make_object("mesh", mesh=cylinder_mesh(128)), gm.get_object("cylinder")
+    points = RNG.normal(0.0, 0.05, (300, 3))
+    chord = 0.03 * (1 - np.cos(np.pi / 128))  # the polygon's largest gap to the circle
+    np.testing.assert_allclose(mesh.signed_distance(points), exact.signed_distance(points), atol=chord + 1e-9)
+    outside = exact.signed_distance(points) > 0.002
+    np.testing.assert_allclose(mesh.closest_point(points[outside]), exact.closest_point(points[outside]), atol=2e-3)
+    agree = np.sum(mesh.surface_normal(points[outside]) * exact.surface_normal(points[outside]), axis=1)
+    assert np.median(agree) > 0.999
+    assert mesh.signed_distance(np.zeros(3)) < 0 < mesh.signed_distance([0.1, 0.0, 0.0])
+
+
+def test_every_object_has_one_query_interface():
+    points = RNG.normal(0.0, 0.04, (20, 3))
+    for obj in (gm.get_object("box"), gm.get_object("sphere"), gm.get_object("capsule_m")):
+        closest = obj.closest_point(points)
+        assert closest.shape == (20, 3)
+        np.testing.assert_allclose(obj.signed_distance(closest), 0.0, atol=1e-3)
+        normals = obj.surface_normal(points)
+        np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
+    with pytest.raises(ValueError, match="points"):
+        gm.get_object("capsule_m").closest_point([np.nan, 0.0, 0.0])
+
+
+# -- MuJoCo -------------------------------------------------------------------------------------------
+
+def test_a_mesh_scene_collides_like_the_primitive():
+    """The same grid pose, the same open hand: the mesh cylinder's clearance and mass properties match
+    the primitive's, and closing the hand touches with the same segments."""
+    mesh, exact = gm.get_object("cylinder_mesh"), gm.get_object("cylinder")
+    pose = np.array([0.0, 0.0, 0.01, 0.0])
+    clearance = [gm.grid.open_hand_clearance(o, pose[None])[0] for o in (mesh, exact)]
+    assert abs(clearance[0] - clearance[1]) < 2e-4
+    scenes = [gm.Scene(o) for o in (mesh, exact)]
+    np.testing.assert_allclose(scenes[0].model.body_inertia[scenes[0].object_body],
+                               scenes[1].model.body_inertia[scenes[1].object_body], rtol=0.01)
+    touched = []
+    for scene in scenes:
+        scene.set_hand_pose(*gm.facing_pose(scene.object, clearance=0.01))
+        scene.set_target(gm.closed_posture())
+        scene.run(1.5)
+        touched.append(set(scene.tactile().segments))
+    assert touched[0] == touched[1] and len(touched[0]) >= 5
+
+
+def test_a_non_convex_mesh_is_split_into_the_same_convex_parts_every_time():
+    ring = gm.get_object("ring_m")
+    assert not ring.mesh.is_convex and len(ring.parts) > 1
+    again = gm.make_object("mesh", mesh=family_mesh("ring_m"), name="again")
+    assert [p.vertices.tolist() for p in again.parts] == [p.vertices.tolist() for p in ring.parts]
+    scene = gm.Scene(ring)
+    assert len(scene.object_geoms) == len(ring.parts)
+    hull_volume = sum(p.volume for p in ring.parts)
+    assert 0.8 * ring.mesh.volume < hull_volume < 1.5 * ring.mesh.volume  # the parts follow the ring
+
+
+def test_the_family_holds_every_shape_in_three_sizes_and_the_paper_objects_as_meshes():
+    assert len(FAMILY) == 3 * len(SHAPES) + 3
+    for name in FAMILY:
+        obj = gm.get_object(name)
+        assert obj.shape == "mesh" and obj.mesh.is_watertight and obj.name == name
+    small, large = gm.get_object("bottle_s"), gm.get_object("bottle_l")
+    np.testing.assert_allclose(large.half_extents / small.half_extents, 1.5, rtol=1e-6)
+    with pytest.raises(ValueError, match="family name"):
+        gm.get_object("teapot_m")
+
+
+# -- the pipeline ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_every_family_shape_generates_300_postures_trains_a_map_and_evaluates(shape):
+    """Public API end to end on the small size: 300 postures (unverified candidates, to keep the test
+    short), a 10 x 10 map, the quick grid with that map; physics healthy on every trial."""
+    name = f"{shape}_s"
+    postures = gm.generate_postures(name, 300, seed=0, workers=2, params=gm.GeneratorParams(verify=False))
+    assert len(postures) == 300 and postures.metadata["object"]["mesh_digest"]
+    som = gm.SOM(10, 10, 22, seed=0, epochs=10).fit(postures)
+    result = gm.evaluate(name, som, "quick", seed=0, workers=2)
+    assert len(result.trials) >= 20 and result.summary["invalid_trials"] == 0
+    assert result.summary["hold_rate"] > 0.0  # the controller grasps the shape at least somewhere
+
+
+def test_the_cli_generates_and_evaluates_on_a_mesh_file(tmp_path):
+    path = tmp_path / "handle.stl"
+    family_mesh("capsule_s").export(path)
+    run = lambda *args: subprocess.run([sys.executable, "-m", "graspmanifold.cli", *args], capture_output=True,  # noqa: E731
+                                       text=True, cwd=tmp_path, timeout=600)
+    generated = run("generate", "--object", str(path), "--n", "40", "--no-verify", "--out", "handle.npz", "--workers", "1")
+    assert generated.returncode == 0, generated.stderr
+    evaluated = run("evaluate", "--object", str(path), "--experience", "database", "--postures", "handle.npz",
+                    "--grid", "quick", "--out", "eval", "--workers", "1")
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert "| handle |" in (tmp_path / "eval" / "table.md").read_text()
+    refused = run("demo", "--object", str(tmp_path / "missing.stl"))
+    assert refused.returncode != 0 and "does not exist" in refused.stderr
