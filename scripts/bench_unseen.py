@@ -21,7 +21,7 @@ from pathlib import Path
 
 import graspmanifold as gm
 from graspmanifold.family import SHAPES
-from graspmanifold.generator import PRESETS
+from graspmanifold.generator import PRESETS, remove_checkpoints
 from graspmanifold.io import write_text_atomic
 from graspmanifold.starts import nearest_primitive
 from graspmanifold.stats import rate_text
@@ -31,7 +31,9 @@ from graspmanifold.study import compare, train_experience_map
 def posture_set(out: Path, obj: gm.GraspObject, n: int, workers: int) -> gm.PostureSet:
     path = out / f"{obj.name}.npz"
     if not path.exists():
-        gm.generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=out / f"{obj.name}.parts").save(path)
+        parts = out / f"{obj.name}.parts"
+        gm.generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=parts).save(path)
+        remove_checkpoints(parts)
     return gm.PostureSet.load(path)
 
 

@@ -1,6 +1,5 @@
 """The spring-based posture generator, starting postures and posture sets."""
 
-import mujoco
 import numpy as np
 import pytest
 
@@ -16,13 +15,12 @@ def replay_distances(obj, posture, pose):
     scene = gm.Scene(obj)
     scene.set_hand_pose(pose[:3], pose[3:])
     scene.set_posture(posture)
-    model, data = scene.model, scene.data
-    fromto = np.zeros(6)
+    model = scene.model
     by_segment = {}
     for g in range(model.ngeom):
         body = model.body(model.geom_bodyid[g]).name
         if body in gm.SEGMENTS:
-            d = mujoco.mj_geomDistance(model, data, g, scene.object_geom, 0.1, fromto)
+            d = scene.distance_to_object(g, 0.1)
             by_segment[body] = min(d, by_segment.get(body, np.inf))
     return by_segment
 

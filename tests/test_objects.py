@@ -74,7 +74,7 @@ def test_closest_point_matches_mujoco_distance(rng):
             pos, quat = scene.hand_pose()
             scene.set_hand_pose(pos + probe - scene.data.geom_xpos[tip], quat)
             fromto = np.zeros(6)
-            dist = mujoco.mj_geomDistance(scene.model, scene.data, tip, scene.object_geom, 1.0, fromto)
+            dist = mujoco.mj_geomDistance(scene.model, scene.data, tip, scene.object_geoms[0], 1.0, fromto)
             assert 0.0 < dist < 1.0
             # fromto[:3] is the capsule's nearest point: its distance to our surface is MuJoCo's distance
             assert abs(obj.signed_distance(fromto[:3]) - dist) < 5e-4, name
