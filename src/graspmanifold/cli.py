@@ -13,6 +13,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from .family import FAMILY
@@ -195,8 +196,12 @@ def _reproduce(args: argparse.Namespace) -> int:
 
     if args.preset not in PRESETS:
         raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
+    config = PRESETS[args.preset]
     try:
-        reproduce(args.out, args.preset, workers=args.workers, force=args.force,
+        if args.objects:
+            sizes = config.postures
+            config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
+        reproduce(args.out, config, workers=args.workers, force=args.force,
                   log=lambda line: print(line, file=sys.stderr, flush=True))
     except ValueError as error:
         raise SystemExit(f"error: {error}") from None
@@ -229,6 +234,9 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce = command("reproduce", "regenerate every figure and table of the paper into one directory")
     reproduce.add_argument("--preset", choices=("quick", "paper"), default="quick",
                            help="quick (minutes) or paper (the paper's sizes)")
+    reproduce.add_argument("--objects", nargs="+", metavar="NAME",
+                           help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
+                           "bottle_m); an object outside the paper gets the cylinder's preset size")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
@@ -275,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(run=_demo)
 
     figure = command("figure", "redraw one figure of a finished `reproduce` run (PNG and PDF)")
-    figure.add_argument("name", choices=FIGURES, help="the figure")
+    figure.add_argument("name", help=f"the figure; a run over the paper's objects has {', '.join(FIGURES)} (a run "
+                        "over other objects names them after its objects)")
     figure.add_argument("run_dir", help="the output directory of `graspmanifold reproduce`")
     figure.add_argument("--out", help="directory for the figure (default: RUN_DIR/figures)")
     figure.set_defaults(run=_figure)

@@ -26,7 +26,23 @@ PAPER_VALUES = {
     "max_distance_deg": {"box": 55.06, "cylinder": 63.45, "sphere": 66.23},
     "min_distance_deg": {"box": 0.013, "cylinder": 0.013, "sphere": 0.007},
 }
+#: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
+RUN_METHODS = ("none", "database", "som", "som_all")
 FIGURE_OBJECT = "cylinder"  # the paper's Figs. 3 and 5-8 show the cylinder map
+#: the figures that draw the hand (they need offscreen OpenGL), by the paper's figure number
+RENDERED_KINDS = ("fig3", "fig5", "fig7")
+
+
+def figure_object(objects: list[str]) -> str:
+    """The object of the single-map figures (3, 5-8): the cylinder as in the paper, else the run's first."""
+    return FIGURE_OBJECT if FIGURE_OBJECT in objects else objects[0]
+
+
+def figure_names(objects: list[str]) -> tuple[str, ...]:
+    """The figures a run over these objects draws."""
+    obj = figure_object(objects)
+    return (*(f"fig4_{name}" for name in objects), f"fig6_{obj}_evaluation", f"fig8_{obj}_resumed", "rates",
+            f"fig3_{obj}_extract", f"fig5_{obj}_border", f"fig7_{obj}_resumed_extract")
 
 
 @dataclass
@@ -51,7 +67,8 @@ class RunData:
         resumed = {p.stem[: -len("_resumed")]: SOM.load(p) for p in sorted((out / "maps").glob("*_resumed.npz"))}
         results = {}
         for p in sorted((out / "evaluation").glob("*.npz")):
-            name, method = p.stem.split("_", 1)
+            name, method = next((p.stem[: -len(m) - 1], m) for m in sorted(RUN_METHODS, key=len, reverse=True)
+                                if p.stem.endswith(f"_{m}"))
             results[(name, method)] = EvaluationResult.load(p)
         return cls(config, sets, maps, resumed, results)
 
@@ -59,7 +76,7 @@ class RunData:
 def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callable]:
     from .figures import border_figure, extract_figure, lattice_panels, rates_figure
 
-    obj = FIGURE_OBJECT
+    obj = figure_object(list(run.sets))
     train_hits = {name: run.maps[name].hit_counts(s.postures) for name, s in run.sets.items()}
     successes = run.results[(obj, "som")].successful_postures()
     eval_hits = run.maps[obj].hit_counts(successes) if len(successes) else np.zeros_like(train_hits[obj])
@@ -70,26 +87,24 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
         f"fig4_{name}": (lambda name=name: lattice_panels(
             run.maps[name], [("a) inter-node distances", None), ("b) training data", train_hits[name])],
             f"Fig. 4: {name} map")) for name in run.sets}
-    builders["fig6_cylinder_evaluation"] = lambda: lattice_panels(
-        run.maps[obj], [("successful evaluation postures", eval_hits)], "Fig. 6: cylinder map")
-    builders["fig8_cylinder_resumed"] = lambda: lattice_panels(
+    builders[f"fig6_{obj}_evaluation"] = lambda: lattice_panels(
+        run.maps[obj], [("successful evaluation postures", eval_hits)], f"Fig. 6: {obj} map")
+    builders[f"fig8_{obj}_resumed"] = lambda: lattice_panels(
         resumed, [("a) inter-node distances", None), ("b) training data", resumed_train),
-                  ("c) evaluation postures", resumed_eval)], "Fig. 8: cylinder map after resumed learning")
+                  ("c) evaluation postures", resumed_eval)], f"Fig. 8: {obj} map after resumed learning")
     builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()])
     if render is not None:
-        builders["fig3_cylinder_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render,
-                                                                   title="Fig. 3: cylinder map")
-        builders["fig5_cylinder_border"] = lambda: border_figure(run.maps[obj], train_hits[obj], render,
-                                                                 "Fig. 5: across cluster borders")
-        builders["fig7_cylinder_resumed_extract"] = lambda: extract_figure(
-            resumed, resumed_train, render, title="Fig. 7: cylinder map after resumed learning")
+        builders[f"fig3_{obj}_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render,
+                                                                 title=f"Fig. 3: {obj} map")
+        builders[f"fig5_{obj}_border"] = lambda: border_figure(run.maps[obj], train_hits[obj], render,
+                                                               "Fig. 5: across cluster borders")
+        builders[f"fig7_{obj}_resumed_extract"] = lambda: extract_figure(
+            resumed, resumed_train, render, title=f"Fig. 7: {obj} map after resumed learning")
     return builders
 
 
-RENDERED_FIGURES = ("fig3_cylinder_extract", "fig5_cylinder_border", "fig7_cylinder_resumed_extract")
-#: every figure of a run, by name (the rendered ones need an offscreen OpenGL context)
-FIGURES = ("fig4_box", "fig4_cylinder", "fig4_sphere", "fig6_cylinder_evaluation", "fig8_cylinder_resumed", "rates",
-           *RENDERED_FIGURES)
+#: the figures of a run over the paper's objects (what `graspmanifold figure` offers by default)
+FIGURES = figure_names(list(DATASET_PRESETS["paper"]))
 
 
 def _renderer(image_size: int) -> tuple[Callable | None, str]:
@@ -239,6 +254,8 @@ def figure_from_run(run_dir: str | os.PathLike, name: str, out_dir: str | os.Pat
     run = RunData.load(run_dir)
     info = write_figures(Path(out_dir or Path(run_dir) / "figures"), run, only=name)
     if name not in info["figures"]:
-        reason = info["message"] if name in RENDERED_FIGURES and not info["rendered"] else "unknown figure name"
+        rendered = name.split("_")[0] in RENDERED_KINDS and name in figure_names(list(run.sets))
+        reason = info["message"] if rendered and not info["rendered"] else (
+            f"unknown figure name; this run draws {', '.join(figure_names(list(run.sets)))}")
         raise ValueError(f"figure {name!r} was not drawn: {reason}")
     return info

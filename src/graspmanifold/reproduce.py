@@ -29,19 +29,18 @@ from .generator import PRESETS as DATASET_SIZES
 from .generator import GeneratorParams, generate_postures, remove_checkpoints
 from .grid import check_grid
 from .io import library_version, write_text_atomic
-from .objects import PAPER_OBJECTS, get_object
+from .objects import get_object
 from .posture import N_FINGER_JOINTS
 from .postureset import PostureSet
+from .report import RUN_METHODS as METHODS
 from .report import RunData, write_figures, write_report
 from .som import PAPER, RESUME, SOM, check_schedule
-
-OBJECTS = tuple(PAPER_OBJECTS)
-METHODS = ("none", "database", "som", "som_all")
 
 
 @dataclass(frozen=True)
 class ReproduceConfig:
-    """Everything a run depends on."""
+    """Everything a run depends on. `postures` names the objects (paper objects or family members,
+    `graspmanifold.family.FAMILY`) and the candidates to generate for each."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -57,10 +56,17 @@ class ReproduceConfig:
         def positive_int(value: object) -> bool:
             return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > 0
 
-        if not isinstance(self.postures, dict) or set(self.postures) != set(OBJECTS) \
+        if not isinstance(self.postures, dict) or not self.postures \
                 or not all(positive_int(v) for v in self.postures.values()):
-            raise ValueError(f"ReproduceConfig.postures must give a positive number of candidates for each of "
-                             f"{OBJECTS}, got {self.postures!r}")
+            raise ValueError(f"ReproduceConfig.postures must give a positive number of candidates per object "
+                             f"(e.g. {dict(DATASET_SIZES['quick'])}), got {self.postures!r}")
+        for name in self.postures:
+            if name == "all":
+                raise ValueError("ReproduceConfig.postures: 'all' names the map of every object; rename the object")
+            try:
+                get_object(name)
+            except ValueError as error:
+                raise ValueError(f"ReproduceConfig.postures: {error}") from None
         if len(self.map_size) != 2 or not all(positive_int(v) for v in self.map_size):
             raise ValueError(f"ReproduceConfig.map_size must be two positive integers, got {self.map_size!r}")
         for name in ("epochs", "image_size"):
@@ -170,11 +176,12 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         stale.unlink()
     write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version()},
                                                     indent=1))
-    stages = _Stages(out, log, total=3 * len(OBJECTS) + 2 + len(OBJECTS) * len(METHODS))
+    objects = tuple(config.postures)
+    stages = _Stages(out, log, total=3 * len(objects) + 2 + len(objects) * len(METHODS))
     started = time.perf_counter()
 
     # 1. posture sets
-    sets_paths = {name: out / "postures" / f"{name}.npz" for name in OBJECTS}
+    sets_paths = {name: out / "postures" / f"{name}.npz" for name in objects}
     for name, path in sets_paths.items():
         def generate(name=name, path=path):
             parts = path.with_name(path.name + ".parts")
@@ -191,7 +198,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
 
     # 2. maps: one per object and one for all objects
     schedule = {"epochs": config.epochs, "learning_rate": config.learning_rate, "sigma": config.sigma}
-    map_paths = {name: out / "maps" / f"{name}.npz" for name in (*OBJECTS, "all")}
+    map_paths = {name: out / "maps" / f"{name}.npz" for name in (*objects, "all")}
     for name, path in map_paths.items():
         inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
 
@@ -202,7 +209,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
 
     # 3. evaluation of every method on every object
-    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in OBJECTS for m in METHODS}
+    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in objects for m in METHODS}
     for (name, method), path in eval_paths.items():
         inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]]}
 
@@ -221,7 +228,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
     # 4. resumed learning with the SOM's successful evaluation postures
-    resumed_paths = {name: out / "maps" / f"{name}_resumed.npz" for name in OBJECTS}
+    resumed_paths = {name: out / "maps" / f"{name}_resumed.npz" for name in objects}
     for name, path in resumed_paths.items():
         def resume(name=name, path=path):
             successes = results[(name, "som")].successful_postures()
