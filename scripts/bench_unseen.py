@@ -1,6 +1,6 @@
 """Does experience carry over to objects it was not built from? Paper experience on unseen objects.
 
-    python scripts/bench_unseen.py [--preset quick|paper] [--size m] [--workers 2] [--out unseen]
+    python scripts/bench_unseen.py [--preset quick|paper] [--size m] [--own-candidates N] [--workers 2] [--out unseen]
 
 Experience is built from the paper's three objects (verified spring postures of the preset's sizes):
 one 25 x 25 map per object, one map of all three, and the raw database of all three. It is then
@@ -50,6 +50,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
     parser.add_argument("--size", choices=("s", "m", "l"), default="m", help="size of the family objects")
+    parser.add_argument("--own-candidates", type=int, help="candidates for each family object's own experience "
+                        "(default: the preset's cylinder size)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="unseen")
     args = parser.parse_args()
@@ -61,7 +63,8 @@ def main() -> None:
     maps = {name: train_experience_map(s.postures) for name, s in paper.items()}
     maps["all"] = train_experience_map(everything.postures)
     lines = [f"# Paper experience on unseen objects ({args.preset} preset, family size {args.size})", "",
-             f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures. Quick grid, "
+             f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures; own experience "
+             f"of a family object from {args.own_candidates or PRESETS[args.preset]['cylinder']} candidates. Quick grid, "
              "seed 0; hold [95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
              "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
              "|---|---|---|---|---|---|---|---|"]
@@ -69,7 +72,7 @@ def main() -> None:
         methods = {"none": None, "database_all": gm.PostureDatabase(everything.postures), "som_all": maps["all"],
                    "som_nearest": maps[nearest_primitive(obj)]}
         if obj.shape == "mesh":
-            own = posture_set(out, obj, PRESETS[args.preset]["cylinder"], args.workers)
+            own = posture_set(out, obj, args.own_candidates or PRESETS[args.preset]["cylinder"], args.workers)
             if len(own):
                 methods["som_own"] = train_experience_map(own.postures)
         results = {m: gm.evaluate(obj, e, "quick", seed=0, workers=args.workers) for m, e in methods.items()}
