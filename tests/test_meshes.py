@@ -88,6 +88,15 @@ def test_mesh_queries_agree_with_the_exact_primitive():
     assert mesh.signed_distance(np.zeros(3)) < 0 < mesh.signed_distance([0.1, 0.0, 0.0])
 
 
+def test_small_and_large_closest_point_queries_agree_with_trimesh():
+    """Five fingertips test every triangle at once; many points go through trimesh's R-tree: same answer."""
+    ring = gm.get_object("ring_m")
+    for n in (5, 400):  # 5 x 768 pairs below BRUTE_FORCE_PAIRS, 400 x 768 above
+        points = RNG.normal(0.0, 0.04, (n, 3))
+        np.testing.assert_allclose(ring.closest_point(points), trimesh.proximity.closest_point(ring.mesh, points)[0],
+                                   atol=1e-12)
+
+
 def test_every_object_has_one_query_interface():
     points = RNG.normal(0.0, 0.04, (20, 3))
     for obj in (gm.get_object("box"), gm.get_object("sphere"), gm.get_object("capsule_m")):

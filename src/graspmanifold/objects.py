@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +27,11 @@ SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
 #: measures about 0.5-0.8; 0.6 sits inside that range. The scene gives every hand geom the object's
 #: friction, so the simulation and the force-closure test (epsilon) use one coefficient.
 DEFAULT_FRICTION = 0.6
+
+#: up to this many point-triangle pairs a mesh's closest points are found by testing every pair at
+#: once, above it through trimesh's R-tree (measured: 0.35 ms against 1.0 ms for 5 points and 256
+#: triangles; about equal near 4 000 pairs)
+BRUTE_FORCE_PAIRS = 4096
 
 
 @dataclass(frozen=True)
@@ -73,7 +78,7 @@ class GraspObject:
         """Closest surface points for points (n, 3) or (3,) in the object frame."""
         p, single = _check_points(points)
         if self.mesh is not None:
-            closest = trimesh.proximity.closest_point(self.mesh, p)[0]
+            closest = self._mesh_closest(p)[0]
         else:
             closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
         return closest[0] if single else closest
@@ -83,7 +88,7 @@ class GraspObject:
         face normal there, a primitive's gradient of the signed distance (central differences)."""
         p, single = _check_points(points)
         if self.mesh is not None:
-            normal = self.mesh.face_normals[trimesh.proximity.closest_point(self.mesh, p)[2]]
+            normal = self.mesh.face_normals[self._mesh_closest(p)[1]]
         else:
             closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
             step = 1e-6 * np.eye(3)
@@ -91,6 +96,25 @@ class GraspObject:
             gradient = np.column_stack([query(closest + h) - query(closest - h) for h in step])
             normal = gradient / np.linalg.norm(gradient, axis=1, keepdims=True)
         return normal[0] if single else normal
+
+    @cached_property
+    def _triangles(self) -> np.ndarray:
+        """The mesh's triangles (faces, 3, 3) as a plain array (trimesh re-validates its cache on each access)."""
+        return np.array(self.mesh.triangles)
+
+    def _mesh_closest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Closest surface points (n, 3) and their triangles (n,), both from trimesh: its point-triangle
+        routine on every pair at once for small queries (one vectorised call; the generator asks for five
+        fingertips every physics step), its R-tree search (`proximity.closest_point`) for larger ones."""
+        triangles = self._triangles
+        faces = len(triangles)
+        if faces * len(p) > BRUTE_FORCE_PAIRS:
+            closest, _, triangle = trimesh.proximity.closest_point(self.mesh, p)
+            return closest, triangle
+        on_each = trimesh.triangles.closest_point(np.tile(triangles, (len(p), 1, 1)),
+                                                  np.repeat(p, faces, axis=0)).reshape(len(p), faces, 3)
+        triangle = np.argmin(np.sum((on_each - p[:, None]) ** 2, axis=2), axis=1)
+        return on_each[np.arange(len(p)), triangle], triangle
 
 
 def _check_points(points: object) -> tuple[np.ndarray, bool]:
