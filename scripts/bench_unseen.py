@@ -1,12 +1,13 @@
 """Does experience carry over to objects it was not built from? Paper experience on unseen objects.
 
-    python scripts/bench_unseen.py [--preset quick|paper] [--size m] [--own-candidates N] [--workers 2] [--out unseen]
+    python scripts/bench_unseen.py [--preset quick|paper] [--size m] [--own-candidates N] [--grid quick]
+                                    [--workers 2] [--out unseen]
 
 Experience is built from the paper's three objects (verified spring postures of the preset's sizes):
 one 25 x 25 map per object, one map of all three, and the raw database of all three. It is then
 used, unchanged, on objects it never saw: the object family (one size) and the paper's objects
 20 % smaller and larger. On every target the plain heuristic (`none`) and the database and maps of
-the paper objects run on the same quick-grid poses; the map built from the nearest paper object
+the paper objects run on the same grid poses (`--grid`, quick by default); the map built from the nearest paper object
 (`starts.nearest_primitive`, by proportions) is `som_nearest`.
 Finally experience built from each family object itself (`som_own`) shows what seen experience buys
 there. Every rate has a Wilson interval and every method is compared with `none` by McNemar's test
@@ -52,6 +53,7 @@ def main() -> None:
     parser.add_argument("--size", choices=("s", "m", "l"), default="m", help="size of the family objects")
     parser.add_argument("--own-candidates", type=int, help="candidates for each family object's own experience "
                         "(default: the preset's cylinder size)")
+    parser.add_argument("--grid", choices=("quick", "paper"), default="quick", help="evaluation grid preset")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="unseen")
     args = parser.parse_args()
@@ -62,9 +64,9 @@ def main() -> None:
     everything = gm.PostureSet.concatenate(list(paper.values()))
     maps = {name: train_experience_map(s.postures) for name, s in paper.items()}
     maps["all"] = train_experience_map(everything.postures)
-    lines = [f"# Paper experience on unseen objects ({args.preset} preset, family size {args.size})", "",
+    lines = [f"# Paper experience on unseen objects ({args.preset} preset, {args.grid} grid, family size {args.size})", "",
              f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures; own experience "
-             f"of a family object from {args.own_candidates or PRESETS[args.preset]['cylinder']} candidates. Quick grid, "
+             f"of a family object from {args.own_candidates or PRESETS[args.preset]['cylinder']} candidates. {args.grid} grid, "
              "seed 0; hold [95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
              "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
              "|---|---|---|---|---|---|---|---|"]
@@ -75,7 +77,7 @@ def main() -> None:
             own = posture_set(out, obj, args.own_candidates or PRESETS[args.preset]["cylinder"], args.workers)
             if len(own):
                 methods["som_own"] = train_experience_map(own.postures)
-        results = {m: gm.evaluate(obj, e, "quick", seed=0, workers=args.workers) for m, e in methods.items()}
+        results = {m: gm.evaluate(obj, e, args.grid, seed=0, workers=args.workers) for m, e in methods.items()}
         for method, result in results.items():
             s, n = result.summary, result.summary["trials"]
             versus = "" if method == "none" else (lambda c: f"{c.verdict()} (+{c.only_a}/−{c.only_b}, p {c.p_value:.2f})")(

@@ -294,7 +294,9 @@ def test_a_hand_placed_inside_an_object_is_a_fault_not_a_huge_force():
 
 
 @pytest.mark.parametrize("change, field", [({"postures": {"box": 0, "cylinder": 4, "sphere": 4}}, "postures"),
-                                           ({"postures": {"box": 4}}, "postures"), ({"map_size": (0, 5)}, "map_size"),
+                                           ({"postures": {"teapot": 4}}, "postures"),
+                                           ({"postures": {"all": 4}}, "postures"), ({"postures": {}}, "postures"),
+                                           ({"map_size": (0, 5)}, "map_size"),
                                            ({"epochs": 0}, "epochs"), ({"sigma": (0.5, 6.0)}, "sigma")])
 def test_a_bad_reproduce_config_is_refused_before_any_work(change, field):
     from graspmanifold.reproduce import ReproduceConfig
