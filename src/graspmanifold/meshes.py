@@ -46,7 +46,10 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
         mesh = loaded
     elif not isinstance(mesh, trimesh.Trimesh):
         raise ValueError(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
-    scale = float(scale)
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise ValueError(f"scale must be a positive finite number, got {scale!r}") from None
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be a positive finite number, got {scale!r}")
     mesh = mesh.copy()

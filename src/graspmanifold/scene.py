@@ -140,6 +140,7 @@ class Scene:
         self.palm_id = self.model.body("palm").id
         self.object_body = self.model.body("object").id
         self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
+        self._fromto = np.zeros(6)  # mj_geomDistance's output buffer, reused by distance_to_object
         self.table_geom = self.model.geom("table").id if table else None
         self.set_gravity(gravity)
         self.reset()
@@ -269,8 +270,8 @@ class Scene:
     def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:
         """Distance (m) from a geom to the object's collision geometry at the current kinematics (the
         nearest of a mesh's convex parts); negative when they overlap, `cutoff` when farther."""
-        fromto = np.zeros(6)
-        return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, fromto) for g in self.object_geoms)
+        return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, self._fromto)
+                   for g in self.object_geoms)
 
     def posture(self) -> np.ndarray:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
