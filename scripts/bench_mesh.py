@@ -1,6 +1,6 @@
 """The paper's cylinder as a mesh and as a primitive: the same generator seed, the same grid.
 
-    python scripts/bench_mesh.py [--n 1000] [--workers 2] [--grid paper] [--sections 64]
+    python scripts/bench_mesh.py [--n 1000] [--workers 2] [--grid paper] [--sections 128]
 
 Generates `--n` candidates on each (same seed) and compares what the posture sets look like
 (acceptance ratio, verified ratio with Wilson intervals, cluster spread within and between starting
@@ -27,10 +27,10 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--grid", default="paper")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--sections", type=int, default=64, help="sides of the mesh prism (64: the family's "
+    parser.add_argument("--sections", type=int, default=128, help="sides of the mesh prism (128: the family's "
                         "cylinder_mesh)")
     args = parser.parse_args()
-    mesh = (gm.get_object("cylinder_mesh") if args.sections == 64 else gm.make_object(
+    mesh = (gm.get_object("cylinder_mesh") if args.sections == 128 else gm.make_object(
         "mesh", mesh=trimesh.creation.cylinder(radius=0.03, height=0.16, sections=args.sections),
         name=f"cylinder_{args.sections}"))
     objects = {"primitive": gm.get_object("cylinder"), "mesh": mesh}
