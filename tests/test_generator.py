@@ -5,6 +5,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold import generator
+from graspmanifold.analysis import nearest_neighbour_deg
 from graspmanifold.cli import main as cli
 
 SMALL = gm.GeneratorParams(job_size=6, verify=False)  # every five-fingertip candidate, for exact counts
@@ -103,6 +104,30 @@ def test_same_seed_same_set_whatever_the_worker_count(small_sets):
     assert other.postures.tobytes() != first.postures.tobytes()
 
 
+def test_recording_mode_records_along_the_motion():
+    """The paper's procedure: postures recorded every few physics steps while the hand glides and dwells
+    lie much closer together than one settled posture per walk step, and each is still a valid grasp."""
+    recording = gm.GeneratorParams(job_size=6, verify=False, mode="recording")
+    recorded = gm.generate_postures("cylinder", 24, seed=0, params=recording)
+    settled = gm.generate_postures("cylinder", 24, seed=0, params=SMALL)
+    assert len(recorded) == 24 and recorded.metadata["generator"]["mode"] == "recording"
+    spacing = [nearest_neighbour_deg(s.postures)["median"] for s in (recorded, settled)]
+    assert spacing[0] < spacing[1] / 3, spacing
+    again = gm.generate_postures("cylinder", 24, seed=0, params=recording, workers=2)
+    assert again.postures.tobytes() == recorded.postures.tobytes()
+    for k in (0, 11, 23):
+        assert_valid_grasp(gm.get_object("cylinder"), recorded.postures[k], recorded.hand_poses[k])
+    with pytest.raises(ValueError, match="GeneratorParams.mode"):
+        gm.GeneratorParams(mode="video")
+
+
+def test_fewer_postures_than_starting_postures():
+    """Two candidates from four starting postures: the starts without a share are left out of the metadata."""
+    postures = gm.generate_postures("cylinder", 2, seed=0, params=SMALL)
+    assert len(postures) == 2
+    assert len(postures.metadata["verified_by_start"]) == 2
+
+
 def test_data_clusters_around_the_starting_postures():
     postures = gm.generate_postures("cylinder", 80, seed=0, params=SMALL)
     separation = postures.cluster_separation()
@@ -137,6 +162,14 @@ def test_interrupted_run_resumes_without_redoing_finished_jobs(tmp_path, monkeyp
     with pytest.warns(UserWarning, match="discarded 5 checkpoint part"):  # parts of seed 1 are not reused
         other_seed = gm.generate_postures("sphere", 24, seed=2, params=SMALL, checkpoint_dir=checkpoints)
     assert other_seed.postures.tobytes() == gm.generate_postures("sphere", 24, seed=2, params=SMALL).postures.tobytes()
+
+
+def test_an_empty_set_has_no_clusters(small_sets):
+    """A preset can leave an object without one verified posture; its statistics say so instead of failing."""
+    empty = small_sets["cylinder"][np.zeros(len(small_sets["cylinder"]), dtype=bool)]
+    separation = empty.cluster_separation()
+    assert len(empty) == 0 and separation["starts"] == 0 and np.isnan(separation["within_deg"])
+    assert np.isnan(nearest_neighbour_deg(empty.postures)["min"])
 
 
 def test_posture_set_files_round_trip_and_concatenate(small_sets, tmp_path):

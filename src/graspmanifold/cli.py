@@ -17,6 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .family import FAMILY
+from .generator import MODES, PRESET_PARAMS
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
@@ -102,7 +103,6 @@ def _check_writable_directory(out: Path) -> None:
 def _generate(args: argparse.Namespace) -> int:
     from .generator import (
         PRESETS,
-        GeneratorParams,
         generate_postures,
         remove_checkpoints,
     )
@@ -113,7 +113,8 @@ def _generate(args: argparse.Namespace) -> int:
     if n <= 0:
         raise SystemExit(f"error: --n must be positive, got {n}")
     checkpoints = out.with_name(out.name + ".parts")
-    params = GeneratorParams(verify=not args.no_verify)
+    params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify,
+                                 **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
@@ -249,9 +250,11 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every five-fingertip candidate without replaying it as a grasp")
     generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
-                          help="dataset sizes when --n is not given: " + "; ".join(
+                          help="the generator mode and the dataset sizes when --n is not given: " + "; ".join(
                               f"{name} ({', '.join(f'{o} {n}' for o, n in sizes.items())})"
                               for name, sizes in DATASET_PRESETS.items()))
+    generate.add_argument("--mode", choices=MODES, help="how candidates are taken along the walk (default: the "
+                          "preset's: " + ", ".join(f"{k} {v.mode}" for k, v in PRESET_PARAMS.items()) + ")")
     generate.add_argument("--out", required=True, help="output .npz file")
     workers(generate)
     generate.add_argument("--seed", type=int, default=0)

@@ -28,6 +28,7 @@ import json
 import os
 import shutil
 import warnings
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -63,6 +64,11 @@ PRESETS: dict[str, dict[str, int]] = {
 }
 
 
+#: how candidates are taken along the walk (`GeneratorParams.mode`)
+MODES = ("settled", "recording")
+RECORD_EVERY_PAPER = 5  # physics steps between recorded postures in the paper preset
+
+
 @dataclass(frozen=True)
 class GeneratorParams:
     """Settings of the spring generator (SI units, radians)."""
@@ -78,20 +84,36 @@ class GeneratorParams:
     settle_steps: int = 150  # physics steps at most to come to rest
     rest_speed: float = 0.1  # rad/s, the hand is at rest below this joint speed
     job_size: int = 200  # postures per job (the unit of parallel work and of checkpoints)
-    max_tries_per_posture: int = 40  # give up a job if acceptance falls below 1 in this many
+    #: "settled": one candidate per walk step, once the hand has come to rest; "recording": like the
+    #: paper's procedure, a candidate every `record_every` physics steps along the hand's slow motion
+    #: (while it glides to the next placement and while it dwells there)
+    mode: str = "settled"
+    record_every: int = 5  # physics steps between recorded postures in "recording" mode
+    max_tries_per_posture: int = 40  # give up a job after this many walk steps per posture of its quota
     verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
     verify_hold_seconds: float = 0.25  # s per gravity direction of the verifying hold test
     squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
 
     def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
         for name, value in asdict(self).items():
-            if name == "verify":
+            if name in ("verify", "mode"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture"):
+        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture", "record_every"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise ValueError(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
+
+
+#: The generator settings of each preset. The quick preset takes one settled posture per walk step (small
+#: and fast, for tests and demos); the paper preset records along the hand's motion as the paper did,
+#: which brings the data's density closest to what the paper's maps imply (docs/data_character.md).
+PRESET_PARAMS: dict[str, GeneratorParams] = {
+    "quick": GeneratorParams(),
+    "paper": GeneratorParams(mode="recording", record_every=RECORD_EVERY_PAPER),
+}
 
 
 class _Verifier:
@@ -143,13 +165,16 @@ class _SpringRig:
         for force, point, body in zip(pull, tips, self.tip_bodies):
             mujoco.mj_applyFT(self.scene.model, data, force, self._torque, point, body, data.qfrc_applied)
 
-    def simulate(self, steps: int) -> None:
+    def simulate(self, steps: int, on_step: Callable[[], None] | None = None) -> None:
         for _ in range(steps):
             self.apply_springs()
             mujoco.mj_step(self.scene.model, self.scene.data)
+            if on_step is not None:
+                on_step()
 
-    def move_to(self, pos: np.ndarray, quat: np.ndarray) -> None:
-        """Glide the hand so the palm reaches a pose in `move_steps` physics steps, springs on."""
+    def move_to(self, pos: np.ndarray, quat: np.ndarray, on_step: Callable[[], None] | None = None) -> None:
+        """Glide the hand so the palm reaches a pose in `move_steps` physics steps, springs on;
+        `on_step()` is called after every physics step."""
         data, mount = self.scene.data, self.scene.mount_id
         start_pos, start_quat = data.mocap_pos[mount].copy(), data.mocap_quat[mount].copy()
         end_pos, end_quat = self.scene.mount_pose_for(pos, quat)
@@ -160,12 +185,12 @@ class _SpringRig:
             f = k / steps
             data.mocap_pos[mount] = start_pos + f * (end_pos - start_pos)
             data.mocap_quat[mount] = to_quat(turn * Rotation.from_rotvec(f * delta))
-            self.simulate(1)
+            self.simulate(1, on_step)
 
-    def settle(self) -> bool:
+    def settle(self, on_step: Callable[[], None] | None = None) -> bool:
         """Step until the fingers rest (True) or `settle_steps` run out (False)."""
         for _ in range(0, self.params.settle_steps, 5):
-            self.simulate(5)
+            self.simulate(5, on_step)
             if np.max(np.abs(self.scene.data.qvel[self.finger_dofs])) < self.params.rest_speed:
                 return True
         return False
@@ -217,43 +242,62 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     base = to_rotation(start.hand_quat)
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
-    tries, misses, candidates, faults = 0, 0, 0, 0
+    tries, walks, misses, candidates, faults, steps = 0, 0, 0, 0, 0, 0
+    recording = params.mode == "recording"
+    frames: list[tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]] = []
+
+    def record() -> None:
+        """Recording mode: test the posture every `record_every` physics steps along the motion."""
+        nonlocal tries, steps
+        steps += 1
+        if steps % params.record_every == 0 and candidates + len(frames) < job.quota:
+            tries += 1
+            result = rig.accepted_posture()
+            if result is not None:
+                frames.append((result, rig.scene.hand_pose()))
+
     while candidates < job.quota:
-        tries += 1
-        if tries > params.max_tries_per_posture * job.quota:
-            raise RuntimeError(f"the generator accepted only {candidates} of {tries} postures around "
-                               f"starting posture {start.name!r}; check the object and GeneratorParams")
+        walks += 1
+        if not recording:
+            tries += 1
+        if walks > params.max_tries_per_posture * job.quota:
+            raise RuntimeError(f"the generator accepted only {candidates} of {tries} postures in {walks} walk steps "
+                               f"around starting posture {start.name!r}; check the object and GeneratorParams")
         offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
         turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
-        rig.move_to(start.hand_pos + offset, to_quat(Rotation.from_rotvec(turn) * base))
-        settled = rig.settle()
+        frames.clear()
+        rig.move_to(start.hand_pos + offset, to_quat(Rotation.from_rotvec(turn) * base), record if recording else None)
+        settled = rig.settle(record if recording else None)
         if not rig.scene.healthy():  # the physics failed: nothing of this walk can be trusted
             faults += 1
             rig.reset_to(start)
             offset, turn, misses = np.zeros(3), np.zeros(3), 0
             continue
-        result = rig.accepted_posture() if settled else None
-        if result is None:
+        if not recording:
+            result = rig.accepted_posture() if settled else None
+            if result is not None:
+                frames.append((result, rig.scene.hand_pose()))
+        if not frames:
             misses += 1
             if misses >= 5:  # lost the grasp: back to the starting posture
                 rig.reset_to(start)
                 offset, turn, misses = np.zeros(3), np.zeros(3), 0
             continue
         misses = 0
-        pos, quat = rig.scene.hand_pose()
-        candidates += 1
-        try:
-            judgement = verifier(result[0], pos, quat) if verifier is not None else None
-        except SimulationError:  # the replay's physics failed: not a verified grasp
-            faults += 1
-            continue
-        if judgement is not None and not judgement.hold:
-            continue
-        postures.append(result[0])
-        contacts.append(result[1])
-        poses.append(np.concatenate([pos, quat]))
-        epsilons.append(np.nan if judgement is None else judgement.epsilon)
-        displacements.append(np.nan if judgement is None else judgement.displacement)
+        for (posture, touching), (pos, quat) in frames:
+            candidates += 1
+            try:
+                judgement = verifier(posture, pos, quat) if verifier is not None else None
+            except SimulationError:  # the replay's physics failed: not a verified grasp
+                faults += 1
+                continue
+            if judgement is not None and not judgement.hold:
+                continue
+            postures.append(posture)
+            contacts.append(touching)
+            poses.append(np.concatenate([pos, quat]))
+            epsilons.append(np.nan if judgement is None else judgement.epsilon)
+            displacements.append(np.nan if judgement is None else judgement.displacement)
     return {"postures": np.array(postures).reshape(-1, len(FINGER_JOINTS)), "hand_poses": np.array(poses).reshape(-1, 7),
             "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
             "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
@@ -358,7 +402,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
         metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
                   "acceptance_ratio": n / tries, "simulation_faults": faults, "verified": params.verify, "candidates": int(n),
-                  "verified_ratio": kept / n, "verified_by_start": {k: v[0] / v[1] for k, v in by_start.items()},
+                  "verified_ratio": kept / n, "verified_by_start": {k: v[0] / v[1] for k, v in by_start.items() if v[1]},
                   "library_version": library_version(),
                   "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
                                                  "posture": s.posture.tolist()} for s in starts}},

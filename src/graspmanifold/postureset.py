@@ -93,8 +93,11 @@ class PostureSet:
 
         within: mean distance of a posture to the mean posture of its own start; between: mean
         distance between the mean postures of different starts. A ratio well below 1 is clustered data.
+        An empty set has no clusters (nan distances, 0 starts).
         """
         ids = np.unique(self.start_ids)
+        if not len(ids):
+            return {"within_deg": float("nan"), "between_deg": float("nan"), "ratio": float("nan"), "starts": 0}
         means = np.array([self.postures[self.start_ids == i].mean(axis=0) for i in ids])
         within = np.mean(np.linalg.norm(self.postures - means[np.searchsorted(ids, self.start_ids)], axis=1))
         pairs = [np.linalg.norm(means[a] - means[b]) for a in range(len(ids)) for b in range(a + 1, len(ids))]

@@ -25,8 +25,13 @@ import numpy as np
 
 from .evaluation import EvaluationResult, evaluate
 from .experience import PostureDatabase
+from .generator import (
+    PRESET_PARAMS,
+    GeneratorParams,
+    generate_postures,
+    remove_checkpoints,
+)
 from .generator import PRESETS as DATASET_SIZES
-from .generator import GeneratorParams, generate_postures, remove_checkpoints
 from .grid import check_grid
 from .io import library_version, write_text_atomic
 from .objects import get_object
@@ -82,8 +87,8 @@ class ReproduceConfig:
 
 
 PRESETS: dict[str, ReproduceConfig] = {
-    "quick": ReproduceConfig(postures=dict(DATASET_SIZES["quick"]), grid="quick"),
-    "paper": ReproduceConfig(postures=dict(DATASET_SIZES["paper"]), grid="paper"),
+    name: ReproduceConfig(postures=dict(DATASET_SIZES[name]), grid=name, generator=PRESET_PARAMS[name])
+    for name in ("quick", "paper")
 }
 
 
