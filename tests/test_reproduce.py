@@ -63,6 +63,12 @@ def test_every_promised_file_is_there(finished):
     assert saved["figures"]["rendered"]
     cylinder = saved["objects"]["cylinder"]
     assert cylinder["map"]["distance_max_deg"] > cylinder["map"]["distance_min_deg"] > 0
+    assert cylinder["nearest_neighbour_deg"]["median"] >= cylinder["nearest_neighbour_deg"]["min"] >= 0
+    assert "## Verdict per claim" in report and "Generator mode: settled" in report
+    assert len(saved["claims"]) == 9
+    assert {c["verdict"] for c in saved["claims"]} <= {"reproduced", "partly", "not reproduced"}
+    assert all(f"| {c['claim']} |" in report for c in saved["claims"])
+    assert [len(run["steps_deg"]) for run in saved["fig5"]["runs"]] == [3, 3]
 
 
 def test_rendered_figures_show_hands(finished):

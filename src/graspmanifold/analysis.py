@@ -6,8 +6,78 @@ from __future__ import annotations
 import copy
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .som import RESUME, SOM
+
+
+def node_distances(som: SOM) -> np.ndarray:
+    """(rows, cols) mean distance of each node to its 4-neighbours."""
+    horizontal, vertical = som.internode_distances()
+    total, count = np.zeros((som.rows, som.cols)), np.zeros((som.rows, som.cols))
+    for values, a, b in ((horizontal, np.s_[:, :-1], np.s_[:, 1:]), (vertical, np.s_[:-1, :], np.s_[1:, :])):
+        total[a] += values
+        total[b] += values
+        count[a] += 1
+        count[b] += 1
+    return total / np.maximum(count, 1)
+
+
+def border_runs(som: SOM, hits: np.ndarray, count: int = 2) -> list[list[tuple[int, int]]]:
+    """The rule behind Fig. 5: 1 x 4 runs of nodes (rows or columns) whose two ends carry training data
+    and whose two middle nodes carry none, so that they cross a cluster border; of those, the runs
+    whose ends lie farthest apart, without sharing a node. Where the map has too few such runs, runs
+    with one unsupported middle node, then any runs, fill up (`border_measures` says which kind each is)."""
+    runs = []
+    for r in range(som.rows):
+        for c in range(som.cols):
+            for dr, dc in ((0, 1), (1, 0)):
+                cells = [(r + k * dr, c + k * dc) for k in range(4)]
+                if all(0 <= a < som.rows and 0 <= b < som.cols for a, b in cells):
+                    runs.append(cells)
+
+    def rank(cells):
+        ends = hits[cells[0]] > 0 and hits[cells[-1]] > 0
+        empty_middle = sum(hits[m] == 0 for m in cells[1:3])
+        span = np.linalg.norm(som.weights[cells[0]] - som.weights[cells[-1]])
+        return (ends, empty_middle, span)
+
+    runs.sort(key=rank, reverse=True)
+    chosen: list[list[tuple[int, int]]] = []
+    for cells in runs:
+        if all(not set(cells) & set(other) for other in chosen):
+            chosen.append(cells)
+        if len(chosen) == count:
+            break
+    return chosen
+
+
+def border_measures(som: SOM, hits: np.ndarray, runs: list[list[tuple[int, int]]]) -> list[dict]:
+    """For each run: the step between neighbouring nodes (degrees), whether it crosses a border
+    (data at both ends, none in the middle) and, per middle node, whether it is intermediate: closer
+    to each end than the ends are to each other (the paper's "interpolate nicely", made measurable)."""
+    measures = []
+    for cells in runs:
+        w = np.array([som.weights[cell] for cell in cells])
+        span = np.linalg.norm(w[0] - w[-1])
+        measures.append({
+            "nodes": [list(map(int, cell)) for cell in cells],
+            "steps_deg": np.degrees(np.linalg.norm(np.diff(w, axis=0), axis=1)).tolist(),
+            "crosses_unsupported": bool(hits[cells[0]] > 0 and hits[cells[-1]] > 0
+                                        and all(hits[m] == 0 for m in cells[1:3])),
+            "middle_intermediate": [bool(np.linalg.norm(m - w[0]) < span and np.linalg.norm(m - w[-1]) < span)
+                                    for m in w[1:3]]})
+    return measures
+
+
+def nearest_neighbour_deg(postures: np.ndarray) -> dict[str, float]:
+    """How densely a set is sampled: each posture's distance (degrees over all joints) to its nearest
+    other posture, summarised as min (the closest pair), median and 90th percentile."""
+    if len(postures) < 2:
+        return {"min": float("nan"), "median": float("nan"), "p90": float("nan")}
+    distances = np.degrees(cKDTree(postures).query(postures, k=2)[0][:, 1])
+    return {"min": float(distances.min()), "median": float(np.median(distances)),
+            "p90": float(np.percentile(distances, 90))}
 
 
 def smoothness(som: SOM, training: np.ndarray | None = None, evaluation: np.ndarray | None = None

@@ -120,7 +120,7 @@ def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
     palm = model.body("palm").id
     rotation = data.xmat[palm].reshape(3, 3)
     lookat = data.xpos[palm] + rotation @ np.array([0.0, -0.02, 0.085])
-    eye = lookat + rotation @ np.array([0.13, -0.2, 0.02])
+    eye = lookat + rotation @ np.array([0.2, -0.12, 0.05])  # from the thumb side: finger flexion shows
     forward = (lookat - eye) / np.linalg.norm(lookat - eye)
     camera = mujoco.MjvCamera()
     camera.lookat[:] = lookat

@@ -10,7 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import smoothness
+from .analysis import (
+    border_measures,
+    border_runs,
+    nearest_neighbour_deg,
+    node_distances,
+    smoothness,
+)
 from .evaluation import EvaluationResult, trial_count
 from .generator import PRESETS as DATASET_PRESETS
 from .io import atomic_write, library_version, write_text_atomic
@@ -19,13 +25,14 @@ from .postureset import PostureSet
 from .som import SOM
 from .stats import rate_text
 from .study import comparison_rows, judge_target
+from .verdicts import (
+    PAPER_DATASET_SIZES,
+    PAPER_MAX_DISTANCE_DEG,
+    PAPER_MIN_DISTANCE_DEG,
+    judge_claims,
+    verdict_rows,
+)
 
-#: The paper's own numbers, shown beside ours (Section 5).
-PAPER_VALUES = {
-    "dataset_size": dict(DATASET_PRESETS["paper"]),
-    "max_distance_deg": {"box": 55.06, "cylinder": 63.45, "sphere": 66.23},
-    "min_distance_deg": {"box": 0.013, "cylinder": 0.013, "sphere": 0.007},
-}
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
 FIGURE_OBJECT = "cylinder"  # the paper's Figs. 3 and 5-8 show the cylinder map
@@ -74,7 +81,14 @@ class RunData:
 
 
 def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callable]:
-    from .figures import border_figure, extract_figure, lattice_panels, rates_figure
+    from .figures import (
+        border_figure,
+        choose_extract,
+        distance_scale,
+        extract_figure,
+        lattice_panels,
+        rates_figure,
+    )
 
     obj = figure_object(list(run.sets))
     train_hits = {name: run.maps[name].hit_counts(s.postures) for name, s in run.sets.items()}
@@ -92,14 +106,15 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
     builders[f"fig8_{obj}_resumed"] = lambda: lattice_panels(
         resumed, [("a) inter-node distances", None), ("b) training data", resumed_train),
                   ("c) evaluation postures", resumed_eval)], f"Fig. 8: {obj} map after resumed learning")
-    builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()])
+    builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()], RUN_METHODS)
     if render is not None:
-        builders[f"fig3_{obj}_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render,
-                                                                 title=f"Fig. 3: {obj} map")
+        corner, scale = choose_extract(run.maps[obj]), distance_scale(run.maps[obj])  # Fig. 7 shares both
+        builders[f"fig3_{obj}_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render, corner,
+                                                                 title=f"Fig. 3: {obj} map", scale=scale)
         builders[f"fig5_{obj}_border"] = lambda: border_figure(run.maps[obj], train_hits[obj], render,
-                                                               "Fig. 5: across cluster borders")
+                                                               "Fig. 5: across cluster borders", scale)
         builders[f"fig7_{obj}_resumed_extract"] = lambda: extract_figure(
-            resumed, resumed_train, render, title=f"Fig. 7: {obj} map after resumed learning")
+            resumed, resumed_train, render, corner, title=f"Fig. 7: {obj} map after resumed learning", scale=scale)
     return builders
 
 
@@ -153,25 +168,34 @@ def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
         successes = run.results[(name, "som")].successful_postures()
         before = smoothness(run.maps[name], postures.postures, successes if len(successes) else None)
         after = smoothness(run.resumed[name], postures.postures, successes if len(successes) else None)
-        train_winners = run.maps[name].best_match_batch(postures.postures)
-        hits = np.bincount(train_winners, minlength=run.maps[name].n_nodes)
+        hits = run.maps[name].hit_counts(postures.postures)
+        distance = node_distances(run.maps[name])
         summary["objects"][name] = {
-            "dataset_size": len(postures), "paper_dataset_size": PAPER_VALUES["dataset_size"].get(name),
+            "dataset_size": len(postures), "paper_dataset_size": PAPER_DATASET_SIZES.get(name),
+            "candidates": postures.metadata.get("candidates", len(postures)),
             "acceptance_ratio": postures.metadata.get("acceptance_ratio"),
-            "clusters": postures.cluster_separation(),
+            "clusters": postures.cluster_separation(), "starting_postures": len(postures.start_names),
+            "nearest_neighbour_deg": nearest_neighbour_deg(postures.postures),
             "map": before, "resumed_map": after,
-            "paper_min_distance_deg": PAPER_VALUES["min_distance_deg"].get(name),
-            "paper_max_distance_deg": PAPER_VALUES["max_distance_deg"].get(name),
+            "paper_min_distance_deg": PAPER_MIN_DISTANCE_DEG.get(name),
+            "paper_max_distance_deg": PAPER_MAX_DISTANCE_DEG.get(name),
+            "border_distance_ratio": float(distance[hits == 0].mean() / distance[hits > 0].mean())
+            if (hits == 0).any() and (hits > 0).any() else float("nan"),
             "successful_som_postures": int(len(successes)),
             "evaluation_on_unsupported_nodes": before.get("evaluation_on_unsupported_nodes"),
             "supported_nodes": int(np.sum(hits > 0)),
         }
+    obj = figure_object(objects)
+    obj_hits = run.maps[obj].hit_counts(run.sets[obj].postures)
+    summary["fig5"] = {"object": obj, "runs": border_measures(run.maps[obj], obj_hits,
+                                                              border_runs(run.maps[obj], obj_hits))}
     for result in run.results.values():
         summary["evaluation"].append(result.summary)
     keyed = {(o, run.results[(o, m)].grid_name, m): r for (o, m), r in run.results.items()}
     rows = comparison_rows(keyed, ("database", "som", "som_all"), ("none",))
     summary["comparisons"] = rows
     summary["verdict"] = judge_target(rows).text
+    summary["claims"] = verdict_rows(judge_claims(summary))
     write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
     write_text_atomic(out / "report.md", _markdown(run, summary))
     return summary
@@ -185,16 +209,40 @@ def _fmt(value: object, digits: int = 3) -> str:
     return str(value)
 
 
+def _config_text(config: dict) -> str:
+    """The run's configuration in one line (a custom grid by its size, the generator by its mode; all of
+    it is in run.json)."""
+    shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()}
+    shown["generator"] = f"mode {config['generator'].get('mode', 'settled')}"
+    return ", ".join(f"{k} {json.dumps(v) if isinstance(v, dict) else v}" for k, v in shown.items())
+
+
 def _markdown(run: RunData, summary: dict) -> str:
     objects = summary["objects"]
     parts = ["# graspmanifold: reproduction of *SOM-based experience representation for dextrous grasping*\n\n",
              f"Library {summary['library_version']}. Every number below comes from this run; the paper's values "
-             "stand beside ours where it gives them.\n\n",
+             "stand beside ours where it gives them. Configuration: "
+             + _config_text(run.config) + " (all of it in run.json).\n\n",
+             "## Verdict per claim\n\n",
+             "Each claim of the paper's Section 5, judged by the stated rule (`graspmanifold.verdicts`): reproduced "
+             "when the rule holds for every object, partly when for some, not reproduced when for none. Our choices "
+             "where the paper fixes nothing: exponential decay of the learning rate and neighbourhood width, "
+             "initialisation from the principal components, a fresh random presentation order every epoch, spring "
+             "candidates kept only when they hold (`GeneratorParams.verify`).\n\n",
+             _table(["claim", "paper", "ours", "verdict", "rule", "cause"],
+                    [[c["claim"], c["paper"], c["ours"], f"**{c['verdict']}**", c["rule"], c["cause"] or "–"]
+                     for c in summary["claims"]]),
              "## Posture datasets\n\n",
-             _table(["object", "postures", "paper", "acceptance", "starting postures", "within-start (°)",
-                     "between starts (°)"],
+             f"Generator mode: {run.config['generator'].get('mode', 'settled')} (`GeneratorParams.mode`). The data's "
+             "character: each posture's distance to its nearest other posture (min: the closest pair; median; "
+             "90th percentile), the spread of each starting posture's cluster (mean distance to its mean) and the "
+             "distance between cluster means; all in degrees over the 22 joints.\n\n",
+             _table(["object", "postures", "paper", "acceptance", "starting postures", "nearest neighbour min / "
+                     "median / p90 (°)", "within-start (°)", "between starts (°)"],
                     [[n, o["dataset_size"], _fmt(o["paper_dataset_size"]), _fmt(o["acceptance_ratio"], 2),
-                      o["clusters"]["starts"], _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
+                      o["clusters"]["starts"], " / ".join(_fmt(o["nearest_neighbour_deg"][k]) for k in
+                                                         ("min", "median", "p90")),
+                      _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
                      for n, o in objects.items()]),
              "## SOM grasp manifolds (Fig. 4)\n\n",
              "Inter-node distances over the 22 finger joints, in degrees, as in the paper's Section 5.\n\n",
