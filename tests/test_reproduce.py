@@ -198,3 +198,20 @@ def test_the_figure_command_redraws_one_figure(finished, tmp_path):
         cli(["figure", "fig99", str(out)])
     with pytest.raises(SystemExit, match="error"):
         cli(["figure", "rates", str(tmp_path / "no-run")])
+
+
+def test_the_quick_preset_is_the_same_run_twice_and_its_figures_regenerate(tmp_path):
+    """Two `--preset quick` runs from nothing: the same summary and data files byte for byte; a figure
+    of the finished run is drawn again from its files alone."""
+    from graspmanifold.report import figure_from_run
+
+    first, second = tmp_path / "first", tmp_path / "second"
+    for out in (first, second):
+        reproduce(out, "quick", workers=2, log=lambda _: None)
+    assert (first / "summary.json").read_bytes() == (second / "summary.json").read_bytes()
+    assert data_files(first) == data_files(second) and len(data_files(first)) == 3 + 7 + 12
+    for name in data_files(first):
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    redrawn = tmp_path / "redrawn"
+    figure_from_run(first, "rates", redrawn)
+    assert (redrawn / "rates.png").stat().st_size > 1000

@@ -24,6 +24,9 @@ if TYPE_CHECKING:
     from .scene import Scene
 
 BACKENDS = ("egl", "osmesa")
+#: a view for `render_states` besides a scene's named cameras: from the palm's thumb side, as the
+#: hand pictures of the figures are drawn
+THUMB_SIDE = "thumb_side"
 HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get install libegl1 libgl1 "
                  "libegl-mesa0 libosmesa6) so that MUJOCO_GL=egl or MUJOCO_GL=osmesa works")
 
@@ -57,8 +60,8 @@ def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, 
 def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
                   backends: tuple[str, ...] | None = None) -> np.ndarray:
     """Images (k, height, width, 3) uint8 of a scene in each of k states (`Scene.state()`), from
-    one of its named cameras (`scene.CAMERAS`)."""
-    cameras = tuple(scene.model.camera(i).name for i in range(scene.model.ncam))
+    one of its named cameras (`scene.CAMERAS`) or from the palm's thumb side (`THUMB_SIDE`)."""
+    cameras = tuple(scene.model.camera(i).name for i in range(scene.model.ncam)) + (THUMB_SIDE,)
     if camera not in cameras:
         raise ValueError(f"unknown camera {camera!r}; expected one of {cameras}")
     for name, value in (("width", width), ("height", height)):
@@ -102,6 +105,24 @@ def save_animation(frames: np.ndarray, path: str | os.PathLike, fps: float = 25.
     return path
 
 
+def _thumb_side_camera(model, data, distance: float = 1.0):
+    """A free camera on the palm's thumb side, level with the fingers: finger flexion shows
+    (`distance` scales how far back it stands)."""
+    import mujoco
+
+    palm = model.body("palm").id
+    rotation = data.xmat[palm].reshape(3, 3)
+    lookat = data.xpos[palm] + rotation @ np.array([0.0, -0.02, 0.085])
+    eye = lookat + rotation @ np.array([0.2, -0.12, 0.05])
+    forward = (lookat - eye) / np.linalg.norm(lookat - eye)
+    camera = mujoco.MjvCamera()
+    camera.lookat[:] = lookat
+    camera.distance = distance * float(np.linalg.norm(lookat - eye))
+    camera.azimuth = float(np.degrees(np.arctan2(forward[1], forward[0])))
+    camera.elevation = float(np.degrees(np.arcsin(forward[2])))
+    return camera
+
+
 def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
     import mujoco
 
@@ -117,16 +138,7 @@ def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
     renderer = mujoco.Renderer(model, size, size)
     finger_qpos = model.jnt_qposadr[2:]
     mujoco.mj_forward(model, data)
-    palm = model.body("palm").id
-    rotation = data.xmat[palm].reshape(3, 3)
-    lookat = data.xpos[palm] + rotation @ np.array([0.0, -0.02, 0.085])
-    eye = lookat + rotation @ np.array([0.2, -0.12, 0.05])  # from the thumb side: finger flexion shows
-    forward = (lookat - eye) / np.linalg.norm(lookat - eye)
-    camera = mujoco.MjvCamera()
-    camera.lookat[:] = lookat
-    camera.distance = float(np.linalg.norm(lookat - eye))
-    camera.azimuth = float(np.degrees(np.arctan2(forward[1], forward[0])))
-    camera.elevation = float(np.degrees(np.arcsin(forward[2])))
+    camera = _thumb_side_camera(model, data)
     images = np.empty((len(postures), size, size, 3), dtype=np.uint8)
     for i, posture in enumerate(postures):
         data.qpos[finger_qpos] = posture
@@ -153,8 +165,11 @@ def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: i
         data.qpos[:] = state[: model.nq]
         data.mocap_pos[0], data.mocap_quat[0] = state[model.nq: model.nq + 3], state[model.nq + 3:]
         mujoco.mj_forward(model, data)
-        renderer.update_scene(data, camera)
-        images[i] = renderer.render()
+        renderer.update_scene(data, _thumb_side_camera(model, data, 1.4) if camera == THUMB_SIDE else camera)
+        image = renderer.render()
+        if camera == THUMB_SIDE:
+            image[image.max(axis=2) < 6] = 255  # white around the hand, as in the posture pictures
+        images[i] = image
     renderer.close()
     return images
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .analysis import (
     border_measures,
@@ -19,6 +20,7 @@ from .analysis import (
 )
 from .evaluation import EvaluationResult, trial_count
 from .generator import PRESETS as DATASET_PRESETS
+from .hand import finger_limits
 from .io import atomic_write, library_version, write_text_atomic
 from .judge import EPSILON_THRESHOLD
 from .postureset import PostureSet
@@ -122,20 +124,40 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
 FIGURES = figure_names(list(DATASET_PRESETS["paper"]))
 
 
-def _renderer(image_size: int) -> tuple[Callable | None, str]:
-    from .render import RenderingUnavailable, render_postures
+def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
+    """Hand pictures for Figs. 3, 5 and 7: each posture in the figure object's scene, seen from the
+    thumb side, with the object drawn faintly where the nearest training posture grasped it (a map
+    node has no palm pose of its own)."""
+    from .render import THUMB_SIDE, RenderingUnavailable, render_postures, render_states
+    from .scene import OBJECT_RGBA, Scene
 
     try:
         render_postures(np.zeros((1, 22)), 16)
     except RenderingUnavailable as error:
         return None, str(error)
-    return (lambda postures: render_postures(postures, image_size)), "rendered with MuJoCo's offscreen renderer"
+    obj = figure_object(list(run.sets))
+    training, scene = run.sets[obj], Scene(obj)
+    for geom in scene.spec.geoms:
+        if np.allclose(geom.rgba, OBJECT_RGBA):
+            geom.rgba = [0.6, 0.75, 1.0, 0.2]
+    nearest = cKDTree(training.postures)
+
+    def render(postures: np.ndarray) -> np.ndarray:
+        states = []
+        for posture, k in zip(postures, nearest.query(postures)[1]):
+            pose = training.hand_poses[k]
+            scene.set_hand_pose(pose[:3], pose[3:])
+            scene.set_posture(np.clip(posture, *finger_limits().T))
+            states.append(scene.state())
+        return render_states(scene, np.array(states), THUMB_SIDE, image_size, image_size)
+
+    return render, "rendered with MuJoCo's offscreen renderer"
 
 
 def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = print,
                   only: str | None = None) -> dict:
     """Write every figure (or only one) as PNG and PDF; hand pictures only where OpenGL works."""
-    render, message = _renderer(run.config["image_size"])
+    render, message = _renderer(run, run.config["image_size"])
     if render is None:
         log(f"figures: skipping the rendered hand figures: {message}")
     directory.mkdir(parents=True, exist_ok=True)
@@ -237,10 +259,10 @@ def _markdown(run: RunData, summary: dict) -> str:
              "character: each posture's distance to its nearest other posture (min: the closest pair; median; "
              "90th percentile), the spread of each starting posture's cluster (mean distance to its mean) and the "
              "distance between cluster means; all in degrees over the 22 joints.\n\n",
-             _table(["object", "postures", "paper", "acceptance", "starting postures", "nearest neighbour min / "
-                     "median / p90 (°)", "within-start (°)", "between starts (°)"],
+             _table(["object", "postures", "paper", "acceptance", "starting postures with data", "nearest neighbour "
+                     "min / median / p90 (°)", "within-start (°)", "between starts (°)"],
                     [[n, o["dataset_size"], _fmt(o["paper_dataset_size"]), _fmt(o["acceptance_ratio"], 2),
-                      o["clusters"]["starts"], " / ".join(_fmt(o["nearest_neighbour_deg"][k]) for k in
+                      f"{o['clusters']['starts']} of {o['starting_postures']}", " / ".join(_fmt(o["nearest_neighbour_deg"][k]) for k in
                                                          ("min", "median", "p90")),
                       _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
                      for n, o in objects.items()]),

@@ -89,12 +89,13 @@ def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> 
     losses = [(r["object"], r["grid"]) for r in mine if r["verdict"] == "worse"]
     won_objects = sorted({o for o, _ in wins})
     met = len(won_objects) >= 2 and not losses
+    strongest = f"the strongest control run ({', '.join(sorted({r['control'] for r in mine})) or 'none'})"
     if met:
-        text = (f"Target met: experience ({method}) beats the strongest control on the hold test with p < {alpha} "
+        text = (f"Target met: experience ({method}) beats {strongest} on the hold test with p < {alpha} "
                 f"on {', '.join(won_objects)} where that control holds below {HARD_FOR_CONTROL:.0%}, and loses "
                 "significantly nowhere.")
     else:
-        text = (f"Target not met: experience ({method}) beats the strongest control significantly (p < {alpha}, "
+        text = (f"Target not met: experience ({method}) beats {strongest} significantly (p < {alpha}, "
                 f"control below {HARD_FOR_CONTROL:.0%}) on {len(won_objects)} of the objects "
                 f"({', '.join(f'{o}/{g}' for o, g in wins) or 'none'}) and loses significantly on "
                 f"{len(losses)} object/grid pairs ({', '.join(f'{o}/{g}' for o, g in losses) or 'none'}).")
