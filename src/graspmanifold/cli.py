@@ -120,7 +120,7 @@ def _generate(args: argparse.Namespace) -> int:
         remove_checkpoints(checkpoints)
     try:
         postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
-                                     checkpoint_dir=checkpoints, progress=True)
+                                     checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
     except ValueError as error:
         raise SystemExit(f"error: {error}") from None
     postures.save(out)
@@ -170,7 +170,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
         start = time.perf_counter()
         result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
-                          noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True)
+                          noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
+                          executor=_executor(args))
     except (ValueError, FileNotFoundError) as error:
         raise SystemExit(f"error: {error}") from None
     result.save(out / "trials.npz")
@@ -192,6 +193,18 @@ def _figure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _executor(args: argparse.Namespace):
+    """The executor named by --executor, if any (a Dask cluster's)."""
+    if not args.executor:
+        return None
+    from .workers import cluster_executor
+
+    try:
+        return cluster_executor(args.executor)
+    except (ImportError, ValueError, OSError) as error:
+        raise SystemExit(f"error: --executor: {error}") from None
+
+
 def _reproduce(args: argparse.Namespace) -> int:
     from .reproduce import PRESETS, reproduce
 
@@ -203,7 +216,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             sizes = config.postures
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
         reproduce(args.out, config, workers=args.workers, force=args.force,
-                  log=lambda line: print(line, file=sys.stderr, flush=True))
+                  log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
     except ValueError as error:
         raise SystemExit(f"error: {error}") from None
     print(f"report: {Path(args.out) / 'report.md'}")
@@ -231,6 +244,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     def workers(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
+        sub.add_argument("--executor", help="run the jobs on a Dask cluster instead: dask://tcp://HOST:8786 (its "
+                         "scheduler) or dask://local (a LocalCluster here); needs graspmanifold[cluster]")
 
     reproduce = command("reproduce", "regenerate every figure and table of the paper into one directory")
     reproduce.add_argument("--preset", choices=("quick", "paper"), default="quick",

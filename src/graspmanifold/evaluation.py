@@ -16,6 +16,7 @@ import json
 import os
 import pickle
 import warnings
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -203,7 +204,7 @@ def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dic
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
-             progress: bool = False) -> EvaluationResult:
+             progress: bool = False, executor: Executor | None = None) -> EvaluationResult:
     """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
 
     `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
@@ -211,7 +212,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     (and refused in a custom grid). `preshape`: a constant phase-B posture (see `GraspController`).
     With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun with
     the same arguments picks them up (parts of another configuration are discarded with a warning).
-    The same seed gives the same trials, whatever the number of workers or interruptions."""
+    `executor` runs the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
+    The same seed gives the same trials, whatever the number of workers, the executor or interruptions."""
     obj = get_object(obj)
     experience = check_experience(experience)
     workers = check_int(workers, "workers")
@@ -243,7 +245,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
                                   table=table, preshape=preshape)
     with report:
         report.update(sum(len(t) for t in done.values()))
-        parallel_map(run_chunk, tasks, workers, keep)
+        parallel_map(run_chunk, tasks, workers, keep, executor)
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
     return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise)
 

@@ -29,6 +29,7 @@ import os
 import shutil
 import warnings
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -333,14 +334,15 @@ def _job_worker(args: tuple) -> tuple[int, dict[str, np.ndarray]]:
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool = False) -> PostureSet:
+                      progress: bool = False, executor: Executor | None = None) -> PostureSet:
     """Generate grasp postures for an object (a name or a made object) from n candidates.
 
     Without verification (`params.verify=False`) every candidate is kept, so the set holds exactly
     n postures; with it (the default) only the candidates that hold the object are kept, and the
     metadata says how many were (`verified_ratio`, also per starting posture in `verified_by_start`).
 
-    The same seed gives the same set, whatever the number of workers. With `checkpoint_dir`,
+    The same seed gives the same set, whatever the number of workers or the `executor` (e.g. a Dask
+    cluster's, `workers.cluster_executor`) the jobs run on. With `checkpoint_dir`,
     every finished job is saved there, and a rerun with the same arguments picks them up.
     """
     obj = get_object(obj)
@@ -382,7 +384,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             results[index] = result
             report.update(jobs[index].quota)
 
-        parallel_map(_job_worker, pending, workers, keep)
+        parallel_map(_job_worker, pending, workers, keep, executor)
     ordered = [results[i] for i in range(len(jobs))]
     tries = int(sum(int(r["tries"]) for r in ordered))
     faults = int(sum(int(r.get("faults", 0)) for r in ordered))

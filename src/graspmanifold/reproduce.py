@@ -18,6 +18,7 @@ import json
 import os
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -166,8 +167,10 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
 
 
 def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", workers: int = 1, *,
-              force: bool = False, log: Callable[[str], None] = print) -> dict:
-    """Run (or resume) the whole pipeline into `out`; returns the summary written to summary.json."""
+              force: bool = False, log: Callable[[str], None] = print, executor: Executor | None = None) -> dict:
+    """Run (or resume) the whole pipeline into `out`; returns the summary written to summary.json.
+    `executor` runs the generator's jobs and the trials elsewhere (a Dask cluster:
+    `workers.cluster_executor`), with the same results."""
     if isinstance(preset, str):
         if preset not in PRESETS:
             raise ValueError(f"unknown preset {preset!r}; expected one of {tuple(PRESETS)}")
@@ -191,6 +194,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         def generate(name=name, path=path):
             parts = path.with_name(path.name + ".parts")
             postures = generate_postures(name, config.postures[name], seed=config.seed, workers=workers,
+                                         executor=executor,
                                          params=config.generator, checkpoint_dir=parts, progress=True)
             if not len(postures):
                 raise RuntimeError(f"none of the {config.postures[name]} {name} candidates held the object when "
@@ -222,7 +226,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
             experience = {"none": None, "database": PostureDatabase(sets[name].postures),
                           "som": maps[name], "som_all": maps["all"]}[method]
             parts = path.with_name(path.stem + ".parts")
-            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers,
+            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
                               checkpoint_dir=parts, progress=True)
             result.method = method
             result.save(path)

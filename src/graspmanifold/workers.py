@@ -23,7 +23,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
 
@@ -33,6 +33,7 @@ Task = TypeVar("Task")
 Result = TypeVar("Result")
 
 _PR_SET_PDEATHSIG = 1
+CONNECT_SECONDS = 10  # how long to wait for a Dask scheduler
 _WATCH_SECONDS = 1.0
 
 
@@ -77,13 +78,34 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     pool.shutdown(wait=True)
 
 
+def cluster_executor(address: str) -> Executor:
+    """A `concurrent.futures.Executor` that runs tasks on a Dask cluster (dask.distributed): `address`
+    is the scheduler's (`tcp://host:8786`, with or without `dask://` in front), or `local` for a
+    `LocalCluster` on this machine. Needs `pip install 'graspmanifold[cluster]'`."""
+    if not isinstance(address, str) or not address:
+        raise ValueError(f"executor address must be a string such as 'dask://tcp://host:8786' or 'local', "
+                         f"got {address!r}")
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise ImportError("running on a Dask cluster needs dask.distributed: pip install 'graspmanifold[cluster]'"
+                          ) from None
+    address = address.removeprefix("dask://")
+    if address == "local":
+        return Client(LocalCluster(processes=True, threads_per_worker=1)).get_executor()
+    return Client(address, timeout=CONNECT_SECONDS).get_executor()
+
+
 def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], workers: int = 1,
-                 on_result: Callable[[int, Result], None] | None = None) -> list[Result]:
-    """`function(task)` for every task, in this process (`workers=1`) or in a `worker_pool`.
+                 on_result: Callable[[int, Result], None] | None = None, executor: Executor | None = None
+                 ) -> list[Result]:
+    """`function(task)` for every task, in this process (`workers=1`), in a `worker_pool`, or on
+    `executor` when one is given (any `concurrent.futures.Executor`, e.g. `cluster_executor(...)`).
 
     Results are returned, and handed to `on_result(index, result)` as they arrive (for progress
     and checkpoints), in task order. `function` must be picklable: a module-level function, or a
-    `functools.partial` of one with the shared inputs bound.
+    `functools.partial` of one with the shared inputs bound. Every task carries what it needs, seed
+    included, so the results are the same wherever the tasks run.
     """
     check_int(workers, "workers")
     results: list[Result] = []
@@ -93,7 +115,12 @@ def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], work
             on_result(len(results), result)
         results.append(result)
 
-    if workers == 1:
+    if executor is not None:
+        if not isinstance(executor, Executor) and not callable(getattr(executor, "map", None)):
+            raise TypeError(f"executor must be a concurrent.futures.Executor, got {type(executor).__name__}")
+        for result in executor.map(function, tasks):
+            keep(result)
+    elif workers == 1:
         for task in tasks:
             keep(function(task))
     else:
