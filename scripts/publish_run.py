@@ -32,8 +32,12 @@ def main() -> None:
         shutil.copy2(run / name, staging / name)
     for figure in sorted((run / "figures").glob("*.png")):
         shutil.copy2(figure, staging / "figures" / figure.name)
-    shutil.rmtree(target, ignore_errors=True)
+    previous = target.with_name(target.name + ".old")  # the published run stays whole until the new one is in place
+    shutil.rmtree(previous, ignore_errors=True)
+    if target.exists():
+        target.rename(previous)
     staging.rename(target)
+    shutil.rmtree(previous, ignore_errors=True)
     config = json.loads((target / "run.json").read_text())
     print(f"published {run} (library {config['library_version']}) to {target}")
 

@@ -95,7 +95,7 @@ def test_small_and_large_closest_point_queries_agree_with_every_pair_tested():
     for name in ("ring_m", "cylinder_mesh"):
         obj = gm.get_object(name)
         triangles = np.array(obj.mesh.triangles)
-        for n, tolerance in ((5, 1e-12), (400, 2e-5)):  # 5 x 768 pairs below BRUTE_FORCE_PAIRS, 400 x 768 above
+        for n, tolerance in ((5, 1e-12), (400, 2e-5)):  # 5 x 768 pairs below SMALL_QUERY_PAIRS, 400 x 768 above
             points = RNG.normal(0.0, 0.04, (n, 3))
             every_pair = trimesh.triangles.closest_point(np.tile(triangles, (n, 1, 1)),
                                                          np.repeat(points, len(triangles), axis=0))

@@ -114,7 +114,7 @@ def _generate(args: argparse.Namespace) -> int:
         raise SystemExit(f"error: --n must be positive, got {n}")
     checkpoints = out.with_name(out.name + ".parts")
     params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify,
-                                 **({"mode": args.mode} if args.mode else {}))
+                     **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)

@@ -44,7 +44,10 @@ def choose_extract(som: SOM, size: int = 10) -> tuple[int, int]:
 
 def distance_scale(som: SOM) -> tuple[float, float]:
     """(low, high) of a map's node distances in degrees: the colour scale of Figs. 3, 5 and 7."""
-    distance = np.degrees(node_distances(som))
+    return _scale_of(np.degrees(node_distances(som)))
+
+
+def _scale_of(distance: np.ndarray) -> tuple[float, float]:
     return float(distance.min()), float(distance.max())
 
 
@@ -74,7 +77,7 @@ def extract_figure(som: SOM, hits: np.ndarray, render: Renderer, corner: tuple[i
     nodes = [(r0 + i, c0 + j) for i in range(rows) for j in range(cols)]
     images = render(np.array([som.weights[r, c] for r, c in nodes]))
     distance = np.degrees(node_distances(som))
-    scale = scale or distance_scale(som)
+    scale = scale or _scale_of(distance)
     support = hits / max(hits.max(), 1)
     figure = Figure(figsize=(1.6 * cols + 1.6, 1.6 * rows + 0.5))
     width, top = 1.6 * cols / (1.6 * cols + 1.6), 1.0 - 0.5 / (1.6 * rows + 0.5)
@@ -96,7 +99,7 @@ def border_figure(som: SOM, hits: np.ndarray, render: Renderer, title: str = "",
     measures = border_measures(som, hits, runs)
     images = render(np.array([som.weights[cell] for run in runs for cell in run]))
     distance = np.degrees(node_distances(som))
-    scale = scale or distance_scale(som)
+    scale = scale or _scale_of(distance)
     support = hits / max(hits.max(), 1)
     figure = Figure(figsize=(8.0, 2.3 * len(runs) + 0.6))
     for i, (run, measure) in enumerate(zip(runs, measures)):

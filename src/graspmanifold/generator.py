@@ -67,7 +67,6 @@ PRESETS: dict[str, dict[str, int]] = {
 
 #: how candidates are taken along the walk (`GeneratorParams.mode`)
 MODES = ("settled", "recording")
-RECORD_EVERY_PAPER = 5  # physics steps between recorded postures in the paper preset
 
 
 @dataclass(frozen=True)
@@ -113,7 +112,7 @@ class GeneratorParams:
 #: which brings the data's density closest to what the paper's maps imply (docs/data_character.md).
 PRESET_PARAMS: dict[str, GeneratorParams] = {
     "quick": GeneratorParams(),
-    "paper": GeneratorParams(mode="recording", record_every=RECORD_EVERY_PAPER),
+    "paper": GeneratorParams(mode="recording", record_every=5),
 }
 
 

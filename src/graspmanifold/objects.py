@@ -32,7 +32,7 @@ DEFAULT_FRICTION = 0.6
 #: all triangles' bounding boxes, above it through trimesh's R-tree, whose per-point Python calls cost
 #: about 1 ms for the five fingertips of a spring step (the vectorised pass: 0.2-0.3 ms for 256-512
 #: triangles; they are about equal near 4 000 pairs)
-BRUTE_FORCE_PAIRS = 4096
+SMALL_QUERY_PAIRS = 4096
 
 
 @dataclass(frozen=True)
@@ -114,10 +114,10 @@ class GraspObject:
         (`proximity.closest_point`) for large queries, and for small ones (the generator asks for five
         fingertips every physics step) from one vectorised pass over the bounding boxes, the same
         pruning the R-tree does: only triangles whose box lies no farther than an exact distance to some
-        triangle can hold the closest point, so the answer is exact (tested against the R-tree's)."""
+        triangle can hold the closest point, so the answer is exact (tested against testing every pair)."""
         triangles = self._triangles
         faces = len(triangles)
-        if faces * len(p) > BRUTE_FORCE_PAIRS:
+        if faces * len(p) > SMALL_QUERY_PAIRS:
             closest, _, triangle = trimesh.proximity.closest_point(self.mesh, p)
             return closest, triangle
         lower, upper = self._triangle_boxes

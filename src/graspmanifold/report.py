@@ -141,13 +141,14 @@ def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
         if np.allclose(geom.rgba, OBJECT_RGBA):
             geom.rgba = [0.6, 0.75, 1.0, 0.2]
     nearest = cKDTree(training.postures)
+    low, high = finger_limits().T
 
     def render(postures: np.ndarray) -> np.ndarray:
         states = []
         for posture, k in zip(postures, nearest.query(postures)[1]):
             pose = training.hand_poses[k]
             scene.set_hand_pose(pose[:3], pose[3:])
-            scene.set_posture(np.clip(posture, *finger_limits().T))
+            scene.set_posture(np.clip(posture, low, high))
             states.append(scene.state())
         return render_states(scene, np.array(states), THUMB_SIDE, image_size, image_size)
 

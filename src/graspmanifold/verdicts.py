@@ -11,10 +11,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
+from .generator import PRESETS
+
 REPRODUCED, PARTLY, NOT_REPRODUCED = "reproduced", "partly", "not reproduced"
 
 #: The paper's numbers (Section 5).
-PAPER_DATASET_SIZES = {"box": 4069, "cylinder": 4220, "sphere": 1885}
+PAPER_DATASET_SIZES = dict(PRESETS["paper"])
 PAPER_MIN_DISTANCE_DEG = {"box": 0.013, "cylinder": 0.013, "sphere": 0.007}
 PAPER_MAX_DISTANCE_DEG = {"box": 55.06, "cylinder": 63.45, "sphere": 66.23}
 MIN_DISTANCE_FACTOR = 3.0  # the minimum inter-node distance agrees within this factor
