@@ -33,6 +33,8 @@ class Experience(Protocol):
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray: ...
 
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray: ...
+
 
 class PostureDatabase:
     """All stored postures (n, dim); best matches are row indices into `postures`."""
@@ -62,6 +64,10 @@ class PostureDatabase:
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """The best-matching stored posture, in full."""
         return self.postures[self.best_match(x, mask)].copy()
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching stored postures (m, dim) of queries X (m, dim): `complete` of every row."""
+        return self.postures[self.best_match_batch(X, masks)]
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}

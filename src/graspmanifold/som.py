@@ -325,6 +325,10 @@ class SOM:
         """The best-matching node's full reference vector: x pulled onto the map."""
         return self._require_weights().reshape(-1, self.dim)[self.best_match(x, mask)].copy()
 
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching nodes' reference vectors (m, dim) of queries X (m, dim): `complete` of every row."""
+        return self._require_weights().reshape(-1, self.dim)[self.best_match_batch(X, masks)]
+
     # -- quality and structure -------------------------------------------------------------------
     def quantization_error(self, X: np.ndarray) -> float:
         """Mean Euclidean distance from each sample to its best-matching reference vector."""

@@ -1,0 +1,198 @@
+"""The grasp controller as an array program over N trials at once.
+
+`BatchController` makes exactly the decisions of `controller.GraspController` (the readable
+reference, which documents the four phases) for N worlds in one call: the state of every world
+lives in arrays, the best matches of all worlds that match in a cycle are one batched masked
+search with a mask per world, and every arithmetic step is the reference's, in the same order,
+so the targets agree bit for bit (tests/test_batch.py runs both on the same readings, cycle by
+cycle). All worlds start together and share the clock; a world that is done keeps its target.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .controller import (
+    _FINGER_OF_JOINT,
+    _FLEXION,
+    ControllerParams,
+    GraspController,
+)
+from .experience import Experience
+from .hand import FINGERS, SEGMENTS, finger_of
+from .posture import N_FINGER_JOINTS, pcp_masks
+
+_SEGMENT_FINGER = np.array([FINGERS.index(finger_of(s)) if finger_of(s) else -1 for s in SEGMENTS])
+_JOINT_FINGER = np.array([FINGERS.index(f) for f in _FINGER_OF_JOINT])
+#: (5, 22): which joints belong to which finger
+_FINGER_JOINTS = _JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
+
+#: the grasp phase of each world, as `GraspController.phase` names it
+PHASES = ("A", "B", "C", "done")
+
+
+def _norms(rows: np.ndarray) -> np.ndarray:
+    """Euclidean norm of every row, rounded exactly as `np.linalg.norm` of that row alone (a dot product)."""
+    return np.sqrt((rows[:, None, :] @ rows[:, :, None])[:, 0, 0])
+
+
+def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """RMS of every row over its masked columns, summed in the order `np.mean` of that row's masked
+    entries alone would sum them (rows that share a mask are reduced together)."""
+    rms = np.empty(len(differences))
+    patterns, which = np.unique(masks, axis=0, return_inverse=True)
+    for k, pattern in enumerate(patterns):
+        rows = which.ravel() == k
+        rms[rows] = np.sqrt(np.mean(differences[rows][:, pattern] ** 2, axis=1))
+    return rms
+
+
+class BatchController:
+    """`GraspController` for N worlds; call `step` once per control period with every world's readings."""
+
+    def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
+                 initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None):
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise ValueError(f"n (worlds) must be a positive integer, got {n!r}")
+        # the reference validates the arguments and computes the per-finger constants once
+        reference = GraspController(experience, params, initial_posture, preshape)
+        self.n = int(n)
+        self.experience, self.params = reference.experience, reference.params
+        self.initial, self.preshape = reference.initial, reference.preshape
+        self._closed, self._limits = reference._closed, reference._limits
+        self._speed = np.array([reference._speed[f] for f in FINGERS])
+        self._steered = reference._steered
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new grasp in every world."""
+        n, fingers = self.n, len(FINGERS)
+        self.time = 0.0
+        self.phase = np.zeros(n, dtype=np.int8)  # index into PHASES
+        self.done = np.zeros(n, dtype=bool)
+        self.time_to_grasp = np.full(n, np.nan)
+        self.matches = np.zeros(n, dtype=int)
+        self._closure = np.zeros((n, fingers))
+        self._held = np.zeros((n, fingers), dtype=bool)
+        self._held_posture = np.zeros((n, N_FINGER_JOINTS))
+        self._lost = np.zeros((n, fingers), dtype=bool)
+        self._lost_posture = np.zeros((n, N_FINGER_JOINTS))
+        self._last_touch = np.full((n, fingers), -np.inf)
+        self._base = np.tile(self.initial, (n, 1))
+        self._target = np.tile(self.initial, (n, 1))
+        self._touching = np.zeros((n, fingers), dtype=bool)
+        self._stable_since = np.zeros(n)
+
+    def __repr__(self) -> str:
+        experience = "none" if self.experience is None else type(self.experience).__name__
+        return f"BatchController({self.n} worlds, experience {experience}, {int(self.done.sum())} done)"
+
+    def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
+        """One control cycle of every world: sensed joints (N, 22) and segment forces (N, len(SEGMENTS))
+        -> joint targets (N, 22)."""
+        joints = np.asarray(joints, dtype=float)
+        forces = np.asarray(segment_forces, dtype=float)
+        if joints.shape != (self.n, N_FINGER_JOINTS) or not np.all(np.isfinite(joints)):
+            raise ValueError(f"joints must be ({self.n}, {N_FINGER_JOINTS}) finite angles, got shape {joints.shape}")
+        if forces.shape != (self.n, len(SEGMENTS)) or not np.all(np.isfinite(forces)):
+            raise ValueError(f"segment_forces must be ({self.n}, {len(SEGMENTS)}) finite forces in SEGMENTS order, "
+                             f"got shape {forces.shape}")
+        p, dt = self.params, self.params.control_period
+        self.time += dt
+        touching_segments = forces > 0.0
+        any_touch = touching_segments.any(axis=1)
+        touching = np.zeros_like(self._touching)
+        for finger in range(len(FINGERS)):
+            touching[:, finger] = touching_segments[:, _SEGMENT_FINGER == finger].any(axis=1)
+        waiting = ~self.done & (self.time <= p.preshape_time) & ~any_touch  # phase A
+        self._target[waiting] = self.initial
+        act = ~self.done & ~waiting
+        if not act.any():
+            return self._target.copy()
+
+        self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
+        self._match(act, joints, touching_segments, any_touch)
+        touched = act[:, None] & touching
+        self._last_touch[touched] = self.time
+        newly_held = touched & ~self._held
+        self._held = self._held | newly_held
+        for finger in range(len(FINGERS)):  # a finger remembers the joints it first touched with
+            worlds = newly_held[:, finger]
+            self._held_posture[worlds] = np.where(_FINGER_JOINTS[finger], joints[worlds], self._held_posture[worlds])
+        self._lost &= ~touched
+        released = act[:, None] & self._held & (self.time - self._last_touch > p.release_time)
+        for finger in range(len(FINGERS)):  # lost its contact: close on from where it held
+            worlds = released[:, finger]
+            of = _FINGER_JOINTS[finger]
+            self._lost_posture[worlds] = np.where(of, self._held_posture[worlds], self._lost_posture[worlds])
+        self._lost |= released
+        self._held &= ~released
+        self._closure[released] = 0.0
+
+        target = self._target.copy()
+        squeezed = self._squeezed(self._held_posture)
+        for finger in range(len(FINGERS)):
+            of = _FINGER_JOINTS[finger]
+            held = act & self._held[:, finger]
+            target[np.ix_(held, of)] = squeezed[np.ix_(held, of)]
+            free = act & ~self._held[:, finger]
+            if not free.any():
+                continue
+            closure = np.minimum(1.0, self._closure[free, finger] + p.closing_rate * dt)
+            self._closure[free, finger] = closure
+            lost = self._lost[free, finger]
+            base = np.where(lost[:, None], self._lost_posture[np.ix_(free, of)], self._base[np.ix_(free, of)])
+            goal = base + closure[:, None] * (self._closed[of] - base)
+            previous = self._target[np.ix_(free, of)]
+            move = goal - previous
+            limit = p.follow_speed * self._speed[finger] * dt
+            distance = _norms(move)
+            scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
+            target[np.ix_(free, of)] = previous + np.where((distance <= limit)[:, None], move, move * scale[:, None])
+        self._target[act] = np.clip(target[act], self._limits[:, 0], self._limits[:, 1])
+
+        changed = act & np.any(touching != self._touching, axis=1)
+        self._touching[changed] = touching[changed]
+        self._stable_since[changed] = self.time
+        settled = np.all(touching | (self._closure >= 1.0), axis=1)
+        finished = act & ((touching.any(axis=1) & settled & (self.time - self._stable_since >= p.stable_time))
+                          | (self.time >= p.timeout))
+        self.done |= finished
+        self.phase[finished] = PHASES.index("done")
+        self.time_to_grasp[finished] = self.time
+        return self._target.copy()
+
+    def _squeezed(self, postures: np.ndarray) -> np.ndarray:
+        """`controller.squeezed` of every row."""
+        target = postures + self.params.squeeze * np.sign(self._closed - postures) * _FLEXION
+        return np.clip(target, self._limits[:, 0], self._limits[:, 1])
+
+    def _match(self, act: np.ndarray, joints: np.ndarray, touching_segments: np.ndarray,
+               any_touch: np.ndarray) -> None:
+        """Phase B / C of every acting world: the best-matching experienced posture becomes the
+        base of the steered fingers (`GraspController._match`)."""
+        p = self.params
+        if self.preshape is not None:
+            self._base[act & ~any_touch] = self.preshape
+            candidates = act & any_touch
+        else:
+            candidates = act.copy()
+        if self.experience is None:
+            return
+        if not p.experience_steering:
+            candidates &= ~any_touch
+        if not p.experience_preshape:
+            candidates &= any_touch
+        masks = np.where(any_touch[:, None], pcp_masks(touching_segments), True)
+        candidates &= masks.any(axis=1)  # a palm contact alone specifies no joint
+        worlds = np.flatnonzero(candidates)
+        if not len(worlds):
+            return
+        match = self.experience.complete_batch(joints[worlds], masks[worlds])
+        if math.isfinite(p.max_match_distance):
+            trusted = _rms(match - joints[worlds], masks[worlds]) <= p.max_match_distance
+            worlds, match = worlds[trusted], match[trusted]
+        self.matches[worlds] += 1
+        self._base[worlds] = np.where(self._steered, match, self._base[worlds])
