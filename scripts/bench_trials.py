@@ -1,37 +1,141 @@
-"""Benchmark one grasp trial: the plain heuristic on the quick grid of every object, one process.
+"""Benchmark grasp trials: the batched CPU backend against one trial at a time, and the Warp backend.
 
-    python scripts/bench_trials.py [--repeats 3]
+    python scripts/bench_trials.py cpu [--grids quick paper] [--workers 1 2]
+    python scripts/bench_trials.py agree [--objects box cylinder sphere] [--experience none]
+    python scripts/bench_trials.py gpu [--worlds 1024 4096 16384]
 
-A trial is the grasp, the six-direction hold test and the margin ramp (`trial.run_trial`).
-Prints the best of `--repeats` wall times per object and trials per second; run it with another
-checkout's `src` on PYTHONPATH to compare two versions on the same machine.
+`cpu`: trials per minute of `evaluate(backend="cpu")` (each checkpoint chunk one batch) and of the
+same trials run one by one with `trial.run_trial` in the same process pool (the evaluation before
+the batched backend), on the plain heuristic for the three paper objects; it checks that both give
+the same trials bit for bit. `agree`: CPU against Warp trial by trial on a grid (force closure and
+hold), with Wilson intervals and McNemar's test; Warp runs on the GPU, or on Warp's CPU device with
+GRASPMANIFOLD_WARP_DEVICE=cpu. `gpu`: Warp trials per minute at several world counts (the paper
+grid's poses repeated with pose noise), the first call's kernel compilation timed apart, and the
+share of the wall time spent in the physics.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 
+import numpy as np
+
 import graspmanifold as gm
+from graspmanifold.grid import check_grid
+from graspmanifold.stats import mcnemar, rate_text
+from graspmanifold.trial import Noise, run_trial
+from graspmanifold.workers import parallel_map
+
+FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
+          "penetration", "fault")
+
+
+def _one_by_one(task: tuple[list[int], np.ndarray], *, obj: str) -> list:
+    indices, poses = task
+    return [run_trial(gm.get_object(obj), None, pose, np.random.default_rng([0, i])) for i, pose in zip(indices, poses)]
+
+
+def one_by_one(obj: str, grid: str, workers: int) -> list:
+    """The trials of `evaluate(obj, None, grid, seed=0, workers=workers)`, one `run_trial` at a time."""
+    _, poses = check_grid(grid, gm.get_object(obj))
+    size = max(1, min(16, -(-len(poses) // (4 * workers))))
+    tasks = [(list(range(i, min(i + size, len(poses)))), poses[i: i + size]) for i in range(0, len(poses), size)]
+    return [t for chunk in parallel_map(functools.partial(_one_by_one, obj=obj), tasks, workers) for t in chunk]
+
+
+def bench_cpu(args: argparse.Namespace) -> None:
+    print("| grid | workers | trials | one by one (s) | trials / min | batched (s) | trials / min | speed-up | same |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for grid in args.grids:
+        for workers in args.workers:
+            counts, old, new, same = 0, 0.0, 0.0, True
+            for obj in args.objects:
+                start = time.perf_counter()
+                reference = one_by_one(obj, grid, workers)
+                old += time.perf_counter() - start
+                start = time.perf_counter()
+                batched = gm.evaluate(obj, None, grid, seed=0, workers=workers).trials
+                new += time.perf_counter() - start
+                counts += len(batched)
+                same &= all(np.array_equal(getattr(a, f), getattr(b, f)) for a, b in zip(reference, batched)
+                            for f in FIELDS)
+            print(f"| {grid} | {workers} | {counts} | {old:.1f} | {60 * counts / old:.0f} | {new:.1f} | "
+                  f"{60 * counts / new:.0f} | {old / new:.2f}x | {'yes' if same else 'NO'} |", flush=True)
+
+
+def bench_agree(args: argparse.Namespace) -> None:
+    print("| object | trials | force closure cpu | warp | same fc | hold cpu | warp | same hold | McNemar p (fc) "
+          "| warp wall (s) |\n|---|---|---|---|---|---|---|---|---|---|")
+    total, same_fc = 0, 0
+    for obj in args.objects:
+        experience = None
+        cpu = gm.evaluate(obj, experience, args.grid, seed=0, workers=args.cpu_workers)
+        start = time.perf_counter()
+        warp = gm.evaluate(obj, experience, args.grid, seed=0, backend="warp")
+        wall = time.perf_counter() - start
+        valid = cpu.valid() & warp.valid()
+        n = int(valid.sum())
+        a, b = cpu.outcomes("force_closure")[valid], warp.outcomes("force_closure")[valid]
+        ha, hb = cpu.outcomes("hold")[valid], warp.outcomes("hold")[valid]
+        total, same_fc = total + n, same_fc + int((a == b).sum())
+        print(f"| {obj} | {n} | {rate_text(int(a.sum()), n)} | {rate_text(int(b.sum()), n)} | "
+              f"{rate_text(int((a == b).sum()), n)} | {rate_text(int(ha.sum()), n)} | {rate_text(int(hb.sum()), n)} | "
+              f"{rate_text(int((ha == hb).sum()), n)} | {mcnemar(a, b).p_value:.2f} | "
+              f"{wall:.0f} |", flush=True)
+    print(f"\nforce closure agrees trial by trial on {rate_text(same_fc, total)} of the valid trials")
+
+
+def bench_gpu(args: argparse.Namespace) -> None:
+    from graspmanifold import warp_worlds
+
+    physics = {"s": 0.0}
+    step = warp_worlds.WarpWorlds.step
+
+    def timed_step(self, worlds, nstep):
+        start = time.perf_counter()
+        try:
+            return step(self, worlds, nstep)
+        finally:
+            physics["s"] += time.perf_counter() - start
+
+    warp_worlds.WarpWorlds.step = timed_step
+    obj = gm.get_object(args.object)
+    _, paper = check_grid("paper", obj)
+    noise = Noise(position=0.003, yaw=0.05)
+    start = time.perf_counter()
+    gm.evaluate(obj, None, paper[:8], seed=0, noise=noise, backend="warp")
+    print(f"first call (8 worlds, kernel compilation included): {time.perf_counter() - start:.0f} s")
+    print("| worlds | wall (s) | trials / min | physics share | hold | force closure |\n|---|---|---|---|---|---|")
+    for worlds in args.worlds:
+        poses = np.resize(paper, (worlds, 4))
+        physics["s"] = 0.0
+        start = time.perf_counter()
+        result = gm.evaluate(obj, None, poses, seed=1, noise=noise, backend="warp", batch_size=worlds)
+        wall = time.perf_counter() - start
+        s = result.summary
+        print(f"| {worlds} | {wall:.1f} | {60 * worlds / wall:.0f} | {physics['s'] / wall:.0%} | "
+              f"{s['hold_rate']:.0%} | {s['force_closure_rate']:.0%} |", flush=True)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3)
+    sub = parser.add_subparsers(dest="what", required=True)
+    cpu = sub.add_parser("cpu")
+    cpu.add_argument("--grids", nargs="+", default=["quick", "paper"])
+    cpu.add_argument("--workers", nargs="+", type=int, default=[1, 2])
+    cpu.add_argument("--objects", nargs="+", default=list(gm.PAPER_OBJECTS))
+    agree = sub.add_parser("agree")
+    agree.add_argument("--objects", nargs="+", default=list(gm.PAPER_OBJECTS))
+    agree.add_argument("--grid", default="quick")
+    agree.add_argument("--cpu-workers", type=int, default=2)
+    gpu = sub.add_parser("gpu")
+    gpu.add_argument("--object", default="cylinder")
+    gpu.add_argument("--worlds", nargs="+", type=int, default=[1024, 4096, 16384])
     args = parser.parse_args()
     print(f"graspmanifold from {gm.__file__}")
-    print("| object | trials | best wall (s) | trials / s |\n|---|---|---|---|")
-    total_trials, total_wall = 0, 0.0
-    for obj in ("box", "cylinder", "sphere"):
-        walls = []
-        for _ in range(args.repeats):
-            start = time.perf_counter()
-            result = gm.evaluate(obj, None, "quick", seed=0, workers=1)
-            walls.append(time.perf_counter() - start)
-        n = len(result.trials)
-        total_trials, total_wall = total_trials + n, total_wall + min(walls)
-        print(f"| {obj} | {n} | {min(walls):.2f} | {n / min(walls):.2f} |")
-    print(f"| all | {total_trials} | {total_wall:.2f} | {total_trials / total_wall:.2f} |")
+    {"cpu": bench_cpu, "agree": bench_agree, "gpu": bench_gpu}[args.what](args)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """The batched controller and the batched trials agree with the single-trial reference."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -85,3 +87,40 @@ def test_batched_controller_rejects_bad_readings():
         batch.step(np.zeros((3, 22)), np.full((3, len(gm.SEGMENTS)), np.nan))
     with pytest.raises(ValueError, match="n \\(worlds\\)"):
         BatchController(0)
+
+
+TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
+                "penetration", "fault")
+
+
+@pytest.mark.parametrize("kind,noise", [("database", gm.Noise()), ("som", gm.Noise(0.004, 0.08, 0.01))])
+def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, noise):
+    from graspmanifold.batch_trials import run_trials
+    from graspmanifold.trial import run_trial
+
+    obj = gm.get_object("cylinder")
+    _, poses = check_grid("quick", obj)
+    poses = poses[::5]
+    rngs = [np.random.default_rng([3, i]) for i in range(len(poses))]
+    batched = run_trials(obj, experience[kind], poses, rngs, noise)
+    for i, (pose, trial) in enumerate(zip(poses, batched)):
+        single = run_trial(obj, experience[kind], pose, np.random.default_rng([3, i]), noise)
+        for field in TRIAL_FIELDS:
+            assert np.array_equal(getattr(single, field), getattr(trial, field)), (i, field)
+    assert any(t.hold for t in batched) and any(t.margin > 0 for t in batched)
+
+
+def test_evaluate_names_a_bad_backend_and_a_missing_gpu():
+    with pytest.raises(ValueError, match="backend must be one of"):
+        gm.evaluate("box", None, "quick", backend="gpu")
+    with pytest.raises(ValueError, match="batch_size"):
+        gm.evaluate("box", None, "quick", backend="warp", batch_size=0)
+    try:  # without the gpu extra, or without a GPU, the warp backend says what is missing
+        import warp
+
+        has_gpu = bool(warp.get_cuda_device_count())
+    except ImportError:
+        has_gpu = False
+    if not has_gpu and not os.environ.get("GRASPMANIFOLD_WARP_DEVICE"):
+        with pytest.raises((ImportError, RuntimeError), match="graspmanifold\\[gpu\\]|NVIDIA GPU"):
+            gm.evaluate("box", None, np.array([[0.0, 0.0, 0.01, 0.0]]), backend="warp")

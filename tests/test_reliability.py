@@ -260,24 +260,24 @@ def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_p
 
     grid = gm.grid_preset("quick", "box")[:10]
     parts = tmp_path / "parts"
-    real = evaluation.run_trial
+    real = evaluation.run_trials
     calls = []
 
-    def interrupted(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 7:
+    def interrupted(obj, experience, poses, *args, **kwargs):
+        calls.append(len(poses))
+        if len(calls) == 3:  # in the third chunk of trials
             raise KeyboardInterrupt
-        return real(*args, **kwargs)
+        return real(obj, experience, poses, *args, **kwargs)
 
-    monkeypatch.setattr(evaluation, "run_trial", interrupted)
+    monkeypatch.setattr(evaluation, "run_trials", interrupted)
     with pytest.raises(KeyboardInterrupt):
         gm.evaluate("box", None, grid, seed=3, checkpoint_dir=parts)
     kept = sorted(p.name for p in parts.glob("part_*.npz"))
     assert kept and not list(parts.glob("*.tmp"))
     calls.clear()
-    monkeypatch.setattr(evaluation, "run_trial", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(evaluation, "run_trials", lambda o, e, poses, *a, **k: calls.append(len(poses)) or real(o, e, poses, *a, **k))
     resumed = gm.evaluate("box", None, grid, seed=3, checkpoint_dir=parts)
-    assert len(calls) < 10  # the finished trials were not run again
+    assert sum(calls) < 10  # the finished trials were not run again
     fresh = gm.evaluate("box", None, grid, seed=3)
     assert [t.hold for t in resumed.trials] == [t.hold for t in fresh.trials]
     assert np.array_equal([t.posture for t in resumed.trials], [t.posture for t in fresh.trials])

@@ -33,7 +33,7 @@ _FINGER_JOINTS = _JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
 PHASES = ("A", "B", "C", "done")
 
 
-def _norms(rows: np.ndarray) -> np.ndarray:
+def row_norms(rows: np.ndarray) -> np.ndarray:
     """Euclidean norm of every row, rounded exactly as `np.linalg.norm` of that row alone (a dot product)."""
     return np.sqrt((rows[:, None, :] @ rows[:, :, None])[:, 0, 0])
 
@@ -148,7 +148,7 @@ class BatchController:
             previous = self._target[np.ix_(free, of)]
             move = goal - previous
             limit = p.follow_speed * self._speed[finger] * dt
-            distance = _norms(move)
+            distance = row_norms(move)
             scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
             target[np.ix_(free, of)] = previous + np.where((distance <= limit)[:, None], move, move * scale[:, None])
         self._target[act] = np.clip(target[act], self._limits[:, 0], self._limits[:, 1])

@@ -171,8 +171,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         start = time.perf_counter()
         result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
                           noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
-                          executor=_executor(args))
-    except (ValueError, FileNotFoundError) as error:
+                          executor=_executor(args), backend=args.backend)
+    except (ValueError, FileNotFoundError, ImportError, RuntimeError) as error:
         raise SystemExit(f"error: {error}") from None
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
@@ -290,6 +290,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")
+    evaluate.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
+                          help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
+                               "(pip install 'graspmanifold[gpu]')")
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .batch_trials import BACKENDS, run_trials
 from .controller import ControllerParams
 from .experience import Experience, check_experience
 from .grid import check_grid
@@ -32,7 +33,7 @@ from .objects import GraspObject, get_object
 from .posture import N_FINGER_JOINTS
 from .progress import progress_bar
 from .stats import rate_text, wilson_interval
-from .trial import Noise, Trial, run_trial
+from .trial import Noise, Trial
 from .validation import check_int
 from .workers import parallel_map
 
@@ -47,6 +48,7 @@ class EvaluationResult:
     seed: int
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
+    backend: str = "cpu"  # the physics engine the trials ran on (batch_trials.BACKENDS)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -124,7 +126,7 @@ class EvaluationResult:
                   "penetration": np.array([x.penetration for x in t]),
                   "fault": np.array([x.fault for x in t], dtype=str)}
         meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
-                "noise": asdict(self.noise), "summary": self.summary, "segments": list(SEGMENTS),
+                "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
                 "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
         return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
 
@@ -140,7 +142,8 @@ class EvaluationResult:
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
                         float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]))
                   for i in range(len(a["epsilon"]))]
-        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"])), meta
+        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
+                   meta.get("backend", "cpu")), meta
 
 
 def trial_count(summary: dict) -> str:
@@ -155,14 +158,17 @@ def method_name(experience: Experience | None) -> str:
 
 #: trials per checkpoint part of an evaluation at most (the unit of parallel work and of resuming)
 CHECKPOINT_TRIALS = 16
+#: trials the warp backend runs at once by default (worlds on the GPU)
+WARP_BATCH = 16384
 
 
 def _run_chunk(task: tuple[list[int], np.ndarray, int], *, obj: GraspObject, experience: Experience | None,
-               noise: Noise, params: ControllerParams | None, table: bool, preshape: np.ndarray | None) -> list[Trial]:
-    """The trials of one chunk of grid poses; trial i draws from the generator seeded [seed, i]."""
+               noise: Noise, params: ControllerParams | None, table: bool, preshape: np.ndarray | None,
+               backend: str = "cpu") -> list[Trial]:
+    """The trials of one chunk of grid poses, as one batch; trial i draws from the generator seeded [seed, i]."""
     indices, poses, seed = task
-    return [run_trial(obj, experience, pose, np.random.default_rng([seed, index]), noise, params, table, preshape)
-            for index, pose in zip(indices, poses)]
+    rngs = [np.random.default_rng([seed, index]) for index in indices]
+    return run_trials(obj, experience, poses, rngs, noise, params, table, preshape, backend)
 
 
 def _signature(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int, noise: Noise,
@@ -204,7 +210,8 @@ def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dic
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
-             progress: bool = False, executor: Executor | None = None) -> EvaluationResult:
+             progress: bool = False, executor: Executor | None = None, backend: str = "cpu",
+             batch_size: int = WARP_BATCH) -> EvaluationResult:
     """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
 
     `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
@@ -213,16 +220,25 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun with
     the same arguments picks them up (parts of another configuration are discarded with a warning).
     `executor` runs the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
-    The same seed gives the same trials, whatever the number of workers, the executor or interruptions."""
+    `backend`: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
+    `trial.run_trial` bit for bit) in the worker processes; 'warp' runs up to `batch_size` trials at
+    once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
+    The same seed gives the same trials, whatever the number of workers, the executor or interruptions
+    (on one backend)."""
     obj = get_object(obj)
     experience = check_experience(experience)
     workers = check_int(workers, "workers")
     noise = noise or Noise()
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    batch_size = check_int(batch_size, "batch_size")
     grid_name, poses = check_grid(grid, obj, table)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (4 * workers))))  # at least 4 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
     signature = _signature(obj, experience, poses, seed, noise, params, table, preshape)
+    if backend != "cpu":  # another engine's trials are not the CPU's
+        signature = hashlib.sha256(f"{signature} {backend}".encode()).hexdigest()[:20]
     done: dict[int, list[Trial]] = {}
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
@@ -236,18 +252,26 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         number = pending[task]
         done[number] = trials
         if directory is not None:
-            EvaluationResult(obj.params(), method, grid_name, seed, trials, noise).save(
+            EvaluationResult(obj.params(), method, grid_name, seed, trials, noise, backend).save(
                 directory / f"part_{chunks[number][0]:05d}.npz", extra={"signature": signature,
                                                                          "first": chunks[number][0]})
         report.update(len(trials))
 
     run_chunk = functools.partial(_run_chunk, obj=obj, experience=experience, noise=noise, params=params,
-                                  table=table, preshape=preshape)
+                                  table=table, preshape=preshape, backend=backend)
     with report:
         report.update(sum(len(t) for t in done.values()))
-        parallel_map(run_chunk, tasks, workers, keep, executor)
+        if backend == "cpu":
+            parallel_map(run_chunk, tasks, workers, keep, executor)
+        else:  # one GPU batch of many chunks at a time, split back into chunks for the checkpoint
+            for first in range(0, len(tasks), max(1, batch_size // size)):
+                group = tasks[first: first + max(1, batch_size // size)]
+                trials = run_chunk(([i for t in group for i in t[0]], np.concatenate([t[1] for t in group]), seed))
+                for k, task in enumerate(group):
+                    keep(first + k, trials[:len(task[0])])
+                    trials = trials[len(task[0]):]
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
-    return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise)
+    return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise, backend)
 
 
 def summary_json(results: list[EvaluationResult]) -> str:

@@ -23,6 +23,7 @@ import numpy as np
 
 from .quality import epsilon_l1
 from .scene import GRAVITY, Scene
+from .tactile import TactileReading
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 HOLD_SECONDS = 0.5  # s per gravity direction
@@ -52,11 +53,14 @@ class Judgement:
 
 def grasp_epsilon(scene: Scene) -> float:
     """Epsilon of the current hand-object contacts, with the object's friction."""
-    reading = scene.tactile()
+    return reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body].copy(), scene.object.friction)
+
+
+def reading_epsilon(reading: TactileReading, centre: np.ndarray, friction: float) -> float:
+    """Epsilon of a reading's contacts about the object's centre of mass `centre`."""
     if not len(reading.forces):
         return 0.0
-    centre = scene.data.xipos[scene.object_body].copy()
-    return float(epsilon_l1(reading.points, reading.normals, centre, mu=scene.object.friction))
+    return float(epsilon_l1(reading.points, reading.normals, centre, mu=friction))
 
 
 def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, hold_seconds: float = HOLD_SECONDS,

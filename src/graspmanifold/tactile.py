@@ -68,36 +68,72 @@ class TactileSensor:
         self._segment_of_geom = segment_of_geoms(model)
         self._is_object_geom = model.geom_bodyid == object_id
         self._wrench = np.zeros(6)
+        self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
 
     def read(self, data: mujoco.MjData) -> TactileReading:
         """The current hand-object contacts (call after mj_step or mj_forward)."""
         n = data.ncon
-        segment_forces = np.zeros(len(SEGMENTS))
-        if n == 0:
-            return TactileReading(segments=(), segment_forces=segment_forces)
         contact = data.contact
-        g1, g2 = contact.geom1[:n], contact.geom2[:n]
-        hand_first = (self._segment_of_geom[g1] >= 0) & self._is_object_geom[g2]
-        hand_second = (self._segment_of_geom[g2] >= 0) & self._is_object_geom[g1]
-        active = (hand_first | hand_second) & (contact.efc_address[:n] >= 0)
-        rows = np.flatnonzero(active)
-        forces = np.empty(len(rows))
-        for k, row in enumerate(rows):
-            mujoco.mj_contactForce(self.model, data, int(row), self._wrench)
-            forces[k] = self._wrench[0]
-        keep = forces >= self.min_force
-        rows, forces = rows[keep], forces[keep]
-        segment_ids = np.where(hand_first[rows], self._segment_of_geom[g1[rows]], self._segment_of_geom[g2[rows]])
+        return self.reading(np.column_stack([contact.geom1[:n], contact.geom2[:n]]), self._normal_forces(data),
+                            contact.frame[:n, :3], contact.pos[:n], contact.dist[:n])
+
+    def segment_forces(self, data: mujoco.MjData) -> np.ndarray:
+        """Only the summed normal force per segment (len(SEGMENTS),) of `read`: what the controller needs."""
+        n = data.ncon
+        segment_forces = np.zeros(len(SEGMENTS))
+        if n:
+            contact = data.contact
+            segments, forces, _ = self._hand_object(np.column_stack([contact.geom1[:n], contact.geom2[:n]]),
+                                                    self._normal_forces(data))
+            np.add.at(segment_forces, segments, forces)
+        return segment_forces
+
+    def reading(self, geoms: np.ndarray, forces: np.ndarray, normals: np.ndarray, points: np.ndarray,
+                dists: np.ndarray) -> TactileReading:
+        """The reading of a list of contacts, from any engine: geom pairs (k, 2), normal forces (k,)
+        (NaN: not in the constraint solver), normals (k, 3) from the first geom to the second,
+        points (k, 3), distances (k,). Contacts other than hand-object ones are left out."""
+        segment_forces = np.zeros(len(SEGMENTS))
+        segment_ids, forces, rows = self._hand_object(np.asarray(geoms), np.asarray(forces, dtype=float))
+        if not len(rows):
+            return TactileReading(segments=(), segment_forces=segment_forces)
         # the contact normal points from geom1 to geom2: into the object when the hand is geom1
-        normals = contact.frame[:n, :3][rows] * np.where(hand_first[rows], 1.0, -1.0)[:, None]
+        hand_first = self._segment_of_geom[np.asarray(geoms)[rows, 0]] >= 0
+        normals = np.asarray(normals, dtype=float)[rows] * np.where(hand_first, 1.0, -1.0)[:, None]
         np.add.at(segment_forces, segment_ids, forces)
         touching = sorted(set(segment_ids.tolist()))
         return TactileReading(
             segments=tuple(SEGMENTS[i] for i in touching),
             segment_forces=segment_forces,
             contact_segments=tuple(SEGMENTS[i] for i in segment_ids),
-            points=contact.pos[:n][rows].copy(),
+            points=np.asarray(points, dtype=float)[rows].copy(),
             normals=normals,
             forces=forces,
-            depths=np.maximum(-contact.dist[:n][rows], 0.0),
+            depths=np.maximum(-np.asarray(dists, dtype=float)[rows], 0.0),
         )
+
+    def _normal_forces(self, data: mujoco.MjData) -> np.ndarray:
+        """Normal force of every contact (ncon,), NaN where it is not in the solver (`mj_contactForce`:
+        with elliptic cones the first of the contact's constraint forces)."""
+        n = data.ncon
+        address = data.contact.efc_address[:n]
+        forces = np.full(n, np.nan)
+        inside = address >= 0
+        if self._elliptic:
+            forces[inside] = data.efc_force[address[inside]]
+        else:
+            for row in np.flatnonzero(inside):
+                mujoco.mj_contactForce(self.model, data, int(row), self._wrench)
+                forces[row] = self._wrench[0]
+        return forces
+
+    def _hand_object(self, geoms: np.ndarray, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Segment (k,), normal force (k,) and row of every hand-object contact in the solver whose
+        force reaches `min_force`."""
+        g1, g2 = geoms[:, 0], geoms[:, 1]
+        hand_first = (self._segment_of_geom[g1] >= 0) & self._is_object_geom[g2]
+        hand_second = (self._segment_of_geom[g2] >= 0) & self._is_object_geom[g1]
+        with np.errstate(invalid="ignore"):
+            rows = np.flatnonzero((hand_first | hand_second) & ~np.isnan(forces) & (forces >= self.min_force))
+        segments = np.where(hand_first[rows], self._segment_of_geom[g1[rows]], self._segment_of_geom[g2[rows]])
+        return segments, forces[rows], rows

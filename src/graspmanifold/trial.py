@@ -96,6 +96,19 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
     return grid_pose
 
 
+def trial_scene(obj: GraspObject, grid_pose: np.ndarray, rng: np.random.Generator, noise: Noise,
+                initial: np.ndarray, table: bool) -> Scene:
+    """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
+    support, or on a table with gravity on, and the open hand at rest in `initial`."""
+    scene = Scene(obj, free_object=True, gravity=table, table=table)
+    if not table:
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
+    scene.set_hand_pose(*palm_pose_for(obj, true_pose))
+    scene.set_posture(initial)
+    return scene
+
+
 def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
               rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
               table: bool = False, preshape: np.ndarray | None = None,
@@ -105,20 +118,15 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     The object is held by a spring support with gravity off, or (`table=True`) stands on a table
     with gravity on while the hand closes. `observer(scene)` is called after the start and after
     every control period, the judging included (`record_trial` keeps the states it sees)."""
-    scene = Scene(obj, free_object=True, gravity=table, table=table)
-    if not table:
-        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
     controller = GraspController(experience, params, preshape=preshape)
-    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
-    scene.set_hand_pose(*palm_pose_for(obj, true_pose))
-    scene.set_posture(controller.initial)
+    scene = trial_scene(obj, grid_pose, rng, noise, controller.initial, table)
     period = controller.params.control_period
     if observer is not None:
         observer(scene)
 
     def cycle() -> None:
         sensed = scene.posture() + rng.normal(0.0, noise.joints, N_FINGER_JOINTS) if noise.joints else scene.posture()
-        scene.set_target(controller.step(sensed, scene.tactile().segment_forces))
+        scene.set_target(controller.step(sensed, scene.sensor.segment_forces(scene.data)))
         scene.run(period)
         if observer is not None:
             observer(scene)
