@@ -33,6 +33,7 @@ Task = TypeVar("Task")
 Result = TypeVar("Result")
 
 _PR_SET_PDEATHSIG = 1
+CONNECT_TRIES = 3  # connection attempts to a Dask scheduler
 CONNECT_SECONDS = 10  # how long to wait for a Dask scheduler
 _WATCH_SECONDS = 1.0
 
@@ -93,6 +94,11 @@ def cluster_executor(address: str) -> Executor:
     address = address.removeprefix("dask://")
     if address == "local":
         return Client(LocalCluster(processes=True, threads_per_worker=1)).get_executor()
+    for _ in range(CONNECT_TRIES - 1):
+        try:
+            return Client(address, timeout=CONNECT_SECONDS).get_executor()
+        except AssertionError:  # distributed's handshake now and then reads two messages as one: try again
+            pass
     return Client(address, timeout=CONNECT_SECONDS).get_executor()
 
 
