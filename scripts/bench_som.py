@@ -1,25 +1,33 @@
-"""Benchmark the SOM in the paper's setting against MiniSom, in the same run.
+"""Benchmark the SOM's hot paths in the paper's setting, against MiniSom in the same run.
 
     pip install minisom   # the peer; needed for this benchmark only
-    python scripts/bench_som.py [--epochs 300] [--samples 4220] [--data postures.npz]
+    python scripts/bench_som.py [--epochs 300] [--samples 4220] [--data postures.npz] [--repeats 5]
 
-25 x 25 map, 22 dimensions, 4220 samples, 300 epochs (paper Section 5). Both trainers start from
-the same PCA-initialised weights and follow the same per-epoch schedule (learning rate 0.95 -> 0.05,
-sigma 6 -> 0.7, exponential decay, every sample once per epoch in random order); MiniSom gets the
-schedule through its decay hooks. Without --data the samples are synthetic posture-like clusters.
+25 x 25 map, 22 dimensions, 4220 samples, 300 epochs (paper Section 5). Both online trainers start
+from the same PCA-initialised weights and follow the same per-epoch schedule (learning rate
+0.95 -> 0.05, sigma 6 -> 0.7, exponential decay, every sample once per epoch in random order);
+MiniSom gets the schedule through its decay hooks. Without --data the samples are synthetic
+posture-like clusters. Masked best match: random Partial Contact Posture masks over the trained
+map. Each of our timings is the median of --repeats runs after one warm-up call (the first call
+in a fresh environment compiles the kernels); the NumPy references (GRASPMANIFOLD_COMPILED=0)
+are timed in the same run.
 """
 
 from __future__ import annotations
 
 import argparse
 import platform
+import statistics
 import time
+from collections.abc import Callable
 
+import numba
 import numpy as np
-from scipy.linalg.blas import dger
 from threadpoolctl import threadpool_limits
 
 import graspmanifold as gm
+from graspmanifold import kernels
+from graspmanifold.nearest import usable_cores
 from graspmanifold.som import decay_schedule
 
 ROWS = COLS = 25
@@ -53,16 +61,36 @@ def train_minisom(data: np.ndarray, initial: np.ndarray, epochs: int, seed: int)
     return som, time.perf_counter() - start
 
 
-def blas_floor(n_updates: int) -> float:
-    """Seconds per update of the two BLAS kernels an online step cannot avoid (v.x and the rank-1 update)."""
-    v = np.asfortranarray(np.random.default_rng(0).normal(size=(ROWS * COLS, DIM)))
-    x, coef, out = np.ones(DIM), np.full(ROWS * COLS, 1e-9), np.empty(ROWS * COLS)
-    with threadpool_limits(limits=1, user_api="blas"):
+def median_seconds(call: Callable[[], object], repeats: int) -> float:
+    """Median wall time of `repeats` calls after one warm-up call."""
+    call()
+    times = []
+    for _ in range(repeats):
         start = time.perf_counter()
-        for _ in range(n_updates):
-            np.dot(v, x, out=out)
-            v = dger(1.0, coef, x, a=v, overwrite_a=1)
-        return (time.perf_counter() - start) / n_updates
+        call()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def with_engine(compiled: bool, call: Callable[[], object]) -> Callable[[], object]:
+    """`call` run with the compiled kernels or with their NumPy references."""
+    def run() -> object:
+        previous = kernels.use_compiled(compiled)
+        try:
+            return call()
+        finally:
+            kernels.use_compiled(previous)
+    return run
+
+
+def pcp_queries(data: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Postures near the data, each with the mask of a random Partial Contact Posture (1-5 segments)."""
+    rng = np.random.default_rng(1)
+    queries = data[rng.integers(0, len(data), count)] + rng.normal(0, 0.05, (count, DIM))
+    segments = np.array(gm.SEGMENTS)
+    masks = np.array([gm.pcp_mask(rng.choice(segments, rng.integers(1, 6))) for _ in range(2000)])
+    masks[~masks.any(axis=1)] = True
+    return queries, masks[rng.integers(0, len(masks), count)]
 
 
 def main() -> None:
@@ -70,59 +98,64 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=300)
     parser.add_argument("--samples", type=int, default=4220)
     parser.add_argument("--data", help="a .npz with a 'postures' array (n, 22) instead of synthetic data")
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--skip-minisom", action="store_true")
     args = parser.parse_args()
 
     data = load_postures(args.data) if args.data else synthetic_postures(args.samples)
     updates = args.epochs * len(data)
-    print(f"python {platform.python_version()}, numpy {np.__version__}, {len(data)} samples x {DIM}, "
-          f"{ROWS}x{COLS} map, {args.epochs} epochs = {updates} updates\n")
-    rows = []
+    print(f"python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
+          f"{len(data)} samples x {DIM}, {ROWS}x{COLS} map, {args.epochs} epochs = {updates} updates\n")
 
-    ours = gm.SOM(ROWS, COLS, DIM, seed=0)
-    initial = ours.initialize(data).weights.copy()
-    start = time.perf_counter()
-    ours.fit(data, epochs=args.epochs)
-    t_ours = time.perf_counter() - start
-    rows.append(("graspmanifold online", t_ours, ours.quantization_error(data)))
+    def fit(algorithm: str) -> gm.SOM:
+        return gm.SOM(ROWS, COLS, DIM, seed=0).fit(data, epochs=args.epochs, algorithm=algorithm)
 
+    ours = fit("online")
+    rows = [("graspmanifold online (compiled)", median_seconds(lambda: fit("online"), args.repeats),
+             ours.quantization_error(data))]
     if not args.skip_minisom:
+        initial = gm.SOM(ROWS, COLS, DIM).initialize(data).weights.copy()
         peer, t_peer = train_minisom(data, initial, args.epochs, seed=0)
-        peer_qe = float(np.mean(np.linalg.norm(data - peer.quantization(data), axis=1)))
-        rows.append(("MiniSom online (same schedule)", t_peer, peer_qe))
-
-    batch = gm.SOM(ROWS, COLS, DIM, seed=0)
+        rows.append(("MiniSom online (same schedule)", t_peer,
+                     float(np.mean(np.linalg.norm(data - peer.quantization(data), axis=1)))))
+    batch = fit("batch")
+    rows.append(("graspmanifold batch", median_seconds(lambda: fit("batch"), args.repeats),
+                 batch.quantization_error(data)))
+    reference_epochs = max(1, args.epochs // 30)  # the NumPy reference is slow: timed on fewer epochs, scaled
+    reference = with_engine(False, lambda: gm.SOM(ROWS, COLS, DIM, seed=0).fit(data, epochs=reference_epochs))
     start = time.perf_counter()
-    batch.fit(data, epochs=args.epochs, algorithm="batch")
-    rows.append(("graspmanifold batch", time.perf_counter() - start, batch.quantization_error(data)))
+    reference()
+    rows.append((f"graspmanifold online, NumPy reference ({reference_epochs} epochs timed, scaled)",
+                 (time.perf_counter() - start) * args.epochs / reference_epochs, float("nan")))
 
     print("| trainer | time (s) | µs / update | quantisation error |")
     print("|---|---|---|---|")
     for name, seconds, qe in rows:
         print(f"| {name} | {seconds:.2f} | {seconds / updates * 1e6:.2f} | {qe:.4f} |")
     if not args.skip_minisom:
-        print(f"\nonline speed-up over MiniSom: {t_peer / t_ours:.1f}x")
-    floor = blas_floor(20000)
-    print(f"BLAS floor of one online update (v.x + rank-1 update, 1 thread): {floor * 1e6:.2f} µs "
-          f"-> ours runs at {floor / (t_ours / updates):.0%} of that floor")
+        print(f"\nonline speed-up over MiniSom: {t_peer / rows[0][1]:.1f}x")
 
-    # masked best-match queries: random Partial Contact Posture masks over the trained map
-    rng = np.random.default_rng(1)
-    queries = data[rng.integers(0, len(data), 100_000)] + rng.normal(0, 0.05, (100_000, DIM))
-    segments = np.array(gm.SEGMENTS)
-    masks = np.array([gm.pcp_mask(rng.choice(segments, rng.integers(1, 6))) for _ in range(2000)])
-    masks[~masks.any(axis=1)] = True
-    masks = masks[rng.integers(0, len(masks), len(queries))]
+    product = np.random.default_rng(2).normal(size=(len(data), DIM + 1)).astype(np.float32)
+    node_side = np.random.default_rng(3).normal(size=(DIM + 1, ROWS * COLS)).astype(np.float32)
+    print("\nthe winner product of one batch epoch (samples x 23 @ 23 x 625, single precision):")
+    for threads in sorted({1, usable_cores()}):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            seconds = median_seconds(lambda: np.dot(product, node_side), 50)
+        print(f"  {threads} BLAS thread(s): {seconds * 1e3:.2f} ms")
+
+    queries, masks = pcp_queries(data, 100_000)
     singles = 20_000
-    start = time.perf_counter()
-    for q, m in zip(queries[:singles], masks[:singles]):
-        ours.best_match(q, m)
-    single = (time.perf_counter() - start) / singles
-    start = time.perf_counter()
-    ours.best_match_batch(queries, masks)
-    batched = len(queries) / (time.perf_counter() - start)
-    print(f"\nmasked best match, single query: {single * 1e6:.1f} µs (mean over {singles})")
-    print(f"masked best match, batched: {batched:,.0f} queries/s ({len(queries)} queries, one mask each)")
+    print(f"\nmasked best match on the trained map ({masks.sum(axis=1).mean():.1f} of {DIM} joints masked on average)")
+    print("| engine | single query (µs) | batched (queries / s) |")
+    print("|---|---|---|")
+    for name, compiled in (("compiled", True), ("NumPy reference", False)):
+        def single() -> None:
+            for q, m in zip(queries[:singles], masks[:singles]):
+                ours.best_match(q, m)
+
+        one = median_seconds(with_engine(compiled, single), args.repeats) / singles
+        many = median_seconds(with_engine(compiled, lambda: ours.best_match_batch(queries, masks)), args.repeats)
+        print(f"| {name} | {one * 1e6:.2f} | {len(queries) / many:,.0f} |")
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ def trained():
     return gm.SOM(8, 9, 22, seed=1).fit(data, epochs=8), data
 
 
-def test_best_match_agrees_with_brute_force_for_random_maps_queries_and_masks(rng):
+def test_best_match_agrees_with_brute_force_for_random_maps_queries_and_masks(rng, engine):
     for trial in range(40):
         rows, cols, dim = rng.integers(1, 9), rng.integers(1, 9), rng.integers(1, 30)
         som = gm.SOM(rows, cols, dim, seed=trial)
@@ -47,7 +47,7 @@ def test_best_match_agrees_with_brute_force_for_random_maps_queries_and_masks(rn
         assert som.best_match_batch(queries).tolist() == [brute_force(flat, q, 1.0) for q in queries]
 
 
-def test_exact_ties_resolve_to_the_lowest_index():
+def test_exact_ties_resolve_to_the_lowest_index(engine):
     som = gm.SOM(2, 2, 3)
     som.weights = np.array([[[0, 0, 0], [1, 0, 5]], [[1, 0, -5], [0, 0, 9]]], dtype=float)
     # with only the first two dimensions active, nodes 1 and 2 are both at distance 0 from (1, 0)
@@ -55,7 +55,7 @@ def test_exact_ties_resolve_to_the_lowest_index():
     assert som.best_match_batch([[1, 0, 100]], [[True, True, False]]).tolist() == [1]
 
 
-def test_unspecified_dimensions_may_be_nan(trained):
+def test_unspecified_dimensions_may_be_nan(trained, engine):
     som, data = trained
     mask = gm.pcp_mask(["ffdistal", "thmiddle"])
     pcp = np.where(mask, data[3], np.nan)
@@ -64,7 +64,7 @@ def test_unspecified_dimensions_may_be_nan(trained):
         som.best_match(pcp, np.ones(22))
 
 
-def test_same_seed_gives_identical_weights_bit_for_bit(rng):
+def test_same_seed_gives_identical_weights_bit_for_bit(rng, engine):
     data = clustered_postures(rng, n=300)
     for algorithm in ("online", "batch"):
         a = gm.SOM(6, 7, 22, seed=11).fit(data, epochs=4, algorithm=algorithm)
@@ -91,7 +91,7 @@ def textbook_online(initial, data, epochs, learning_rate, sigma, seed, fit_index
     return w.reshape(rows, cols, dim)
 
 
-def test_online_training_equals_the_textbook_update_and_is_no_worse(rng):
+def test_online_training_equals_the_textbook_update_and_is_no_worse(rng, engine):
     data = clustered_postures(rng, n=400, clusters=6)
     som = gm.SOM(7, 8, 22, seed=5).initialize(data)
     reference = gm.SOM(7, 8, 22, seed=5)
@@ -99,6 +99,26 @@ def test_online_training_equals_the_textbook_update_and_is_no_worse(rng):
     som.fit(data, epochs=6, sigma=(4.0, 0.7))
     np.testing.assert_allclose(som.weights, reference.weights, atol=1e-9)
     assert som.quantization_error(data) <= reference.quantization_error(data) + 1e-9
+
+
+def test_compiled_best_match_equals_the_numpy_reference_on_large_batches(rng):
+    from graspmanifold import kernels
+    from graspmanifold.nearest import _PER_THREAD
+
+    data = clustered_postures(rng, n=500, clusters=6)
+    # a batch large enough to be split across threads
+    queries = data[rng.integers(0, len(data), 3 * _PER_THREAD)] + rng.normal(0, 0.05, (3 * _PER_THREAD, 22))
+    masks = rng.random((len(queries), 22)) < 0.3
+    masks[:, 5] = True
+    som, winners = gm.SOM(9, 11, 22, seed=2).fit(data, epochs=5), {}
+    for compiled in (True, False):
+        previous = kernels.use_compiled(compiled)
+        try:
+            winners[compiled] = som.best_match_batch(queries, masks)
+        finally:
+            kernels.use_compiled(previous)
+    np.testing.assert_array_equal(winners[True], winners[False])
+    assert len(np.unique(winners[True])) > 20  # the queries spread over the map
 
 
 def test_resume_continues_from_the_trained_weights_and_fit_starts_afresh(rng):
@@ -199,7 +219,7 @@ def test_corrupt_truncated_and_foreign_files_raise_and_overwrite_nothing(trained
     (lambda som, X: som.best_match_batch(X[:3], np.ones((2, 22))), "mask must have shape"),
     (lambda som, X: som.best_match_batch(X[:3], np.eye(3, 22) * 0), "all zero"),
 ])
-def test_bad_input_gets_a_clear_error(trained, call, message):
+def test_bad_input_gets_a_clear_error(trained, engine, call, message):
     som, data = trained
     with pytest.raises(ValueError, match=message):
         call(som, data)
@@ -217,7 +237,7 @@ def test_constructor_and_untrained_map_errors():
         som.weights = np.zeros((2, 3, 3))
 
 
-def test_posture_database_matches_brute_force_and_shares_the_interface(rng):
+def test_posture_database_matches_brute_force_and_shares_the_interface(rng, engine):
     postures = clustered_postures(rng, n=200)
     database = gm.PostureDatabase(postures)
     som = gm.SOM(3, 3, 22).fit(postures, epochs=1)

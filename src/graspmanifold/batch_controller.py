@@ -21,10 +21,9 @@ from .controller import (
     GraspController,
 )
 from .experience import Experience
-from .hand import FINGERS, SEGMENTS, finger_of
-from .posture import N_FINGER_JOINTS, pcp_masks
+from .hand import FINGERS, SEGMENTS
+from .posture import N_FINGER_JOINTS, SEGMENT_FINGER, pcp_masks
 
-_SEGMENT_FINGER = np.array([FINGERS.index(finger_of(s)) if finger_of(s) else -1 for s in SEGMENTS])
 _JOINT_FINGER = np.array([FINGERS.index(f) for f in _FINGER_OF_JOINT])
 #: (5, 22): which joints belong to which finger
 _FINGER_JOINTS = _JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
@@ -105,7 +104,7 @@ class BatchController:
         any_touch = touching_segments.any(axis=1)
         touching = np.zeros_like(self._touching)
         for finger in range(len(FINGERS)):
-            touching[:, finger] = touching_segments[:, _SEGMENT_FINGER == finger].any(axis=1)
+            touching[:, finger] = touching_segments[:, SEGMENT_FINGER == FINGERS[finger]].any(axis=1)
         waiting = ~self.done & (self.time <= p.preshape_time) & ~any_touch  # phase A
         self._target[waiting] = self.initial
         act = ~self.done & ~waiting
@@ -150,7 +149,7 @@ class BatchController:
             limit = p.follow_speed * self._speed[finger] * dt
             distance = row_norms(move)
             scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
-            target[np.ix_(free, of)] = previous + np.where((distance <= limit)[:, None], move, move * scale[:, None])
+            target[np.ix_(free, of)] = previous + move * scale[:, None]  # move * 1.0 is move, bit for bit
         self._target[act] = np.clip(target[act], self._limits[:, 0], self._limits[:, 1])
 
         changed = act & np.any(touching != self._touching, axis=1)

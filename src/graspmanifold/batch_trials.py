@@ -138,9 +138,9 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
         if not len(live):
             break
         # one control period: the controller, then the physics
-        sensed, forces = worlds.joints(), worlds.segment_forces()
-        over = stage == _FINISHED  # a failed world's state may not be finite; its controller no longer matters
-        sensed[over], forces[over] = controller.initial, 0.0
+        # finished worlds are not read (a failed world's state may not be finite); their controller no longer matters
+        sensed, forces = np.tile(controller.initial, (n, 1)), np.zeros((n, len(SEGMENTS)))
+        sensed[live], forces[live] = worlds.joints(live), worlds.segment_forces(live)
         if noise.joints:
             for world in np.flatnonzero(stage == _GRASP):
                 sensed[world] += rngs[world].normal(0.0, noise.joints, N_FINGER_JOINTS)

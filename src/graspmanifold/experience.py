@@ -16,7 +16,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from .io import fingerprint, load_npz, save_npz
-from .nearest import MaskedNearest, check_queries, check_query
+from .nearest import MaskedNearest
 from .postureset import N_JOINTS, PostureSet
 from .validation import check_data
 
@@ -53,13 +53,11 @@ class PostureDatabase:
 
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
         """Row of the stored posture nearest to x under the PCP distance of Eq. 2."""
-        query, weights = check_query(x, mask, self.dim)
-        return self._search.query_one(query, weights)
+        return self._search.nearest(x, mask)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """Best-matching rows (m,) for queries X (m, dim), with one mask or one per row."""
-        queries, weights = check_queries(X, masks, self.dim)
-        return self._search.query(queries, weights)
+        return self._search.nearest_batch(X, masks)
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """The best-matching stored posture, in full."""

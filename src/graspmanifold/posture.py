@@ -135,7 +135,8 @@ def pcp_mask(segments: Iterable[str]) -> np.ndarray:
     return _JOINT_DEPTH <= reach
 
 
-_SEGMENT_FINGER = np.array([finger_of(s) or "" for s in SEGMENTS])
+#: the finger of each segment in SEGMENTS order ("" for the palm)
+SEGMENT_FINGER = np.array([finger_of(s) or "" for s in SEGMENTS])
 _SEGMENT_DEPTH_ARRAY = np.array([_SEGMENT_DEPTH.get(s, -1) for s in SEGMENTS])
 
 
@@ -146,7 +147,7 @@ def pcp_masks(touching: np.ndarray) -> np.ndarray:
     if touching.ndim != 2 or touching.shape[1] != len(SEGMENTS):
         raise ValueError(f"touching must have shape (m, {len(SEGMENTS)}) (SEGMENTS order), got {touching.shape}")
     depth = np.where(touching, _SEGMENT_DEPTH_ARRAY, -1)
-    reach = np.column_stack([depth[:, _SEGMENT_FINGER == f].max(axis=1) for f in _JOINT_FINGER])
+    reach = np.column_stack([depth[:, SEGMENT_FINGER == f].max(axis=1) for f in _JOINT_FINGER])
     return _JOINT_DEPTH <= reach
 
 

@@ -181,6 +181,14 @@ def _table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(lines) + "\n\n"
 
 
+def _mean_ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
+    """mean(numerator) / mean(denominator); NaN when either is empty or the denominator's mean is 0
+    (a map collapsed onto identical training data has no distances to compare)."""
+    if not len(numerator) or not len(denominator) or denominator.mean() == 0:
+        return float("nan")
+    return float(numerator.mean() / denominator.mean())
+
+
 def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
     """Write report.md and summary.json: every number from this run, beside the paper's."""
     objects = list(run.sets)
@@ -202,8 +210,7 @@ def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
             "map": before, "resumed_map": after,
             "paper_min_distance_deg": PAPER_MIN_DISTANCE_DEG.get(name),
             "paper_max_distance_deg": PAPER_MAX_DISTANCE_DEG.get(name),
-            "border_distance_ratio": float(distance[hits == 0].mean() / distance[hits > 0].mean())
-            if (hits == 0).any() and (hits > 0).any() else float("nan"),
+            "border_distance_ratio": _mean_ratio(distance[hits == 0], distance[hits > 0]),
             "successful_som_postures": int(len(successes)),
             "evaluation_on_unsupported_nodes": before.get("evaluation_on_unsupported_nodes"),
             "supported_nodes": int(np.sum(hits > 0)),

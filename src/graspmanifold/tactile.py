@@ -55,6 +55,12 @@ class TactileReading:
         return float(self.depths.max()) if len(self.depths) else 0.0
 
 
+def _geom_pairs(data: mujoco.MjData) -> np.ndarray:
+    """The geom pairs (ncon, 2) of the current contacts."""
+    n = data.ncon
+    return np.column_stack([data.contact.geom1[:n], data.contact.geom2[:n]])
+
+
 class TactileSensor:
     """Reads TactileReadings from a model holding the hand and a body named `object`."""
 
@@ -72,19 +78,15 @@ class TactileSensor:
 
     def read(self, data: mujoco.MjData) -> TactileReading:
         """The current hand-object contacts (call after mj_step or mj_forward)."""
-        n = data.ncon
-        contact = data.contact
-        return self.reading(np.column_stack([contact.geom1[:n], contact.geom2[:n]]), self._normal_forces(data),
-                            contact.frame[:n, :3], contact.pos[:n], contact.dist[:n])
+        n, contact = data.ncon, data.contact
+        return self.reading(_geom_pairs(data), self._normal_forces(data), contact.frame[:n, :3], contact.pos[:n],
+                            contact.dist[:n])
 
     def segment_forces(self, data: mujoco.MjData) -> np.ndarray:
         """Only the summed normal force per segment (len(SEGMENTS),) of `read`: what the controller needs."""
-        n = data.ncon
         segment_forces = np.zeros(len(SEGMENTS))
-        if n:
-            contact = data.contact
-            segments, forces, _ = self._hand_object(np.column_stack([contact.geom1[:n], contact.geom2[:n]]),
-                                                    self._normal_forces(data))
+        if data.ncon:
+            segments, forces, _ = self._hand_object(_geom_pairs(data), self._normal_forces(data))
             np.add.at(segment_forces, segments, forces)
         return segment_forces
 

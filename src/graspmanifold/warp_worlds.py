@@ -144,11 +144,11 @@ class WarpWorlds:
         self._penetration = np.maximum(self._deepest.numpy().astype(float), 0.0)
         self._contacts: dict | None = None
 
-    def joints(self) -> np.ndarray:
-        return self._qpos[:, self._finger_qpos].copy()
+    def joints(self, worlds: np.ndarray) -> np.ndarray:
+        return self._qpos[np.ix_(worlds, self._finger_qpos)]
 
-    def segment_forces(self) -> np.ndarray:
-        return self._forces.copy()
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
+        return self._forces[worlds]
 
     def object_positions(self) -> np.ndarray:
         return self._xpos.copy()

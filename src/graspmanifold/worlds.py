@@ -16,7 +16,8 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from .posture import CTRL_MATRIX
+from .hand import SEGMENTS
+from .posture import CTRL_MATRIX, N_FINGER_JOINTS
 from .scene import Scene, SimulationError
 from .tactile import TactileReading
 
@@ -27,9 +28,9 @@ class Worlds(Protocol):
     n: int
     scenes: list[Scene]
 
-    def joints(self) -> np.ndarray: ...  # (n, 22)
+    def joints(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 22)
 
-    def segment_forces(self) -> np.ndarray: ...  # (n, len(SEGMENTS))
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), len(SEGMENTS))
 
     def object_positions(self) -> np.ndarray: ...  # (n, 3)
 
@@ -62,11 +63,12 @@ class CpuWorlds:
         self.scenes = scenes
         self.n = len(scenes)
 
-    def joints(self) -> np.ndarray:
-        return np.array([scene.data.qpos[scene.finger_qpos] for scene in self.scenes])
+    def joints(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]).reshape(-1, N_FINGER_JOINTS)
 
-    def segment_forces(self) -> np.ndarray:
-        return np.array([scene.sensor.segment_forces(scene.data) for scene in self.scenes])
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].sensor.segment_forces(self.scenes[w].data) for w in worlds]
+                        ).reshape(-1, len(SEGMENTS))
 
     def object_positions(self) -> np.ndarray:
         return np.array([scene.data.xpos[scene.object_body] for scene in self.scenes])
