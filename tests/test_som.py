@@ -218,6 +218,10 @@ def test_corrupt_truncated_and_foreign_files_raise_and_overwrite_nothing(trained
     (lambda som, X: som.best_match(X[0, :5]), r"shape \(22,\)"),
     (lambda som, X: som.best_match_batch(X[:3], np.ones((2, 22))), "mask must have shape"),
     (lambda som, X: som.best_match_batch(X[:3], np.eye(3, 22) * 0), "all zero"),
+    (lambda som, X: som.best_match_batch(X[:3], -np.ones((3, 22))), "negative"),
+    (lambda som, X: som.best_match_batch(X[:3], np.full((3, 22), np.inf)), "non-finite weights"),
+    (lambda som, X: som.best_match_batch(np.where(np.eye(3, 22), np.nan, X[:3])), "non-finite values"),
+    (lambda som, X: som.best_match_batch(X[:3, :5]), "shape"),
 ])
 def test_bad_input_gets_a_clear_error(trained, engine, call, message):
     som, data = trained

@@ -22,7 +22,7 @@ winner search in a compiled kernel (`kernels.online_epoch`) that updates only th
 where h can exceed the 1e-12 bound; `online_epoch_reference` is the same epoch in NumPy (the
 tests compare them). `algorithm="batch"` is Kohonen's batch map (no learning rate) with the same
 sigma schedule, for speed: it finds all winners of an epoch with single-precision matrix products
-on centred data, a block of samples at a time on every core's BLAS thread (winners closer than
+on centred data, on every core's BLAS thread, a block of samples at a time (winners closer than
 ~1e-6 in squared distance may resolve differently than in double precision, which moves the map
 negligibly); the weights themselves are double precision.
 
@@ -234,7 +234,7 @@ class SOM:
             if algorithm == "online":
                 weights = self._train_online(data, rates, widths, rng, report)
             else:
-                with threadpool_limits(limits=usable_cores(), user_api="blas"):  # measured: 1.7x one thread
+                with threadpool_limits(limits=usable_cores(), user_api="blas"):  # 1.9x one thread: bench_som.py
                     weights = self._train_batch(data, widths, report)
         self.weights = weights
         self.history.append({"algorithm": algorithm, "epochs": epochs, "learning_rate": list(map(float, learning_rate)),
@@ -252,8 +252,7 @@ class SOM:
             return flat.reshape(self.rows, self.cols, self.dim)
         weights_t = np.ascontiguousarray(self._require_weights().reshape(self.n_nodes, self.dim).T)
         for rate, sigma in zip(rates, widths):
-            online_epoch(weights_t, data, rng.permutation(len(data)), rate, sigma, self.rows, self.cols,
-                                 _NEGLIGIBLE)
+            online_epoch(weights_t, data, rng.permutation(len(data)), rate, sigma, self.rows, self.cols, _NEGLIGIBLE)
             report.update()
         return np.ascontiguousarray(weights_t.T).reshape(self.rows, self.cols, self.dim)
 
@@ -274,7 +273,8 @@ class SOM:
         lattice_r = np.subtract.outer(np.arange(rows), np.arange(rows)) ** 2
         lattice_c = np.subtract.outer(np.arange(cols), np.arange(cols)) ** 2
         scores = np.empty((min(len(data), _BATCH_BLOCK), self.n_nodes), dtype=np.float32)
-        # each sample's winner as a sparse (samples, nodes) membership matrix: only its column indices change
+        # each sample's winner as a sparse (samples, nodes) membership matrix: one entry per row, so an
+        # epoch only rewrites its column indices (in place, by the argmax below)
         membership = sparse.csr_matrix((np.ones(len(data)), np.zeros(len(data), dtype=np.intp),
                                         np.arange(len(data) + 1)), shape=(len(data), self.n_nodes))
         winners = membership.indices
