@@ -233,7 +233,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     batch_size = check_int(batch_size, "batch_size")
     grid_name, poses = check_grid(grid, obj, table)
-    size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (4 * workers))))  # at least 4 chunks per worker
+    size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
     signature = _signature(obj, experience, poses, seed, noise, params, table, preshape)

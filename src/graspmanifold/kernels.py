@@ -4,7 +4,8 @@ They run in every control cycle of every grasp trial and in every step of SOM tr
 NumPy pays its call overhead on vectors of a few hundred entries. Each kernel has a NumPy
 reference next to its caller (`nearest.MaskedNearest.query_reference`, `som.online_epoch_reference`)
 and the tests compare the two; `GRASPMANIFOLD_COMPILED=0` in the environment (read at import)
-makes the library use the references, and `use_compiled` switches at run time.
+makes the library use the references, and `use_compiled` switches this process (and the workers
+it forks afterwards; a Dask worker reads the environment) at run time.
 
 The kernels compute the masked distance directly over the masked dimensions only,
 sum_k p_k (w_k - x_k)^2 in increasing k, vectorised across points (points are stored transposed,

@@ -27,6 +27,8 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
 
+from threadpoolctl import threadpool_limits
+
 from .validation import check_int
 
 Task = TypeVar("Task")
@@ -58,6 +60,7 @@ def _die_with_parent(parent: int) -> None:
 
 def _start_worker(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    threadpool_limits(limits=1)  # the workers fill the cores already: BLAS threads would only compete
     _die_with_parent(parent)
 
 
