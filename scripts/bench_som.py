@@ -27,8 +27,8 @@ from threadpoolctl import threadpool_limits
 
 import graspmanifold as gm
 from graspmanifold import kernels
-from graspmanifold.nearest import usable_cores
 from graspmanifold.som import decay_schedule
+from graspmanifold.workers import usable_cores
 
 ROWS = COLS = 25
 DIM = 22

@@ -16,12 +16,12 @@ re-ranked with the direct formula. Both give the brute-force argmin, the lowest 
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from .kernels import compiled, masked_argmin, masked_argmin_rows
+from .workers import usable_cores
 
 _CHUNK = 4096  # queries per matrix product: bounds memory at CHUNK x n distances
 _PER_THREAD = 2048  # a batch gets one thread per this many queries, up to the usable cores
@@ -84,14 +84,6 @@ def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarr
     if not np.isfinite(query).all():
         raise ValueError(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
     return query, weights
-
-
-def usable_cores() -> int:
-    """Cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
 
 
 class MaskedNearest:

@@ -46,9 +46,10 @@ from tqdm import tqdm
 
 from .io import fingerprint, load_npz, save_npz
 from .kernels import compiled, online_epoch
-from .nearest import MaskedNearest, usable_cores
+from .nearest import MaskedNearest
 from .progress import progress_bar
 from .validation import check_data, check_int
+from .workers import usable_cores
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12

@@ -40,6 +40,14 @@ CONNECT_SECONDS = 10  # how long to wait for a Dask scheduler
 _WATCH_SECONDS = 1.0
 
 
+def usable_cores() -> int:
+    """Cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def _die_with_parent(parent: int) -> None:
     if sys.platform.startswith("linux"):
         try:

@@ -64,7 +64,8 @@ class CpuWorlds:
         self.n = len(scenes)
 
     def joints(self, worlds: np.ndarray) -> np.ndarray:
-        return np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]).reshape(-1, N_FINGER_JOINTS)
+        return np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]
+                        ).reshape(-1, N_FINGER_JOINTS)
 
     def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
         return np.array([self.scenes[w].sensor.segment_forces(self.scenes[w].data) for w in worlds]
