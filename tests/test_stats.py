@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from graspmanifold.stats import mcnemar, rate_text, wilson_interval
+from graspmanifold.stats import headroom, holm, mcnemar, rate_text, wilson_interval
 from graspmanifold.study import judge_target
 
 
@@ -57,3 +57,40 @@ def test_rate_text_and_the_verdict():
     lost = rows + [{**row, "object": "sphere", "grid": "paper", "verdict": "worse"}]
     verdict = judge_target(lost)
     assert not verdict.met and verdict.losses == [("sphere", "paper")]
+
+
+def test_holm_gives_the_textbook_values():
+    # Holm (1979), Scand. J. Statist. 6:65, by hand: sorted 0.005, 0.01, 0.03, 0.04 are multiplied by
+    # 4, 3, 2, 1 (0.02, 0.03, 0.06, 0.04) and made monotone (0.02, 0.03, 0.06, 0.06)
+    p = [0.01, 0.04, 0.03, 0.005]
+    assert holm(p) == pytest.approx([0.03, 0.06, 0.06, 0.02])
+    assert holm([0.5, 0.9]) == pytest.approx([1.0, 1.0])  # capped at 1
+    assert holm([0.02]) == pytest.approx([0.02])  # one test: no correction
+    assert len(holm([])) == 0
+    with pytest.raises(ValueError, match="p_values must lie in"):
+        holm([0.1, 1.5])
+
+
+def test_headroom_of_a_hand_made_table():
+    # 10 poses, three strategies; b is the best (5 held); the oracle holds 8 (all but poses 8 and 9)
+    a = np.array([1, 1, 0, 0, 0, 0, 1, 0, 0, 0], dtype=bool)
+    b = np.array([1, 1, 1, 1, 1, 0, 0, 0, 0, 0], dtype=bool)
+    c = np.array([0, 0, 0, 0, 0, 1, 0, 1, 0, 0], dtype=bool)
+    room = headroom({"a": a, "b": b, "c": c})
+    assert (room.n, room.best, room.best_successes, room.oracle, room.gain, room.neither) == (10, "b", 5, 8, 3, 2)
+    assert room.headroom == pytest.approx(0.3) and room.oracle_rate == pytest.approx(0.8)
+    assert room.rates == pytest.approx({"a": 0.3, "b": 0.5, "c": 0.2})
+    assert room.interval == pytest.approx(wilson_interval(3, 10)) and room.sufficient
+    assert room.text() == "oracle 80 % [49, 94] vs best (b) 50 % [24, 76]: headroom 30 % [11, 60] (n = 10)"
+    # a pose invalid for one strategy leaves the table: pose 7 (only c held it)
+    invalid = np.ones(10, dtype=bool)
+    invalid[7] = False
+    room = headroom({"a": a, "b": b, "c": c}, valid={"c": invalid})
+    assert (room.n, room.oracle, room.gain) == (9, 7, 2)
+    # one strategy alone has no headroom; a tie goes to the first named
+    assert headroom({"b": b}).headroom == 0.0 and not headroom({"b": b}).sufficient
+    assert headroom({"x": b, "y": b}).best == "x"
+    with pytest.raises(ValueError, match="same poses"):
+        headroom({"a": a, "b": b[:5]})
+    with pytest.raises(ValueError, match="boolean"):
+        headroom({"a": a.astype(int)})

@@ -1,13 +1,19 @@
-"""Statistics for comparing grasp methods: Wilson intervals for rates, McNemar's test for paired outcomes.
+"""Statistics for comparing grasp methods: Wilson intervals for rates, McNemar's test for paired
+outcomes, Holm's correction for a family of tests, and the headroom of a benchmark.
 
 Two methods evaluated on the same poses give paired outcomes; what tells them apart is the number
 of poses where exactly one of them succeeds (b: only the first, c: only the second). McNemar's
-exact test asks whether b and c could come from a fair coin (b ~ Binomial(b + c, 1/2)).
+exact test asks whether b and c could come from a fair coin (b ~ Binomial(b + c, 1/2)). A family of
+such tests read together is corrected with Holm's step-down method (`holm`). Before methods are
+compared on a benchmark, `headroom` says how much any choice among several strategies could gain
+there: the per-pose oracle (a pose counts as held when any strategy holds it) against the best
+single strategy.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,3 +85,121 @@ def rate_text(successes: int, trials: int) -> str:
     if trials == 0:
         return "n/a"
     return f"{100 * successes / trials:.0f} % [{100 * low:.0f}, {100 * high:.0f}]"
+
+
+def holm(p_values: object) -> np.ndarray:
+    """Holm's step-down adjusted p-values (Holm 1979), in the order given.
+
+    With the m p-values sorted, p(1) <= ... <= p(m), the adjusted value of p(i) is
+    max over j <= i of min(1, (m - j + 1) p(j)); a test is significant at level alpha after the
+    correction when its adjusted value is below alpha. The family-wise error rate stays at most
+    alpha, whatever the dependence between the tests.
+
+    Args:
+        p_values: the family's p-values, each in [0, 1].
+
+    Returns:
+        The adjusted p-values (m,), float, in the order of `p_values`.
+    """
+    p = np.asarray(p_values, dtype=float)
+    if p.ndim != 1:
+        raise ValueError(f"p_values must be a 1-D sequence of p-values, got shape {p.shape}")
+    if not np.all(np.isfinite(p)) or np.any((p < 0) | (p > 1)):
+        raise ValueError(f"p_values must lie in [0, 1], got {p.tolist()}")
+    m = len(p)
+    order = np.argsort(p, kind="stable")
+    stepped = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    adjusted = np.empty(m)
+    adjusted[order] = np.maximum.accumulate(stepped)
+    return adjusted
+
+
+#: A benchmark whose pooled headroom is below this cannot show a recall effect (issue 23): any
+#: method that chooses among the strategies could gain at most this much over the best of them.
+MIN_HEADROOM = 0.15
+
+
+@dataclass(frozen=True)
+class Headroom:
+    """How much choosing among strategies per pose could gain on a benchmark (see `headroom`)."""
+
+    n: int  # poses (valid for every strategy)
+    rates: dict[str, float]  # each strategy's success rate
+    best: str  # the best single strategy
+    oracle: int  # poses some strategy succeeds on
+    best_successes: int
+    gain: int  # poses the best strategy fails on and another succeeds on (oracle - best)
+    neither: int  # poses no strategy succeeds on
+
+    @property
+    def oracle_rate(self) -> float:
+        return self.oracle / self.n if self.n else float("nan")
+
+    @property
+    def best_rate(self) -> float:
+        return self.best_successes / self.n if self.n else float("nan")
+
+    @property
+    def headroom(self) -> float:
+        """Oracle rate minus the best strategy's rate."""
+        return self.gain / self.n if self.n else float("nan")
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """95 % Wilson interval of the headroom: it is the share of poses the oracle adds, a rate itself."""
+        return wilson_interval(self.gain, self.n)
+
+    @property
+    def sufficient(self) -> bool:
+        """Headroom of at least MIN_HEADROOM: the benchmark can show a recall effect."""
+        return self.n > 0 and self.headroom >= MIN_HEADROOM
+
+    def text(self) -> str:
+        """'oracle 80 % [74, 85] vs best (none) 62 % [55, 68]: headroom 18 % [14, 24] (n = 200)'."""
+        return (f"oracle {rate_text(self.oracle, self.n)} vs best ({self.best}) "
+                f"{rate_text(self.best_successes, self.n)}: headroom {rate_text(self.gain, self.n)} (n = {self.n})")
+
+
+def headroom(outcomes: Mapping[str, object], valid: Mapping[str, object] | None = None) -> Headroom:
+    """The headroom of a benchmark: the per-pose oracle over several strategies against the best one.
+
+    The oracle counts a pose as a success when any strategy succeeds there; the best strategy is the
+    one with the most successes (the first of them on a tie, in the order given). The difference is
+    the most that any method choosing among these strategies per pose could gain over always using
+    the best of them (part of it may be chance: a pose that two runs of one strategy would split).
+
+    Args:
+        outcomes: strategy name -> success per pose (bool, the same poses in the same order).
+        valid: strategy name -> whether that trial's physics worked (bool per pose); poses invalid for
+            any strategy are left out, as in a paired comparison. None: every trial is valid.
+
+    Returns:
+        The `Headroom` (counts, rates and the best strategy).
+    """
+    if not outcomes:
+        raise ValueError("outcomes must name at least one strategy")
+    names = list(outcomes)
+    table = [np.asarray(outcomes[name]) for name in names]
+    for name, column in zip(names, table):
+        if column.ndim != 1 or column.dtype != bool:
+            raise ValueError(f"outcomes[{name!r}] must be a 1-D boolean array (success per pose), "
+                             f"got dtype {column.dtype} and shape {column.shape}")
+        if len(column) != len(table[0]):
+            raise ValueError(f"outcomes must all cover the same poses: {names[0]!r} has {len(table[0])}, "
+                             f"{name!r} has {len(column)}")
+    keep = np.ones(len(table[0]), dtype=bool)
+    for name, flags in (valid or {}).items():
+        if name not in outcomes:
+            raise ValueError(f"valid names strategy {name!r}, which outcomes does not have ({names})")
+        flags = np.asarray(flags)
+        if flags.dtype != bool or flags.shape != keep.shape:
+            raise ValueError(f"valid[{name!r}] must be a boolean array of {len(keep)} poses")
+        keep &= flags
+    success = np.column_stack(table)[keep]
+    counts = success.sum(axis=0)
+    best = int(np.argmax(counts))
+    oracle = int(success.any(axis=1).sum())
+    n = int(keep.sum())
+    return Headroom(n=n, rates={name: (int(c) / n if n else float("nan")) for name, c in zip(names, counts)},
+                    best=names[best], oracle=oracle, best_successes=int(counts[best]),
+                    gain=oracle - int(counts[best]), neither=n - oracle)
