@@ -62,6 +62,7 @@ def test_batched_controller_follows_the_switches_and_a_constant_preshape(experie
     preshape[[1, 5, 9]] += 0.3
     for params, shape in ((gm.ControllerParams(experience_steering=False), None),
                           (gm.ControllerParams(steered_joints="spread", max_match_distance=np.inf), None),
+                          (gm.ControllerParams(restart_closure=True, steered_fingers=("th", "ff")), None),
                           (gm.ControllerParams(), preshape)):
         runs = reference_readings("cylinder", experience["database"], poses, params, shape, cycles=60)
         batch = BatchController(len(poses), experience["database"], params, preshape=shape)

@@ -156,10 +156,36 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
 @pytest.mark.parametrize("field, value", [("control_period", 0.0), ("control_period", -0.02),
                                           ("closing_rate", -1.0), ("timeout", float("nan")),
                                           ("squeeze", -0.1), ("steered_fingers", ("ff", "toe")),
-                                          ("max_match_distance", 0.0)])
+                                          ("max_match_distance", 0.0), ("restart_closure", 1)])
 def test_bad_controller_params_raise(field, value):
     with pytest.raises(ValueError, match=field):
         gm.ControllerParams(**{field: value})
+    with pytest.raises(ValueError, match="restart_closure needs steered_joints='all'"):
+        gm.ControllerParams(restart_closure=True, steered_joints="spread")
+
+
+def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():
+    """With restart_closure the free fingers go to the recalled grasp first: right after the first
+    contact their target lies at the recalled posture, not most of the way to the closed hand."""
+    recalled = gm.closed_posture() * 0.5
+    experience = gm.PostureDatabase(recalled[None])
+    trust = dict(max_match_distance=np.inf)
+    forces = np.zeros(len(gm.SEGMENTS))
+    controllers = {restart: gm.GraspController(experience, gm.ControllerParams(restart_closure=restart,
+                                                                               experience_preshape=False, **trust))
+                   for restart in (False, True)}
+    targets = {}
+    for restart, controller in controllers.items():
+        for cycle in range(60):
+            if cycle == 40:  # the index fingertip touches
+                forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+            targets[restart] = controller.step(gm.open_posture() if cycle < 40 else recalled, forces)
+        forces[:] = 0.0
+    thumb = [gm.FINGER_JOINTS.index(j) for j in ("THJ5", "THJ4", "THJ3", "THJ2", "THJ1")]
+    far = np.linalg.norm(targets[False][thumb] - recalled[thumb])
+    near = np.linalg.norm(targets[True][thumb] - recalled[thumb])
+    assert near < 0.5 * far, (near, far)
+    assert controllers[True]._recalled and not controllers[False]._recalled
 
 
 def test_switches_turn_experience_off(experience):

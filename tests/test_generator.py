@@ -73,26 +73,72 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
     assert 0 < postures.metadata["acceptance_ratio"] <= 1
 
 
-def test_a_stored_experience_posture_is_a_verified_grasp():
-    """With verification (the default) every kept posture holds the object when replayed: the hand at
-    its palm pose, the fingers pressing with the controller's squeeze, gravity in six directions."""
+def replay_holds(obj, posture, pose) -> bool:
+    """The generator's verification by hand: the hand at its palm pose, the fingers pressing with the
+    controller's squeeze on the free object, gravity in six directions."""
     from graspmanifold.controller import squeezed
     from graspmanifold.judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
 
-    verified = gm.generate_postures("box", 24, seed=0, params=gm.GeneratorParams(job_size=6))
-    unverified = gm.generate_postures("box", 24, seed=0, params=SMALL)
-    assert 0 < len(verified) < len(unverified)  # some candidates drop the box
-    assert verified.metadata["verified"] and verified.metadata["verified_ratio"] == len(verified) / 24
+    scene = gm.Scene(obj, free_object=True)
+    scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    scene.set_hand_pose(pose[:3], pose[3:])
+    scene.set_posture(posture)
+    scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
+    scene.run(0.2)
+    return judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False,
+                       hold_seconds=gm.GeneratorParams().verify_hold_seconds).hold
+
+
+def test_a_stored_experience_posture_is_a_verified_grasp():
+    """With verification (the default) the generator draws candidates until n of them hold the object
+    when replayed, and every kept posture does."""
+    verified = gm.generate_postures("box", 12, seed=0, params=gm.GeneratorParams(job_size=6))
+    meta = verified.metadata
+    assert len(verified) == 12 and meta["verified"] and meta["candidates"] > 12  # some candidates drop the box
+    assert 0 < meta["verified_ratio"] < 1 and sum(meta["kept_by_start"].values()) == 12
     assert np.all(verified.epsilon >= 0) and np.all(verified.hold_displacement <= 0.02)
-    assert np.all(np.isnan(unverified.epsilon))
     for posture, pose in zip(verified.postures, verified.hand_poses):
-        scene = gm.Scene("box", free_object=True)
-        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
-        scene.set_hand_pose(pose[:3], pose[3:])
-        scene.set_posture(posture)
-        scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
-        scene.run(0.2)
-        assert judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False).hold
+        assert replay_holds("box", posture, pose)
+    unverified = gm.generate_postures("box", 12, seed=0, params=SMALL)
+    assert len(unverified) == 12 and np.all(np.isnan(unverified.epsilon))
+
+
+def test_verifying_candidates_afterwards_keeps_those_the_generator_keeps():
+    """The walk does not depend on the verification: the candidates of the unverified run, verified
+    afterwards, are what the verifying generator keeps of its first wave."""
+    candidates = gm.generate_postures("cylinder", 8, seed=0, params=SMALL)
+    kept = generator.verify_postures(candidates, "cylinder")
+    assert kept.metadata["candidates"] == 8 and kept.metadata["verified_ratio"] == len(kept) / 8
+    held = [any(np.array_equal(p, q) for q in kept.postures) for p in candidates.postures]
+    assert sum(held) == len(kept) and np.all(np.isfinite(kept.epsilon))
+    verified = gm.generate_postures("cylinder", 8, seed=0, params=gm.GeneratorParams(job_size=6))
+    for start in np.unique(kept.start_ids):  # each start's kept postures come first, in the same order
+        mine, theirs = kept.postures[kept.start_ids == start], verified.postures[verified.start_ids == start]
+        assert np.array_equal(theirs[: len(mine)], mine[: len(theirs)])
+
+
+def test_too_low_a_yield_raises_naming_it():
+    """Asking for postures that the budget of candidates cannot verify fails with the yield per start."""
+    with pytest.raises(generator.GenerationError, match=r"only \d+ of the 40 sphere postures.*yield.*by starting "
+                       r"posture: power \d+ of \d+"):
+        gm.generate_postures("sphere", 40, seed=0, params=gm.GeneratorParams(job_size=10, max_candidates_per_posture=1))
+
+
+def test_a_precision_grasp_of_a_small_ball_is_generated_and_holds():
+    """Every grasp type has its design: a 2 cm ball is pinched between the thumb's and the index finger's
+    tips, the other fingers curled away, and the grasp holds when replayed."""
+    marble = gm.make_object("sphere", radius=0.01, mass=0.01, name="marble")
+    starts = {s.name: s for s in gm.starting_postures(marble, "grasp_types")}
+    assert {"pinch", "tripod", "lateral"} <= set(starts)
+    assert starts["pinch"].grasp_type == "precision" and starts["pinch"].contacts == ("ffdistal", "thdistal")
+    params = gm.GeneratorParams(designs="grasp_types", job_size=4)
+    postures = gm.generate_postures(marble, 6, seed=0, params=params)
+    assert len(postures) == 6 and postures.metadata["grasp_types"]["pinch"] == "precision"
+    pinch = postures.start_ids == postures.start_names.index("marble:pinch")
+    assert pinch.any()
+    for posture, pose, touching in zip(postures.postures[pinch], postures.hand_poses[pinch], postures.contacts[pinch]):
+        assert touching[gm.SEGMENTS.index("ffdistal")] and touching[gm.SEGMENTS.index("thdistal")]
+        assert replay_holds(marble, posture, pose)
 
 
 def test_same_seed_same_set_whatever_the_worker_count(small_sets):

@@ -63,6 +63,7 @@ class BatchController:
         self._closed, self._limits = reference._closed, reference._limits
         self._speed = np.array([reference._speed[f] for f in FINGERS])
         self._steered = reference._steered
+        self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
         self.reset()
 
     def reset(self) -> None:
@@ -83,6 +84,7 @@ class BatchController:
         self._target = np.tile(self.initial, (n, 1))
         self._touching = np.zeros((n, fingers), dtype=bool)
         self._stable_since = np.zeros(n)
+        self._recalled = np.zeros(n, dtype=bool)
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -195,3 +197,10 @@ class BatchController:
             worlds, match = worlds[trusted], match[trusted]
         self.matches[worlds] += 1
         self._base[worlds] = np.where(self._steered, match, self._base[worlds])
+        if p.restart_closure:  # the first trusted match after a contact restarts the free fingers' closure
+            restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]
+            self._recalled[restart] = True
+            touching = np.column_stack([touching_segments[np.ix_(restart, SEGMENT_FINGER == f)].any(axis=1)
+                                        for f in FINGERS]).reshape(len(restart), len(FINGERS))
+            reset = ~touching & ~self._held[restart] & self._steered_finger
+            self._closure[restart] = np.where(reset, 0.0, self._closure[restart])

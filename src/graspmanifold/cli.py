@@ -24,6 +24,7 @@ from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
 from .scene import Scene, facing_pose
+from .starts import DESIGN_FAMILIES
 from .version import __version__
 
 
@@ -103,6 +104,7 @@ def _check_writable_directory(out: Path) -> None:
 def _generate(args: argparse.Namespace) -> int:
     from .generator import (
         PRESETS,
+        GenerationError,
         generate_postures,
         remove_checkpoints,
     )
@@ -113,7 +115,7 @@ def _generate(args: argparse.Namespace) -> int:
     if n <= 0:
         raise SystemExit(f"error: --n must be positive, got {n}")
     checkpoints = out.with_name(out.name + ".parts")
-    params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify,
+    params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify, designs=args.designs,
                      **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
@@ -121,11 +123,12 @@ def _generate(args: argparse.Namespace) -> int:
     try:
         postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
                                      checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
-    except ValueError as error:
+    except (ValueError, GenerationError) as error:
         raise SystemExit(f"error: {error}") from None
     postures.save(out)
     remove_checkpoints(checkpoints)
-    verified = f"{len(postures)} of {n} candidates hold" if params.verify else "not verified"
+    verified = (f"verified: {postures.metadata['verified_ratio']:.0%} of {postures.metadata['candidates']} candidates "
+                "held" if params.verify else "not verified")
     print(f"wrote {len(postures)} {obj.name} postures to {out} in {time.perf_counter() - start:.1f} s "
           f"({verified}; acceptance {postures.metadata['acceptance_ratio']:.2f})")
     return 0
@@ -260,10 +263,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     generate = command("generate", "generate grasp postures with the spring generator (verified as grasps)")
     object_options(generate)
-    generate.add_argument("--n", type=int, help="number of candidate postures (default: the preset's size for the "
-                          "object, the cylinder's for objects outside the paper); only the candidates that hold are kept unless --no-verify")
+    generate.add_argument("--n", type=int, help="number of postures (default: the preset's size for the "
+                          "object, the cylinder's for objects outside the paper); candidates are drawn until n of them "
+                          "hold the object, unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
-                          help="keep every five-fingertip candidate without replaying it as a grasp")
+                          help="keep every candidate without replaying it as a grasp (the paper's procedure)")
+    generate.add_argument("--designs", choices=DESIGN_FAMILIES, default="five_fingertip",
+                          help="the starting postures: the paper's five-fingertip grasps, or every grasp type (power, "
+                          "precision pinch, tripod, lateral)")
     generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
                           help="the generator mode and the dataset sizes when --n is not given: " + "; ".join(
                               f"{name} ({', '.join(f'{o} {n}' for o, n in sizes.items())})"

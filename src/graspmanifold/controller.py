@@ -38,6 +38,12 @@ agrees with what the hand senses: in phase B the open hand is farther than that 
 experienced grasp, so experience takes over only once the closing hand comes near one. It was
 chosen from 0.1, 0.2 and no limit on the paper grid (`docs/experience_study.md` reports the
 ablation with no limit).
+
+Beyond the paper, `restart_closure` gives the recalled grasp real weight: the first trusted match
+after the first contact (the contacts select the grasp type) restarts the closure of every free
+steered finger at 0, so the finger first moves onto the recalled posture and only then closes on
+from it; without it a finger's closure has already grown while the hand closed, and the recall
+only shifts a goal that lies most of the way to the closed hand.
 """
 
 from __future__ import annotations
@@ -80,6 +86,7 @@ class ControllerParams:
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose base the experience sets
     steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger
     max_match_distance: float = 0.2  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
+    restart_closure: bool = False  # the first trusted match after a contact restarts the free fingers' closure
 
     def __post_init__(self) -> None:
         for name in ("control_period", "closing_rate", "follow_speed", "timeout"):
@@ -96,6 +103,11 @@ class ControllerParams:
         if self.steered_joints not in STEERED_JOINTS:
             raise ValueError(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
                              f"got {self.steered_joints!r}")
+        if not isinstance(self.restart_closure, bool):
+            raise ValueError(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
+        if self.restart_closure and self.steered_joints != "all":
+            raise ValueError("ControllerParams.restart_closure needs steered_joints='all': with only the spread joints "
+                             "recalled, a restarted closure would open the fingers' flexion again")
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
             raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
@@ -145,6 +157,7 @@ class GraspController:
         self._target = self.initial.copy()
         self._touching: frozenset[str] = frozenset()
         self._stable_since = 0.0
+        self._recalled = False  # a trusted match after a contact has restarted the closure (restart_closure)
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -221,3 +234,9 @@ class GraspController:
                 return
         self.matches += 1
         self._base = np.where(self._steered, match, self._base)
+        if p.restart_closure and touching_segments and not self._recalled:
+            self._recalled = True
+            touching = {finger_of(s) for s in touching_segments}
+            for finger in p.steered_fingers:
+                if finger not in touching and finger not in self._held:
+                    self._closure[finger] = 0.0

@@ -9,14 +9,21 @@ distal segments touch the object (gap <= 1 mm), nothing penetrates deeper than 2
 inside its range and the hand is at rest are candidates. Because the walk stays near its starting
 posture, the data clusters around the starting postures, as the paper's did.
 
-The paper's experience is made of "hand postures which previously led to successful grasps", so
-every candidate is then verified as a grasp (`GeneratorParams.verify`, on by default): the hand is
-put at the candidate's palm pose in front of the free object, the fingers press with the
-controller's squeeze, the support is released and the hold test runs (`judge.judge_grasp`, six
-gravity directions of `verify_hold_seconds` each); only candidates that hold are kept, with their
-epsilon (at the object's friction) and largest displacement recorded in the set.
+The starting postures come from a family of designs (`GeneratorParams.designs`): the paper's
+five-fingertip grasps, or every grasp type (`starts.DESIGN_FAMILIES`), where only the design's own
+contact segments are pulled by springs (a fingertip by its tip, another segment at its point
+nearest the object) and must touch, while the fingers that take no part stay curled.
 
-Work is cut into jobs (a starting posture and a chunk of its quota) with their own random streams,
+Our extension of the paper's procedure verifies every candidate as a grasp
+(`GeneratorParams.verify`, on by default): the hand is put at the candidate's palm pose in front of
+the free object, the fingers press with the controller's squeeze, the support is released and the
+hold test runs (`judge.judge_grasp`, six gravity directions of `verify_hold_seconds` each); only
+candidates that hold are kept, with their epsilon (at the object's friction) and largest
+displacement recorded in the set. `generate_postures(obj, n)` returns n postures either way: with
+verification it draws candidates in waves until n hold, at most `max_candidates_per_posture` times
+n of them, and names the yield when that is not enough (`GenerationError`).
+
+Work is cut into jobs (a starting posture and a chunk of candidates) with their own random streams,
 so the set depends on the seed alone (not on the number of workers), jobs run in parallel
 processes, and a run with a checkpoint directory resumes after an interruption without redoing
 finished jobs.
@@ -54,7 +61,7 @@ from .posture import posture_to_ctrl
 from .postureset import PostureSet
 from .progress import progress_bar
 from .scene import Scene, SimulationError
-from .starts import CONTACT_GAP, MAX_PENETRATION, StartingPosture, starting_postures
+from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 from .validation import check_int
 from .workers import parallel_map
 
@@ -89,30 +96,38 @@ class GeneratorParams:
     #: (while it glides to the next placement and while it dwells there)
     mode: str = "settled"
     record_every: int = 5  # physics steps between recorded postures in "recording" mode
-    max_tries_per_posture: int = 40  # give up a job after this many walk steps per posture of its quota
+    max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
     verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
     verify_hold_seconds: float = 0.25  # s per gravity direction of the verifying hold test
     squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
+    #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
+    max_candidates_per_posture: int = 50
+    designs: str = "five_fingertip"  # the family of starting postures (starts.DESIGN_FAMILIES)
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
+        if self.designs not in DESIGN_FAMILIES:
+            raise ValueError(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
         for name, value in asdict(self).items():
-            if name in ("verify", "mode"):
+            if name in ("verify", "mode", "designs"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
                 raise ValueError(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
-        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture", "record_every"):
+        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture", "record_every",
+                     "max_candidates_per_posture"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise ValueError(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
 
 
-#: The generator settings of each preset. The quick preset takes one settled posture per walk step (small
-#: and fast, for tests and demos); the paper preset records along the hand's motion as the paper did,
-#: which brings the data's density closest to what the paper's maps imply (docs/data_character.md).
+#: The generator settings of each preset, the paper's procedure: every candidate with its five fingertips
+#: on the object is kept (the paper describes no verification). The quick preset takes one settled posture
+#: per walk step (small and fast, for tests and demos); the paper preset records along the hand's motion
+#: as the paper did, which brings the data's density closest to what the paper's maps imply
+#: (docs/data_character.md).
 PRESET_PARAMS: dict[str, GeneratorParams] = {
-    "quick": GeneratorParams(),
-    "paper": GeneratorParams(mode="recording", record_every=5),
+    "quick": GeneratorParams(verify=False),
+    "paper": GeneratorParams(mode="recording", record_every=5, verify=False),
 }
 
 
@@ -137,33 +152,49 @@ class _Verifier:
 
 
 class _SpringRig:
-    """A scene with fingertip springs and compliant finger servos, for one object."""
+    """A scene with springs on a starting posture's contact segments and compliant finger servos.
 
-    def __init__(self, obj: GraspObject, params: GeneratorParams):
+    A distal contact segment is pulled by its fingertip site, any other contact segment (the index
+    finger's middle segment in a lateral grasp) at its point nearest the object; the segments that
+    must touch for a candidate are the contact segments (the five distal ones for the paper's kind).
+    """
+
+    def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS):
         self.scene = Scene(obj)
         self.params = params
         model = self.scene.model
         fingers = slice(2, None)  # actuators after the two wrist servos
         model.actuator_gainprm[fingers, 0] *= params.servo_stiffness_scale
         model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
-        self.tip_sites = [model.site(s).id for s in FINGERTIP_SITES]
+        tips = [FINGERTIP_SITES[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
+        self.tip_sites = [model.site(s).id for s in tips]
         self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
+        self.side_geoms = [model.geom(c).id for c in contacts if c not in DISTAL_SEGMENTS]
         segment_of = segment_of_geoms(model)
         self.segment_geoms = [[int(g) for g in np.flatnonzero(segment_of == i)] for i in range(len(SEGMENTS))]
-        self.distal_geoms = [model.geom(s).id for s in DISTAL_SEGMENTS]
+        self.contact_geoms = [model.geom(c).id for c in contacts]
         self.finger_dofs = self.scene.hand_dofs[2:]
         self.limits = finger_limits()
         self._torque = np.zeros(3)
+        self._fromto = np.zeros(6)
 
     def apply_springs(self) -> None:
-        data = self.scene.data
+        scene, data = self.scene, self.scene.data
         data.qfrc_applied[:] = 0.0
-        tips = data.site_xpos[self.tip_sites]  # the object sits at the world origin, unrotated
-        pull = self.params.spring_stiffness * (self.scene.object.closest_point(tips) - tips)
+        points = [data.site_xpos[self.tip_sites]]  # the object sits at the world origin, unrotated
+        bodies = list(self.tip_bodies)
+        for geom in self.side_geoms:  # the segment's point nearest the object (of its nearest convex part)
+            nearest = min(scene.object_geoms, key=lambda g: mujoco.mj_geomDistance(
+                scene.model, data, geom, g, 0.1, self._fromto))
+            mujoco.mj_geomDistance(scene.model, data, geom, nearest, 0.1, self._fromto)
+            points.append(self._fromto[None, :3].copy())
+            bodies.append(int(scene.model.geom_bodyid[geom]))
+        points = np.concatenate(points)
+        pull = self.params.spring_stiffness * (scene.object.closest_point(points) - points)
         norm = np.linalg.norm(pull, axis=1, keepdims=True)
         pull *= np.minimum(1.0, self.params.spring_max_force / np.maximum(norm, 1e-12))
-        for force, point, body in zip(pull, tips, self.tip_bodies):
-            mujoco.mj_applyFT(self.scene.model, data, force, self._torque, point, body, data.qfrc_applied)
+        for force, point, body in zip(pull, points, bodies):
+            mujoco.mj_applyFT(scene.model, data, force, self._torque, point, body, data.qfrc_applied)
 
     def simulate(self, steps: int, on_step: Callable[[], None] | None = None) -> None:
         for _ in range(steps):
@@ -207,7 +238,7 @@ class _SpringRig:
         mujoco.mj_kinematics(model, data)
         gap = scene.distance_to_object
         try:
-            if any(gap(g) > CONTACT_GAP for g in self.distal_geoms):
+            if any(gap(g) > CONTACT_GAP for g in self.contact_geoms):
                 return None
             distances = [min(gap(g) for g in geoms) for geoms in self.segment_geoms]
             if min(distances) < -MAX_PENETRATION:
@@ -228,14 +259,24 @@ class _SpringRig:
 class _Job:
     start_index: int
     chunk: int
-    quota: int
+    quota: int  # candidates to find
+
+
+#: a start none of whose first NEVER_HELD x max_candidates_per_posture candidates held gives up: by the rule
+#: of three its yield is then below 1 / max_candidates_per_posture with 95 % confidence
+NEVER_HELD = 3
+
+
+class GenerationError(RuntimeError):
+    """The generator could not find the postures asked for (too few candidates verified, or none found)."""
 
 
 def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
              ) -> dict[str, np.ndarray]:
-    """Walk around one starting posture until `job.quota` candidates are found; keep the verified ones."""
+    """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
+    after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
-    rig = _SpringRig(obj, params)
+    rig = _SpringRig(obj, params, start.contacts)
     verifier = _Verifier(obj, params) if params.verify else None
     rig.reset_to(start)
     rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
@@ -243,6 +284,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
     tries, walks, misses, candidates, faults, steps = 0, 0, 0, 0, 0, 0
+    exhausted = False
     recording = params.mode == "recording"
     frames: list[tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]] = []
 
@@ -261,8 +303,8 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
         if not recording:
             tries += 1
         if walks > params.max_tries_per_posture * job.quota:
-            raise RuntimeError(f"the generator accepted only {candidates} of {tries} postures in {walks} walk steps "
-                               f"around starting posture {start.name!r}; check the object and GeneratorParams")
+            exhausted = True  # the springs rarely make the design's contacts here: this start gives up
+            break
         offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
         turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
         frames.clear()
@@ -301,7 +343,8 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     return {"postures": np.array(postures).reshape(-1, len(FINGER_JOINTS)), "hand_poses": np.array(poses).reshape(-1, 7),
             "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
             "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
-            "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults)}
+            "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults),
+            "exhausted": np.array(exhausted)}
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -309,106 +352,245 @@ def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
     return v if norm <= radius else v * (radius / norm)
 
 
-def _plan(n: int, starts: int, job_size: int) -> list[_Job]:
-    """Split n postures evenly over the starting postures, and each share into jobs."""
-    jobs = []
-    for s in range(starts):
-        share = n // starts + (1 if s < n % starts else 0)
-        for chunk, first in enumerate(range(0, share, job_size)):
-            jobs.append(_Job(s, chunk, min(job_size, share - first)))
-    return jobs
+def _allocate(n: int, capacity: list[int | None]) -> list[int]:
+    """Split n postures over the starting postures as evenly as their capacity allows: a start with a
+    capacity (it can give no more than that) gets at most that, the others share the rest evenly, the
+    first of them one more where it does not divide."""
+    allocation = [0] * len(capacity)
+    open_starts, remaining = list(range(len(capacity))), n
+    while open_starts:
+        fair = remaining / len(open_starts)
+        limited = [s for s in open_starts if capacity[s] is not None and capacity[s] <= fair]
+        if not limited:
+            break
+        for s in limited:
+            allocation[s] = int(capacity[s])
+            remaining -= allocation[s]
+            open_starts.remove(s)
+    if open_starts:
+        share, extra = divmod(remaining, len(open_starts))
+        for k, s in enumerate(open_starts):
+            allocation[s] = share + (1 if k < extra else 0)
+    return allocation
+
+
+def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> list[_Job]:
+    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk`."""
+    return [_Job(start, first_chunk + k, min(job_size, candidates - done))
+            for k, done in enumerate(range(0, candidates, job_size))]
 
 
 def _job_file(directory: Path, job: _Job) -> Path:
     return directory / f"job_{job.start_index:03d}_{job.chunk:04d}.npz"
 
 
-def _job_worker(args: tuple) -> tuple[int, dict[str, np.ndarray]]:
-    index, obj, start, job, seed, params, directory, signature = args
+def _job_worker(args: tuple) -> tuple[_Job, dict[str, np.ndarray]]:
+    obj, start, job, seed, params, directory, signature = args
     result = _run_job(obj, start, job, seed, params)
     if directory is not None:
         save_npz(_job_file(directory, job), "generator_job", result, {"signature": signature, "job": asdict(job)})
-    return index, result
+    return job, result
+
+
+def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[str, np.ndarray]]:
+    """Finished jobs of an earlier run with this signature; parts of another configuration or that
+    cannot be read are removed (with a warning)."""
+    found, discarded = {}, []
+    for path in sorted(directory.glob("job_*.npz")):
+        try:
+            arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
+        except ValueError:
+            meta = {}
+        job = meta.get("job") if isinstance(meta.get("job"), dict) else None
+        if meta.get("signature") == signature and job is not None and path == _job_file(directory, _Job(**job)):
+            found[(job["start_index"], job["chunk"])] = arrays
+        else:
+            discarded.append(path.name)
+            path.unlink()
+    if discarded:
+        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
+                      "configuration (object, seed, n or parameters) or could not be read: "
+                      f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
+    return found
 
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
                       progress: bool = False, executor: Executor | None = None) -> PostureSet:
-    """Generate grasp postures for an object (a name or a made object) from n candidates.
+    """Generate n grasp postures for an object with the spring generator.
 
-    Without verification (`params.verify=False`) every candidate is kept, so the set holds exactly
-    n postures; with it (the default) only the candidates that hold the object are kept, and the
-    metadata says how many were (`verified_ratio`, also per starting posture in `verified_by_start`).
+    Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
+    n candidates. With it (the default) candidates are drawn in waves until n of them hold the
+    object: each wave asks every starting posture that is short of its share for as many candidates
+    as its yield so far says it needs; a start that used up its part of the budget
+    (`max_candidates_per_posture` times n over the starts) or whose springs rarely make its contacts
+    gives up, and the others share its part. The shares are as even as the starts allow.
 
-    The same seed gives the same set, whatever the number of workers or the `executor` (e.g. a Dask
-    cluster's, `workers.cluster_executor`) the jobs run on. With `checkpoint_dir`,
-    every finished job is saved there, and a rerun with the same arguments picks them up.
+    Args:
+        obj: an object or its name.
+        n: postures to return (>= 1).
+        seed: the random seed; the same seed gives the same set, whatever the number of workers or
+            the `executor` (e.g. a Dask cluster's, `workers.cluster_executor`) the jobs run on.
+        workers: worker processes.
+        params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
+        checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
+            them up.
+        progress: show a progress bar (postures found of n).
+        executor: run the jobs there instead of in `workers` local processes.
+
+    Returns:
+        A `PostureSet` of n postures; its metadata says how many candidates were drawn and how many
+        held (`candidates`, `verified_ratio`, and per starting posture `candidates_by_start`,
+        `verified_by_start`, `kept_by_start`).
+
+    Raises:
+        GenerationError: no starting posture was found, or with verification fewer than n candidates
+            held within the budget (the message gives the yield per starting posture).
     """
     obj = get_object(obj)
     n, workers = check_int(n, "n"), check_int(workers, "workers")
     params = params or GeneratorParams()
-    starts = starting_postures(obj)
+    starts = starting_postures(obj, params.designs)
     if not starts:
-        raise RuntimeError(f"no starting posture could be found for {obj.name}")
-    jobs = _plan(int(n), len(starts), params.job_size)
+        raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
     signature = json.dumps({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
                             "starts": [s.name for s in starts]}, sort_keys=True)
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
-    results: dict[int, dict[str, np.ndarray]] = {}
+    saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
-        wanted = {_job_file(directory, job): index for index, job in enumerate(jobs)}
-        discarded = []
-        for path in sorted(directory.glob("job_*.npz")):
-            try:
-                arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
-            except ValueError:
-                meta = {}
-            if path in wanted and meta.get("signature") == signature:
-                results[wanted[path]] = arrays
-            else:
-                discarded.append(path.name)
-                path.unlink()
-        if discarded:
-            warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
-                          "configuration (object, seed, n or parameters) or could not be read: "
-                          f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=2)
-    pending = [(i, obj, starts[job.start_index], job, seed, params, directory, signature)
-               for i, job in enumerate(jobs) if i not in results]
-    with progress_bar(n, f"generate {obj.name}", "candidates", enabled=progress) as report:
-        report.update(sum(jobs[i].quota for i in results))
+        saved = _load_jobs(directory, signature)
+    results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
+    budget = params.max_candidates_per_posture * n if params.verify else None
+    held = lambda s: sum(len(r["postures"]) for r in results[s])  # noqa: E731
+    drawn = lambda s: sum(int(r["candidates"]) for r in results[s])  # noqa: E731
+    given_up = [False] * len(starts)
+    with progress_bar(n, f"generate {obj.name}", "postures", enabled=progress) as report:
+        while True:
+            allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+            short = [s for s in range(len(starts)) if not given_up[s] and held(s) < allocation[s]]
+            if not short:
+                break
+            for s in short:  # a start past its part of the budget, or that never held, gives up
+                if budget is not None and (drawn(s) >= budget / len(starts)
+                                           or (held(s) == 0 and drawn(s) >= NEVER_HELD * params.max_candidates_per_posture)):
+                    given_up[s] = True
+            if any(given_up[s] for s in short):
+                if all(given_up):
+                    break
+                continue
+            jobs = []
+            for s in short:
+                wanted = allocation[s] - held(s)
+                if params.verify and results[s]:  # as many as the yield so far says, and a tenth more
+                    rate = (held(s) + 1) / (drawn(s) + 2)
+                    wanted = min(int(np.ceil(1.1 * wanted / rate)), int(budget / len(starts)) - drawn(s))
+                jobs += _chunks(s, len(results[s]), max(1, wanted), params.job_size)
+            pending = [(obj, starts[job.start_index], job, seed, params, directory, signature)
+                       for job in jobs if (job.start_index, job.chunk) not in saved]
+            finished = {(job.start_index, job.chunk): saved[(job.start_index, job.chunk)]
+                        for job in jobs if (job.start_index, job.chunk) in saved}
 
-        def keep(_: int, finished: tuple[int, dict[str, np.ndarray]]) -> None:
-            index, result = finished
-            results[index] = result
-            report.update(jobs[index].quota)
+            def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
+                job, result = done
+                finished[(job.start_index, job.chunk)] = result
+                report.update(len(result["postures"]))
 
-        parallel_map(_job_worker, pending, workers, keep, executor)
-    ordered = [results[i] for i in range(len(jobs))]
-    tries = int(sum(int(r["tries"]) for r in ordered))
-    faults = int(sum(int(r.get("faults", 0)) for r in ordered))
-    kept = int(sum(len(r["postures"]) for r in ordered))
-    by_start = {s.name: [0, 0] for s in starts}
-    for r, job in zip(ordered, jobs):
-        by_start[starts[job.start_index].name][0] += len(r["postures"])
-        by_start[starts[job.start_index].name][1] += job.quota
+            report.update(sum(len(r["postures"]) for r in finished.values()))
+            parallel_map(_job_worker, pending, workers, keep, executor)
+            for job in jobs:
+                result = finished[(job.start_index, job.chunk)]
+                results[job.start_index].append(result)
+                if bool(result.get("exhausted", False)):
+                    given_up[job.start_index] = True
+    allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+    kept = [min(held(s), allocation[s]) for s in range(len(starts))]
+    candidates = sum(drawn(s) for s in range(len(starts)))
+    if sum(kept) < n:
+        by_start = ", ".join(f"{start.name} {held(s)} of {drawn(s)}" + (" (gave up)" if given_up[s] else "")
+                             for s, start in enumerate(starts))
+        raise GenerationError(
+            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found: of {candidates} candidates "
+            f"{sum(held(s) for s in range(len(starts)))} held (yield {sum(map(held, range(len(starts)))) / max(1, candidates):.1%}; "
+            f"by starting posture: {by_start}). Ask for fewer postures, raise "
+            "GeneratorParams.max_candidates_per_posture, or keep every candidate (verify=False)")
+
+    tries = sum(int(r["tries"]) for rs in results for r in rs)
+    faults = sum(int(r.get("faults", 0)) for rs in results for r in rs)
+    present = [s for s in range(len(starts)) if results[s]]
+
+    def take(key: str) -> np.ndarray:
+        """Each start's first `kept` rows of a result array, start after start."""
+        return np.concatenate([np.concatenate([r[key] for r in results[s]])[: kept[s]] for s in present])
+
     posture_set = PostureSet(
-        postures=np.concatenate([r["postures"] for r in ordered]),
-        hand_poses=np.concatenate([r["hand_poses"] for r in ordered]),
-        start_ids=np.concatenate([np.full(len(r["postures"]), job.start_index) for r, job in zip(ordered, jobs)]
-                                 ).astype(np.int64),
-        contacts=np.concatenate([r["contacts"] for r in ordered]).astype(bool),
-        epsilon=np.concatenate([r["epsilon"] for r in ordered]),
-        hold_displacement=np.concatenate([r["hold_displacement"] for r in ordered]),
+        postures=take("postures"), hand_poses=take("hand_poses"),
+        start_ids=np.concatenate([np.full(kept[s], s) for s in present]).astype(np.int64),
+        contacts=take("contacts").astype(bool), epsilon=take("epsilon"), hold_displacement=take("hold_displacement"),
         start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
         metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
-                  "acceptance_ratio": n / tries, "simulation_faults": faults, "verified": params.verify, "candidates": int(n),
-                  "verified_ratio": kept / n, "verified_by_start": {k: v[0] / v[1] for k, v in by_start.items() if v[1]},
+                  "acceptance_ratio": candidates / tries, "simulation_faults": faults, "verified": params.verify,
+                  "candidates": int(candidates), "verified_ratio": sum(map(held, range(len(starts)))) / candidates,
+                  "verified_by_start": {starts[s].name: held(s) / drawn(s) for s in present if drawn(s)},
+                  "candidates_by_start": {starts[s].name: drawn(s) for s in present},
+                  "kept_by_start": {starts[s].name: kept[s] for s in present},
+                  "grasp_types": {starts[s].name: starts[s].grasp_type for s in range(len(starts))},
                   "library_version": library_version(),
                   "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
-                                                 "posture": s.posture.tolist()} for s in starts}},
+                                                 "posture": s.posture.tolist(), "contacts": list(s.contacts),
+                                                 "grasp_type": s.grasp_type} for s in starts}},
     )
     return posture_set
+
+
+def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
+    """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
+    obj, params, postures, poses = task
+    verifier = _Verifier(obj, params)
+    rows = []
+    for posture, pose in zip(postures, poses):
+        try:
+            judgement = verifier(posture, pose[:3], pose[3:])
+            rows.append((float(judgement.hold), judgement.epsilon, judgement.displacement))
+        except SimulationError:  # the replay's physics failed: not a verified grasp
+            rows.append((0.0, np.nan, np.nan))
+    return np.array(rows).reshape(-1, 3)
+
+
+def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int = 1, *,
+                    params: GeneratorParams | None = None) -> PostureSet:
+    """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
+
+    Each posture is replayed at its palm pose in front of the free object, the fingers press with
+    the controller's squeeze, the support is released and the hold test runs (`verify_hold_seconds`
+    per gravity direction). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
+    by this keeps exactly the candidates that the generator with verification keeps among its first
+    n (the walk does not depend on the verification).
+
+    Args:
+        postures: the set to verify (its palm poses are in the object frame of `obj`).
+        obj: the object the set was generated on, or its name.
+        workers: worker processes.
+        params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
+
+    Returns:
+        The postures that held, with their epsilon and largest hold displacement (m); the metadata
+        counts the candidates (`candidates`, `verified_ratio`, `verified_by_start`).
+    """
+    obj = get_object(obj)
+    params = params or GeneratorParams()
+    chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
+    tasks = [(obj, params, postures.postures[c], postures.hand_poses[c]) for c in chunks if len(c)]
+    rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers) or [np.zeros((0, 3))])
+    held = rows[:, 0] > 0
+    kept = postures.subset(held)
+    names = [name.split(":", 1)[-1] for name in postures.start_names]
+    by_start = {names[i]: float(held[postures.start_ids == i].mean()) for i in np.unique(postures.start_ids)}
+    metadata = {**postures.metadata, "verified": True, "candidates": len(postures),
+                "verified_ratio": float(held.mean()) if len(held) else float("nan"), "verified_by_start": by_start,
+                "verify_hold_seconds": params.verify_hold_seconds}
+    return PostureSet(kept.postures, kept.hand_poses, kept.start_ids, kept.contacts, kept.start_names, metadata,
+                      rows[held, 1], rows[held, 2])
 
 
 def remove_checkpoints(directory: str | os.PathLike) -> None:

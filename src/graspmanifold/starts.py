@@ -1,10 +1,17 @@
-"""Starting postures: five-fingertip grasps that the spring-based generator explores around.
+"""Starting postures: designed grasps that the spring-based generator explores around.
 
-The paper actuated its starting postures by hand. Here each one comes from a designed grasp (a
-palm pose relative to the object and a half-closed hand, see `GRASP_DESIGNS`) refined by a
-deterministic least-squares search over the 22 joints and a small hand-pose correction, which
-brings all five distal segments onto the surface, keeps every other segment out of the object and
-the fingers out of each other. The paper's three objects ship their starting postures in
+The paper actuated its starting postures by hand, each a five-fingertip grasp. Here each one comes
+from a designed grasp (a palm pose relative to the object, a hand posture and the segments that
+must touch, see `GraspDesign`) refined by a deterministic least-squares search over the 22 joints
+and a small hand-pose correction, which brings the design's contact segments onto the surface,
+keeps every other segment out of the object and the fingers out of each other.
+
+Two families of designs (`DESIGN_FAMILIES`): `five_fingertip`, the paper's kind (all five distal
+segments touch; wraps of the object's nearest primitive shape, `GRASP_DESIGNS`), and
+`grasp_types`, ours: those wraps (power grasps) and one design of each precision grasp type
+(`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of thumb, index and
+middle tips, and a lateral grasp pressing the object between the thumb's pad and the side of the
+index finger), with the fingers that take no part curled into the palm. The paper's three objects ship their starting postures in
 `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`); other objects get
 theirs computed on first use. A mesh object is searched with the designs of the primitive it is
 closest to in proportion (`designs_for`): the designs place the palm relative to the object's
@@ -38,26 +45,38 @@ from .posture import dict_to_posture
 from .scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
 
 STARTS_FILE = "starting_postures.npz"
-CONTACT_GAP = 0.001  # a distal segment "touches" within 1 mm
+CONTACT_GAP = 0.001  # a contact segment "touches" within 1 mm
 MAX_PENETRATION = 0.002
+
+#: the grasp types a design can be (Cutkosky's taxonomy, coarsely): power wraps, the two-finger
+#: precision pinch, the three-finger tripod, and the lateral (key) grasp
+GRASP_TYPES: tuple[str, ...] = ("power", "precision", "tripod", "lateral")
+#: the families of designs `starting_postures` searches (see the module doc)
+DESIGN_FAMILIES: tuple[str, ...] = ("five_fingertip", "grasp_types")
 
 
 @dataclass(frozen=True)
 class StartingPosture:
-    """A five-fingertip grasp: palm pose in the object frame (pos, quat w x y z) and 22 joint angles."""
+    """A designed grasp: palm pose in the object frame (pos, quat w x y z), 22 joint angles, the
+    segments that touch the object (`contacts`, the five distal ones for the paper's kind) and the
+    design's grasp type."""
 
     name: str
     hand_pos: np.ndarray
     hand_quat: np.ndarray
     posture: np.ndarray
+    contacts: tuple[str, ...] = DISTAL_SEGMENTS
+    grasp_type: str = "power"
 
 
 @dataclass(frozen=True)
 class GraspDesign:
-    """A grasp type: the object's centre point in the palm frame and the object axes' directions.
+    """A grasp design: the object's centre point in the palm frame, the object axes' directions, the
+    hand's posture and the segments that must touch.
 
-    `axis_in_palm` is the palm-frame direction of the object's long axis (z); `approach_tilt`
-    rotates the object about the palm's normal. `standoff` is the gap between palm and surface.
+    `axis_in_palm` is the palm-frame direction of the object's long axis (z); `standoff` is the gap
+    between palm and surface; `hand` lists the joints (name, radians) whose designed angle differs
+    from the half-closed hand; `contacts` are the segments that must touch the object.
     """
 
     name: str
@@ -66,6 +85,9 @@ class GraspDesign:
     standoff: float = 0.008
     roll: float = 0.0  # rotation of the object about its own long axis (radians)
     end_on: bool = False  # the palm faces the object's +z end instead of its side
+    grasp_type: str = "power"
+    contacts: tuple[str, ...] = DISTAL_SEGMENTS
+    hand: tuple[tuple[str, float], ...] = ()
 
 
 def _designs(shape: str) -> tuple[GraspDesign, ...]:
@@ -109,11 +131,39 @@ def nearest_primitive(obj: GraspObject) -> str:
     return "cylinder" if y <= ROUND_SECTION_RATIO * x else "box"
 
 
-def designs_for(obj: GraspObject) -> tuple[GraspDesign, ...]:
-    """The grasp designs to search for an object: those of its `nearest_primitive` (a cylinder's:
-    wraps about the long axis z, tilted, low, end-on; a box's add a wrap rolled 45 degrees). The
-    refinement then adapts them to the actual surface."""
-    return GRASP_DESIGNS[nearest_primitive(obj)]
+def _curled(*fingers: str) -> tuple[tuple[str, float], ...]:
+    """Joint angles that curl these fingers ('MF', 'RF', 'LF') into the palm, out of a precision grasp."""
+    return tuple((f"{f}J{j}", a) for f in fingers for j, a in ((3, 1.3), (2, 1.4), (1, 1.0)))
+
+
+#: One design per precision grasp type, for any object: the object's centre sits where the thumb's tip
+#: meets the index (and middle) finger's tip, about 4 cm above the palm's centre and 2 cm in front of
+#: it, or, for the lateral grasp, against the thumb-side face of the curled index finger's middle
+#: segment; the refinement then moves the hand by up to 3 cm and 0.5 rad to make the contacts.
+PRECISION_DESIGNS: tuple[GraspDesign, ...] = (
+    GraspDesign("pinch", (1.0, 0.0, 0.0), centre_offset=(0.018, 0.0, 0.045), standoff=0.015, grasp_type="precision",
+                contacts=("ffdistal", "thdistal"), hand=_curled("MF", "RF", "LF")),
+    GraspDesign("tripod", (1.0, 0.0, 0.0), centre_offset=(0.008, 0.0, 0.04), standoff=0.02, grasp_type="tripod",
+                contacts=("ffdistal", "mfdistal", "thdistal"), hand=_curled("RF", "LF")),
+    GraspDesign("lateral", (1.0, 0.0, 0.0), centre_offset=(0.037, 0.0, 0.035), standoff=0.012, grasp_type="lateral",
+                contacts=("ffmiddle", "thdistal"),
+                hand=(("FFJ3", 1.0), ("FFJ2", 1.2), ("FFJ1", 0.6), ("THJ5", 0.2), ("THJ4", 0.7), ("THJ1", 0.2),
+                      *_curled("MF", "RF", "LF"))),
+)
+
+
+def designs_for(obj: GraspObject, family: str = "five_fingertip") -> tuple[GraspDesign, ...]:
+    """The grasp designs to search for an object in a family (`DESIGN_FAMILIES`).
+
+    `five_fingertip`: those of its `nearest_primitive` (a cylinder's: wraps about the long axis z,
+    tilted, low, end-on; a box's add a wrap rolled 45 degrees). `grasp_types`: these power grasps
+    and the `PRECISION_DESIGNS`. The refinement then adapts each design to the actual surface;
+    designs that do not fit the object (a pinch of a ball too big to pinch) find no valid grasp.
+    """
+    if family not in DESIGN_FAMILIES:
+        raise ValueError(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    power = GRASP_DESIGNS[nearest_primitive(obj)]
+    return power if family == "five_fingertip" else power + PRECISION_DESIGNS
 
 
 _HALF_CLOSED = dict_to_posture({
@@ -121,6 +171,14 @@ _HALF_CLOSED = dict_to_posture({
     "FFJ4": 0.0, "MFJ4": 0.0, "RFJ4": 0.0, "LFJ4": 0.0, "LFJ5": 0.2,
     "THJ5": 0.7, "THJ4": 1.1, "THJ3": 0.1, "THJ2": 0.2, "THJ1": 0.4,
 })
+
+
+def design_posture(design: GraspDesign) -> np.ndarray:
+    """The hand posture a design starts its search from: the half-closed hand with the design's joints."""
+    posture = _HALF_CLOSED.copy()
+    for joint, angle in design.hand:
+        posture[FINGER_JOINTS.index(joint)] = angle
+    return posture
 
 
 def design_pose(obj: GraspObject, design: GraspDesign) -> tuple[np.ndarray, np.ndarray]:
@@ -147,14 +205,17 @@ def design_pose(obj: GraspObject, design: GraspDesign) -> tuple[np.ndarray, np.n
 
 
 class _GraspGeometry:
-    """Fast kinematic queries on a scene for the search: geom distances for a posture and pose."""
+    """Fast kinematic queries on a scene for the search: geom distances for a posture and pose.
 
-    def __init__(self, scene: Scene):
+    `distal` are the geoms of the contact segments (the five distal ones unless told otherwise),
+    `other` every other hand geom but the forearm's."""
+
+    def __init__(self, scene: Scene, contacts: tuple[str, ...] = DISTAL_SEGMENTS):
         self.scene = scene
         model = scene.model
         segment_of = segment_of_geoms(model)
         hand_geoms = [int(g) for g in np.flatnonzero(segment_of >= 0)]
-        self.distal = [model.geom(s).id for s in DISTAL_SEGMENTS]
+        self.distal = [int(g) for s in contacts for g in np.flatnonzero(segment_of == SEGMENTS.index(s))]
         self.other = [g for g in hand_geoms if g not in self.distal and SEGMENTS[segment_of[g]] != "forearm"]
         fingers = {g: finger_of(SEGMENTS[segment_of[g]]) for g in hand_geoms}
         order = ["ff", "mf", "rf", "lf"]
@@ -176,10 +237,12 @@ class _GraspGeometry:
 
 
 def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray,
-           name: str = "start") -> StartingPosture:
-    """Least-squares search from a rough grasp to one where all five distal segments touch."""
+           name: str = "start", contacts: tuple[str, ...] = DISTAL_SEGMENTS, grasp_type: str = "power"
+           ) -> StartingPosture:
+    """Least-squares search from a rough grasp to one where the contact segments (by default all five
+    distal ones) touch, every other segment stays clear of the object and the fingers of each other."""
     scene = Scene(obj)
-    geometry = _GraspGeometry(scene)
+    geometry = _GraspGeometry(scene, contacts)
     limits = finger_limits()
     lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
     base_rotation = to_rotation(quat)
@@ -193,7 +256,7 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
         joints, p, q = unpack(v)
         distal, other, pairs = geometry.distances(joints, p, q)
         return np.concatenate([
-            100.0 * distal,                                   # touch: distal gap 0
+            100.0 * distal,                                   # touch: contact gap 0
             300.0 * np.maximum(0.0, 0.001 - other),           # other segments stay out of the object
             300.0 * np.maximum(0.0, 0.002 - pairs),           # fingers stay out of each other
             0.03 * (joints - posture),                        # stay close to the designed grasp type
@@ -204,39 +267,50 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     bounds = (np.concatenate([lower, [-0.03] * 3, [-0.5] * 3]), np.concatenate([upper, [0.03] * 3, [0.5] * 3]))
     result = least_squares(residuals, start, bounds=bounds, x_scale="jac", max_nfev=400, diff_step=1e-6)
     joints, p, q = unpack(result.x)
-    return StartingPosture(name, p, q, joints)
+    return StartingPosture(name, p, q, joints, tuple(contacts), grasp_type)
 
 
-def is_five_fingertip_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
-    """All five distal segments within 1 mm, no segment deeper than 2 mm, joints inside limits."""
+def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
+    """The start's contact segments touch (each has a geom within 1 mm), no segment is deeper than
+    2 mm in the object, and every joint is inside its limits."""
     scene = Scene(obj)
-    geometry = _GraspGeometry(scene)
+    geometry = _GraspGeometry(scene, start.contacts)
     limits = finger_limits()
     if np.any(start.posture < limits[:, 0] - 1e-9) or np.any(start.posture > limits[:, 1] + 1e-9):
         return False
     distal, other, _ = geometry.distances(start.posture, start.hand_pos, start.hand_quat)
-    return bool(np.all(np.abs(distal) <= CONTACT_GAP) and np.all(np.concatenate([distal, other]) >= -MAX_PENETRATION))
+    segment_of = segment_of_geoms(scene.model)
+    touching = {SEGMENTS[segment_of[g]] for g, d in zip(geometry.distal, distal) if abs(d) <= CONTACT_GAP}
+    return bool(set(start.contacts) <= touching and np.all(np.concatenate([distal, other]) >= -MAX_PENETRATION))
 
 
-def find_starting_postures(obj: str | GraspObject) -> list[StartingPosture]:
-    """Search every grasp design of the object's shape; keep the valid five-fingertip grasps."""
+def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+    """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`)."""
     obj = get_object(obj)
     found = []
-    for design in designs_for(obj):
+    for design in designs_for(obj, family):
         pos, quat = design_pose(obj, design)
-        start = refine(obj, pos, quat, _HALF_CLOSED, design.name)
-        if is_five_fingertip_grasp(obj, start):
+        start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
+        if is_design_grasp(obj, start):
             found.append(start)
     return found
 
 
-def save_starting_postures(path, starts_by_object: dict[str, list[StartingPosture]]) -> None:
+def _key(name: str, family: str) -> str:
+    """The shipped file's key of an object's starts in a family (the five-fingertip ones keep the bare name)."""
+    return name if family == "five_fingertip" else f"{name}@{family}"
+
+
+def save_starting_postures(path, starts_by_object: dict[tuple[str, str], list[StartingPosture]]) -> None:
+    """Write starting postures keyed by (object name, design family) to an .npz file."""
     arrays, index = {}, {}
-    for name, starts in starts_by_object.items():
-        arrays[f"{name}/pos"] = np.array([s.hand_pos for s in starts])
-        arrays[f"{name}/quat"] = np.array([s.hand_quat for s in starts])
-        arrays[f"{name}/posture"] = np.array([s.posture for s in starts])
-        index[name] = {"names": [s.name for s in starts], "object": get_object(name).params()}
+    for (name, family), starts in starts_by_object.items():
+        key = _key(name, family)
+        arrays[f"{key}/pos"] = np.array([s.hand_pos for s in starts]).reshape(-1, 3)
+        arrays[f"{key}/quat"] = np.array([s.hand_quat for s in starts]).reshape(-1, 4)
+        arrays[f"{key}/posture"] = np.array([s.posture for s in starts]).reshape(-1, len(FINGER_JOINTS))
+        index[key] = {"names": [s.name for s in starts], "object": get_object(name).params(), "family": family,
+                      "contacts": [list(s.contacts) for s in starts], "grasp_types": [s.grasp_type for s in starts]}
     save_npz(path, "starting_postures", arrays, {"objects": index, "units": "m, radians",
                                                  "joints": list(FINGER_JOINTS)})
 
@@ -246,20 +320,35 @@ def _shipped() -> tuple[dict[str, np.ndarray], dict]:
     return load_npz(asset_path(STARTS_FILE), "starting_postures", {})
 
 
-def starting_postures(obj: str | GraspObject) -> list[StartingPosture]:
-    """The starting postures of an object: shipped for the paper's objects, else computed (once per
-    object and process)."""
-    return list(_starting_postures(get_object(obj)))
+def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+    """The starting postures of an object in a design family (`DESIGN_FAMILIES`): shipped for the
+    paper's objects and the object family, else computed (once per object and process; a few
+    seconds per design for a primitive, longer for a mesh).
+
+    Args:
+        obj: an object or its name.
+        family: 'five_fingertip' (the paper's kind) or 'grasp_types' (power, precision, tripod, lateral).
+
+    Returns:
+        The valid starting postures, in the order of `designs_for(obj, family)`.
+    """
+    if family not in DESIGN_FAMILIES:
+        raise ValueError(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    return list(_starting_postures(get_object(obj), family))
 
 
-@lru_cache(maxsize=32)
-def _starting_postures(obj: GraspObject) -> tuple[StartingPosture, ...]:
+@lru_cache(maxsize=64)
+def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, ...]:
     try:
         arrays, meta = _shipped()
     except FileNotFoundError:
         arrays, meta = {}, {"objects": {}}
-    entry = meta["objects"].get(obj.name)
+    key = _key(obj.name, family)
+    entry = meta["objects"].get(key)
     if entry is not None and entry["object"] == obj.params():
-        return tuple(StartingPosture(n, arrays[f"{obj.name}/pos"][i], arrays[f"{obj.name}/quat"][i],
-                                     arrays[f"{obj.name}/posture"][i]) for i, n in enumerate(entry["names"]))
-    return tuple(find_starting_postures(obj))
+        count = len(entry["names"])
+        contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
+        types = entry.get("grasp_types", ["power"] * count)
+        return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
+                                     tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
+    return tuple(find_starting_postures(obj, family))
