@@ -13,7 +13,7 @@ import os
 import time
 from pathlib import Path
 
-from graspmanifold.generator import PRESETS, generate_postures
+from graspmanifold.generator import PRESETS, GeneratorParams, generate_postures, verify_postures
 
 
 def main() -> None:
@@ -29,7 +29,8 @@ def main() -> None:
     total_n, total_t = 0, 0.0
     for name, n in PRESETS[args.preset].items():
         start = time.perf_counter()
-        postures = generate_postures(name, n, seed=args.seed, workers=args.workers)
+        candidates = generate_postures(name, n, seed=args.seed, workers=args.workers, params=GeneratorParams(verify=False))
+        postures = verify_postures(candidates, name, args.workers)  # n candidates walked and verified
         seconds = time.perf_counter() - start
         total_n, total_t = total_n + n, total_t + seconds
         sep = postures.cluster_separation()

@@ -42,7 +42,9 @@ def posture_set(out: Path, obj: gm.GraspObject, n: int, workers: int) -> gm.Post
     path = out / f"{obj.name}.npz"
     if not path.exists():
         parts = out / f"{obj.name}.parts"
-        gm.generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=parts).save(path)
+        candidates = gm.generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=parts,
+                                          params=gm.GeneratorParams(verify=False))
+        gm.verify_postures(candidates, obj, workers).save(path)  # those of the n candidates that hold
         remove_checkpoints(parts)
     return gm.PostureSet.load(path)
 

@@ -35,9 +35,11 @@ def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_ever
         if path.exists():
             return gm.PostureSet.load(path)
     parts = out / f"{name}_{label}.parts"
-    params = gm.GeneratorParams(mode=mode, record_every=record_every, verify=verify)
+    params = gm.GeneratorParams(mode=mode, record_every=record_every, verify=False)
     postures = gm.generate_postures(name, PRESETS["paper"][name], seed=0, workers=workers, params=params,
                                     checkpoint_dir=parts, progress=True)
+    if verify:  # the candidates of the paper's number that hold
+        postures = gm.verify_postures(postures, name, workers)
     postures.save(out / f"{name}_{label}.npz")
     remove_checkpoints(parts)
     return postures

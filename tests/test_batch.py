@@ -13,7 +13,8 @@ from graspmanifold.posture import pcp_mask, pcp_masks
 
 @pytest.fixture(scope="module")
 def experience():
-    postures = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15)).postures
+    candidates = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15, verify=False))
+    postures = gm.verify_postures(candidates, "cylinder").postures  # those of the 60 that hold
     return {"none": None, "database": gm.PostureDatabase(postures),
             "som": gm.SOM(6, 6, 22, seed=0).fit(postures, epochs=20)}
 
@@ -63,6 +64,7 @@ def test_batched_controller_follows_the_switches_and_a_constant_preshape(experie
     for params, shape in ((gm.ControllerParams(experience_steering=False), None),
                           (gm.ControllerParams(steered_joints="spread", max_match_distance=np.inf), None),
                           (gm.ControllerParams(restart_closure=True, steered_fingers=("th", "ff")), None),
+                          (gm.ControllerParams(reach=0.03, max_match_distance=np.inf), None),
                           (gm.ControllerParams(), preshape)):
         runs = reference_readings("cylinder", experience["database"], poses, params, shape, cycles=60)
         batch = BatchController(len(poses), experience["database"], params, preshape=shape)
@@ -94,8 +96,9 @@ TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "
                 "penetration", "fault")
 
 
-@pytest.mark.parametrize("kind,noise", [("database", gm.Noise()), ("som", gm.Noise(0.004, 0.08, 0.01))])
-def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, noise):
+@pytest.mark.parametrize("kind,noise,params", [("database", gm.Noise(), None), ("som", gm.Noise(0.004, 0.08, 0.01), None),
+                                               ("som", gm.Noise(), gm.ControllerParams(reach=0.03))])
+def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, noise, params):
     from graspmanifold.batch_trials import run_trials
     from graspmanifold.trial import run_trial
 
@@ -103,9 +106,9 @@ def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, nois
     _, poses = check_grid("quick", obj)
     poses = poses[::5]
     rngs = [np.random.default_rng([3, i]) for i in range(len(poses))]
-    batched = run_trials(obj, experience[kind], poses, rngs, noise)
+    batched = run_trials(obj, experience[kind], poses, rngs, noise, params)
     for i, (pose, trial) in enumerate(zip(poses, batched)):
-        single = run_trial(obj, experience[kind], pose, np.random.default_rng([3, i]), noise)
+        single = run_trial(obj, experience[kind], pose, np.random.default_rng([3, i]), noise, params)
         for field in TRIAL_FIELDS:
             assert np.array_equal(getattr(single, field), getattr(trial, field)), (i, field)
     assert any(t.hold for t in batched) and any(t.margin > 0 for t in batched)

@@ -9,7 +9,8 @@ from graspmanifold.grid import palm_pose_for
 
 @pytest.fixture(scope="module")
 def experience():
-    postures = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15)).postures
+    candidates = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15, verify=False))
+    postures = gm.verify_postures(candidates, "cylinder").postures  # those of the 60 that hold
     return {"database": gm.PostureDatabase(postures), "som": gm.SOM(6, 6, 22, seed=0).fit(postures, epochs=20)}
 
 
@@ -162,6 +163,42 @@ def test_bad_controller_params_raise(field, value):
         gm.ControllerParams(**{field: value})
     with pytest.raises(ValueError, match="restart_closure needs steered_joints='all'"):
         gm.ControllerParams(restart_closure=True, steered_joints="spread")
+
+
+def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the_touching_segment():
+    """With reach, the first trusted recall after a contact moves the palm (at reach_speed, at most reach
+    far) by the difference between where the touching segment is and where the recalled grasp puts it,
+    and every finger, the touching one too, follows the recall meanwhile."""
+    from graspmanifold.hand import SegmentKinematics
+
+    recalled = gm.closed_posture() * 0.5
+    sensed = recalled.copy()
+    sensed[:4] += (0.0, -0.3, -0.2, -0.2)  # the index finger touches less flexed than in the recalled grasp
+    kinematics = SegmentKinematics()
+    index_tip = gm.SEGMENTS.index("ffdistal")
+    expected = kinematics.positions(sensed)[index_tip] - kinematics.positions(recalled)[index_tip]
+    assert 0.01 < np.linalg.norm(expected) < 0.05
+    forces = np.zeros(len(gm.SEGMENTS))
+    forces[index_tip] = 1.0
+    for reach, speed in ((0.05, 0.1), (0.01, 0.1)):
+        params = gm.ControllerParams(reach=reach, reach_speed=speed, max_match_distance=np.inf)
+        controller = gm.GraspController(gm.PostureDatabase(recalled[None]), params)
+        offsets, reaching = [], []
+        for _ in range(60):
+            controller.step(sensed, forces)
+            offsets.append(controller.palm_offset.copy())
+            reaching.append(controller._reaching)
+            if controller._reaching:  # while the palm is on its way nothing is held
+                assert not controller._held
+        assert sum(reaching) >= 3 and not reaching[-1]
+        steps = np.linalg.norm(np.diff(np.array(offsets), axis=0), axis=1)
+        assert steps.max() <= speed * params.control_period + 1e-12
+        goal = expected if np.linalg.norm(expected) <= reach else expected * reach / np.linalg.norm(expected)
+        np.testing.assert_allclose(offsets[-1], goal, atol=1e-12)
+        assert "ff" in controller._held  # once arrived, the touching finger holds again
+    with pytest.raises(ValueError, match="reach"):
+        gm.ControllerParams(reach=-0.01)
+    assert np.all(gm.GraspController(None).palm_offset == 0)
 
 
 def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():

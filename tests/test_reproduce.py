@@ -12,7 +12,7 @@ from graspmanifold.reproduce import ReproduceConfig, reproduce
 
 REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 48},
                           grid=((0.0, 0.0, 0.01, 0.0), (0.01, 0.0, 0.02, 0.0)), map_size=(10, 10), epochs=4,
-                          image_size=48, generator=gm.GeneratorParams(job_size=6))
+                          image_size=48, generator=gm.GeneratorParams(job_size=6, verify=False))
 FIGURES = ["fig3_cylinder_extract", "fig4_box", "fig4_cylinder", "fig4_sphere", "fig5_cylinder_border",
            "fig6_cylinder_evaluation", "fig7_cylinder_resumed_extract", "fig8_cylinder_resumed", "rates"]
 
@@ -41,11 +41,10 @@ def test_every_promised_file_is_there(finished):
     out, summary, ran = finished
     assert len(ran) == 23
     sizes = {}
-    for name, candidates in REDUCED.postures.items():
+    for name, size in REDUCED.postures.items():
         postures = gm.PostureSet.load(out / "postures" / f"{name}.npz")
         sizes[name] = len(postures)
-        assert 0 < len(postures) <= candidates and postures.metadata["verified"]  # only verified grasps
-        assert np.all(postures.hold_displacement <= 0.02)
+        assert len(postures) == size and not postures.metadata["verified"]  # every candidate, as the paper kept
         assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
         for method in ("none", "database", "som", "som_all"):
             assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2

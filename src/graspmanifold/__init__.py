@@ -8,7 +8,7 @@ from .analysis import resume_learning, smoothness
 from .controller import ControllerParams, GraspController
 from .evaluation import EvaluationResult, evaluate
 from .experience import Experience, PostureDatabase
-from .generator import PRESETS, GeneratorParams, generate_postures
+from .generator import PRESETS, GenerationError, GeneratorParams, generate_postures, verify_postures
 from .grid import grid_preset, reachable
 from .hand import (
     ACTUATORS,
@@ -46,7 +46,7 @@ from .version import __version__
 
 #: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
 #: plotting pulls in matplotlib, which a simulation-only user does not need
-_SUBMODULES = ("analysis", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
+_SUBMODULES = ("analysis", "benchmark", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
                "reproduce", "stats", "study", "trial", "validation", "workers")
 
 
@@ -63,6 +63,6 @@ __all__ = [
     "PostureDatabase", "PostureSet", "SOMSchedule", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
     "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
-    "generate_postures", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
+    "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",
 ]

@@ -64,6 +64,7 @@ class BatchController:
         self._speed = np.array([reference._speed[f] for f in FINGERS])
         self._steered = reference._steered
         self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
+        self._kinematics = reference._kinematics
         self.reset()
 
     def reset(self) -> None:
@@ -85,6 +86,9 @@ class BatchController:
         self._touching = np.zeros((n, fingers), dtype=bool)
         self._stable_since = np.zeros(n)
         self._recalled = np.zeros(n, dtype=bool)
+        self.palm_offset = np.zeros((n, 3))  # m, palm frame: how far each world's palm has moved (reach)
+        self._palm_goal = np.zeros((n, 3))
+        self._reaching = np.zeros(n, dtype=bool)
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -115,7 +119,7 @@ class BatchController:
 
         self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
         self._match(act, joints, touching_segments, any_touch)
-        touched = act[:, None] & touching
+        touched = act[:, None] & touching & ~self._reaching[:, None]  # while the palm moves, fingers follow the recall
         self._last_touch[touched] = self.time
         newly_held = touched & ~self._held
         self._held = self._held | newly_held
@@ -153,12 +157,21 @@ class BatchController:
             scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
             target[np.ix_(free, of)] = previous + move * scale[:, None]  # move * 1.0 is move, bit for bit
         self._target[act] = np.clip(target[act], self._limits[:, 0], self._limits[:, 1])
+        moving = np.flatnonzero(act & self._reaching)  # palms on their way to the recalled grasps' places
+        if len(moving):
+            move = self._palm_goal[moving] - self.palm_offset[moving]
+            limit = p.reach_speed * dt
+            distance = row_norms(move)
+            scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
+            self.palm_offset[moving] = self.palm_offset[moving] + move * scale[:, None]
+            self._reaching[moving] = np.any(self.palm_offset[moving] != self._palm_goal[moving], axis=1)
 
         changed = act & np.any(touching != self._touching, axis=1)
         self._touching[changed] = touching[changed]
         self._stable_since[changed] = self.time
         settled = np.all(touching | (self._closure >= 1.0), axis=1)
-        finished = act & ((touching.any(axis=1) & settled & (self.time - self._stable_since >= p.stable_time))
+        finished = act & ((touching.any(axis=1) & settled & ~self._reaching
+                           & (self.time - self._stable_since >= p.stable_time))
                           | (self.time >= p.timeout))
         self.done |= finished
         self.phase[finished] = PHASES.index("done")
@@ -197,10 +210,28 @@ class BatchController:
             worlds, match = worlds[trusted], match[trusted]
         self.matches[worlds] += 1
         self._base[worlds] = np.where(self._steered, match, self._base[worlds])
-        if p.restart_closure:  # the first trusted match after a contact restarts the free fingers' closure
+        if p.restart_closure or p.reach > 0:  # the first trusted match after a contact restarts the closure
             restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]
             self._recalled[restart] = True
             touching = np.column_stack([touching_segments[np.ix_(restart, SEGMENT_FINGER == f)].any(axis=1)
                                         for f in FINGERS]).reshape(len(restart), len(FINGERS))
-            reset = ~touching & ~self._held[restart] & self._steered_finger
+            if p.reach > 0:
+                for world, row in zip(restart, match[np.isin(worlds, restart)]):
+                    self._start_reach(world, joints[world], row, touching_segments[world])
+                reset = np.broadcast_to(self._steered_finger, touching.shape)
+            else:
+                reset = ~touching & ~self._held[restart] & self._steered_finger
             self._closure[restart] = np.where(reset, 0.0, self._closure[restart])
+
+    def _start_reach(self, world: int, joints: np.ndarray, match: np.ndarray, touching: np.ndarray) -> None:
+        """`GraspController._start_reach` for one world: the palm's way to the recalled grasp."""
+        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
+        if not len(rows):
+            return
+        now, recalled = self._kinematics.positions(joints), self._kinematics.positions(match)
+        shift = np.mean(now[rows] - recalled[rows], axis=0)
+        length = float(np.linalg.norm(shift))
+        self._palm_goal[world] = shift if length <= self.params.reach else shift * (self.params.reach / length)
+        self._reaching[world] = bool(np.any(self._palm_goal[world] != self.palm_offset[world]))
+        self._held[world] = False
+        self._lost[world] = False

@@ -146,6 +146,8 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
                 sensed[world] += rngs[world].normal(0.0, noise.joints, N_FINGER_JOINTS)
         targets = controller.step(sensed, forces)
         worlds.set_targets(live, targets[live])
+        if controller.params.reach > 0:  # the arm carries each palm where its recalled grasp wants it
+            worlds.shift_hands(live, controller.palm_offset[live])
         for world, why in worlds.step(live, nstep).items():
             fail(world, why)
         with np.errstate(invalid="ignore"):

@@ -28,12 +28,20 @@ yaw; it gets more gaps instead, so every object has about as many poses.
 from __future__ import annotations
 
 import itertools
+import os
+from concurrent.futures import Executor
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from .controller import ControllerParams
+from .evaluation import EvaluationResult, evaluate
+from .experience import Experience
+from .generator import remove_checkpoints
 from .grid import reachable
 from .objects import GraspObject, get_object, make_object
+from .trial import Noise
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
 PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")
@@ -111,3 +119,62 @@ def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray
 def cells() -> list[tuple[str, str]]:
     """Every (object, placement) of the benchmark, in a fixed order."""
     return [(name, placement) for name in OBJECTS for placement in PLACEMENTS]
+
+
+def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
+                  preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
+                  every: int = 1, workers: int = 1, seed: int = 0, store: str | os.PathLike | None = None,
+                  label: str = "", progress: bool = False, executor: Executor | None = None
+                  ) -> dict[tuple[str, str], EvaluationResult]:
+    """One controller on every (object, placement) of the benchmark, the object never told to it.
+
+    Args:
+        experience: None (the plain heuristic), a PostureDatabase or a SOM: one for all objects.
+        split: 'test' or 'selection'.
+        params: controller parameters; `preshape`: a constant phase-B posture (see `GraspController`).
+        noise: trial noise (`Noise`), none by default.
+        objects: the benchmark objects to run (default: all of `OBJECTS`).
+        every: keep every k-th pose of each grid (a smaller, CI-sized run).
+        workers: worker processes; `seed`: the trials' seed.
+        store: a directory where each finished (object, placement) is kept as `<label>_<object>_<placement>.npz`
+            and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
+        label: the method's name, for the stored files and `EvaluationResult.method`.
+        progress: show progress bars.
+        executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
+
+    Returns:
+        {(object, placement): EvaluationResult} in `cells()` order.
+    """
+    names = tuple(OBJECTS) if objects is None else tuple(objects)
+    results = {}
+    for name, placement in cells():
+        if name not in names:
+            continue
+        path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
+        if path is not None and path.exists():
+            try:
+                results[(name, placement)] = EvaluationResult.load(path)
+                continue
+            except ValueError:  # truncated or from another version: run it again
+                path.unlink()
+        grid = benchmark_grid(name, placement, split)[::every]
+        parts = None if path is None else path.with_suffix(".parts")
+        result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
+                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor)
+        result.method, result.grid_name = label or result.method, f"{split}/{placement}"
+        if path is not None:
+            result.save(path)
+            remove_checkpoints(parts)
+        results[(name, placement)] = result
+    return results
+
+
+def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hold",
+           rows: list[tuple[str, str]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Success and validity per trial (bool), concatenated over the benchmark's cells (those of `rows`,
+    default all, in `cells()` order)."""
+    keys = [key for key in cells() if key in results and (rows is None or key in rows)]
+    if not keys:
+        raise ValueError("results hold none of the cells asked for")
+    return (np.concatenate([results[key].outcomes(measure) for key in keys]),
+            np.concatenate([results[key].valid() for key in keys]))

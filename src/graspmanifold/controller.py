@@ -36,7 +36,7 @@ distance over the matched joints is ignored and the base stays as it was). The d
 (about 11 degrees per matched joint) trusts a recall only when the experience holds a grasp that
 agrees with what the hand senses: in phase B the open hand is farther than that from every
 experienced grasp, so experience takes over only once the closing hand comes near one. It was
-chosen from 0.1, 0.2 and no limit on the paper grid (`docs/experience_study.md` reports the
+chosen from 0.1, 0.2 and no limit on the paper grid (`docs/experience_study_paper_grids.md` reports the
 ablation with no limit).
 
 Beyond the paper, `restart_closure` gives the recalled grasp real weight: the first trusted match
@@ -44,6 +44,16 @@ after the first contact (the contacts select the grasp type) restarts the closur
 steered finger at 0, so the finger first moves onto the recalled posture and only then closes on
 from it; without it a finger's closure has already grown while the hand closed, and the recall
 only shifts a goal that lies most of the way to the closed hand.
+
+A further extension, also off by default, lets a recall move the palm (`reach`, in m): at that first
+trusted match after a contact, the touching segments' places now (from the hand's own kinematics,
+`hand.SegmentKinematics`) are compared with where the recalled grasp would put them; the palm moves
+by their mean difference, at most `reach` and at `reach_speed`, so that the object comes to lie where
+the recalled grasp held it, while every finger (the touching ones too) goes to the recalled posture
+from a restarted closure. Once the palm has arrived, touching fingers hold and squeeze as before. The
+palm moves by the arm (the trial moves the hand's mount), not by the wrist joints: the experience's
+grasps all have the wrist straight. The offset of the palm from its start, in the palm frame, is
+`GraspController.palm_offset`.
 """
 
 from __future__ import annotations
@@ -54,7 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .experience import Experience, check_experience
-from .hand import FINGER_JOINTS, FINGERS, SEGMENTS, finger_limits, finger_of
+from .hand import FINGER_JOINTS, FINGERS, SEGMENTS, SegmentKinematics, finger_limits, finger_of
 from .posture import closed_posture, open_posture, pcp_mask, validate_posture
 
 _FINGER_OF_JOINT = np.array([finger_of(j) for j in FINGER_JOINTS])
@@ -87,13 +97,15 @@ class ControllerParams:
     steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger
     max_match_distance: float = 0.2  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
     restart_closure: bool = False  # the first trusted match after a contact restarts the free fingers' closure
+    reach: float = 0.0  # m: that match may also move the palm by up to this much (0: the palm stays)
+    reach_speed: float = 0.1  # m/s, how fast the palm moves then
 
     def __post_init__(self) -> None:
-        for name in ("control_period", "closing_rate", "follow_speed", "timeout"):
+        for name in ("control_period", "closing_rate", "follow_speed", "timeout", "reach_speed"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
-        for name in ("preshape_time", "squeeze", "release_time", "stable_time"):
+        for name in ("preshape_time", "squeeze", "release_time", "stable_time", "reach"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
@@ -105,9 +117,10 @@ class ControllerParams:
                              f"got {self.steered_joints!r}")
         if not isinstance(self.restart_closure, bool):
             raise ValueError(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
-        if self.restart_closure and self.steered_joints != "all":
-            raise ValueError("ControllerParams.restart_closure needs steered_joints='all': with only the spread joints "
-                             "recalled, a restarted closure would open the fingers' flexion again")
+        for name in ("restart_closure", "reach"):
+            if getattr(self, name) and self.steered_joints != "all":
+                raise ValueError(f"ControllerParams.{name} needs steered_joints='all': with only the spread joints "
+                                 "recalled, a restarted closure would open the fingers' flexion again")
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
             raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
@@ -140,6 +153,7 @@ class GraspController:
         self._speed = {f: self.params.closing_rate * float(np.linalg.norm((self._closed - self.initial)[_JOINTS_OF[f]]))
                        for f in FINGERS}
         self._steered = np.isin(_FINGER_OF_JOINT, self.params.steered_fingers) & STEERED_JOINTS[self.params.steered_joints]
+        self._kinematics = SegmentKinematics() if self.params.reach > 0 else None
         self.reset()
 
     def reset(self) -> None:
@@ -158,6 +172,9 @@ class GraspController:
         self._touching: frozenset[str] = frozenset()
         self._stable_since = 0.0
         self._recalled = False  # a trusted match after a contact has restarted the closure (restart_closure)
+        self.palm_offset = np.zeros(3)  # m, palm frame: how far the palm has moved from its start (reach)
+        self._palm_goal = np.zeros(3)
+        self._reaching = False  # the palm is on its way to the recalled grasp's place
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -182,7 +199,7 @@ class GraspController:
 
         self.phase = "C" if touching_segments else "B"
         self._match(joints, touching_segments)
-        for finger in touching:
+        for finger in touching if not self._reaching else ():  # while the palm moves, every finger follows the recall
             self._last_touch[finger] = self.time
             self._held.setdefault(finger, joints.copy())
             self._lost.pop(finger, None)
@@ -205,11 +222,18 @@ class GraspController:
             distance = float(np.linalg.norm(move))
             target[of] = self._target[of] + (move if distance <= limit else move * (limit / distance))
         self._target = np.clip(target, self._limits[:, 0], self._limits[:, 1])
+        if self._reaching:  # the palm moves towards the recalled grasp's place at reach_speed
+            move = self._palm_goal - self.palm_offset
+            limit = p.reach_speed * dt
+            distance = float(np.linalg.norm(move))
+            self.palm_offset = self.palm_offset + (move if distance <= limit else move * (limit / distance))
+            self._reaching = bool(np.any(self.palm_offset != self._palm_goal))
 
         if touching != self._touching:
             self._touching, self._stable_since = touching, self.time
         settled = all(f in touching or self._closure[f] >= 1.0 for f in FINGERS)
-        if (touching and settled and self.time - self._stable_since >= p.stable_time) or self.time >= p.timeout:
+        if (touching and settled and not self._reaching and self.time - self._stable_since >= p.stable_time) \
+                or self.time >= p.timeout:
             self.done = True
             self.phase = "done"
             self.time_to_grasp = self.time
@@ -234,9 +258,26 @@ class GraspController:
                 return
         self.matches += 1
         self._base = np.where(self._steered, match, self._base)
-        if p.restart_closure and touching_segments and not self._recalled:
+        if (p.restart_closure or p.reach > 0) and touching_segments and not self._recalled:
             self._recalled = True
             touching = {finger_of(s) for s in touching_segments}
+            if p.reach > 0:
+                self._start_reach(joints, match, touching_segments)
             for finger in p.steered_fingers:
-                if finger not in touching and finger not in self._held:
+                if p.reach > 0 or (finger not in touching and finger not in self._held):
                     self._closure[finger] = 0.0
+
+    def _start_reach(self, joints: np.ndarray, match: np.ndarray, touching_segments: list[str]) -> None:
+        """The palm's way to the recalled grasp: the mean difference between where the touching finger
+        segments are and where the recalled posture puts them (palm frame), at most `reach` long; every
+        finger lets go to follow the recall."""
+        rows = [SEGMENTS.index(s) for s in touching_segments if finger_of(s) is not None]
+        if not rows:
+            return
+        now, recalled = self._kinematics.positions(joints), self._kinematics.positions(match)
+        shift = np.mean(now[rows] - recalled[rows], axis=0)
+        length = float(np.linalg.norm(shift))
+        self._palm_goal = shift if length <= self.params.reach else shift * (self.params.reach / length)
+        self._reaching = bool(np.any(self._palm_goal != self.palm_offset))
+        self._held.clear()
+        self._lost.clear()

@@ -262,11 +262,6 @@ class _Job:
     quota: int  # candidates to find
 
 
-#: a start none of whose first NEVER_HELD x max_candidates_per_posture candidates held gives up: by the rule
-#: of three its yield is then below 1 / max_candidates_per_posture with 95 % confidence
-NEVER_HELD = 3
-
-
 class GenerationError(RuntimeError):
     """The generator could not find the postures asked for (too few candidates verified, or none found)."""
 
@@ -424,7 +419,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     object: each wave asks every starting posture that is short of its share for as many candidates
     as its yield so far says it needs; a start that used up its part of the budget
     (`max_candidates_per_posture` times n over the starts) or whose springs rarely make its contacts
-    gives up, and the others share its part. The shares are as even as the starts allow.
+    gives up, as does one none of whose first `max_candidates_per_posture` candidates held, and the
+    others share its part. The shares are as even as the starts allow.
 
     Args:
         obj: an object or its name.
@@ -471,9 +467,11 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             short = [s for s in range(len(starts)) if not given_up[s] and held(s) < allocation[s]]
             if not short:
                 break
-            for s in short:  # a start past its part of the budget, or that never held, gives up
+            for s in short:  # a start past its part of the budget gives up, and one none of whose first
+                # max_candidates_per_posture candidates held (by the rule of three its yield is then below
+                # 3 / max_candidates_per_posture, 6 % by default, with 95 % confidence)
                 if budget is not None and (drawn(s) >= budget / len(starts)
-                                           or (held(s) == 0 and drawn(s) >= NEVER_HELD * params.max_candidates_per_posture)):
+                                           or (held(s) == 0 and drawn(s) >= params.max_candidates_per_posture)):
                     given_up[s] = True
             if any(given_up[s] for s in short):
                 if all(given_up):

@@ -126,3 +126,28 @@ def segment_of_geoms(model: mujoco.MjModel) -> np.ndarray:
     belongs to, -1 for geoms that are not the hand's (the object, a table)."""
     index = {name: i for i, name in enumerate(SEGMENTS)}
     return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) for g in range(model.ngeom)], dtype=int)
+
+
+class SegmentKinematics:
+    """Where the hand's segments are for a posture: the centre of each segment's collision geometry in
+    the palm frame (m), from the hand model alone (the hand's knowledge of its own body, no object).
+
+    The controller's reach extension compares where a touching segment is now with where a recalled
+    grasp would put it (`controller.ControllerParams.reach`)."""
+
+    def __init__(self) -> None:
+        self.model = load_hand()
+        self.data = mujoco.MjData(self.model)
+        joints = [self.model.joint(name) for name in FINGER_JOINTS]
+        self._qpos = np.array([j.qposadr[0] for j in joints])
+        segment_of = segment_of_geoms(self.model)
+        self._geoms = np.array([int(np.flatnonzero(segment_of == i)[0]) for i in range(len(SEGMENTS))])
+        self._palm = self.model.body("palm").id
+
+    def positions(self, posture: np.ndarray) -> np.ndarray:
+        """Segment centres (len(SEGMENTS), 3) in the palm frame for a (22,) posture, wrist straight."""
+        self.data.qpos[:] = 0.0
+        self.data.qpos[self._qpos] = posture
+        mujoco.mj_kinematics(self.model, self.data)
+        rotation = self.data.xmat[self._palm].reshape(3, 3)
+        return (self.data.geom_xpos[self._geoms] - self.data.xpos[self._palm]) @ rotation

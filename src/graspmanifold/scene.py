@@ -265,6 +265,13 @@ class Scene:
         """Move the hand so that the palm frame has this pose in the object frame."""
         self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
         self.forward()
+        self._placed = self.data.mocap_pos[self.mount_id].copy(), self.data.xmat[self.palm_id].reshape(3, 3).copy()
+
+    def shift_hand(self, offset: Iterable[float]) -> None:
+        """Move the hand by `offset` (m, in the palm frame) from where `set_hand_pose` last put it, as an
+        arm would carry it; the joints and the object stay (the physics moves on at the next step)."""
+        position, palm_rotation = self._placed
+        self.data.mocap_pos[self.mount_id] = position + palm_rotation @ check_vec3(offset, "offset")
 
     # -- postures --------------------------------------------------------------------------------
     def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:

@@ -93,18 +93,21 @@ class GraspDesign:
 def _designs(shape: str) -> tuple[GraspDesign, ...]:
     side = (1.0, 0.0, 0.0)  # object axis across the fingers: a wrap
     tilt = (np.cos(0.5), 0.0, np.sin(0.5))
-    if shape == "sphere":
+    if shape == "sphere":  # a ball in the whole hand, and held by the five fingertips (a precision sphere grasp)
         return (
             GraspDesign("power", side, standoff=0.006),
-            GraspDesign("precision", side, centre_offset=(0.0, 0.0, 0.03), standoff=0.03),
-            GraspDesign("thumb_side", side, centre_offset=(0.02, 0.0, 0.01), standoff=0.015),
-            GraspDesign("fingertip_low", side, centre_offset=(-0.01, 0.0, 0.015), standoff=0.022),
+            GraspDesign("precision", side, centre_offset=(0.0, 0.0, 0.03), standoff=0.03, grasp_type="precision"),
+            GraspDesign("thumb_side", side, centre_offset=(0.02, 0.0, 0.01), standoff=0.015, grasp_type="precision"),
+            GraspDesign("fingertip_low", side, centre_offset=(-0.01, 0.0, 0.015), standoff=0.022,
+                        grasp_type="precision"),
         )
     designs = [
         GraspDesign("wrap_mid", side),
         GraspDesign("wrap_tilted", tilt),
         GraspDesign("wrap_low", side, centre_offset=(0.0, 0.0, -0.012), standoff=0.012),
-        GraspDesign("end_on", (0.0, 0.0, 1.0), centre_offset=(0.0, 0.0, 0.02), standoff=0.01, end_on=True),
+        # the five fingertips on the end: a precision disc grasp
+        GraspDesign("end_on", (0.0, 0.0, 1.0), centre_offset=(0.0, 0.0, 0.02), standoff=0.01, end_on=True,
+                    grasp_type="precision"),
     ]
     if shape == "box":
         designs.append(GraspDesign("wrap_edge", side, roll=np.pi / 4))
@@ -348,7 +351,8 @@ def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, 
     if entry is not None and entry["object"] == obj.params():
         count = len(entry["names"])
         contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
-        types = entry.get("grasp_types", ["power"] * count)
+        designs = {d.name: d for d in designs_for(obj, family)}
+        types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
         return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
                                      tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
     return tuple(find_starting_postures(obj, family))

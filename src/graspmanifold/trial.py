@@ -127,6 +127,8 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
     def cycle() -> None:
         sensed = scene.posture() + rng.normal(0.0, noise.joints, N_FINGER_JOINTS) if noise.joints else scene.posture()
         scene.set_target(controller.step(sensed, scene.sensor.segment_forces(scene.data)))
+        if controller.params.reach > 0:  # the arm carries the palm where the recalled grasp wants it
+            scene.shift_hand(controller.palm_offset)
         scene.run(period)
         if observer is not None:
             observer(scene)

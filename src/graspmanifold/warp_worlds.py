@@ -204,6 +204,10 @@ class WarpWorlds:
             with wp.ScopedDevice(self.device):
                 wp.launch(_push, dim=self.n, inputs=[self._d.xfrc_applied, self._object_body, self._push_forces])
 
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
+        raise NotImplementedError("the controller's reach (a recall moving the palm, ControllerParams.reach) runs on "
+                                  "the CPU backend only: evaluate(..., backend='cpu')")
+
     def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:
         """Step every world (the finished ones too: it costs nothing extra on a GPU); report the
         faults of `worlds`."""

@@ -44,6 +44,8 @@ class Worlds(Protocol):
 
     def push(self, worlds: np.ndarray, forces: np.ndarray) -> None: ...  # extra force on the object (N)
 
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None: ...  # palm offsets (m, palm frame)
+
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]: ...  # and the object's centre of mass
 
     def posture(self, world: int) -> np.ndarray: ...
@@ -106,6 +108,10 @@ class CpuWorlds:
         for world, force in zip(worlds, forces):
             scene = self.scenes[world]
             scene.data.xfrc_applied[scene.object_body, :3] = force
+
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
+        for world, offset in zip(worlds, offsets):
+            self.scenes[world].shift_hand(offset)
 
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]:
         scene = self.scenes[world]
