@@ -46,7 +46,7 @@ from graspmanifold.generator import remove_checkpoints, verify_postures
 from graspmanifold.grid import GRID_COLUMNS, coverage, grid_preset
 from graspmanifold.io import atomic_write, write_npz, write_text_atomic
 from graspmanifold.judge import EPSILON_THRESHOLD
-from graspmanifold.stats import headroom, holm, rate_text
+from graspmanifold.stats import MIN_HEADROOM, headroom, holm, rate_text
 from graspmanifold.study import (
     TRAINING_NOISE,
     closing_rate_params,
@@ -296,6 +296,8 @@ def report(study: Study, info: dict) -> str:
               "(`graspmanifold.stats.headroom`: the per-pose oracle over the plain heuristic, the fast heuristic and "
               "the best constant preshape, against the best of them)? Below 15 points a benchmark cannot show a "
               "recall effect.", "", "| grid | object | n | oracle | best control | headroom |", "|---|---|---|---|---|---|"]
+    able: list[str] = []
+    unable: list[str] = []
     for grid in info["grids"]:
         pooled: dict[str, list[np.ndarray]] = {}
         for obj in OBJECTS:
@@ -311,7 +313,11 @@ def report(study: Study, info: dict) -> str:
             room = headroom({c: np.concatenate(v) for c, v in pooled.items()})
             lines.append(f"| {grid} | pooled | {room.n} | {rate_text(room.oracle, room.n)} | {room.best} "
                          f"{rate_text(room.best_successes, room.n)} | **{rate_text(room.gain, room.n)}** |")
+            (able if room.sufficient else unable).append(grid)
     lines += [""]
+    if unable:
+        lines += [f"Pooled headroom below {MIN_HEADROOM:.0%} on the {', '.join(unable)} grid(s): "
+                  "they cannot show a recall effect, whatever the method.", ""]
     lines += ["## Why", ""] + why(study, rows, info) + [""]
     lines += ["## Experience", "", "| object | spring candidates | verified (hold) | verified by starting posture | "
               "grown from own grasps | grid poses: nearest experienced palm position (median) | within 5 mm |",
