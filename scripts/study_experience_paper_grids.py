@@ -388,8 +388,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="quick grid only, small experience (CI-sized)")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--out", default=None, help="data directory (default: study or study-quick)")
-    parser.add_argument("--doc", default=None, help="markdown report (default: docs/experience_study.md; "
+    parser.add_argument("--out", default=None, help="data directory (default: study-paper-grids, with --quick "
+                        "study-paper-grids-quick)")
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/experience_study_paper_grids.md; "
                         "with --quick: OUT/experience_study.md)")
     parser.add_argument("--candidates", type=int, default=None, help="spring candidates per object")
     parser.add_argument("--rounds", type=int, default=None, help="rounds of growing experience")

@@ -19,6 +19,7 @@ from .controller import (
     _FLEXION,
     ControllerParams,
     GraspController,
+    palm_shift,
 )
 from .experience import Experience
 from .hand import FINGERS, SEGMENTS
@@ -228,10 +229,7 @@ class BatchController:
         rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
         if not len(rows):
             return
-        now, recalled = self._kinematics.positions(joints), self._kinematics.positions(match)
-        shift = np.mean(now[rows] - recalled[rows], axis=0)
-        length = float(np.linalg.norm(shift))
-        self._palm_goal[world] = shift if length <= self.params.reach else shift * (self.params.reach / length)
+        self._palm_goal[world] = palm_shift(self._kinematics, joints, match, rows, self.params.reach)
         self._reaching[world] = bool(np.any(self._palm_goal[world] != self.palm_offset[world]))
         self._held[world] = False
         self._lost[world] = False

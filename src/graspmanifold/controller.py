@@ -135,6 +135,18 @@ def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
     return np.clip(target, limits[:, 0], limits[:, 1])
 
 
+def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.ndarray, touching: np.ndarray,
+               reach: float) -> np.ndarray:
+    """How far the palm should move (m, palm frame) so that the object, touched by the segments
+    `touching` (indices into SEGMENTS) at the sensed `joints`, comes to lie where the `recalled`
+    grasp holds it: the mean difference between where those segments are now and where the recalled
+    posture puts them, shortened to at most `reach`."""
+    now, then = kinematics.positions(joints), kinematics.positions(recalled)
+    shift = np.mean(now[touching] - then[touching], axis=0)
+    length = float(np.linalg.norm(shift))
+    return shift if length <= reach else shift * (reach / length)
+
+
 class GraspController:
     """Tactile grasp controller; call `step` once per control period."""
 
@@ -268,16 +280,11 @@ class GraspController:
                     self._closure[finger] = 0.0
 
     def _start_reach(self, joints: np.ndarray, match: np.ndarray, touching_segments: list[str]) -> None:
-        """The palm's way to the recalled grasp: the mean difference between where the touching finger
-        segments are and where the recalled posture puts them (palm frame), at most `reach` long; every
-        finger lets go to follow the recall."""
+        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
         rows = [SEGMENTS.index(s) for s in touching_segments if finger_of(s) is not None]
         if not rows:
             return
-        now, recalled = self._kinematics.positions(joints), self._kinematics.positions(match)
-        shift = np.mean(now[rows] - recalled[rows], axis=0)
-        length = float(np.linalg.norm(shift))
-        self._palm_goal = shift if length <= self.params.reach else shift * (self.params.reach / length)
+        self._palm_goal = palm_shift(self._kinematics, joints, match, np.array(rows), self.params.reach)
         self._reaching = bool(np.any(self._palm_goal != self.palm_offset))
         self._held.clear()
         self._lost.clear()
