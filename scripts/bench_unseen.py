@@ -34,7 +34,7 @@ from graspmanifold.family import SHAPES
 from graspmanifold.generator import PRESETS, remove_checkpoints
 from graspmanifold.io import write_text_atomic
 from graspmanifold.starts import nearest_primitive
-from graspmanifold.stats import rate_text
+from graspmanifold.stats import headroom, holm, rate_text
 from graspmanifold.study import compare, train_experience_map
 
 
@@ -98,6 +98,7 @@ def main() -> None:
              "[95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
              "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
              "|---|---|---|---|---|---|---|---|"]
+    rooms, tests = [], []  # per object: the headroom over its methods; every comparison against none
     chosen = targets(args.size)
     if args.objects:
         unknown = set(args.objects) - {obj.name for obj in chosen}
@@ -126,8 +127,20 @@ def main() -> None:
             lines.append(f"| {obj.name} | {method} | {n} | {rate_text(round(s['hold_rate'] * n), n)} | "
                          f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_epsilon']:.4f} | "
                          f"{s['mean_time_to_grasp']:.2f} | {versus} |")
+            if method != "none":
+                tests.append((obj.name, method, c.p_value))
+        room = headroom({m: r.outcomes() for m, r in results.items()}, {m: r.valid() for m, r in results.items()})
+        rooms.append((obj.name, room))
         print("\n".join(lines[-len(results):]), flush=True)
-    lines += ["", f"{time.perf_counter() - started:.0f} s on this machine with {args.workers} workers."]
+    lines += ["", "Headroom per object (`stats.headroom`: the per-pose oracle over the methods above against the best "
+              "of them; under 15 points no choice among them can show much):", "",
+              "| object | headroom |", "|---|---|"]
+    lines += [f"| {name} | {room.text()} |" for name, room in rooms]
+    adjusted = holm([p for _, _, p in tests]) if tests else []
+    significant = [f"{o}/{m} (adjusted p {p:.2g})" for (o, m, _), p in zip(tests, adjusted) if p < 0.05]
+    lines += ["", f"Holm's correction over the {len(tests)} comparisons against `none`: "
+              f"{', '.join(significant) if significant else 'none'} significant at 0.05.",
+              "", f"{time.perf_counter() - started:.0f} s on this machine with {args.workers} workers."]
     report = out / ("unseen.md" if args.seed == 0 else f"unseen_seed{args.seed}.md")
     write_text_atomic(report, "\n".join(lines) + "\n")
     print(f"wrote {report}")

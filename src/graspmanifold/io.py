@@ -30,6 +30,24 @@ def library_version() -> str:
     return __version__
 
 
+def software_versions() -> dict[str, str]:
+    """What a result depends on besides its configuration: this library's, MuJoCo's, NumPy's and
+    Python's versions and the machine (processor, cores, system)."""
+    import platform
+
+    import mujoco
+
+    processor = platform.processor()
+    try:  # Linux names the processor model here; platform.processor() is often empty
+        processor = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                         if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {"graspmanifold": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+            "python": platform.python_version(), "machine": f"{platform.machine()} {processor or '?'}, "
+            f"{os.cpu_count()} cores, {platform.system()} {platform.release()}"}
+
+
 def fingerprint(array: np.ndarray) -> str:
     """A short content hash of an array (shape, dtype and values)."""
     a = np.ascontiguousarray(array)

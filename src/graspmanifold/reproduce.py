@@ -34,7 +34,7 @@ from .generator import (
 )
 from .generator import PRESETS as DATASET_SIZES
 from .grid import check_grid
-from .io import library_version, write_text_atomic
+from .io import library_version, software_versions, write_text_atomic
 from .objects import get_object
 from .posture import N_FINGER_JOINTS
 from .postureset import PostureSet
@@ -183,7 +183,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.rglob(".*.tmp"):  # left by a run killed while writing a file
         stale.unlink()
-    write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version()},
+    write_text_atomic(out / "run.json", json.dumps({"config": config.to_json(), "library_version": library_version(),
+                                                    "versions": software_versions()},
                                                     indent=1))
     objects = tuple(config.postures)
     stages = _Stages(out, log, total=3 * len(objects) + 2 + len(objects) * len(METHODS))
