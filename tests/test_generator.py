@@ -47,6 +47,21 @@ def test_shipped_starting_postures_are_five_fingertip_grasps(name):
     assert min(gaps) > 0.1
 
 
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
+def test_every_grasp_type_has_valid_starting_postures(name):
+    """The grasp-types family: the power grasps of the five-fingertip family plus a pinch, a tripod and a
+    lateral grasp, each touching with its own contact segments (shipped, like the five-fingertip ones)."""
+    from graspmanifold.starts import is_design_grasp
+
+    starts = gm.starting_postures(name, "grasp_types")
+    assert [s.name for s in starts][: len(gm.starting_postures(name))] == [s.name for s in gm.starting_postures(name)]
+    assert {s.grasp_type for s in starts} == {"power", "precision", "tripod", "lateral"}
+    for start in starts:
+        assert is_design_grasp(name, start), start.name
+    with pytest.raises(ValueError, match="family must be one of"):
+        gm.starting_postures(name, "wraps")
+
+
 def test_starting_postures_are_found_for_other_sizes():
     obj = gm.make_object("cylinder", radius=0.025, length=0.12)
     starts = gm.starting_postures(obj)

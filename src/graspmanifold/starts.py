@@ -11,12 +11,15 @@ segments touch; wraps of the object's nearest primitive shape, `GRASP_DESIGNS`),
 `grasp_types`, ours: those wraps (power grasps) and one design of each precision grasp type
 (`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of thumb, index and
 middle tips, and a lateral grasp pressing the object between the thumb's pad and the side of the
-index finger), with the fingers that take no part curled into the palm. The paper's three objects ship their starting postures in
-`assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`); other objects get
-theirs computed on first use. A mesh object is searched with the designs of the primitive it is
-closest to in proportion (`designs_for`): the designs place the palm relative to the object's
-principal axes and its extents, and the least-squares refinement brings the fingertips onto the
-actual surface, so any watertight solid of hand size gets its five-fingertip grasps this way.
+index finger), with the fingers that take no part curled into the palm.
+
+The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
+families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object
+family its five-fingertip ones; the rest is computed on first use. A mesh object
+is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
+designs place the palm relative to the object's principal axes and its extents, and the
+least-squares refinement brings the fingertips onto the actual surface, so any watertight solid of
+hand size gets its grasps this way.
 """
 
 from __future__ import annotations
@@ -288,10 +291,15 @@ def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
 
 
 def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
-    """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`)."""
+    """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`).
+    The `grasp_types` family takes its power grasps from the object's five-fingertip starting postures
+    (shipped or searched) and searches the `PRECISION_DESIGNS`."""
     obj = get_object(obj)
-    found = []
-    for design in designs_for(obj, family):
+    if family == "grasp_types":
+        designs, found = PRECISION_DESIGNS, starting_postures(obj, "five_fingertip")
+    else:
+        designs, found = designs_for(obj, family), []
+    for design in designs:
         pos, quat = design_pose(obj, design)
         start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
         if is_design_grasp(obj, start):
@@ -304,15 +312,16 @@ def _key(name: str, family: str) -> str:
     return name if family == "five_fingertip" else f"{name}@{family}"
 
 
-def save_starting_postures(path, starts_by_object: dict[tuple[str, str], list[StartingPosture]]) -> None:
-    """Write starting postures keyed by (object name, design family) to an .npz file."""
+def save_starting_postures(path, starts_by_object: dict[tuple[GraspObject, str], list[StartingPosture]]) -> None:
+    """Write starting postures keyed by (object, design family) to an .npz file (the object's name and
+    parameters are stored, so a changed object is never given another's starts)."""
     arrays, index = {}, {}
-    for (name, family), starts in starts_by_object.items():
-        key = _key(name, family)
+    for (obj, family), starts in starts_by_object.items():
+        name, key = obj.name, _key(obj.name, family)
         arrays[f"{key}/pos"] = np.array([s.hand_pos for s in starts]).reshape(-1, 3)
         arrays[f"{key}/quat"] = np.array([s.hand_quat for s in starts]).reshape(-1, 4)
         arrays[f"{key}/posture"] = np.array([s.posture for s in starts]).reshape(-1, len(FINGER_JOINTS))
-        index[key] = {"names": [s.name for s in starts], "object": get_object(name).params(), "family": family,
+        index[key] = {"names": [s.name for s in starts], "object": obj.params(), "family": family,
                       "contacts": [list(s.contacts) for s in starts], "grasp_types": [s.grasp_type for s in starts]}
     save_npz(path, "starting_postures", arrays, {"objects": index, "units": "m, radians",
                                                  "joints": list(FINGER_JOINTS)})
