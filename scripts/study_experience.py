@@ -381,11 +381,15 @@ def report(study: Study, info: dict) -> str:
         lines.append(f"| {c['family']} | {c['label']} | {c['n']} | {c['only_a']} | {c['only_b']} | "
                      f"{100 * c['difference']:+.1f} pts | {c['p_value']:.3g} | {c['p_holm']:.3g} |")
     lines += ["", "## The first study, on the paper's grids", ""]
-    old = Path("docs/experience_study_paper_grids.json")
-    if old.exists():
-        data = json.loads(old.read_text())
-        lines += [f"`python scripts/study_experience_paper_grids.py` ([report](experience_study_paper_grids.md)): "
-                  f"{data['verdict']}", ""]
+    old = Path("docs/experience_study_paper_grids.md")
+    if old.exists():  # its verdict and its headroom table, quoted from its report
+        text = old.read_text()
+        sections = {part.split("\n", 1)[0]: part.split("\n", 1)[1].strip() for part in text.split("\n## ")[1:]}
+        lines += ["`python scripts/study_experience_paper_grids.py` ([its report](experience_study_paper_grids.md)), on "
+                  "the paper's three objects and its grids (paper, far, hard, paper with pose noise), each object "
+                  "with its own experience. Its verdict:", "", sections.get("Verdict", "(none)"), ""]
+        if "Headroom" in sections:
+            lines += ["Its headroom (added when the study was rerun for this report):", "", sections["Headroom"], ""]
     else:
         lines += ["Not run here (`python scripts/study_experience_paper_grids.py` writes "
                   "`docs/experience_study_paper_grids.md`).", ""]
