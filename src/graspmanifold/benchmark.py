@@ -171,8 +171,16 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
 
 def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hold",
            rows: list[tuple[str, str]] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Success and validity per trial (bool), concatenated over the benchmark's cells (those of `rows`,
-    default all, in `cells()` order)."""
+    """Success and validity per trial, concatenated over the benchmark's cells.
+
+    Args:
+        results: {(object, placement): EvaluationResult}, as `run_benchmark` returns.
+        measure: 'hold' or 'force_closure'.
+        rows: the cells to pool (default: all of `results`), taken in `cells()` order.
+
+    Returns:
+        (success, valid): two bool arrays over the pooled trials.
+    """
     keys = [key for key in cells() if key in results and (rows is None or key in rows)]
     if not keys:
         raise ValueError("results hold none of the cells asked for")

@@ -137,10 +137,19 @@ def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
 
 def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.ndarray, touching: np.ndarray,
                reach: float) -> np.ndarray:
-    """How far the palm should move (m, palm frame) so that the object, touched by the segments
-    `touching` (indices into SEGMENTS) at the sensed `joints`, comes to lie where the `recalled`
-    grasp holds it: the mean difference between where those segments are now and where the recalled
-    posture puts them, shortened to at most `reach`."""
+    """How far the palm should move so that the object comes to lie where a recalled grasp holds it.
+
+    Args:
+        kinematics: the hand's segment kinematics.
+        joints: the sensed joint angles (22,), radians.
+        recalled: the recalled grasp posture (22,), radians.
+        touching: indices into SEGMENTS of the finger segments that touch the object.
+        reach: the longest shift allowed (m).
+
+    Returns:
+        The shift (3,) in m, palm frame: the mean difference between where the touching segments are now
+        and where the recalled posture puts them, shortened to at most `reach`.
+    """
     now, then = kinematics.positions(joints), kinematics.positions(recalled)
     shift = np.mean(now[touching] - then[touching], axis=0)
     length = float(np.linalg.norm(shift))

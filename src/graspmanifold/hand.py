@@ -145,7 +145,14 @@ class SegmentKinematics:
         self._palm = self.model.body("palm").id
 
     def positions(self, posture: np.ndarray) -> np.ndarray:
-        """Segment centres (len(SEGMENTS), 3) in the palm frame for a (22,) posture, wrist straight."""
+        """Where the segments are for a posture, the wrist straight.
+
+        Args:
+            posture: the 22 finger joint angles, radians.
+
+        Returns:
+            The centres (len(SEGMENTS), 3) of the segments' collision geometry, m, in the palm frame.
+        """
         self.data.qpos[:] = 0.0
         self.data.qpos[self._qpos] = posture
         mujoco.mj_kinematics(self.model, self.data)
