@@ -26,6 +26,14 @@ from .scene import Scene, facing_pose
 
 GRID_COLUMNS = ("x", "z", "gap", "yaw")
 GRID_PRESETS = ("quick", "paper", "far", "hard")
+#: each preset in words (the values of `grid_preset`), for reports
+GRID_DESCRIPTIONS = {
+    "quick": "x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} rad (a sphere: gaps 1-3.1 cm)",
+    "paper": "x and z in 5 steps over ±2 cm, gaps 1, 2 and 3 cm, yaw in 5 steps over ±0.5 rad (a sphere: 9 gaps "
+             "over 1-3.4 cm, no yaw)",
+    "far": "gaps 3, 4 and 5 cm (a sphere: 3-5 cm in 5), x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in {-0.5, 0, 0.5}",
+    "hard": "x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in {-0.8, -0.4, 0, 0.4, 0.8} rad",
+}
 START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
 
 

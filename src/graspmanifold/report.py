@@ -18,13 +18,16 @@ from .analysis import (
     node_distances,
     smoothness,
 )
+from .controller import ControllerParams
 from .evaluation import EvaluationResult, trial_count
 from .generator import PRESETS as DATASET_PRESETS
+from .grid import GRID_DESCRIPTIONS
 from .hand import finger_limits
 from .io import atomic_write, library_version, write_text_atomic
-from .judge import EPSILON_THRESHOLD
+from .judge import EPSILON_THRESHOLD, HOLD_LIMIT, HOLD_SECONDS, SUPPORT_DAMPING, SUPPORT_STIFFNESS
+from .objects import DEFAULT_FRICTION
 from .postureset import PostureSet
-from .som import SOM
+from .som import RESUME, SOM
 from .stats import rate_text
 from .study import comparison_rows, judge_target
 from .verdicts import (
@@ -189,6 +192,14 @@ def _mean_ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
     return float(numerator.mean() / denominator.mean())
 
 
+def _on_unsupported(som: SOM, hits: np.ndarray, postures: np.ndarray) -> list[int]:
+    """[k, n]: of n postures, k best-match a node that no training posture supports."""
+    if not len(postures):
+        return [0, 0]
+    winners = som.best_match_batch(postures)
+    return [int(np.sum(hits.ravel()[winners] == 0)), int(len(postures))]
+
+
 def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
     """Write report.md and summary.json: every number from this run, beside the paper's."""
     objects = list(run.sets)
@@ -214,8 +225,14 @@ def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
             "successful_som_postures": int(len(successes)),
             "evaluation_on_unsupported_nodes": before.get("evaluation_on_unsupported_nodes"),
             "supported_nodes": int(np.sum(hits > 0)),
+            # Fig. 6 as the paper's caption counts: the force-closure grasps of the SOM controller, and how
+            # many of them best-match a node without training data
+            "force_closure_on_unsupported": _on_unsupported(run.maps[name], hits,
+                                                            run.results[(name, "som")].successful_postures(False)),
+            "low_data": bool(len(postures) < run.maps[name].n_nodes),  # fewer postures than nodes: verdicts void
         }
     obj = figure_object(objects)
+    summary["figure_object"] = obj
     obj_hits = run.maps[obj].hit_counts(run.sets[obj].postures)
     summary["fig5"] = {"object": obj, "runs": border_measures(run.maps[obj], obj_hits,
                                                               border_runs(run.maps[obj], obj_hits))}
@@ -239,6 +256,44 @@ def _fmt(value: object, digits: int = 3) -> str:
     return str(value)
 
 
+def _choices(run: RunData) -> list[list[str]]:
+    """The run's own choices where the paper fixes nothing (or fixes something else), one row each."""
+    g, config = run.config["generator"], run.config
+    c = ControllerParams()
+    grid = config["grid"]
+    return [
+        ["posture procedure", "every spring candidate with its five fingertips on the object kept" if not g.get("verify")
+         else f"only candidates that hold when replayed (hold test, {g.get('verify_hold_seconds')} s per direction)",
+         "every recorded posture with five fingertip contacts (no verification described)"],
+        ["spring generator", f"mode {g.get('mode')}" + (f", a posture every {g.get('record_every')} physics steps"
+                                                        if g.get("mode") == "recording" else "")
+         + f"; springs {g.get('spring_stiffness')} N/m up to {g.get('spring_max_force')} N on the fingertips; finger "
+         f"servos at {g.get('servo_stiffness_scale')} of their stiffness; the hand wanders {100 * g.get('walk_radius', 0):.1f} "
+         f"cm and {g.get('walk_angle')} rad around designed starting postures",
+         "springs to the object, the hand moved by hand around manually set starting postures"],
+        ["SOM training", f"{config['epochs']} epochs, learning rate {config['learning_rate'][0]} → "
+         f"{config['learning_rate'][1]}, σ {config['sigma'][0]} → {config['sigma'][1]}, both decaying exponentially; "
+         "initialised on the principal components; a fresh random order every epoch",
+         "the same numbers; decay, initialisation and order not given"],
+        ["resumed learning", f"{RESUME.epochs} epochs, learning rate {RESUME.learning_rate[0]} → "
+         f"{RESUME.learning_rate[1]}, σ {RESUME.sigma[0]} → {RESUME.sigma[1]}, on the successful SOM grasps "
+         "(hold test)", "the same numbers, on the grasp postures generated in testing"],
+        ["evaluation grid", f"`{grid}` preset: " + GRID_DESCRIPTIONS.get(grid, "a custom grid") if isinstance(grid, str)
+         else f"{len(grid)} custom poses", "a regular position/orientation grid, values not given"],
+        ["controller", f"{1 / c.control_period:.0f} Hz; preshape {c.preshape_time} s; closing rate {c.closing_rate}/s; "
+         f"follow speed {c.follow_speed}x; squeeze {c.squeeze} rad; release {c.release_time} s; stable "
+         f"{c.stable_time} s; timeout {c.timeout} s; matches trusted within {c.max_match_distance} rad RMS; "
+         "open and closed postures of `posture.open_posture` / `closed_posture`", "described in [15], not given"],
+        ["object support while the hand closes", f"a spring-damper, {SUPPORT_STIFFNESS:g} N/m and {SUPPORT_DAMPING:g} "
+         "N s/m, released before judging", "not described"],
+        ["success", f"hold: gravity along ±x, ±y, ±z for {HOLD_SECONDS} s each, the object within "
+         f"{100 * HOLD_LIMIT:.0f} cm; force closure: ε > {EPSILON_THRESHOLD}", "force closure: ε > 0"],
+        ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
+        ["hand", "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
+         "a model of the Shadow hand in Vortex, coarse geometry"],
+    ]
+
+
 def _config_text(config: dict) -> str:
     """The run's configuration in one line (a custom grid by its size, the generator by its mode; all of
     it is in run.json)."""
@@ -255,14 +310,16 @@ def _markdown(run: RunData, summary: dict) -> str:
              + _config_text(run.config) + " (all of it in run.json).\n\n",
              "## Verdict per claim\n\n",
              "Each claim of the paper's Section 5, judged by the stated rule (`graspmanifold.verdicts`): reproduced "
-             "when the rule holds for every object, partly when for some, not reproduced when for none. Our choices "
-             "where the paper fixes nothing: exponential decay of the learning rate and neighbourhood width, "
-             "initialisation from the principal components, a fresh random presentation order every epoch, "
-             + ("spring candidates kept only when they hold (`GeneratorParams.verify`)" if run.config["generator"].get("verify")
-                else "every spring candidate with five fingertip contacts kept, as the paper did") + ".\n\n",
+             "when the rule holds for every object, partly when for some, not reproduced when for none, not enough "
+             "data when every map had fewer training postures than nodes (an object with too little data is left "
+             "out of a claim and marked). The claims the paper makes about its cylinder map (Figs. 5-8) are judged "
+             "on the cylinder. Where the paper leaves a choice open, ours are listed under \"Our choices\" below.\n\n",
              _table(["claim", "paper", "ours", "verdict", "rule", "cause"],
                     [[c["claim"], c["paper"], c["ours"], f"**{c['verdict']}**", c["rule"], c["cause"] or "–"]
                      for c in summary["claims"]]),
+             "## Our choices\n\n",
+             "What the paper does not fix, and what this run used:\n\n",
+             _table(["choice", "ours", "the paper"], _choices(run)),
              "## Posture datasets\n\n",
              f"Generator mode: {run.config['generator'].get('mode', 'settled')} (`GeneratorParams.mode`). The data's "
              "character: each posture's distance to its nearest other posture (min: the closest pair; median; "
@@ -276,10 +333,13 @@ def _markdown(run: RunData, summary: dict) -> str:
                       _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
                      for n, o in objects.items()]),
              "## SOM grasp manifolds (Fig. 4)\n\n",
-             "Inter-node distances over the 22 finger joints, in degrees, as in the paper's Section 5.\n\n",
+             "Inter-node distances over the 22 finger joints, in degrees, as in the paper's Section 5. A map "
+             "trained on fewer postures than it has nodes is marked low data: its numbers say nothing about the "
+             "paper's claims, and the verdicts leave it out.\n\n",
              _table(["object", "min distance (°)", "paper min", "max distance (°)", "paper max", "distance CV",
                      "quantisation error (rad)", "topographic error", "nodes without training data"],
-                    [[n, _fmt(o["map"]["distance_min_deg"]), _fmt(o["paper_min_distance_deg"], 4),
+                    [[f"{n} (low data: {o['dataset_size']} postures, {o['map']['nodes']} nodes)" if o.get("low_data")
+                      else n, _fmt(o["map"]["distance_min_deg"]), _fmt(o["paper_min_distance_deg"], 4),
                       _fmt(o["map"]["distance_max_deg"]), _fmt(o["paper_max_distance_deg"], 4),
                       _fmt(o["map"]["distance_cv"]), _fmt(o["map"].get("quantization_error")),
                       _fmt(o["map"].get("topographic_error")),
