@@ -77,3 +77,7 @@ def test_a_benchmark_run_is_kept_and_taken_up_again(tmp_path, monkeypatch):
     assert len(outcomes) == len(valid) == sum(len(r.trials) for r in again.values())
     with pytest.raises(ValueError, match="none of the cells"):
         pooled(again, rows=[("marble", "palm")])
+    for bad, message in ((dict(objects=("teapot",)), "benchmark objects"), (dict(split="train"), "split"),
+                         (dict(every=0), "every")):
+        with pytest.raises(ValueError, match=message):
+            run_benchmark(None, **bad)

@@ -42,6 +42,7 @@ from .generator import remove_checkpoints
 from .grid import reachable
 from .objects import GraspObject, get_object, make_object
 from .trial import Noise
+from .validation import check_int
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
 PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")
@@ -146,6 +147,12 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         {(object, placement): EvaluationResult} in `cells()` order.
     """
     names = tuple(OBJECTS) if objects is None else tuple(objects)
+    unknown = [name for name in names if name not in OBJECTS]
+    if unknown or not names:
+        raise ValueError(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
+    if split not in SPLITS:
+        raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
+    every = check_int(every, "every")
     results = {}
     for name, placement in cells():
         if name not in names:
