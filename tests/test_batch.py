@@ -28,11 +28,12 @@ def reference_readings(obj, experience, poses, params=None, preshape=None, cycle
         controller = gm.GraspController(experience, params, preshape=preshape)
         scene.set_hand_pose(*palm_pose_for(gm.get_object(obj), pose))
         scene.set_posture(controller.initial)
-        run = {"joints": [], "forces": [], "targets": [], "phase": [], "matches": [], "done": []}
+        run = {"joints": [], "forces": [], "targets": [], "phase": [], "matches": [], "done": [], "winners": []}
         for _ in range(cycles):
             joints, forces = scene.posture(), scene.tactile().segment_forces
             target = controller.step(joints, forces)
-            for key, value in zip(run, (joints, forces, target, controller.phase, controller.matches, controller.done)):
+            for key, value in zip(run, (joints, forces, target, controller.phase, controller.matches, controller.done,
+                                        list(controller.winners))):
                 run[key].append(value)
             scene.set_target(target)
             scene.run(controller.params.control_period)
@@ -52,8 +53,12 @@ def test_batched_controller_makes_the_references_decisions_cycle_by_cycle(experi
             assert np.array_equal(targets[world], run["targets"][cycle]), (world, cycle)
             assert batch.done[world] == run["done"][cycle]
             assert batch.matches[world] == run["matches"][cycle]
+            assert batch.winners[world] == run["winners"][cycle]  # the per-cycle best matches it used
+            assert len(run["winners"][cycle]) == run["matches"][cycle]
             assert PHASES[batch.phase[world]] == run["phase"][cycle]
     assert batch.done.any() and (kind == "none" or batch.matches.sum() > 0)
+    if kind != "none":  # the winners are rows of the experience's references, each the best match of its query
+        assert all(0 <= w < len(experience[kind].references) for world in batch.winners for w in world)
 
 
 def test_batched_controller_follows_the_switches_and_a_constant_preshape(experience):
@@ -93,7 +98,7 @@ def test_batched_controller_rejects_bad_readings():
 
 
 TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
-                "penetration", "fault")
+                "penetration", "fault", "winners")
 
 
 @pytest.mark.parametrize("kind,noise,params", [("database", gm.Noise(), None), ("som", gm.Noise(0.004, 0.08, 0.01), None),

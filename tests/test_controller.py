@@ -269,6 +269,15 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
     loaded = gm.EvaluationResult.load(a.save(tmp_path / "trials.npz"))
     assert loaded.summary == a.summary and loaded.noise == noise
     assert a.successful_postures().shape[1] == 22
+    # the per-cycle best-match winners travel with the trials: one SOM node per match used
+    assert sum(t.matches for t in a.trials) > 0
+    for trial, again in zip(a.trials, loaded.trials):
+        assert len(trial.winners) == trial.matches and np.array_equal(trial.winners, again.winners)
+        assert ((0 <= trial.winners) & (trial.winners < experience["som"].n_nodes)).all()
+    arrays = dict(np.load(tmp_path / "trials.npz"))
+    np.savez(tmp_path / "corrupt.npz", **{**arrays, "winners": arrays["winners"][:-1]})
+    with pytest.raises(ValueError, match="corrupt.npz: its .* winners do not add up"):
+        gm.EvaluationResult.load(tmp_path / "corrupt.npz")
 
 
 @pytest.mark.parametrize("call, message", [

@@ -1,6 +1,7 @@
 """The reproduce pipeline end to end, on a reduced configuration."""
 
 import json
+import shutil
 
 import matplotlib.image
 import numpy as np
@@ -64,7 +65,15 @@ def test_every_promised_file_is_there(finished):
     assert cylinder["map"]["distance_max_deg"] > cylinder["map"]["distance_min_deg"] > 0
     assert cylinder["nearest_neighbour_deg"]["median"] >= cylinder["nearest_neighbour_deg"]["min"] >= 0
     assert "## Verdict per claim" in report and "Generator mode: settled" in report
-    assert len(saved["claims"]) == 10
+    assert len(saved["claims"]) == 11
+    # Fig. 6 while the controller runs: every best match the SOM controller used is counted against the map
+    som_trials = gm.EvaluationResult.load(out / "evaluation" / "cylinder_som.npz").trials
+    som_map = gm.SOM.load(out / "maps" / "cylinder.npz")
+    hits = som_map.hit_counts(gm.PostureSet.load(out / "postures" / "cylinder.npz").postures).ravel()
+    winners = np.concatenate([t.winners for t in som_trials])
+    assert cylinder["control_winners"]["winners"] == len(winners) == sum(t.matches for t in som_trials) > 0
+    assert cylinder["control_winners"]["winners_unsupported"] == int(np.sum(hits[winners] == 0))
+    assert "more often winners" in report
     assert {c["verdict"] for c in saved["claims"]} <= {"reproduced", "partly", "not reproduced", "not enough data"}
     # 12 or 48 postures for a 10 x 10 map: every map here is low data, and the report says so
     assert all(o["low_data"] for o in saved["objects"].values()) and "(low data: 12 postures, 100 nodes)" in report
@@ -90,6 +99,26 @@ def test_a_second_run_reuses_everything(finished):
     again, ran, _ = run(out)
     assert ran == []
     assert again["evaluation"] == summary["evaluation"]
+
+
+def test_the_verified_procedure_trains_on_the_candidates_that_hold(finished, tmp_path):
+    out = tmp_path / "verified"
+    shutil.copytree(finished[0], out)
+    config = ReproduceConfig(**{**REDUCED.__dict__, "procedure": "verified"})
+    summary, ran, _ = run(out, config, force=True)
+    assert not any(name.startswith("generate") for name in ran)  # the same candidates as the paper procedure's
+    assert [name for name in ran if name.startswith("verify")] == ["verify_box", "verify_cylinder", "verify_sphere"]
+    for name, size in REDUCED.postures.items():
+        held = gm.PostureSet.load(out / "postures" / f"{name}_held.npz")
+        assert held.metadata["verified"] and held.metadata["candidates"] == size >= len(held)
+        assert summary["objects"][name]["dataset_size"] == len(held)
+        assert summary["objects"][name]["candidates"] == size
+    assert summary["procedure"] == "verified"
+    assert "only candidates that hold when replayed" in (out / "report.md").read_text()
+    with pytest.raises(ValueError, match="procedure must be one of"):
+        ReproduceConfig(**{**REDUCED.__dict__, "procedure": "all"})
+    with pytest.raises(ValueError, match="leave generator.verify False"):
+        ReproduceConfig(**{**REDUCED.__dict__, "procedure": "verified", "generator": gm.GeneratorParams()})
 
 
 def test_a_run_interrupted_during_evaluation_resumes(finished):

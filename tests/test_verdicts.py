@@ -14,6 +14,8 @@ def _object(min_deg: float, max_deg: float) -> dict:
     return {"dataset_size": 5000, "candidates": 5000, "clusters": {"between_deg": 40.0, "starts": 3}, "starting_postures": 4,
             "nearest_neighbour_deg": {"min": 0.2}, "border_distance_ratio": 2.5, "evaluation_on_unsupported_nodes": 0.7,
             "force_closure_on_unsupported": [150, 200], "low_data": False,
+            "control_winners": {"trials": 200, "mainly_unsupported": 150, "winners": 4000, "winners_unsupported": 2900,
+                                "unsupported_nodes": 200, "nodes": 625},
             "map": {"distance_min_deg": min_deg, "distance_max_deg": max_deg, "distance_cv": 0.9, "distance_mean_deg": 6.0,
                     "unsupported_by_training": 100, "unsupported_by_evaluation": 600},
             "resumed_map": {"distance_min_deg": min_deg, "distance_max_deg": max_deg / 2, "distance_cv": 0.5,
@@ -42,6 +44,7 @@ CHANGES = {  # claims about every object -> the change that breaks the rule for 
 }
 FIGURE_CHANGES = {  # claims about the paper's figure object (the cylinder) -> the change that breaks them
     "evaluation grasps match mainly": ("force_closure_on_unsupported", [110, 200]),
+    "while the controller runs": ("control_winners.mainly_unsupported", 110),
     "after resumed learning the map is very smooth": ("resumed_map.distance_mean_deg", 6.5),
     "resumed learning homogenises": ("resumed_map.distance_cv", 2.0),
 }
@@ -56,7 +59,7 @@ def _set(o: dict, key: str, value: object) -> None:
 
 def test_every_claim_is_reproduced_by_a_run_that_meets_every_rule():
     verdicts = judge_claims(_summary())
-    assert len(verdicts) == 10
+    assert len(verdicts) == 11
     assert {v.verdict for v in verdicts} == {REPRODUCED}
     assert all(v.rule and v.paper and v.ours and not v.cause for v in verdicts)
 
@@ -93,6 +96,22 @@ def test_mainly_means_the_whole_wilson_interval_above_one_half():
     assert _verdict(summary, "evaluation grasps")[0] == REPRODUCED
     summary["objects"]["cylinder"]["force_closure_on_unsupported"] = [0, 0]
     assert _verdict(summary, "evaluation grasps")[0] == NOT_REPRODUCED
+
+
+def test_the_control_winners_are_judged_per_trial_with_the_wilson_interval():
+    summary = _summary()
+    winners = summary["objects"]["cylinder"]["control_winners"]
+    winners.update(trials=20, mainly_unsupported=13)  # 65 %, interval [43, 82]: not clear of one half
+    assert _verdict(summary, "while the controller runs")[0] == NOT_REPRODUCED
+    winners.update(trials=200, mainly_unsupported=130)  # 65 %, interval [58, 71]
+    verdict, _ = _verdict(summary, "while the controller runs")
+    assert verdict == REPRODUCED
+    row = next(v for v in judge_claims(summary) if v.claim.startswith("while the controller runs"))
+    assert "65 % [58, 71] of 200 trials" in row.ours and "200 of 625 nodes" in row.ours
+    winners.update(trials=0, mainly_unsupported=0)  # the SOM never matched: nothing to judge
+    assert _verdict(summary, "while the controller runs")[0] == NOT_ENOUGH_DATA
+    del summary["objects"]["cylinder"]["control_winners"]  # a run of a library that did not record them
+    assert not any(v.claim.startswith("while the controller runs") for v in judge_claims(summary))
 
 
 def test_the_minimum_distance_rule_is_a_factor_of_three_both_ways_and_names_the_cause():
@@ -157,4 +176,4 @@ def test_claims_about_the_paper_objects_are_left_out_for_other_objects():
     summary = {"objects": {"ring_m": _summary()["objects"]["box"]}, "figure_object": "ring_m"}
     claims = [v.claim for v in judge_claims(summary)]
     assert not any(c.startswith(("dataset", "minimum", "maximum")) for c in claims)
-    assert len(claims) == 6
+    assert len(claims) == 7

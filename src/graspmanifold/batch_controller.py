@@ -76,6 +76,7 @@ class BatchController:
         self.done = np.zeros(n, dtype=bool)
         self.time_to_grasp = np.full(n, np.nan)
         self.matches = np.zeros(n, dtype=int)
+        self.winners: list[list[int]] = [[] for _ in range(n)]  # per world: `GraspController.winners`
         self._closure = np.zeros((n, fingers))
         self._held = np.zeros((n, fingers), dtype=bool)
         self._held_posture = np.zeros((n, N_FINGER_JOINTS))
@@ -205,11 +206,14 @@ class BatchController:
         worlds = np.flatnonzero(candidates)
         if not len(worlds):
             return
-        match = self.experience.complete_batch(joints[worlds], masks[worlds])
+        winners = self.experience.best_match_batch(joints[worlds], masks[worlds])
+        match = self.experience.references[winners]
         if math.isfinite(p.max_match_distance):
             trusted = _rms(match - joints[worlds], masks[worlds]) <= p.max_match_distance
-            worlds, match = worlds[trusted], match[trusted]
+            worlds, match, winners = worlds[trusted], match[trusted], winners[trusted]
         self.matches[worlds] += 1
+        for world, winner in zip(worlds, winners):
+            self.winners[world].append(int(winner))
         self._base[worlds] = np.where(self._steered, match, self._base[worlds])
         if p.restart_closure or p.reach > 0:  # the first trusted match after a contact restarts the closure
             restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]

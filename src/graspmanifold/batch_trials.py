@@ -83,14 +83,15 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
         trials[world] = Trial(poses[world], posture, np.array([reading.touches(s) for s in SEGMENTS]), epsilon,
                               bool(worst[world] <= HOLD_LIMIT), float(worst[world]),
                               float(controller.time_to_grasp[world]), int(controller.matches[world]),
-                              float(held_force[world]), worlds.max_penetration(world))
+                              float(held_force[world]), worlds.max_penetration(world),
+                              winners=np.array(controller.winners[world], dtype=int))
 
     def fail(world: int, why: str) -> None:
         stage[world] = _FINISHED
         grasped.pop(world, None)
         trials[world] = Trial(poses[world], worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool), 0.0,
                               False, np.inf, worlds.time(world), int(controller.matches[world]), 0.0,
-                              worlds.max_penetration(world), why)
+                              worlds.max_penetration(world), why, np.array(controller.winners[world], dtype=int))
 
     while (stage != _FINISHED).any():
         # judging begins for the worlds whose grasp ended in the last period

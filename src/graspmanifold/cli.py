@@ -251,8 +251,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "scheduler) or dask://local (a LocalCluster here); needs graspmanifold[cluster]")
 
     reproduce = command("reproduce", "regenerate every figure and table of the paper into one directory")
-    reproduce.add_argument("--preset", choices=("quick", "paper"), default="quick",
-                           help="quick (minutes) or paper (the paper's sizes)")
+    reproduce.add_argument("--preset", choices=("quick", "paper", "verified"), default="quick",
+                           help="quick (the paper's procedure at small sizes, a minute or two), paper (the paper's "
+                           "procedure and dataset sizes) or verified (the paper's candidates, trained on those that hold)")
     reproduce.add_argument("--objects", nargs="+", metavar="NAME",
                            help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
                            "bottle_m); an object outside the paper gets the cylinder's preset size")

@@ -184,6 +184,7 @@ class GraspController:
         self.done = False
         self.time_to_grasp: float | None = None
         self.matches = 0  # best-match queries used
+        self.winners: list[int] = []  # the best match (a row of experience.references) of every query used, in order
         self._closure = dict.fromkeys(FINGERS, 0.0)
         self._held: dict[str, np.ndarray] = {}
         self._lost: dict[str, np.ndarray] = {}  # fingers that lost their contact: the posture they held
@@ -272,12 +273,14 @@ class GraspController:
         mask = pcp_mask(touching_segments) if touching_segments else np.ones(len(FINGER_JOINTS), dtype=bool)
         if not mask.any():  # a palm contact alone specifies no joint
             return
-        match = self.experience.complete(joints, mask)
+        winner = self.experience.best_match(joints, mask)
+        match = self.experience.references[winner]
         if math.isfinite(p.max_match_distance):
             rms = float(np.sqrt(np.mean((match - joints)[mask] ** 2)))
             if rms > p.max_match_distance:
                 return
         self.matches += 1
+        self.winners.append(int(winner))
         self._base = np.where(self._steered, match, self._base)
         if (p.restart_closure or p.reach > 0) and touching_segments and not self._recalled:
             self._recalled = True

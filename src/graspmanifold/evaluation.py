@@ -125,6 +125,8 @@ class EvaluationResult:
                   "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
                   "penetration": np.array([x.penetration for x in t]),
                   "fault": np.array([x.fault for x in t], dtype=str)}
+        if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
+            arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
                 "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
@@ -138,9 +140,16 @@ class EvaluationResult:
     def _load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
         a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
                                                 "margin": (None,), "penetration": (None,), "fault": (None,)})
+        winners: list[np.ndarray | None] = [None] * len(a["epsilon"])
+        if "winners" in a:
+            ends = np.cumsum(np.asarray(a["matches"], dtype=int))
+            if len(ends) and (ends[-1] != len(a["winners"]) or (np.diff(ends, prepend=0) < 0).any()):
+                raise ValueError(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
+                                 f"{int(ends[-1])} matches; the file is corrupt")
+            winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
-                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]))
+                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i])
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu")), meta

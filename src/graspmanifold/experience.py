@@ -27,6 +27,11 @@ class Experience(Protocol):
 
     dim: int
 
+    @property
+    def references(self) -> np.ndarray:
+        """The reference postures (k, dim) that `best_match` indexes."""
+        ...
+
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int: ...
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray: ...
@@ -51,6 +56,11 @@ class PostureDatabase:
     def __len__(self) -> int:
         return len(self.postures)
 
+    @property
+    def references(self) -> np.ndarray:
+        """The stored postures (n, dim), read-only: `best_match` gives a row of them."""
+        return self.postures
+
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
         """Row of the stored posture nearest to x under the PCP distance of Eq. 2."""
         return self._search.nearest(x, mask)
@@ -61,11 +71,11 @@ class PostureDatabase:
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """The best-matching stored posture, in full."""
-        return self.postures[self.best_match(x, mask)].copy()
+        return self.references[self.best_match(x, mask)].copy()
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """The best-matching stored postures (m, dim) of queries X (m, dim): `complete` of every row."""
-        return self.postures[self.best_match_batch(X, masks)]
+        return self.references[self.best_match_batch(X, masks)]
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}

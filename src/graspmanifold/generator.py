@@ -556,7 +556,8 @@ def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarr
 
 
 def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int = 1, *,
-                    params: GeneratorParams | None = None) -> PostureSet:
+                    params: GeneratorParams | None = None, executor: Executor | None = None,
+                    progress: bool = False) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
     Each posture is replayed at its palm pose in front of the free object, the fingers press with
@@ -570,6 +571,8 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
         obj: the object the set was generated on, or its name.
         workers: worker processes.
         params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
+        executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
+        progress: show a progress bar.
 
     Returns:
         The postures that held, with their epsilon and largest hold displacement (m); the metadata
@@ -579,7 +582,9 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
     params = params or GeneratorParams()
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
     tasks = [(obj, params, postures.postures[c], postures.hand_poses[c]) for c in chunks if len(c)]
-    rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers) or [np.zeros((0, 3))])
+    with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:
+        rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers, lambda _, r: report.update(len(r)), executor)
+                              or [np.zeros((0, 3))])
     held = rows[:, 0] > 0
     kept = postures.subset(held)
     names = [name.split(":", 1)[-1] for name in postures.start_names]

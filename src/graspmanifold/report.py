@@ -74,7 +74,8 @@ class RunData:
         if not (out / "run.json").exists():
             raise ValueError(f"{out} is not a graspmanifold reproduce run (no run.json)")
         config = json.loads((out / "run.json").read_text())["config"]
-        sets = {p.stem: PostureSet.load(p) for p in sorted((out / "postures").glob("*.npz"))}
+        held = "_held" if config.get("procedure") == "verified" else ""  # the training postures of the procedure
+        sets = {name: PostureSet.load(out / "postures" / f"{name}{held}.npz") for name in config["postures"]}
         maps = {p.stem: SOM.load(p) for p in sorted((out / "maps").glob("*.npz")) if not p.stem.endswith("_resumed")}
         resumed = {p.stem[: -len("_resumed")]: SOM.load(p) for p in sorted((out / "maps").glob("*_resumed.npz"))}
         results = {}
@@ -200,11 +201,25 @@ def _on_unsupported(som: SOM, hits: np.ndarray, postures: np.ndarray) -> list[in
     return [int(np.sum(hits.ravel()[winners] == 0)), int(len(postures))]
 
 
+def _control_winners(result: EvaluationResult, hits: np.ndarray) -> dict | None:
+    """The SOM controller's per-cycle best-match winners (`Trial.winners`) against the map's training
+    support `hits`: over the valid trials that matched at all, how many had mostly (over half) winners
+    without training data, and over all winners, how many lack it; None when the trials did not record them."""
+    if any(t.winners is None for t in result.trials):
+        return None
+    unsupported = hits.ravel() == 0
+    trials = [t.winners for t in result.trials if t.valid and len(t.winners)]
+    events = np.concatenate([np.zeros(0, dtype=int), *trials])
+    return {"trials": len(trials), "mainly_unsupported": int(sum(unsupported[w].mean() > 0.5 for w in trials)),
+            "winners": int(len(events)), "winners_unsupported": int(unsupported[events].sum()),
+            "unsupported_nodes": int(unsupported.sum()), "nodes": int(len(unsupported))}
+
+
 def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
     """Write report.md and summary.json: every number from this run, beside the paper's."""
     objects = list(run.sets)
-    summary: dict = {"library_version": library_version(), "objects": {}, "evaluation": [],
-                     "figures": figure_info}
+    summary: dict = {"library_version": library_version(), "procedure": run.config.get("procedure", "paper"),
+                     "objects": {}, "evaluation": [], "figures": figure_info}
     for name in objects:
         postures = run.sets[name]
         successes = run.results[(name, "som")].successful_postures()
@@ -229,6 +244,8 @@ def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
             # many of them best-match a node without training data
             "force_closure_on_unsupported": _on_unsupported(run.maps[name], hits,
                                                             run.results[(name, "som")].successful_postures(False)),
+            # "more often winners" while the controller runs: its per-cycle best matches
+            "control_winners": _control_winners(run.results[(name, "som")], hits),
             "low_data": bool(len(postures) < run.maps[name].n_nodes),  # fewer postures than nodes: verdicts void
         }
     obj = figure_object(objects)
@@ -262,7 +279,8 @@ def _choices(run: RunData) -> list[list[str]]:
     c = ControllerParams()
     grid = config["grid"]
     return [
-        ["posture procedure", "every spring candidate with its five fingertips on the object kept" if not g.get("verify")
+        ["posture procedure", "every spring candidate with its five fingertips on the object kept"
+         if not g.get("verify") and config.get("procedure", "paper") == "paper"
          else f"only candidates that hold when replayed (hold test, {g.get('verify_hold_seconds')} s per direction)",
          "every recorded posture with five fingertip contacts (no verification described)"],
         ["spring generator", f"mode {g.get('mode')}" + (f", a posture every {g.get('record_every')} physics steps"
@@ -325,9 +343,12 @@ def _markdown(run: RunData, summary: dict) -> str:
              "character: each posture's distance to its nearest other posture (min: the closest pair; median; "
              "90th percentile), the spread of each starting posture's cluster (mean distance to its mean) and the "
              "distance between cluster means; all in degrees over the 22 joints.\n\n",
-             _table(["object", "postures", "paper", "acceptance", "starting postures with data", "nearest neighbour "
-                     "min / median / p90 (°)", "within-start (°)", "between starts (°)"],
-                    [[n, o["dataset_size"], _fmt(o["paper_dataset_size"]), _fmt(o["acceptance_ratio"], 2),
+             f"Procedure: {run.config.get('procedure', 'paper')} (`ReproduceConfig.procedure`): trained on "
+             + ("every candidate" if run.config.get("procedure", "paper") == "paper" and not run.config["generator"].get(
+                 "verify") else "the candidates that hold") + "; the springs' yield is candidates per placement tried.\n\n",
+             _table(["object", "trained on", "candidates", "paper", "springs' yield", "starting postures with data",
+                     "nearest neighbour min / median / p90 (°)", "within-start (°)", "between starts (°)"],
+                    [[n, o["dataset_size"], o["candidates"], _fmt(o["paper_dataset_size"]), _fmt(o["acceptance_ratio"], 2),
                       f"{o['clusters']['starts']} of {o['starting_postures']}", " / ".join(_fmt(o["nearest_neighbour_deg"][k]) for k in
                                                          ("min", "median", "p90")),
                       _fmt(o["clusters"]["within_deg"]), _fmt(o["clusters"]["between_deg"])]
@@ -370,6 +391,13 @@ def _markdown(run: RunData, summary: dict) -> str:
                      "successful grasps on nodes without training data"],
                     [[n, o["successful_som_postures"], f"{o['supported_nodes']} of {o['map']['nodes']}",
                       _fmt(o["evaluation_on_unsupported_nodes"])] for n, o in objects.items()]),
+             "And while the controller runs (the paper: inter-cluster nodes \"are more often winners\"): the SOM "
+             "controller's best match in every control cycle whose match it used.\n\n",
+             _table(["object", "trials with matches", "trials mostly on nodes without training data",
+                     "winners", "winners on nodes without training data", "nodes without training data"],
+                    [[n, w["trials"], rate_text(w["mainly_unsupported"], w["trials"]), w["winners"],
+                      rate_text(w["winners_unsupported"], w["winners"]), f"{w['unsupported_nodes']} of {w['nodes']}"]
+                     for n, o in objects.items() if (w := o.get("control_winners"))]),
              "## Resumed learning (Figs. 7, 8)\n\n",
              "10 epochs with the successful evaluation postures, learning rate 0.1 → 0.05, σ 3 → 0.7.\n\n",
              _table(["object", "distance CV before → after", "max distance (°) before → after",

@@ -170,6 +170,11 @@ class SOM:
         self._weights = array
         self._search = None
 
+    @property
+    def references(self) -> np.ndarray:
+        """The nodes' reference vectors as rows (n_nodes, dim), in the flat order of `best_match` (read-only)."""
+        return self.weights.reshape(-1, self.dim)
+
     def _require_weights(self) -> np.ndarray:
         if self._weights is None:
             raise RuntimeError("this SOM has no weights yet: call fit() (or initialize()) first")
@@ -313,11 +318,11 @@ class SOM:
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """The best-matching node's full reference vector: x pulled onto the map."""
-        return self._require_weights().reshape(-1, self.dim)[self.best_match(x, mask)].copy()
+        return self.references[self.best_match(x, mask)].copy()
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """The best-matching nodes' reference vectors (m, dim) of queries X (m, dim): `complete` of every row."""
-        return self._require_weights().reshape(-1, self.dim)[self.best_match_batch(X, masks)]
+        return self.references[self.best_match_batch(X, masks)]
 
     # -- quality and structure -------------------------------------------------------------------
     def quantization_error(self, X: np.ndarray) -> float:

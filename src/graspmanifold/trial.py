@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +66,9 @@ class Trial:
     margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
     penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
     fault: str = ""  # why the physics of this trial failed; empty when it did not
+    #: the best match of every experience query the controller used (`matches` of them), in order: rows of
+    #: `experience.references` (a SOM's flat node indices); None when not recorded (a file of library 0.1.0)
+    winners: np.ndarray | None = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __repr__(self) -> str:
         outcome = f"invalid: {self.fault}" if self.fault else (
@@ -142,10 +145,11 @@ def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.nda
         judgement = judge_grasp(scene, cycle, period)
     except (SimulationError, QualityError) as error:
         return Trial(grid_pose, scene.posture(), np.zeros(len(SEGMENTS), dtype=bool), 0.0, False, np.inf,
-                     float(scene.time), controller.matches, 0.0, scene.max_penetration, str(error))
+                     float(scene.time), controller.matches, 0.0, scene.max_penetration, str(error),
+                     np.array(controller.winners, dtype=int))
     return Trial(grid_pose, posture, np.array([reading.touches(s) for s in SEGMENTS]),
                  judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
-                 controller.matches, judgement.margin, scene.max_penetration)
+                 controller.matches, judgement.margin, scene.max_penetration, winners=np.array(controller.winners, dtype=int))
 
 
 @dataclass

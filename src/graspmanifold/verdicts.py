@@ -102,7 +102,10 @@ def judge_claims(summary: dict) -> list[Verdict]:
             "dataset sizes (Section 5)", ", ".join(f"{n} {PAPER_DATASET_SIZES[n]}" for n in paper_objects),
             ", ".join(f"{n} {o['dataset_size']} of {o['candidates']} candidates" for n, o in paper_objects.items()),
             verdict, "every object's experience holds at least the paper's number of postures",
-            "" if not missed else "fewer postures were asked for than the paper used (ReproduceConfig.postures)"))
+            "" if not missed else "; ".join(
+                f"{n}: the verification kept {objects[n]['dataset_size']} of {objects[n]['candidates']} candidates"
+                if objects[n]["candidates"] >= PAPER_DATASET_SIZES[n] else
+                f"{n}: {objects[n]['candidates']} candidates were asked for (ReproduceConfig.postures)" for n in missed)))
 
         def min_ok(n: str, o: dict) -> bool:
             ratio = o["map"]["distance_min_deg"] / PAPER_MIN_DISTANCE_DEG[n]
@@ -173,6 +176,21 @@ def judge_claims(summary: dict) -> list[Verdict]:
             f"on the figure's object, the 95 % Wilson interval of the share of the SOM controller's force-closure "
             f"grasps (epsilon > 0.01, as the caption counts) whose best match is a node without training data lies "
             f"above {MAINLY:.0%}"))
+
+        winners = o.get("control_winners")
+        if winners is not None:
+            trials, mostly = winners["trials"], winners["mainly_unsupported"]
+            more_often = trials > 0 and wilson_interval(mostly, trials)[0] > MAINLY
+            verdicts.append(Verdict(
+                "while the controller runs, inter-cluster nodes are more often winners than cluster nodes "
+                "(Section 5, Fig. 6)", f"more often winners ({figure})",
+                f"{figure}: {_share(mostly, trials)} trials of the SOM controller mostly on nodes without training "
+                f"data; {_share(winners['winners_unsupported'], winners['winners'])} per-cycle winners, on "
+                f"{winners['unsupported_nodes']} of {winners['nodes']} nodes",
+                NOT_ENOUGH_DATA if o.get("low_data") or not trials else REPRODUCED if more_often else NOT_REPRODUCED,
+                f"on the figure's object, the 95 % Wilson interval of the share of the SOM controller's trials whose "
+                f"per-cycle best-match winners (the matches it used) lie mostly (over half) on nodes without training "
+                f"data lies above {MAINLY:.0%} (a trial is the unit: the cycles of one grasp are not independent)"))
 
         resumed = o["resumed_map"]
         verdicts.append(Verdict(
