@@ -5,6 +5,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.grid import palm_pose_for
+from graspmanifold.hand import PHYSICS_TIMESTEP
 
 
 @pytest.fixture(scope="module")
@@ -157,12 +158,22 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
 @pytest.mark.parametrize("field, value", [("control_period", 0.0), ("control_period", -0.02),
                                           ("closing_rate", -1.0), ("timeout", float("nan")),
                                           ("squeeze", -0.1), ("steered_fingers", ("ff", "toe")),
-                                          ("max_match_distance", 0.0), ("restart_closure", 1)])
+                                          ("max_match_distance", 0.0), ("restart_closure", 1),
+                                          # not a whole number of 2 ms physics steps: the clocks would drift apart
+                                          # (0.0005 once ran 24.8 s of physics for 6.2 s of controller time)
+                                          ("control_period", 0.0005), ("control_period", 0.003),
+                                          ("control_period", 1e-9), ("control_period", True)])
 def test_bad_controller_params_raise(field, value):
     with pytest.raises(ValueError, match=field):
         gm.ControllerParams(**{field: value})
     with pytest.raises(ValueError, match="restart_closure needs steered_joints='all'"):
         gm.ControllerParams(restart_closure=True, steered_joints="spread")
+
+
+def test_the_physics_timestep_is_the_models():
+    scene = gm.Scene("cylinder")
+    assert scene.model.opt.timestep == PHYSICS_TIMESTEP
+    assert gm.ControllerParams(control_period=0.004).control_period == 0.004
 
 
 def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the_touching_segment():

@@ -64,7 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .experience import Experience, check_experience
-from .hand import FINGER_JOINTS, FINGERS, SEGMENTS, SegmentKinematics, finger_limits, finger_of
+from .hand import PHYSICS_TIMESTEP, FINGER_JOINTS, FINGERS, SEGMENTS, SegmentKinematics, finger_limits, finger_of
 from .posture import closed_posture, open_posture, pcp_mask, validate_posture
 
 _FINGER_OF_JOINT = np.array([finger_of(j) for j in FINGER_JOINTS])
@@ -105,6 +105,11 @@ class ControllerParams:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
+        steps = self.control_period / PHYSICS_TIMESTEP
+        if isinstance(self.control_period, bool) or round(steps) < 1 or abs(steps - round(steps)) > 1e-6:
+            raise ValueError(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
+                             f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
+                             "make the controller's clock run apart from the physics")
         for name in ("preshape_time", "squeeze", "release_time", "stable_time", "reach"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):

@@ -87,6 +87,8 @@ ACTUATORS: tuple[str, ...] = (
 )  # fmt: skip
 
 HAND_MODEL_FILE = "shadow_hand.xml"
+#: s, the physics step of the model (its <option timestep>): a control period is a whole number of them
+PHYSICS_TIMESTEP = 0.002
 
 
 def asset_path(name: str) -> Path:
