@@ -298,6 +298,8 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
     (lambda: gm.Noise(position=float("nan")), "noise position"),
     (lambda: gm.Noise(joints=-0.1), "noise joints"),
     (lambda: gm.evaluate("cylinder", None, workers=0), "workers"),
+    # an object no pose of the grid can hold used to run 0 trials and write NaN into summary.json
+    (lambda: gm.evaluate(gm.make_object("box", size=(0.3, 0.3, 0.3)), None, "quick"), "no pose of the 'quick' grid"),
 ])
 def test_bad_evaluation_input_raises(call, message):
     with pytest.raises(ValueError, match=message):

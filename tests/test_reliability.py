@@ -297,6 +297,7 @@ def test_a_hand_placed_inside_an_object_is_a_fault_not_a_huge_force():
                                            ({"postures": {"teapot": 4}}, "postures"),
                                            ({"postures": {"all": 4}}, "postures"), ({"postures": {}}, "postures"),
                                            ({"map_size": (0, 5)}, "map_size"),
+                                           ({"map_size": (3, 3)}, "at least 2 x 4"),
                                            ({"epochs": 0}, "epochs"), ({"sigma": (0.5, 6.0)}, "sigma")])
 def test_a_bad_reproduce_config_is_refused_before_any_work(change, field):
     from graspmanifold.reproduce import ReproduceConfig

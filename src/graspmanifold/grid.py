@@ -65,7 +65,12 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
     else:
         axes = (np.linspace(-0.03, 0.03, 5), np.linspace(-0.03, 0.03, 5), [0.01, 0.025], yaw)
     poses = np.array(list(itertools.product(*axes)), dtype=float)
-    return poses[reachable(obj, poses, table)]
+    poses = poses[reachable(obj, poses, table)]
+    if not len(poses):
+        raise ValueError(f"no pose of the {name!r} grid is reachable for {obj.name}: at every one the object lies "
+                         f"inside (or within {START_CLEARANCE * 1000:.0f} mm of) the open hand{' or the table' if table else ''}; "
+                         "an object this large needs a custom grid with larger gaps (graspmanifold.reachable)")
+    return poses
 
 
 def clearance(scene: Scene, pose: np.ndarray) -> float:

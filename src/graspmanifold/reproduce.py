@@ -89,6 +89,9 @@ class ReproduceConfig:
                 raise ValueError(f"ReproduceConfig.postures: {error}") from None
         if len(self.map_size) != 2 or not all(positive_int(v) for v in self.map_size):
             raise ValueError(f"ReproduceConfig.map_size must be two positive integers, got {self.map_size!r}")
+        if min(self.map_size) < 2 or max(self.map_size) < 4:
+            raise ValueError(f"ReproduceConfig.map_size must be at least 2 x 4: Figs. 3 and 5 show two 1 x 4 runs of "
+                             f"nodes, got {tuple(self.map_size)}")
         for name in ("epochs", "image_size"):
             if not positive_int(getattr(self, name)):
                 raise ValueError(f"ReproduceConfig.{name} must be a positive integer, got {getattr(self, name)!r}")
