@@ -77,6 +77,11 @@ def test_a_benchmark_run_is_kept_and_taken_up_again(tmp_path, monkeypatch):
     assert len(outcomes) == len(valid) == sum(len(r.trials) for r in again.values())
     with pytest.raises(ValueError, match="none of the cells"):
         pooled(again, rows=[("marble", "palm")])
+    ran = []
+    monkeypatch.setattr(gm.benchmark, "evaluate", lambda *args, **kwargs: ran.append(kwargs["seed"]) or first[
+        ("pen", "palm")])
+    run_benchmark(None, objects=("pen",), every=25, store=tmp_path, label="none", seed=1)
+    assert ran == [1, 1]  # another seed under the same label is run, not taken from the store
     for bad, message in ((dict(objects=("teapot",)), "benchmark objects"), (dict(split="train"), "split"),
                          (dict(every=0), "every")):
         with pytest.raises(ValueError, match=message):

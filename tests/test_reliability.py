@@ -285,6 +285,28 @@ def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_p
         gm.evaluate("box", None, grid, seed=4, checkpoint_dir=parts)
 
 
+def test_results_of_other_code_are_never_reused(tmp_path, monkeypatch):
+    """Checkpoint parts, generator jobs and reproduce stages are keyed by the library's version and code
+    (`version.code_fingerprint`): after an upgrade they run again instead of mixing old results in."""
+    from graspmanifold import version
+    from graspmanifold.reproduce import _Stages
+
+    grid = gm.grid_preset("quick", "box")[:2]
+    gm.evaluate("box", None, grid, checkpoint_dir=tmp_path / "parts")
+    stages = _Stages(tmp_path / "run", log=lambda line: None, total=1)
+    output = tmp_path / "run" / "out.txt"
+    stages.run("write", "key", [output], lambda: output.write_text("made"))
+    stages.run("write", "key", [output], lambda: output.write_text("made"))
+    assert stages.ran == ["write"] and stages.reused == ["write"]
+    monkeypatch.setattr(version, "__version__", "9.9.9")
+    with pytest.warns(UserWarning, match="discarded 2 checkpoint part"):
+        gm.evaluate("box", None, grid, checkpoint_dir=tmp_path / "parts")
+    stages.run("write", "key", [output], lambda: output.write_text("made"))
+    assert stages.ran == ["write", "write"]
+    monkeypatch.setattr(version, "_source_digest", lambda: "edited")  # an edited checkout: the same
+    assert version.code_fingerprint() == "9.9.9+edited"
+
+
 def test_a_hand_placed_inside_an_object_is_a_fault_not_a_huge_force():
     scene = gm.Scene(gm.make_object("sphere", radius=0.12, name="ball"))
     scene.set_hand_pose(*gm.facing_pose("sphere", clearance=0.0))  # a 3 cm sphere's pose: deep inside this one

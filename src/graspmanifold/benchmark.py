@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from .controller import ControllerParams
-from .evaluation import EvaluationResult, evaluate
-from .experience import Experience
+from .evaluation import EvaluationResult, evaluate, trials_key
+from .experience import Experience, check_experience
 from .generator import remove_checkpoints
 from .grid import reachable
 from .objects import GraspObject, get_object, make_object
@@ -158,19 +158,24 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         if name not in names:
             continue
         path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
+        grid = benchmark_grid(name, placement, split)[::every]
+        key = trials_key(OBJECTS[name].object, check_experience(experience), grid, seed, noise, params,
+                         preshape=preshape)
         if path is not None and path.exists():
             try:
-                results[(name, placement)] = EvaluationResult.load(path)
-                continue
-            except ValueError:  # truncated or from another version: run it again
-                path.unlink()
-        grid = benchmark_grid(name, placement, split)[::every]
+                result, meta = EvaluationResult._load_with_metadata(path)
+                if meta.get("key") == key:
+                    results[(name, placement)] = result
+                    continue
+            except ValueError:  # truncated, or not an evaluation
+                pass
+            path.unlink()  # another configuration's (or code's) result under this label: run it again
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
                           params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor)
         result.method, result.grid_name = label or result.method, f"{split}/{placement}"
         if path is not None:
-            result.save(path)
+            result.save(path, extra={"key": key})
             remove_checkpoints(parts)
         results[(name, placement)] = result
     return results

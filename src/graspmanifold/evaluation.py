@@ -14,7 +14,6 @@ import functools
 import hashlib
 import json
 import os
-import pickle
 import warnings
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
@@ -35,6 +34,7 @@ from .progress import progress_bar
 from .stats import rate_text, wilson_interval
 from .trial import Noise, Trial
 from .validation import check_int
+from .version import code_fingerprint
 from .workers import parallel_map
 
 
@@ -180,15 +180,27 @@ def _run_chunk(task: tuple[list[int], np.ndarray, int], *, obj: GraspObject, exp
     return run_trials(obj, experience, poses, rngs, noise, params, table, preshape, backend)
 
 
-def _signature(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int, noise: Noise,
-               params: ControllerParams | None, table: bool, preshape: np.ndarray | None) -> str:
-    """A digest of everything a trial's outcome depends on: checkpoint parts of another
-    configuration are never mixed in."""
-    digest = hashlib.sha256(json.dumps({"object": obj.params(), "seed": int(seed), "noise": asdict(noise),
-                                        "params": asdict(params or ControllerParams()), "table": bool(table)},
+def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int = 0,
+               noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
+               preshape: np.ndarray | None = None, backend: str = "cpu") -> str:
+    """A digest of everything a set of trials depends on, the library's code included
+    (`version.code_fingerprint`): stored trials under another key are never mixed in or reused.
+
+    Args:
+        obj: the object; experience: the experience base (None: the heuristic); poses: grid poses (n, 4)
+        in m and rad; seed, noise, params, table, preshape, backend: as `evaluate` takes them.
+
+    Returns:
+        A 20-character hexadecimal key.
+    """
+    digest = hashlib.sha256(json.dumps({"object": obj.params(), "seed": int(seed), "noise": asdict(noise or Noise()),
+                                        "params": asdict(params or ControllerParams()), "table": bool(table),
+                                        "backend": backend, "code": code_fingerprint()},
                                        sort_keys=True, default=str).encode())
     digest.update(np.ascontiguousarray(poses, dtype=float).tobytes())
-    digest.update(pickle.dumps(experience))
+    if experience is not None:  # what a controller reads of it: its kind and its reference postures
+        digest.update(type(experience).__name__.encode())
+        digest.update(np.ascontiguousarray(experience.references, dtype=float).tobytes())
     digest.update(b"" if preshape is None else np.ascontiguousarray(preshape, dtype=float).tobytes())
     return digest.hexdigest()[:20]
 
@@ -245,9 +257,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
-    signature = _signature(obj, experience, poses, seed, noise, params, table, preshape)
-    if backend != "cpu":  # another engine's trials are not the CPU's
-        signature = hashlib.sha256(f"{signature} {backend}".encode()).hexdigest()[:20]
+    signature = trials_key(obj, experience, poses, seed, noise, params, table, preshape, backend)
     done: dict[int, list[Trial]] = {}
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)

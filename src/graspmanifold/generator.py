@@ -63,6 +63,7 @@ from .progress import progress_bar
 from .scene import Scene, SimulationError
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 from .validation import check_int
+from .version import code_fingerprint
 from .workers import parallel_map
 
 #: The paper's dataset sizes (Section 5), and a small set for tests and demos.
@@ -450,7 +451,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     if not starts:
         raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
     signature = json.dumps({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                            "starts": [s.name for s in starts]}, sort_keys=True)
+                            "starts": [s.name for s in starts], "code": code_fingerprint()}, sort_keys=True)
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
     saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     if directory is not None:

@@ -42,6 +42,7 @@ from .postureset import PostureSet
 from .report import RUN_METHODS as METHODS
 from .report import RunData, write_figures, write_report
 from .som import PAPER, RESUME, SOM, check_schedule
+from .version import code_fingerprint
 
 
 #: how the training postures are made from the spring generator's candidates: `paper` keeps every one with
@@ -148,6 +149,7 @@ class _Stages:
         self.reused: list[str] = []
 
     def run(self, name: str, key: str, outputs: list[Path], work: Callable[[], dict | None]) -> dict:
+        key = _digest(key, code_fingerprint())  # another version's (or an edited checkout's) stage runs again
         manifest = self.out / "stages" / f"{name}.json"
         if manifest.exists():
             try:
