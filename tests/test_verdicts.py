@@ -121,6 +121,8 @@ def test_the_minimum_distance_rule_is_a_factor_of_three_both_ways_and_names_the_
     summary["objects"]["box"]["map"]["distance_min_deg"] = 0.013 / 3.1
     verdict, cause = _verdict(summary, "minimum")
     assert verdict == PARTLY and "box 0.2°" in cause
+    row = next(v for v in judge_claims(summary) if v.claim.startswith("minimum"))
+    assert "box 0.00419 (0.323x the paper's)" in row.ours  # by how much it misses
 
 
 def test_the_maximum_distance_rule_is_twenty_percent():
@@ -130,6 +132,7 @@ def test_the_maximum_distance_rule_is_twenty_percent():
     summary["objects"]["cylinder"]["map"]["distance_max_deg"] = 63.45 * 0.79
     verdict, cause = _verdict(summary, "maximum")
     assert verdict == PARTLY and "cylinder: 3 of 4 starting postures kept grasps, cluster means 40° apart" in cause
+    assert "cylinder 50.1 (-21%)" in next(v for v in judge_claims(summary) if v.claim.startswith("maximum")).ours
 
 
 def test_fig5_needs_border_crossings_intermediate_middles_and_no_jump():

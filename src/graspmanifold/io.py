@@ -20,7 +20,7 @@ from typing import IO
 
 import numpy as np
 
-from .version import __version__
+from .version import __version__, code_fingerprint
 
 SCHEMA_VERSION = 2
 _METADATA_KEY = "__metadata__"
@@ -31,8 +31,9 @@ def library_version() -> str:
 
 
 def software_versions() -> dict[str, str]:
-    """What a result depends on besides its configuration: this library's, MuJoCo's, NumPy's and
-    Python's versions and the machine (processor, cores, system)."""
+    """What a result depends on besides its configuration: this library's version and code
+    (`version.code_fingerprint`), MuJoCo's, NumPy's and Python's versions and the machine (processor,
+    cores, system)."""
     import platform
 
     import mujoco
@@ -43,7 +44,7 @@ def software_versions() -> dict[str, str]:
                          if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
-    return {"graspmanifold": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+    return {"graspmanifold": __version__, "code": code_fingerprint(), "mujoco": mujoco.__version__, "numpy": np.__version__,
             "python": platform.python_version(), "machine": f"{platform.machine()} {processor or '?'}, "
             f"{os.cpu_count()} cores, {platform.system()} {platform.release()}"}
 

@@ -114,7 +114,9 @@ def judge_claims(summary: dict) -> list[Verdict]:
         verdict, missed = _per_object(paper_objects, min_ok)
         verdicts.append(Verdict(
             "minimum inter-node distance (°)", ", ".join(f"{n} {PAPER_MIN_DISTANCE_DEG[n]}" for n in paper_objects),
-            ", ".join(f"{_name(n, o)} {_fmt(o['map']['distance_min_deg'])}" for n, o in paper_objects.items()),
+            ", ".join(f"{_name(n, o)} {_fmt(o['map']['distance_min_deg'])} "
+                      f"({_fmt(o['map']['distance_min_deg'] / PAPER_MIN_DISTANCE_DEG[n])}x the paper's)"
+                      for n, o in paper_objects.items()),
             verdict, f"within a factor {MIN_DISTANCE_FACTOR:g} of the paper's for every object",
             "" if not missed else "the smallest inter-node distance follows the densest clump of near-identical "
             "training postures; our closest pair of training postures is " + ", ".join(
@@ -125,7 +127,9 @@ def judge_claims(summary: dict) -> list[Verdict]:
             o["map"]["distance_max_deg"] / PAPER_MAX_DISTANCE_DEG[n] - 1) <= MAX_DISTANCE_TOLERANCE)
         verdicts.append(Verdict(
             "maximum inter-node distance (°)", ", ".join(f"{n} {PAPER_MAX_DISTANCE_DEG[n]}" for n in paper_objects),
-            ", ".join(f"{_name(n, o)} {_fmt(o['map']['distance_max_deg'])}" for n, o in paper_objects.items()),
+            ", ".join(f"{_name(n, o)} {_fmt(o['map']['distance_max_deg'])} "
+                      f"({o['map']['distance_max_deg'] / PAPER_MAX_DISTANCE_DEG[n] - 1:+.0%})"
+                      for n, o in paper_objects.items()),
             verdict, f"within {MAX_DISTANCE_TOLERANCE:.0%} of the paper's for every object",
             "" if not missed else "the largest distance spans the widest gap between clusters of training data, and "
             "our clusters are few and close: " + "; ".join(f"{n}: {_clusters(objects[n])}" for n in missed)
