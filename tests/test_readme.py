@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+VERIFIED_SECTION = "## Beside it: `graspmanifold reproduce --preset verified`"
 
 
 def test_every_python_block_runs_verbatim(tmp_path):
@@ -29,7 +30,7 @@ def test_every_results_table_row_comes_from_the_published_paper_run():
 
     readme = README.read_text()
     section = readme[readme.index("## Results of `graspmanifold reproduce --preset paper`"):
-                     readme.index("## Using it from Python")]
+                     readme.index(VERIFIED_SECTION)]
     published = README.parent / "docs" / "paper_run"
     report_rows = set((published / "report.md").read_text().splitlines())
     rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith("|---")]
@@ -37,5 +38,21 @@ def test_every_results_table_row_comes_from_the_published_paper_run():
     assert [row for row in rows if row not in report_rows] == []
     run = json.loads((published / "run.json").read_text())
     assert run["config"]["postures"] == {"box": 4069, "cylinder": 4220, "sphere": 1885} and run["library_version"]
+    assert run["config"]["procedure"] == "paper" and run["datasets"]["cylinder"]["trained_on"] == 4220
     figures = re.findall(r"\]\((docs/paper_run/figures/\w+\.png)\)", section)
     assert len(figures) == 9 and all((README.parent / f).exists() for f in figures)
+
+
+def test_the_verified_runs_verdicts_come_from_its_published_run():
+    """The verified procedure's verdicts stand beside the paper procedure's, from docs/verified_run/."""
+    import json
+
+    readme = README.read_text()
+    section = readme[readme.index(VERIFIED_SECTION):readme.index("## Using it from Python")]
+    published = README.parent / "docs" / "verified_run"
+    report_rows = set((published / "report.md").read_text().splitlines())
+    rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith("|---")]
+    assert len(rows) >= 12 and [row for row in rows if row not in report_rows] == []
+    run = json.loads((published / "run.json").read_text())
+    assert run["config"]["procedure"] == "verified"
+    assert all(d["trained_on"] < d["candidates"] for d in run["datasets"].values())
