@@ -220,7 +220,37 @@ def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path
         assert (out / name).read_bytes() == (clean / name).read_bytes(), name
     assert (out / "summary.json").read_bytes() == (clean / "summary.json").read_bytes()
     assert (out / "figures" / "rates.png").exists()
-    assert not list(out.rglob(".*.tmp"))  # the killed runs' temporary files are cleared
+    assert not list(out.rglob(".*.graspmanifold.tmp"))  # the killed runs' temporary files are cleared
+
+
+def test_a_second_writer_is_refused_and_only_the_librarys_temporary_files_are_removed(finished, tmp_path):
+    """Two runs on one folder used to destroy each other (the second removed the first's temporary file),
+    and a forced run removed every hidden *.tmp file under the folder, the user's own included."""
+    from graspmanifold.cli import main as cli
+    from graspmanifold.io import LOCK_FILE, OutputInUse, output_lock
+
+    out = tmp_path / "run"
+    shutil.copytree(finished[0], out)
+    users = [out / ".notes.tmp", out / "figures" / ".draft.png.tmp"]
+    for path in users:
+        path.write_text("the user's")
+    with output_lock(out / LOCK_FILE):  # a run in progress
+        with pytest.raises(OutputInUse, match="being written by another graspmanifold run \\(process \\d+"):
+            run(out)
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["reproduce", "--out", str(out), "--force"])
+    (out / "figures" / ".rates.png.k3j_x.graspmanifold.tmp").write_text("left by a killed run")
+    _, ran, _ = run(out)
+    assert ran == [] and all(path.read_text() == "the user's" for path in users)
+    assert not list(out.rglob("*.graspmanifold.tmp"))
+    evaluation = tmp_path / "evaluation"
+    with output_lock(evaluation / LOCK_FILE):
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["evaluate", "--object", "box", "--experience", "none", "--grid", "quick", "--out", str(evaluation)])
+    postures = tmp_path / "box.npz"
+    with output_lock(tmp_path / ".box.npz.lock"):
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["generate", "--object", "box", "--n", "4", "--out", str(postures)])
 
 
 def test_the_figure_command_redraws_one_figure(finished, tmp_path):
