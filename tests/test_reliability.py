@@ -206,14 +206,20 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def _start_generate(tmp_path):
+def _resident_bytes(pid):
+    """A process's resident memory (Linux)."""
+    with open(f"/proc/{pid}/status") as status:
+        return next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmRSS:"))
+
+
+def _start_generate(tmp_path, n=2000):
     import signal
     import subprocess
     import sys
     import time
 
     command = [sys.executable, "-c", "import sys; from graspmanifold.cli import main; sys.exit(main())",
-               "generate", "--object", "cylinder", "--n", "2000", "--workers", "2", "--out", str(tmp_path / "x.npz")]
+               "generate", "--object", "cylinder", "--n", str(n), "--workers", "2", "--out", str(tmp_path / "x.npz")]
     # a background job's SIGINT is ignored and the child would inherit that: give it the default back
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -244,7 +250,10 @@ def test_ctrl_c_stops_at_once_with_one_line_and_no_traceback(tmp_path):
     import signal
     import time
 
-    process, workers = _start_generate(tmp_path)
+    # a billion postures: the jobs are handed out as workers free up, not all at once (that grew to 10.9 GB)
+    process, workers = _start_generate(tmp_path, n=10**9)
+    resident = sum(_resident_bytes(pid) for pid in (process.pid, *workers))
+    assert resident < 1e9, f"{resident / 1e9:.1f} GB before the first result"
     started = time.monotonic()
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=30)

@@ -31,11 +31,12 @@ finished jobs.
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import shutil
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -370,10 +371,11 @@ def _allocate(n: int, capacity: list[int | None]) -> list[int]:
     return allocation
 
 
-def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> list[_Job]:
-    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk`."""
-    return [_Job(start, first_chunk + k, min(job_size, candidates - done))
-            for k, done in enumerate(range(0, candidates, job_size))]
+def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> Iterator[_Job]:
+    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk` (made as they
+    are taken: a wave of a billion candidates is not held in memory)."""
+    return (_Job(start, first_chunk + k, min(job_size, candidates - done))
+            for k, done in enumerate(range(0, candidates, job_size)))
 
 
 def _job_file(directory: Path, job: _Job) -> Path:
@@ -478,17 +480,21 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                 if all(given_up):
                     break
                 continue
-            jobs = []
+            plan = []  # (start, its first chunk in this wave, candidates to draw)
             for s in short:
                 wanted = allocation[s] - held(s)
                 if params.verify and results[s]:  # as many as the yield so far says, and a tenth more
                     rate = (held(s) + 1) / (drawn(s) + 2)
                     wanted = min(int(np.ceil(1.1 * wanted / rate)), int(budget / len(starts)) - drawn(s))
-                jobs += _chunks(s, len(results[s]), max(1, wanted), params.job_size)
-            pending = [(obj, starts[job.start_index], job, seed, params, directory, signature)
-                       for job in jobs if (job.start_index, job.chunk) not in saved]
-            finished = {(job.start_index, job.chunk): saved[(job.start_index, job.chunk)]
-                        for job in jobs if (job.start_index, job.chunk) in saved}
+                plan.append((s, len(results[s]), max(1, wanted)))
+
+            def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
+                return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
+
+            pending = ((obj, starts[job.start_index], job, seed, params, directory, signature)
+                       for job in jobs() if (job.start_index, job.chunk) not in saved)
+            finished = {key: result for key, result in saved.items() if any(
+                key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
 
             def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
                 job, result = done
@@ -497,7 +503,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 
             report.update(sum(len(r["postures"]) for r in finished.values()))
             parallel_map(_job_worker, pending, workers, keep, executor)
-            for job in jobs:
+            for job in jobs():
                 result = finished[(job.start_index, job.chunk)]
                 results[job.start_index].append(result)
                 if bool(result.get("exhausted", False)):
