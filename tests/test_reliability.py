@@ -348,3 +348,18 @@ def test_a_bad_reproduce_config_is_refused_before_any_work(change, field):
 
     with pytest.raises(ValueError, match=field):
         ReproduceConfig(**{"postures": {"box": 4, "cylinder": 4, "sphere": 4}, **change})
+
+
+def test_the_library_imports_and_matches_where_numba_cannot_write_its_cache():
+    """On a read-only install (package folder, HOME and NUMBA_CACHE_DIR not writable) numba finds no place
+    for its cache, and `import graspmanifold` raised "cannot cache function ...: no locator available"."""
+    import subprocess
+    import sys
+
+    code = ("import numba.core.caching as caching; caching.CacheImpl._locator_classes = []\n"
+            "import numpy as np, graspmanifold as gm\n"
+            "som = gm.SOM(4, 4, 22, seed=0).fit(np.random.default_rng(0).normal(size=(40, 22)), epochs=2)\n"
+            "print(som.best_match(np.zeros(22)))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert 0 <= int(done.stdout) < 16
