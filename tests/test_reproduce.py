@@ -46,6 +46,8 @@ def test_every_promised_file_is_there(finished):
         postures = gm.PostureSet.load(out / "postures" / f"{name}.npz")
         sizes[name] = len(postures)
         assert len(postures) == size and not postures.metadata["verified"]  # every candidate, as the paper kept
+        distal = [gm.SEGMENTS.index(segment) for segment in gm.DISTAL_SEGMENTS]
+        assert postures.contacts[:, distal].all()  # each with its five fingertips on the object
         assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
         for method in ("none", "database", "som", "som_all"):
             assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2
@@ -74,6 +76,10 @@ def test_every_promised_file_is_there(finished):
     assert cylinder["control_winners"]["winners"] == len(winners) == sum(t.matches for t in som_trials) > 0
     assert cylinder["control_winners"]["winners_unsupported"] == int(np.sum(hits[winners] == 0))
     assert "more often winners" in report
+    # Fig. 6 as its caption counts: the SOM controller's force-closure grasps (not the ones that held)
+    closures = [t for t in som_trials if t.force_closure]
+    on_unsupported = sum(hits[som_map.best_match(t.posture)] == 0 for t in closures)
+    assert cylinder["force_closure_on_unsupported"] == [on_unsupported, len(closures)]
     assert {c["verdict"] for c in saved["claims"]} <= {"reproduced", "partly", "not reproduced", "not enough data"}
     # 12 or 48 postures for a 10 x 10 map: every map here is low data, and the report says so
     assert all(o["low_data"] for o in saved["objects"].values()) and "(low data: 12 postures, 100 nodes)" in report
