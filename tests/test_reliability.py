@@ -126,7 +126,7 @@ def test_symmetric_contacts_with_fine_cones_return_and_absurd_cones_are_refused(
     assert values == sorted(values) and values[-1] - values[1] < 1e-3
     for edges in (MAX_EDGES + 1, 10**6):
         with pytest.raises(ValueError, match=f"num_edges must be a whole number in 3 ... {MAX_EDGES}"):
-            gm.epsilon_l1(points, -points / 0.03, np.zeros(3), num_edges=edges)
+            gm.epsilon_l1(points, -points / 0.03, np.zeros(3), mu=0.6, num_edges=edges)
 
 
 def test_epsilon_grown_from_a_coarse_hull_equals_the_full_hull():
@@ -152,7 +152,7 @@ def test_degenerate_wrench_sets_still_give_zero():
     points = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0]])
     normals = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     assert gm.epsilon_l1(points, normals, np.zeros(3), mu=0.0) == 0.0  # frictionless pinch: rank < 6
-    assert gm.epsilon_l1(points[:1], normals[:1], np.zeros(3)) == 0.0
+    assert gm.epsilon_l1(points[:1], normals[:1], np.zeros(3), mu=0.6) == 0.0
 
 
 # -- files ----------------------------------------------------------------------------------------

@@ -87,14 +87,23 @@ def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray
     return np.concatenate([forces, torques], axis=2).reshape(-1, 6)
 
 
-def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float = 1.0,
+def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float,
                num_edges: int = 8, torque_scale: float | None = None) -> float:
     """Ferrari-Canny epsilon of the L1 grasp wrench space; 0 when the grasp is not force closure.
 
-    `points` (k, 3) and `normals` (k, 3, pointing into the object) in one frame, `center` (3,) the
-    reference point for torques (the object's centre of mass), `mu` the friction coefficient,
-    `torque_scale` lambda (default: the largest distance from center to a contact). Fewer than two
-    contacts or a wrench set that does not span all six dimensions give 0.
+    Fewer than two contacts or a wrench set that does not span all six dimensions give 0.
+
+    Args:
+        points: contact points (k, 3), m, in one frame with `normals` and `center`.
+        normals: contact normals (k, 3), pointing into the object.
+        center: the reference point for torques (3,), m: the object's centre of mass.
+        mu: the friction coefficient, with no default: pass the simulation's
+            (`scene.object.friction`), or epsilon is not the one the evaluation judges by.
+        num_edges: edges of each linearised friction cone, 3 ... `MAX_EDGES`.
+        torque_scale: lambda, m (default: the largest distance from `center` to a contact).
+
+    Returns:
+        epsilon, per unit of total normal force (0 when not force closure).
     """
     wrenches = contact_wrenches(points, normals, center, mu, num_edges, torque_scale)
     if len(points) < 2:
