@@ -9,7 +9,7 @@ from .controller import ControllerParams, GraspController
 from .evaluation import EvaluationResult, evaluate
 from .experience import Experience, PostureDatabase
 from .generator import PRESETS, GenerationError, GeneratorParams, generate_postures, verify_postures
-from .grid import grid_preset, reachable
+from .grid import grid_preset, reachable, why_unreachable
 from .hand import (
     ACTUATORS,
     DISTAL_SEGMENTS,
@@ -62,7 +62,7 @@ __all__ = [
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
-    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "validate_posture", "within_limits", "__version__",
 ]
