@@ -100,3 +100,26 @@ def test_a_recorded_trial_is_the_evaluated_trial_and_animates(tmp_path):
         assert gif.n_frames > 5 and gif.size == (64, 48)
     with pytest.raises(ValueError, match="every"):
         gm.record_trial("box", every=0)
+
+
+def test_progress_is_on_by_default_with_one_switch_and_a_rate_that_reads_right(capsys):
+    """Long jobs were silent from Python unless asked (progress=False), and a slow bar read "2.06s/ trials"."""
+    import time
+
+    from graspmanifold.progress import progress_bar
+
+    assert "plots" in dir(gm) and "show_progress" in gm.__all__
+    previous = gm.show_progress(True)
+    try:
+        with progress_bar(2, "evaluate box / som", "trials", enabled=None) as bar:
+            time.sleep(2.2)  # a bar appears once a job has run 2 s
+            bar.update(2)
+        shown = capsys.readouterr().err
+        assert "evaluate box / som" in shown and " trials/s" in shown and "s/ trials" not in shown
+        gm.show_progress(False)
+        with progress_bar(2, "silent", "trials", enabled=None) as bar:
+            time.sleep(2.2)
+            bar.update(2)
+        assert "silent" not in capsys.readouterr().err
+    finally:
+        gm.show_progress(previous)

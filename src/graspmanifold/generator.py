@@ -414,7 +414,7 @@ def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[st
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool = False, executor: Executor | None = None) -> PostureSet:
+                      progress: bool | None = None, executor: Executor | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
     Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
@@ -434,7 +434,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
         checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
             them up.
-        progress: show a progress bar (postures found of n).
+        progress: show a progress bar of the postures found (None: as `progress.show_progress` says, on by
+            default).
         executor: run the jobs there instead of in `workers` local processes.
 
     Returns:
@@ -564,7 +565,7 @@ def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarr
 
 def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int = 1, *,
                     params: GeneratorParams | None = None, executor: Executor | None = None,
-                    progress: bool = False) -> PostureSet:
+                    progress: bool | None = None) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
     Each posture is replayed at its palm pose in front of the free object, the fingers press with
@@ -579,7 +580,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
         workers: worker processes.
         params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
         executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
-        progress: show a progress bar.
+        progress: show a progress bar (None: as `progress.show_progress` says, on by default).
 
     Returns:
         The postures that held, with their epsilon and largest hold displacement (m); the metadata
