@@ -123,3 +123,24 @@ def test_progress_is_on_by_default_with_one_switch_and_a_rate_that_reads_right(c
         assert "silent" not in capsys.readouterr().err
     finally:
         gm.show_progress(previous)
+
+
+def test_pictures_after_the_first_reuse_one_drawing_process_which_comes_back_if_killed():
+    """Every picture used to start a child process (about 7 s each, a notebook's _repr_png_ too)."""
+    import os
+    import signal
+
+    from graspmanifold import render
+
+    scene = gm.Scene("cylinder")
+    first = scene.render("hand", 64, 48)
+    if os.environ.get("MUJOCO_GL") in render.BACKENDS:  # drawn in this process: no child to keep
+        assert render._drawing == {}
+        return
+    (child,) = render._drawing.values()
+    assert np.array_equal(scene.render("hand", 64, 48), first) and list(render._drawing.values()) == [child]
+    os.kill(child.process.pid, signal.SIGKILL)
+    assert np.array_equal(scene.render("hand", 64, 48), first)  # a fresh child takes over
+    (again,) = render._drawing.values()
+    assert again is not child and again.process.poll() is None
+    assert "<mujoco" in scene.to_xml() and "cylinder" in scene.to_xml()
