@@ -100,3 +100,47 @@ def test_a_recorded_trial_is_the_evaluated_trial_and_animates(tmp_path):
         assert gif.n_frames > 5 and gif.size == (64, 48)
     with pytest.raises(ValueError, match="every"):
         gm.record_trial("box", every=0)
+
+
+def test_progress_is_on_by_default_with_one_switch_and_a_rate_that_reads_right(capsys):
+    """Long jobs were silent from Python unless asked (progress=False), and a slow bar read "2.06s/ trials"."""
+    import time
+
+    from graspmanifold.progress import progress_bar
+
+    assert "plots" in dir(gm) and "show_progress" in gm.__all__
+    previous = gm.show_progress(True)
+    try:
+        with progress_bar(2, "evaluate box / som", "trials", enabled=None) as bar:
+            time.sleep(2.2)  # a bar appears once a job has run 2 s
+            bar.update(2)
+        shown = capsys.readouterr().err
+        assert "evaluate box / som" in shown and " trials/s" in shown and "s/ trials" not in shown
+        gm.show_progress(False)
+        with progress_bar(2, "silent", "trials", enabled=None) as bar:
+            time.sleep(2.2)
+            bar.update(2)
+        assert "silent" not in capsys.readouterr().err
+    finally:
+        gm.show_progress(previous)
+
+
+def test_pictures_after_the_first_reuse_one_drawing_process_which_comes_back_if_killed():
+    """Every picture used to start a child process (about 7 s each, a notebook's _repr_png_ too)."""
+    import os
+    import signal
+
+    from graspmanifold import render
+
+    scene = gm.Scene("cylinder")
+    first = scene.render("hand", 64, 48)
+    if os.environ.get("MUJOCO_GL") in render.BACKENDS:  # drawn in this process: no child to keep
+        assert render._drawing == {}
+        return
+    (child,) = render._drawing.values()
+    assert np.array_equal(scene.render("hand", 64, 48), first) and list(render._drawing.values()) == [child]
+    os.kill(child.process.pid, signal.SIGKILL)
+    assert np.array_equal(scene.render("hand", 64, 48), first)  # a fresh child takes over
+    (again,) = render._drawing.values()
+    assert again is not child and again.process.poll() is None
+    assert "<mujoco" in scene.to_xml() and "cylinder" in scene.to_xml()

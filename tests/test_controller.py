@@ -393,3 +393,20 @@ def test_coverage_sees_placements_up_to_the_objects_symmetry():
     np.testing.assert_allclose(shifted[:, 0], 0.005, atol=1e-6)
     with pytest.raises(ValueError, match="hand_poses"):
         coverage("cylinder", grid, np.zeros((0, 7)))
+
+
+def test_one_reachability_rule_for_evaluate_and_record_trial_and_it_says_why():
+    """record_trial ran (and called valid) poses that evaluate refused; why a pose was refused was not said;
+    a single pose as a 1-D array was refused."""
+    inside = (0.0, 0.0, -0.01, 0.0)
+    assert "palm is 10.0 mm inside the cylinder" in gm.why_unreachable("cylinder", inside)
+    assert "thmiddle" in gm.why_unreachable("cylinder", (0.0, 0.0, 0.01, 0.2))  # a positive yaw meets the thumb
+    assert gm.why_unreachable("cylinder", (0.0, 0.0, 0.01, 0.0)) is None
+    for call in (lambda: gm.evaluate("cylinder", None, np.array([inside])),
+                 lambda: gm.record_trial("cylinder", grid_pose=inside)):
+        with pytest.raises(ValueError, match="palm is 10.0 mm inside the cylinder"):
+            call()
+    one = gm.evaluate("cylinder", None, np.array([0.0, 0.0, 0.01, 0.0]))
+    assert len(one.trials) == 1 and one.trials[0].valid
+    with pytest.raises(ValueError, match="pose must be four finite numbers"):
+        gm.why_unreachable("cylinder", (0.0, 0.0))

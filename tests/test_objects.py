@@ -20,6 +20,17 @@ def test_factory_makes_other_sizes_with_mass_and_friction():
     assert gm.make_object("sphere", radius=0.05).half_extents.tolist() == [0.05] * 3
 
 
+def test_a_variant_of_a_paper_object_by_keyword_says_what_differs():
+    """make_object("cylinder", friction=0.3) used to fail ("a cylinder needs ['radius', 'length']"), and the way
+    that worked (dataclasses.replace) kept the name "cylinder", so nothing downstream showed the change."""
+    slippery = gm.make_object("cylinder", friction=0.3)
+    assert slippery.name == "cylinder_friction0.3" and "friction=0.3" in repr(slippery)
+    assert slippery.half_sizes == gm.get_object("cylinder").half_sizes and slippery != gm.get_object("cylinder")
+    assert gm.get_object("box").with_(mass=0.2, friction=0.5).name == "box_mass0.2_friction0.5"
+    assert gm.get_object("box").with_(friction=gm.get_object("box").friction) is gm.get_object("box")
+    assert gm.Scene(slippery).object.friction == 0.3
+
+
 @pytest.mark.parametrize("call, message", [
     (lambda: gm.make_object("cone", radius=0.1), "unknown object shape"),
     (lambda: gm.make_object("sphere"), "needs"),
@@ -29,6 +40,11 @@ def test_factory_makes_other_sizes_with_mass_and_friction():
     (lambda: gm.make_object("sphere", radius=0.1, size=(1, 1, 1)), "not"),
     (lambda: gm.make_object("sphere", radius=0.1, mass=0), "mass"),
     (lambda: gm.get_object("teapot"), "unknown object"),
+    # absurd sizes and friction, accepted before (meshes were already held to 5 mm - 30 cm)
+    (lambda: gm.make_object("sphere", radius=0.0005), "every extent must be 5 mm to 30 cm"),
+    (lambda: gm.make_object("box", size=(1e6, 0.05, 0.05)), "every extent must be 5 mm to 30 cm"),
+    (lambda: gm.make_object("cylinder", radius=0.03, length=0.16, friction=1e6), "friction must be at most"),
+    (lambda: gm.make_object("cylinder", friction=-0.3), "friction"),
 ])
 def test_bad_object_arguments_raise(call, message):
     with pytest.raises(ValueError, match=message):

@@ -43,18 +43,18 @@ def test_contacts_all_on_one_side_give_zero():
 
 
 def test_fewer_than_two_contacts_give_zero_and_malformed_input_raises():
-    assert epsilon_l1(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(3)) == 0.0
-    assert epsilon_l1([[0.03, 0, 0]], [[-1, 0, 0]], np.zeros(3)) == 0.0
+    assert epsilon_l1(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(3), mu=0.6) == 0.0
+    assert epsilon_l1([[0.03, 0, 0]], [[-1, 0, 0]], np.zeros(3), mu=0.6) == 0.0
     with pytest.raises(ValueError, match="normals must have shape"):
-        epsilon_l1(np.zeros((3, 3)), np.zeros((2, 3)), np.zeros(3))
+        epsilon_l1(np.zeros((3, 3)), np.zeros((2, 3)), np.zeros(3), mu=0.6)
     with pytest.raises(ValueError, match="points must be finite"):
-        epsilon_l1([[np.nan, 0, 0], [1, 0, 0]], [[1, 0, 0], [-1, 0, 0]], np.zeros(3))
+        epsilon_l1([[np.nan, 0, 0], [1, 0, 0]], [[1, 0, 0], [-1, 0, 0]], np.zeros(3), mu=0.6)
     with pytest.raises(ValueError, match="non-zero"):
-        epsilon_l1([[1, 0, 0], [-1, 0, 0]], [[0, 0, 0], [1, 0, 0]], np.zeros(3))
+        epsilon_l1([[1, 0, 0], [-1, 0, 0]], [[0, 0, 0], [1, 0, 0]], np.zeros(3), mu=0.6)
     with pytest.raises(ValueError, match="mu"):
         epsilon_l1([[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]], np.zeros(3), mu=-1)
     with pytest.raises(ValueError, match="num_edges"):
-        epsilon_l1([[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]], np.zeros(3), num_edges=2)
+        epsilon_l1([[1, 0, 0], [-1, 0, 0]], [[-1, 0, 0], [1, 0, 0]], np.zeros(3), mu=0.6, num_edges=2)
 
 
 @pytest.mark.parametrize("grasp", ["box", "offset_sphere"])
@@ -105,3 +105,10 @@ def test_edge_wrenches_have_unit_normal_component():
     np.testing.assert_allclose(np.einsum("kej,kj->ke", forces, normals), 1.0)
     tangential = forces - np.einsum("kej,kj->ke", forces, normals)[..., None] * normals[:, None, :]
     np.testing.assert_allclose(np.linalg.norm(tangential, axis=2), 0.4)
+
+
+def test_epsilon_has_no_friction_default_that_could_disagree_with_the_simulation():
+    """The README's snippet once called epsilon_l1 without mu and got the default 1.0, five times the
+    simulation's 0.6 (0.189 against 0.036 on one grasp): the friction is now a required argument."""
+    with pytest.raises(TypeError, match="mu"):
+        epsilon_l1([[0.03, 0, 0], [-0.03, 0, 0]], [[-1, 0, 0], [1, 0, 0]], np.zeros(3))

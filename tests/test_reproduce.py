@@ -46,6 +46,8 @@ def test_every_promised_file_is_there(finished):
         postures = gm.PostureSet.load(out / "postures" / f"{name}.npz")
         sizes[name] = len(postures)
         assert len(postures) == size and not postures.metadata["verified"]  # every candidate, as the paper kept
+        distal = [gm.SEGMENTS.index(segment) for segment in gm.DISTAL_SEGMENTS]
+        assert postures.contacts[:, distal].all()  # each with its five fingertips on the object
         assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
         for method in ("none", "database", "som", "som_all"):
             assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2
@@ -74,6 +76,10 @@ def test_every_promised_file_is_there(finished):
     assert cylinder["control_winners"]["winners"] == len(winners) == sum(t.matches for t in som_trials) > 0
     assert cylinder["control_winners"]["winners_unsupported"] == int(np.sum(hits[winners] == 0))
     assert "more often winners" in report
+    # Fig. 6 as its caption counts: the SOM controller's force-closure grasps (not the ones that held)
+    closures = [t for t in som_trials if t.force_closure]
+    on_unsupported = sum(hits[som_map.best_match(t.posture)] == 0 for t in closures)
+    assert cylinder["force_closure_on_unsupported"] == [on_unsupported, len(closures)]
     assert {c["verdict"] for c in saved["claims"]} <= {"reproduced", "partly", "not reproduced", "not enough data"}
     # 12 or 48 postures for a 10 x 10 map: every map here is low data, and the report says so
     assert all(o["low_data"] for o in saved["objects"].values()) and "(low data: 12 postures, 100 nodes)" in report
@@ -220,7 +226,37 @@ def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path
         assert (out / name).read_bytes() == (clean / name).read_bytes(), name
     assert (out / "summary.json").read_bytes() == (clean / "summary.json").read_bytes()
     assert (out / "figures" / "rates.png").exists()
-    assert not list(out.rglob(".*.tmp"))  # the killed runs' temporary files are cleared
+    assert not list(out.rglob(".*.graspmanifold.tmp"))  # the killed runs' temporary files are cleared
+
+
+def test_a_second_writer_is_refused_and_only_the_librarys_temporary_files_are_removed(finished, tmp_path):
+    """Two runs on one folder used to destroy each other (the second removed the first's temporary file),
+    and a forced run removed every hidden *.tmp file under the folder, the user's own included."""
+    from graspmanifold.cli import main as cli
+    from graspmanifold.io import LOCK_FILE, OutputInUse, output_lock
+
+    out = tmp_path / "run"
+    shutil.copytree(finished[0], out)
+    users = [out / ".notes.tmp", out / "figures" / ".draft.png.tmp"]
+    for path in users:
+        path.write_text("the user's")
+    with output_lock(out / LOCK_FILE):  # a run in progress
+        with pytest.raises(OutputInUse, match="being written by another graspmanifold run \\(process \\d+"):
+            run(out)
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["reproduce", "--out", str(out), "--force"])
+    (out / "figures" / ".rates.png.k3j_x.graspmanifold.tmp").write_text("left by a killed run")
+    _, ran, _ = run(out)
+    assert ran == [] and all(path.read_text() == "the user's" for path in users)
+    assert not list(out.rglob("*.graspmanifold.tmp"))
+    evaluation = tmp_path / "evaluation"
+    with output_lock(evaluation / LOCK_FILE):
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["evaluate", "--object", "box", "--experience", "none", "--grid", "quick", "--out", str(evaluation)])
+    postures = tmp_path / "box.npz"
+    with output_lock(tmp_path / ".box.npz.lock"):
+        with pytest.raises(SystemExit, match="being written by another"):
+            cli(["generate", "--object", "box", "--n", "4", "--out", str(postures)])
 
 
 def test_the_figure_command_redraws_one_figure(finished, tmp_path):

@@ -9,7 +9,7 @@ from .controller import ControllerParams, GraspController
 from .evaluation import EvaluationResult, evaluate
 from .experience import Experience, PostureDatabase
 from .generator import PRESETS, GenerationError, GeneratorParams, generate_postures, verify_postures
-from .grid import grid_preset, reachable
+from .grid import grid_preset, reachable, why_unreachable
 from .hand import (
     ACTUATORS,
     DISTAL_SEGMENTS,
@@ -42,6 +42,7 @@ from .som import SOM, SOMSchedule
 from .starts import StartingPosture, starting_postures
 from .tactile import TactileReading, TactileSensor
 from .trial import Noise, Recording, record_trial
+from .progress import show_progress
 from .version import __version__
 
 #: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
@@ -57,12 +58,17 @@ def __getattr__(name: str) -> object:
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'graspmanifold' has no attribute {name!r}")
 
+
+def __dir__() -> list[str]:
+    """The public names and the submodules reachable as attributes (so `dir(gm)` and tab completion show them)."""
+    return sorted({*__all__, *_SUBMODULES})
+
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
-    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
-    "posture_to_dict", "validate_posture", "within_limits", "__version__",
+    "posture_to_dict", "show_progress", "validate_posture", "within_limits", "__version__",
 ]

@@ -125,7 +125,7 @@ def cells() -> list[tuple[str, str]]:
 def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
                   preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
                   every: int = 1, workers: int = 1, seed: int = 0, store: str | os.PathLike | None = None,
-                  label: str = "", progress: bool = False, executor: Executor | None = None
+                  label: str = "", progress: bool | None = None, executor: Executor | None = None
                   ) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
@@ -140,7 +140,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         store: a directory where each finished (object, placement) is kept as `<label>_<object>_<placement>.npz`
             and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
         label: the method's name, for the stored files and `EvaluationResult.method`.
-        progress: show progress bars.
+        progress: show progress bars (None: as `progress.show_progress` says, on by default).
         executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
 
     Returns:

@@ -12,7 +12,8 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from .family import FAMILY
 from .generator import MODES, PRESET_PARAMS
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
+from .io import LOCK_FILE, OutputInUse, output_lock
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
@@ -101,16 +103,27 @@ def _check_writable_directory(out: Path) -> None:
         raise SystemExit(f"error: cannot write results to {out}: {error.strerror or error}") from None
 
 
-def _generate(args: argparse.Namespace) -> int:
-    from .generator import (
-        PRESETS,
-        GenerationError,
-        generate_postures,
-        remove_checkpoints,
-    )
+@contextmanager
+def _held(lock: Path, output: Path) -> Iterator[None]:
+    """`io.output_lock`, a second writer refused with the library's one-line error."""
+    try:
+        with output_lock(lock, output):
+            yield
+    except OutputInUse as error:
+        raise SystemExit(f"error: {error}") from None
 
+
+def _generate(args: argparse.Namespace) -> int:
     obj = _object(args)
     out = _check_output(args.out, args.force)
+    with _held(out.with_name(f".{out.name}.lock"), out):
+        return _generate_into(args, obj, out)
+
+
+def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
+    """`generate` with its output file held."""
+    from .generator import PRESETS, GenerationError, generate_postures, remove_checkpoints
+
     n = args.n if args.n is not None else PRESETS[args.preset].get(obj.name, PRESETS[args.preset]["cylinder"])
     if n <= 0:
         raise SystemExit(f"error: --n must be positive, got {n}")
@@ -154,18 +167,24 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    obj = _object(args)
+    out = Path(args.out)
+    _check_writable_directory(out)
+    with _held(out / LOCK_FILE, out):
+        return _evaluate_into(args, obj, out)
+
+
+def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
+    """`evaluate` with its output folder held."""
     from .evaluation import evaluate, summary_json
     from .generator import remove_checkpoints
     from .io import write_text_atomic
     from .trial import Noise
 
-    obj = _object(args)
-    out = Path(args.out)
     checkpoints = out / "trials.parts"
     results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
     if any(p.exists() for p in results) and not args.force:
         raise SystemExit(f"error: {out} holds results already; pass --force to overwrite them")
-    _check_writable_directory(out)
     if args.force:
         remove_checkpoints(checkpoints)
     try:
@@ -220,7 +239,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
         reproduce(args.out, config, workers=args.workers, force=args.force,
                   log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
-    except ValueError as error:
+    except (ValueError, OutputInUse) as error:
         raise SystemExit(f"error: {error}") from None
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0

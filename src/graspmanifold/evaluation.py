@@ -105,6 +105,12 @@ class EvaluationResult:
         return np.array(keep).reshape(-1, N_FINGER_JOINTS)
 
     def markdown(self) -> str:
+        """The summary as a one-row Markdown table: trials, hold and force-closure rates with their 95 %
+        Wilson intervals, mean margin (N), mean epsilon, mean time to grasp (s).
+
+        Returns:
+            The table's header, separator and row, each ending in a newline.
+        """
         s = self.summary
         n = s["trials"]
         return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
@@ -134,6 +140,17 @@ class EvaluationResult:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> EvaluationResult:
+        """Read a result written by `save`, trials and per-cycle winners included.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The result.
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or not an evaluation; the message names it.
+        """
         return cls._load_with_metadata(path)[0]
 
     @classmethod
@@ -231,7 +248,7 @@ def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dic
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
              seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
-             progress: bool = False, executor: Executor | None = None, backend: str = "cpu",
+             progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH) -> EvaluationResult:
     """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
 

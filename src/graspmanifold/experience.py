@@ -78,11 +78,31 @@ class PostureDatabase:
         return self.references[self.best_match_batch(X, masks)]
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        """Write the database to an .npz file, atomically.
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+
+        Returns:
+            The path written.
+        """
         meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}
         return save_npz(path, "posture_database", {"postures": self.postures}, meta, overwrite=overwrite)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> PostureDatabase:
+        """Read a database written by `save`.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The database.
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or not a posture database; the message names it.
+        """
         arrays, _ = load_npz(path, "posture_database", {"postures": (None, None)})
         return cls(arrays["postures"])
 

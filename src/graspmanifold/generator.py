@@ -31,11 +31,12 @@ finished jobs.
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import shutil
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -370,10 +371,11 @@ def _allocate(n: int, capacity: list[int | None]) -> list[int]:
     return allocation
 
 
-def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> list[_Job]:
-    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk`."""
-    return [_Job(start, first_chunk + k, min(job_size, candidates - done))
-            for k, done in enumerate(range(0, candidates, job_size))]
+def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> Iterator[_Job]:
+    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk` (made as they
+    are taken: a wave of a billion candidates is not held in memory)."""
+    return (_Job(start, first_chunk + k, min(job_size, candidates - done))
+            for k, done in enumerate(range(0, candidates, job_size)))
 
 
 def _job_file(directory: Path, job: _Job) -> Path:
@@ -412,7 +414,7 @@ def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[st
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool = False, executor: Executor | None = None) -> PostureSet:
+                      progress: bool | None = None, executor: Executor | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
     Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
@@ -432,7 +434,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
         checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
             them up.
-        progress: show a progress bar (postures found of n).
+        progress: show a progress bar of the postures found (None: as `progress.show_progress` says, on by
+            default).
         executor: run the jobs there instead of in `workers` local processes.
 
     Returns:
@@ -478,17 +481,21 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                 if all(given_up):
                     break
                 continue
-            jobs = []
+            plan = []  # (start, its first chunk in this wave, candidates to draw)
             for s in short:
                 wanted = allocation[s] - held(s)
                 if params.verify and results[s]:  # as many as the yield so far says, and a tenth more
                     rate = (held(s) + 1) / (drawn(s) + 2)
                     wanted = min(int(np.ceil(1.1 * wanted / rate)), int(budget / len(starts)) - drawn(s))
-                jobs += _chunks(s, len(results[s]), max(1, wanted), params.job_size)
-            pending = [(obj, starts[job.start_index], job, seed, params, directory, signature)
-                       for job in jobs if (job.start_index, job.chunk) not in saved]
-            finished = {(job.start_index, job.chunk): saved[(job.start_index, job.chunk)]
-                        for job in jobs if (job.start_index, job.chunk) in saved}
+                plan.append((s, len(results[s]), max(1, wanted)))
+
+            def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
+                return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
+
+            pending = ((obj, starts[job.start_index], job, seed, params, directory, signature)
+                       for job in jobs() if (job.start_index, job.chunk) not in saved)
+            finished = {key: result for key, result in saved.items() if any(
+                key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
 
             def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
                 job, result = done
@@ -497,7 +504,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 
             report.update(sum(len(r["postures"]) for r in finished.values()))
             parallel_map(_job_worker, pending, workers, keep, executor)
-            for job in jobs:
+            for job in jobs():
                 result = finished[(job.start_index, job.chunk)]
                 results[job.start_index].append(result)
                 if bool(result.get("exhausted", False)):
@@ -558,7 +565,7 @@ def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarr
 
 def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int = 1, *,
                     params: GeneratorParams | None = None, executor: Executor | None = None,
-                    progress: bool = False) -> PostureSet:
+                    progress: bool | None = None) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
     Each posture is replayed at its palm pose in front of the free object, the fingers press with
@@ -573,7 +580,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
         workers: worker processes.
         params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
         executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
-        progress: show a progress bar.
+        progress: show a progress bar (None: as `progress.show_progress` says, on by default).
 
     Returns:
         The postures that held, with their epsilon and largest hold displacement (m); the metadata

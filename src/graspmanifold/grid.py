@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .hand import segment_of_geoms
+from .hand import SEGMENTS, segment_of_geoms
 from .objects import GraspObject, get_object
 from .poses import compose, invert, rotate, to_quat
 from .posture import open_posture
@@ -40,8 +40,10 @@ START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the o
 def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
     """Grid poses (n, 4): object shift across (x) and along (z) the fingers, palm gap, yaw (m, rad).
 
-    A regular grid less the poses the open hand cannot reach (`reachable`). 'quick': x and z in
-    {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} (box 37, cylinder 30 poses);
+    A regular grid less the poses the open hand cannot reach (`reachable`; `why_unreachable` says why
+    one is refused: a cylinder turned by a positive yaw brings its end into the thumb, so the cylinder's
+    grids keep only yaws <= 0). 'quick': x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in
+    {-0.5, 0, 0.5} before that (box 37, cylinder 30 poses);
     'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over +-0.5 rad (box 263, cylinder 224).
     A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225 poses, all reachable).
     'far': gaps 3, 4 and 5 cm, x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in {-0.5, 0, 0.5};
@@ -73,17 +75,50 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
     return poses
 
 
-def clearance(scene: Scene, pose: np.ndarray) -> float:
-    """Distance (m) between the open hand and the object of `scene` at one grid pose (moves the hand there)."""
+def _nearest_to_hand(scene: Scene, pose: np.ndarray) -> tuple[float, str, str]:
+    """(distance in m, the hand segment, 'object' or 'table') of the pair nearest the open hand at one grid
+    pose (moves the hand there); negative distances are penetration."""
     model, data = scene.model, scene.data
     scene.set_hand_pose(*palm_pose_for(scene.object, pose))
     data.qpos[scene.finger_qpos] = open_posture()
     mujoco.mj_kinematics(model, data)
-    hand_geoms = np.flatnonzero(segment_of_geoms(model) >= 0)
+    segments = segment_of_geoms(model)
     fromto = np.zeros(6)
-    table = [mujoco.mj_geomDistance(model, data, g, scene.table_geom, 0.05, fromto)
-             for g in hand_geoms] if scene.table_geom is not None else []
-    return min([scene.distance_to_object(g) for g in hand_geoms] + table)
+    pairs = [(scene.distance_to_object(g), SEGMENTS[segments[g]], "object") for g in np.flatnonzero(segments >= 0)]
+    if scene.table_geom is not None:
+        pairs += [(mujoco.mj_geomDistance(model, data, g, scene.table_geom, 0.05, fromto), SEGMENTS[segments[g]], "table")
+                  for g in np.flatnonzero(segments >= 0)]
+    return min(pairs, key=lambda pair: pair[0])
+
+
+def clearance(scene: Scene, pose: np.ndarray) -> float:
+    """Distance (m) between the open hand and the object of `scene` at one grid pose (moves the hand there)."""
+    return _nearest_to_hand(scene, pose)[0]
+
+
+def why_unreachable(obj: str | GraspObject, pose: object, table: bool = False) -> str | None:
+    """Why no trial can start at a grid pose, or None when one can.
+
+    Args:
+        obj: the object, or its name.
+        pose: one grid pose (x, z, gap, yaw), m and rad.
+        table: the object stands on a table (the open hand must clear it too).
+
+    Returns:
+        None when the open hand is at least `START_CLEARANCE` from the object (and the table), otherwise
+        which segment of the open hand comes too near and by how much, e.g. "the open hand's ffdistal
+        is 3.2 mm inside the object".
+    """
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (4,) or not np.all(np.isfinite(pose)):
+        raise ValueError(f"pose must be four finite numbers {GRID_COLUMNS}, got {pose!r}")
+    obj = get_object(obj)
+    distance, segment, what = _nearest_to_hand(Scene(obj, free_object=True, table=table), pose)
+    if distance >= START_CLEARANCE:
+        return None
+    where = f"{-distance * 1000:.1f} mm inside" if distance < 0 else f"{distance * 1000:.1f} mm from"
+    return (f"the open hand's {segment} is {where} the {what if what == 'table' else obj.name} (a trial needs "
+            f"{START_CLEARANCE * 1000:.0f} mm of clearance)")
 
 
 def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
@@ -103,6 +138,8 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
     if isinstance(grid, str):
         return grid, grid_preset(grid, obj, table)
     poses = np.asarray(grid, dtype=float)
+    if poses.shape == (4,):  # one pose
+        poses = poses.reshape(1, 4)
     if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
         raise ValueError(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
                          f"got shape {poses.shape}")
@@ -110,9 +147,12 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
         raise ValueError("grid poses must be finite")
     inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
+        first = inside[0]
         raise ValueError(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
-                         f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start; "
-                         "keep the reachable ones: grid[graspmanifold.reachable(obj, grid)]")
+                         f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start (row "
+                         f"{first}, {dict(zip(GRID_COLUMNS, poses[first].round(4).tolist()))}: "
+                         f"{why_unreachable(obj, poses[first], table)}); keep the reachable ones: "
+                         "grid[graspmanifold.reachable(obj, grid)]")
     return "custom", poses
 
 

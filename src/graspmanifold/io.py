@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import tempfile
+import time
 import zipfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -72,7 +73,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=TEMPORARY_SUFFIX, dir=path.parent)
     try:
         with os.fdopen(fd, mode, **({"encoding": "utf-8"} if mode == "w" else {})) as handle:
             yield handle
@@ -83,6 +84,53 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+#: the end of every temporary file the library writes (`atomic_write`); nothing else is ever cleaned up
+TEMPORARY_SUFFIX = ".graspmanifold.tmp"
+#: the lock file that marks an output folder as being written (`output_lock`)
+LOCK_FILE = ".graspmanifold.lock"
+
+
+class OutputInUse(RuntimeError):
+    """Another graspmanifold process is writing the same output."""
+
+
+@contextmanager
+def output_lock(lock: str | os.PathLike, output: str | os.PathLike | None = None) -> Iterator[None]:
+    """Hold an output for this process while the block runs: a second writer is refused at once.
+
+    The lock is an advisory `flock` on the file `lock` (made if missing, left in place), which the
+    system releases when the holder exits, however it ends: a run killed with SIGKILL leaves no stale
+    lock. Where the system has no `flock` (Windows), outputs are not locked.
+
+    Args:
+        lock: the lock file, e.g. `out / LOCK_FILE` for a folder.
+        output: what the lock guards, for the message (default: the lock's folder).
+
+    Raises:
+        OutputInUse: another process holds the lock; the message names it (process id, start time).
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not on Linux or macOS
+        yield
+        return
+    lock = Path(lock)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock, "a+", encoding="utf-8") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "a process"
+            raise OutputInUse(f"{output or lock.parent} is being written by another graspmanifold run ({holder}); "
+                              "wait for it to finish, or choose another output") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"process {os.getpid()}, started {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+        handle.flush()
+        yield
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:

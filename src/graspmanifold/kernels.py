@@ -12,13 +12,15 @@ sum_k p_k (w_k - x_k)^2 in increasing k, vectorised across points (points are st
 (dim, n)), and take the lowest index on ties. They release the GIL, so batches are split across
 threads (not numba's own parallel layer, which is not safe in forked worker processes).
 Compiled code is cached on disk (numba's `cache=True`): the first call in a fresh environment
-compiles for a few seconds, later processes load it.
+compiles for a few seconds, later processes load it. Where numba finds no writable place for its cache
+(a read-only install without a writable HOME or NUMBA_CACHE_DIR), the kernels compile in memory instead.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
@@ -41,7 +43,15 @@ def use_compiled(enabled: bool) -> bool:
     return previous
 
 
-@njit(cache=True, nogil=True)
+def _kernel(function: Callable) -> Callable:
+    """`function` compiled without the GIL, its machine code cached on disk where numba can write a cache."""
+    try:
+        return njit(cache=True, nogil=True)(function)
+    except RuntimeError:  # "cannot cache function ...: no locator available": compile in memory
+        return njit(nogil=True)(function)
+
+
+@_kernel
 def _checked_dimensions(query: np.ndarray, weights: np.ndarray) -> int:
     """Number of dimensions with weight > 0, or an error code: a negative or non-finite weight,
     no weight > 0, a non-finite query value where the weight is > 0."""
@@ -57,7 +67,7 @@ def _checked_dimensions(query: np.ndarray, weights: np.ndarray) -> int:
     return used if used > 0 else EMPTY_MASK
 
 
-@njit(cache=True, nogil=True)
+@_kernel
 def _masked_distances(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray, out: np.ndarray) -> None:
     """out[j] = sum over k with weights[k] > 0 of weights[k] (points_t[k, j] - query[k])^2."""
     out[:] = 0.0
@@ -72,7 +82,7 @@ def _masked_distances(points_t: np.ndarray, query: np.ndarray, weights: np.ndarr
                 out[j] += p * (d * d)
 
 
-@njit(cache=True, nogil=True)
+@_kernel
 def _argmin(values: np.ndarray) -> int:
     """Index of the smallest value, the lowest one on ties."""
     best = 0
@@ -84,7 +94,7 @@ def _argmin(values: np.ndarray) -> int:
     return best
 
 
-@njit(cache=True, nogil=True)
+@_kernel
 def masked_argmin(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray) -> int:
     """Index of the point (a column of points_t, (dim, n)) nearest to `query` under the masked
     distance with `weights` (dim,), bool or float; validates as it goes and returns an error code
@@ -97,7 +107,7 @@ def masked_argmin(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray) 
     return _argmin(distances)
 
 
-@njit(cache=True, nogil=True)
+@_kernel
 def masked_argmin_rows(points_t: np.ndarray, queries: np.ndarray, weights: np.ndarray, out: np.ndarray,
                        start: int, stop: int) -> None:
     """out[i] = masked_argmin of queries[i] with weights[i] (or weights[0] for every row when it has
@@ -114,7 +124,7 @@ def masked_argmin_rows(points_t: np.ndarray, queries: np.ndarray, weights: np.nd
         out[i] = _argmin(distances)
 
 
-@njit(cache=True, nogil=True)
+@_kernel
 def online_epoch(weights_t: np.ndarray, data: np.ndarray, order: np.ndarray, rate: float, sigma: float,
                  rows: int, cols: int, negligible: float) -> None:
     """One online SOM epoch in place: for each sample data[i], i in `order`, find the winner b

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache, cached_property
 from pathlib import Path
 
@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from .family import FAMILY, family_mesh
-from .meshes import convex_parts, load_mesh, mesh_digest, object_frame
+from .meshes import MAX_EXTENT, MIN_EXTENT, convex_parts, load_mesh, mesh_digest, object_frame
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
 
@@ -59,6 +59,27 @@ class GraspObject:
             r, h = self.half_sizes
             return np.array([r, r, h])
         return np.full(3, self.half_sizes[0])
+
+    def with_(self, *, mass: float | None = None, friction: float | None = None,
+              name: str | None = None) -> GraspObject:
+        """This object with another mass or friction, named after what differs.
+
+        Args:
+            mass: kg (default: unchanged).
+            friction: the sliding friction coefficient, 0 < friction <= `MAX_FRICTION` (default: unchanged).
+            name: the variant's name (default: this name and the changes, e.g. 'cylinder_friction0.3',
+                so that results, files and reports show that it is not the paper's object).
+
+        Returns:
+            The variant (this object when nothing differs).
+        """
+        changes = {"mass": None if mass is None else _positive(mass, "mass"),
+                   "friction": None if friction is None else _friction(friction)}
+        differs = {k: v for k, v in changes.items() if v is not None and v != getattr(self, k)}
+        if not differs and name is None:
+            return self
+        label = name or self.name + "".join(f"_{k}{v:g}" for k, v in differs.items())
+        return replace(self, name=label, **differs)
 
     def params(self) -> dict[str, object]:
         """Plain parameters for metadata (a mesh is named by its digest, not written out)."""
@@ -210,6 +231,19 @@ def _sphere_query(p: np.ndarray, half: tuple[float, ...]) -> tuple[np.ndarray, n
 _SURFACE_QUERIES = {"box": _box_query, "cylinder": _cylinder_query, "sphere": _sphere_query}
 
 
+#: the largest friction coefficient an object may have (rubber on rubber is about 1-2; 1e6 once gave epsilon 8054)
+MAX_FRICTION = 5.0
+#: the shapes of the paper's objects, which are also their names
+PAPER_SHAPES = ("box", "cylinder", "sphere")
+
+
+def _friction(value: object) -> float:
+    friction = _positive(value, "friction")
+    if friction > MAX_FRICTION:
+        raise ValueError(f"friction must be at most {MAX_FRICTION:g} (a sliding friction coefficient), got {value!r}")
+    return friction
+
+
 def _positive(value: object, argument: str) -> float:
     try:
         number = float(value)  # type: ignore[arg-type]
@@ -223,15 +257,23 @@ def _positive(value: object, argument: str) -> float:
 def make_object(shape: str, *, radius: float | None = None, length: float | None = None,
                 size: tuple[float, float, float] | None = None,
                 mesh: trimesh.Trimesh | str | os.PathLike | None = None, scale: float | None = None,
-                mass: float = 0.1, friction: float = DEFAULT_FRICTION, name: str | None = None) -> GraspObject:
+                mass: float | None = None, friction: float | None = None, name: str | None = None) -> GraspObject:
     """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`), sphere (`radius`) or
-    mesh (`mesh`: a trimesh or a mesh file, times `scale`, default 1).
+    mesh (`mesh`: a trimesh or a mesh file, times `scale`, default 1); or, with only `mass` and
+    `friction`, a variant of the paper's object of that name (`make_object("cylinder", friction=0.3)`
+    is `get_object("cylinder").with_(friction=0.3)`, named 'cylinder_friction0.3').
 
-    Sizes are in metres, mass in kg; `friction` is the sliding friction coefficient. A mesh must be a
-    watertight solid 5 mm to 30 cm across; it is moved to its centre of mass and turned onto its
-    principal axes (long axis z), and a non-convex one is split into convex parts for MuJoCo
+    Sizes are in metres (every extent `MIN_EXTENT` to `MAX_EXTENT`, 5 mm to 30 cm, as for meshes), mass in
+    kg (default 0.1); `friction` is the sliding friction coefficient (default `DEFAULT_FRICTION`, at most
+    `MAX_FRICTION`). A mesh must be a watertight solid; it is moved to its centre of mass and turned onto
+    its principal axes (long axis z), and a non-convex one is split into convex parts for MuJoCo
     (`meshes.py` says how).
     """
+    if shape in PAPER_SHAPES and radius is None and length is None and size is None and mesh is None \
+            and scale is None and (mass is not None or friction is not None):
+        return get_object(shape).with_(mass=mass, friction=friction, name=name)
+    mass = 0.1 if mass is None else mass
+    friction = DEFAULT_FRICTION if friction is None else _friction(friction)
     if shape == "mesh":
         if mesh is None:
             raise ValueError("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
@@ -268,8 +310,12 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
     else:
         half = (_positive(radius, "radius"),)
         label = f"sphere_r{half[0]:.3f}"
+    extents = 2 * np.asarray(half)
+    if extents.max() > MAX_EXTENT or extents.min() < MIN_EXTENT:
+        raise ValueError(f"a {shape} of {' x '.join(f'{e * 100:.3g}' for e in extents)} cm is not a one-hand grasp: "
+                         f"every extent must be {MIN_EXTENT * 1000:.0f} mm to {MAX_EXTENT * 100:.0f} cm (sizes in m)")
     return GraspObject(name=name or label, shape=shape, half_sizes=half,
-                       mass=_positive(mass, "mass"), friction=_positive(friction, "friction"))
+                       mass=_positive(mass, "mass"), friction=friction)
 
 
 #: The paper's three objects (Fig. 1).

@@ -106,6 +106,15 @@ class PostureSet:
                 "ratio": float(within / between) if pairs else float("nan"), "starts": int(len(ids))}
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        """Write the set to an .npz file, atomically (a reader never sees half of it).
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+
+        Returns:
+            The path written.
+        """
         arrays = {"postures": self.postures, "hand_poses": self.hand_poses, "start_ids": self.start_ids,
                   "contacts": self.contacts, "epsilon": self.epsilon, "hold_displacement": self.hold_displacement}
         meta = {**self.metadata, "start_names": list(self.start_names), "joints": list(FINGER_JOINTS),
@@ -114,6 +123,17 @@ class PostureSet:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> PostureSet:
+        """Read a set written by `save`, checking its kind, schema and array shapes.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The set (postures in rad, palm poses in m and quaternions, in the object frame).
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or not a posture set; the message names it.
+        """
         arrays, meta = load_npz(path, "posture_set", {"postures": (None, N_JOINTS), "hand_poses": (None, 7),
                                                       "start_ids": (None,), "contacts": (None, len(SEGMENTS)),
                                                       "epsilon": (None,), "hold_displacement": (None,)})

@@ -27,9 +27,14 @@ from scipy.spatial import ConvexHull, QhullError
 from .validation import check_int
 
 #: epsilon with many cone edges starts from this many per cone and adds, round by round, at most
-#: REFINE_WRENCHES of the other edges beyond the nearest facet (see `epsilon_l1`)
+#: REFINE_WRENCHES of the other edges beyond the nearest facet (see `epsilon_l1`): few at a time keeps
+#: the hull small where symmetric contacts put many edges on one facet (4 antipodal contacts on a
+#: sphere: 64 edges took 18.6 s adding 32 a round, 3.1 s adding 8)
 COARSE_EDGES = 8
-REFINE_WRENCHES = 32
+REFINE_WRENCHES = 8
+#: the finest friction cone: beyond it epsilon no longer changes (4 antipodal contacts on a sphere:
+#: 0.40002 at 32 edges, 0.40016 at 64) while a symmetric grasp's hull can take minutes (128 edges)
+MAX_EDGES = 64
 
 
 def _array(value: object, shape: tuple[int | None, ...], name: str) -> np.ndarray:
@@ -62,7 +67,7 @@ def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray
     center = _array(center, (3,), "center")
     if not np.isfinite(mu) or mu < 0:
         raise ValueError(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
-    check_int(num_edges, "num_edges", low=3)
+    check_int(num_edges, "num_edges", low=3, high=MAX_EDGES)
     length = np.linalg.norm(normals, axis=1)
     if np.any(length < 1e-12):
         raise ValueError("normals must be non-zero vectors")
@@ -82,14 +87,23 @@ def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray
     return np.concatenate([forces, torques], axis=2).reshape(-1, 6)
 
 
-def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float = 1.0,
+def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: float,
                num_edges: int = 8, torque_scale: float | None = None) -> float:
     """Ferrari-Canny epsilon of the L1 grasp wrench space; 0 when the grasp is not force closure.
 
-    `points` (k, 3) and `normals` (k, 3, pointing into the object) in one frame, `center` (3,) the
-    reference point for torques (the object's centre of mass), `mu` the friction coefficient,
-    `torque_scale` lambda (default: the largest distance from center to a contact). Fewer than two
-    contacts or a wrench set that does not span all six dimensions give 0.
+    Fewer than two contacts or a wrench set that does not span all six dimensions give 0.
+
+    Args:
+        points: contact points (k, 3), m, in one frame with `normals` and `center`.
+        normals: contact normals (k, 3), pointing into the object.
+        center: the reference point for torques (3,), m: the object's centre of mass.
+        mu: the friction coefficient, with no default: pass the simulation's
+            (`scene.object.friction`), or epsilon is not the one the evaluation judges by.
+        num_edges: edges of each linearised friction cone, 3 ... `MAX_EDGES`.
+        torque_scale: lambda, m (default: the largest distance from `center` to a contact).
+
+    Returns:
+        epsilon, per unit of total normal force (0 when not force closure).
     """
     wrenches = contact_wrenches(points, normals, center, mu, num_edges, torque_scale)
     if len(points) < 2:

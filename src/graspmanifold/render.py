@@ -1,18 +1,23 @@
 """Offscreen pictures of hand postures and of scenes with MuJoCo's renderer, on a headless machine,
 and animations of them (GIF, through Pillow).
 
-MuJoCo picks its OpenGL backend when it is first imported, so the pictures are made in a child
-process with MUJOCO_GL set explicitly (EGL first, then OSMesa). Where neither works,
+MuJoCo picks its OpenGL backend when it is first imported (from the MUJOCO_GL environment variable),
+and this library imports MuJoCo on its own import. So, unless MUJOCO_GL was set before (then the
+pictures are drawn in this process, the fastest way), they are drawn by one child process started
+with MUJOCO_GL set explicitly (EGL first, then OSMesa) and kept for the pictures that follow: the
+first picture pays its start (a few seconds), later ones do not. Where no backend works,
 `RenderingUnavailable` says what to install.
 """
 
 from __future__ import annotations
 
+import atexit
 import io
 import os
 import subprocess
 import sys
-import tempfile
+import threading
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,26 +40,83 @@ class RenderingUnavailable(RuntimeError):
     """No offscreen OpenGL context could be created."""
 
 
-def _in_child(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.ndarray:
-    """Run a drawing job in a child process with each offscreen backend in turn; its images."""
-    errors = []
-    with tempfile.TemporaryDirectory() as tmp:
-        source, target = Path(tmp) / "job.npz", Path(tmp) / "images.npy"
-        np.savez(source, **job)
+class _DrawingProcess:
+    """A child process that draws with one offscreen backend, kept alive for the pictures that follow.
+
+    A job goes to its stdin and the images come back on its stdout, each as 8 bytes of length and an
+    .npz / .npy payload (a status byte first on the way back). It ends with this process: when its
+    stdin closes, and at exit."""
+
+    def __init__(self, backend: str):
+        env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
+        self.backend = backend
+        self.process = subprocess.Popen([sys.executable, "-m", "graspmanifold.render", "--serve"], env=env,
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+    def draw(self, job: dict[str, np.ndarray]) -> np.ndarray:
+        buffer = io.BytesIO()
+        np.savez(buffer, **job)
+        try:
+            self.process.stdin.write(len(buffer.getvalue()).to_bytes(8, "little") + buffer.getvalue())
+            self.process.stdin.flush()
+            header = self.process.stdout.read(9)
+            payload = self.process.stdout.read(int.from_bytes(header[1:], "little")) if len(header) == 9 else b""
+        except (BrokenPipeError, OSError):
+            header, payload = b"", b""
+        if len(header) == 9 and header[0] == 0:
+            return np.load(io.BytesIO(payload))
+        self.close()
+        why = payload.decode(errors="replace") if header else self.process.stderr.read().decode(errors="replace")
+        raise RenderingUnavailable(f"{self.backend}: {why.strip().splitlines()[-1:] or ['failed']}")
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait()
+
+
+_drawing: dict[str, _DrawingProcess] = {}  # the child kept for later pictures, by backend order
+_drawing_lock = threading.Lock()
+
+
+@atexit.register
+def _close_drawing() -> None:
+    for child in _drawing.values():
+        child.close()
+    _drawing.clear()
+
+
+def _draw(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.ndarray:
+    """The images of a drawing job: in this process where MUJOCO_GL was set before MuJoCo's import,
+    otherwise in the kept child process (started with each offscreen backend in turn until one works)."""
+    if backends is None and os.environ.get("MUJOCO_GL") in BACKENDS:
+        try:
+            return _draw_job(job)
+        except Exception as error:  # noqa: BLE001 - no context in this process: the child may still draw
+            in_process = f"MUJOCO_GL={os.environ['MUJOCO_GL']} in this process: {error}"
+    else:
+        in_process = ""
+    errors = [in_process] if in_process else []
+    with _drawing_lock:
         for backend in backends or BACKENDS:
-            env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
-            run = subprocess.run([sys.executable, "-m", "graspmanifold.render", str(source), str(target)],
-                                 env=env, capture_output=True, text=True)
-            if run.returncode == 0 and target.exists():
-                return np.load(target)
-            errors.append(f"{backend}: {(run.stderr or run.stdout).strip().splitlines()[-1:] or ['failed']}")
+            kept = _drawing.pop(backend, None)
+            for child in ([kept] if kept else []) + [None]:  # a kept child that died is started again once
+                child = child or _DrawingProcess(backend)
+                try:
+                    images = child.draw(job)
+                except RenderingUnavailable as error:
+                    failure = str(error)
+                    continue
+                _drawing[backend] = child
+                return images
+            errors.append(failure)
     raise RenderingUnavailable(f"no offscreen OpenGL context ({'; '.join(errors)}); to enable, {HOW_TO_ENABLE}")
 
 
 def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
     """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
     postures = np.asarray(postures, dtype=float).reshape(-1, 22)
-    return _in_child({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size))}, backends)
+    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size))}, backends)
 
 
 def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
@@ -70,7 +132,7 @@ def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width:
     if states.ndim != 2 or states.shape[1] != len(scene.state()) or not np.all(np.isfinite(states)):
         raise ValueError(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
                          f"got {states.shape}")
-    return _in_child({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
+    return _draw({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
                       "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height))},
                      backends)
 
@@ -174,11 +236,29 @@ def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: i
     return images
 
 
-if __name__ == "__main__":
-    with np.load(sys.argv[1]) as job:
-        if str(job["kind"]) == "postures":
-            pictures = _draw_postures(job["postures"], int(job["size"]))
-        else:
-            pictures = _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]),
-                                   int(job["height"]))
-    np.save(sys.argv[2], pictures)
+def _draw_job(job: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The images of one drawing job (`render_postures` / `render_states` make them)."""
+    if str(job["kind"]) == "postures":
+        return _draw_postures(job["postures"], int(job["size"]))
+    return _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]), int(job["height"]))
+
+
+def _serve() -> None:
+    """The drawing child's loop (`_DrawingProcess`): jobs from stdin, images (or why not) to stdout."""
+    replies = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)  # whatever MuJoCo or OpenGL print goes to stderr, not into the replies
+    requests = sys.stdin.buffer
+    while len(size := requests.read(8)) == 8:
+        with np.load(io.BytesIO(requests.read(int.from_bytes(size, "little")))) as job:
+            try:
+                buffer = io.BytesIO()
+                np.save(buffer, _draw_job(job))
+                status, payload = 0, buffer.getvalue()
+            except Exception as error:  # noqa: BLE001 - told to the parent, which decides
+                status, payload = 1, f"{type(error).__name__}: {error}".encode()
+        replies.write(bytes([status]) + len(payload).to_bytes(8, "little") + payload)
+        replies.flush()
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--serve"]:
+    _serve()

@@ -35,7 +35,7 @@ from .generator import (
 )
 from .generator import PRESETS as DATASET_SIZES
 from .grid import check_grid
-from .io import library_version, software_versions, write_text_atomic
+from .io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from .objects import get_object
 from .posture import N_FINGER_JOINTS
 from .postureset import PostureSet
@@ -188,7 +188,7 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise ValueError(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
-    elif out.exists() and any(out.iterdir()) and not force:
+    elif out.exists() and any(p.name != LOCK_FILE for p in out.iterdir()) and not force:
         raise ValueError(f"{out} is not empty and holds no graspmanifold run; pass --force to write into it")
 
 
@@ -205,8 +205,14 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         config = preset
     out = Path(out)
     _check_output(out, config, force)
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in out.rglob(".*.tmp"):  # left by a run killed while writing a file
+    with output_lock(out / LOCK_FILE):
+        return _run(out, config, workers, log, executor)
+
+
+def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], None],
+         executor: Executor | None) -> dict:
+    """`reproduce` with the output folder held."""
+    for stale in out.rglob(f".*{TEMPORARY_SUFFIX}"):  # the library's own, left by a run killed while writing
         stale.unlink()
     run_record = {"config": config.to_json(), "library_version": library_version(), "versions": software_versions()}
     write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))

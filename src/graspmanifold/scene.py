@@ -305,11 +305,35 @@ class Scene:
         return np.concatenate([self.data.qpos, self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id]])
 
     def render(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
-        """An RGB picture (height, width, 3) uint8 of the scene now from a named camera (CAMERAS).
-        Drawn offscreen in a child process (see `render`), so it works on a headless machine."""
+        """An RGB picture of the scene now, drawn offscreen (works on a headless machine).
+
+        With MUJOCO_GL=egl (or osmesa) set before the library is imported, it is drawn in this process;
+        otherwise by one child process kept for the pictures that follow (the first picture takes a
+        few seconds, the next a fraction of one; `graspmanifold.render` says why).
+
+        Args:
+            camera: one of `CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels, 16 ... 4096.
+            height: pixels, 16 ... 4096.
+
+        Returns:
+            The picture, (height, width, 3) uint8.
+
+        Raises:
+            RenderingUnavailable: no offscreen OpenGL backend works; the message says what to install.
+        """
         from .render import render_states
 
         return render_states(self, self.state()[None], camera, width, height)[0]
+
+    def to_xml(self) -> str:
+        """The scene's MJCF: the hand, the object (and the table, with one) as MuJoCo compiled them.
+
+        Returns:
+            The XML text, loadable with `mujoco.MjModel.from_xml_string` (a mesh object's convex
+            parts are embedded as vertex lists).
+        """
+        return self.spec.to_xml()
 
     def _repr_png_(self) -> bytes | None:
         """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""

@@ -209,7 +209,7 @@ class SOM:
         return self
 
     def fit(self, X: np.ndarray, *, epochs: int | None = None, learning_rate: tuple[float, float] | None = None,
-            sigma: tuple[float, float] | None = None, algorithm: str | None = None, progress: bool = False) -> SOM:
+            sigma: tuple[float, float] | None = None, algorithm: str | None = None, progress: bool | None = None) -> SOM:
         """Train afresh on X (n, dim) with the constructor's schedule (or these overrides): the map
         is initialised from the data's principal components and its history starts over. Returns self."""
         data = check_data(X, self.dim)
@@ -221,7 +221,7 @@ class SOM:
         return self._train(data, *schedule, progress)
 
     def resume(self, X: np.ndarray, *, epochs: int = RESUME.epochs, learning_rate: tuple[float, float] = RESUME.learning_rate,
-               sigma: tuple[float, float] = RESUME.sigma, algorithm: str | None = None, progress: bool = False) -> SOM:
+               sigma: tuple[float, float] = RESUME.sigma, algorithm: str | None = None, progress: bool | None = None) -> SOM:
         """Resumed learning (paper Section 5): continue training the fitted map on X from its current
         weights, by default with the paper's gentle schedule (10 epochs, lr 0.1 -> 0.05, sigma
         3 -> 0.7), so new experience is folded in without unfolding the map. Returns self."""

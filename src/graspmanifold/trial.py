@@ -26,7 +26,7 @@ import numpy as np
 
 from .controller import ControllerParams, GraspController
 from .experience import Experience, check_experience
-from .grid import START_CLEARANCE, clearance, palm_pose_for
+from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 from .hand import SEGMENTS
 from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
 from .objects import GraspObject, get_object
@@ -187,6 +187,7 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise ValueError(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
+    check_grid(grid_pose, obj, table)  # the poses `evaluate` would refuse are refused here too
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}
 

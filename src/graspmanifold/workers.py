@@ -17,13 +17,15 @@ parent, KeyboardInterrupt included, pending tasks are cancelled and the workers 
 from __future__ import annotations
 
 import ctypes
+import itertools
 import os
 import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
 
@@ -113,7 +115,31 @@ def cluster_executor(address: str) -> Executor:
     return Client(address, timeout=CONNECT_SECONDS).get_executor()
 
 
-def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], workers: int = 1,
+#: tasks handed to the workers ahead of the results taken, per worker: the work in flight (and its
+#: memory) stays bounded however many tasks there are
+TASKS_AHEAD = 4
+
+
+def _bounded_map(executor: Executor, function: Callable[[Task], Result], tasks: Iterable[Task],
+                 ahead: int) -> Iterator[Result]:
+    """`executor.map`, but with at most `ahead` tasks submitted and not yet taken back (the executors'
+    own `map` submits every task at once)."""
+    pending: deque[Future] = deque()
+    remaining = iter(tasks)
+    try:
+        for task in itertools.islice(remaining, ahead):
+            pending.append(executor.submit(function, task))
+        while pending:
+            result = pending.popleft().result()
+            for task in itertools.islice(remaining, 1):
+                pending.append(executor.submit(function, task))
+            yield result
+    finally:
+        for future in pending:
+            future.cancel()
+
+
+def parallel_map(function: Callable[[Task], Result], tasks: Iterable[Task], workers: int = 1,
                  on_result: Callable[[int, Result], None] | None = None, executor: Executor | None = None
                  ) -> list[Result]:
     """`function(task)` for every task, in this process (`workers=1`), in a `worker_pool`, or on
@@ -122,7 +148,9 @@ def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], work
     Results are returned, and handed to `on_result(index, result)` as they arrive (for progress
     and checkpoints), in task order. `function` must be picklable: a module-level function, or a
     `functools.partial` of one with the shared inputs bound. Every task carries what it needs, seed
-    included, so the results are the same wherever the tasks run.
+    included, so the results are the same wherever the tasks run. `tasks` may be a generator: they are
+    drawn only as workers become free (`TASKS_AHEAD` per worker in flight), so memory does not grow
+    with their number.
     """
     check_int(workers, "workers")
     results: list[Result] = []
@@ -133,15 +161,15 @@ def parallel_map(function: Callable[[Task], Result], tasks: Sequence[Task], work
         results.append(result)
 
     if executor is not None:
-        if not isinstance(executor, Executor) and not callable(getattr(executor, "map", None)):
+        if not isinstance(executor, Executor):
             raise TypeError(f"executor must be a concurrent.futures.Executor, got {type(executor).__name__}")
-        for result in executor.map(function, tasks):
+        for result in _bounded_map(executor, function, tasks, TASKS_AHEAD * max(workers, 8)):
             keep(result)
     elif workers == 1:
         for task in tasks:
             keep(function(task))
     else:
         with worker_pool(workers) as pool:
-            for result in pool.map(function, tasks):
+            for result in _bounded_map(pool, function, tasks, TASKS_AHEAD * workers):
                 keep(result)
     return results
