@@ -166,26 +166,75 @@ def write_npz(handle: IO[bytes], arrays: dict[str, np.ndarray]) -> None:
                 np.lib.format.write_array(out, np.asanyarray(value), allow_pickle=False)
 
 
+class _Arrays(dict):
+    """The arrays of a loaded file; a missing one is the file's fault, said with its name."""
+
+    def __init__(self, path: Path, arrays: dict[str, np.ndarray]):
+        super().__init__(arrays)
+        self.path = path
+
+    def __missing__(self, name: str) -> np.ndarray:
+        raise ValueError(f"{self.path} lacks the array {name!r} (a file of another version, or corrupt)")
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of an .npz file, each member's declared shape checked against the bytes it holds
+    before anything is allocated (a corrupt header cannot ask for terabytes); no pickles."""
+    arrays = {}
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            if not info.filename.endswith(".npy"):
+                raise ValueError(f"member {info.filename!r} is not an array")
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                               else np.lib.format.read_array_header_2_0)
+                shape, fortran, dtype = read_header(member)
+                if dtype.hasobject:
+                    raise ValueError(f"member {info.filename!r} holds Python objects")
+                size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+                if size != info.file_size - member.tell():
+                    raise ValueError(f"member {info.filename!r} declares shape {shape} of {dtype} ({size} bytes) but "
+                                     f"holds {info.file_size - member.tell()} bytes")
+                data = np.frombuffer(member.read(size), dtype=dtype, count=int(np.prod(shape, dtype=np.int64)))
+                arrays[info.filename[:-4]] = data.reshape(shape, order="F" if fortran else "C").copy()
+    return arrays
+
+
 def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int | None, ...]]
              ) -> tuple[dict[str, np.ndarray], dict]:
     """Load a file written by `save_npz` and check its kind, schema and the shapes of `required`.
 
-    `required` maps array names to shapes in which None matches any length.
+    Args:
+        path: the .npz file.
+        kind: the kind of file expected ("posture_set", "som", "evaluation", ...).
+        required: array names and their shapes, None matching any length.
+
+    Returns:
+        The arrays (a missing one, asked for later, raises a ValueError naming the file) and the metadata.
+
+    Raises:
+        FileNotFoundError: there is no such file.
+        ValueError: the file is truncated, corrupt, foreign, of another kind or schema, or lacks an array;
+            the message names it.
     """
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
+        raise FileNotFoundError(f"no such file: {path}" + (" (it is a directory)" if path.is_dir() else ""))
     try:
-        with np.load(path, allow_pickle=False) as archive:
-            arrays = {name: archive[name] for name in archive.files}
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError, KeyError) as error:
-        raise ValueError(f"{path} is not a readable .npz file (truncated or corrupt?): {error}") from None
+        arrays = _read_arrays(path)
+    except Exception as error:  # noqa: BLE001 - whatever a corrupt file does to the parser, the file is at fault
+        raise ValueError(f"{path} is not a readable .npz file (truncated or corrupt?): "
+                         f"{type(error).__name__}: {error}") from None
+    arrays = _Arrays(path, arrays)
     if _METADATA_KEY not in arrays:
         raise ValueError(f"{path} is not a graspmanifold file: it has no metadata")
     try:
         meta = json.loads(str(arrays.pop(_METADATA_KEY)))
-    except json.JSONDecodeError as error:
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
         raise ValueError(f"{path} has corrupt metadata: {error}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path} has corrupt metadata: a JSON {type(meta).__name__}, not an object")
     if meta.get("kind") != kind:
         raise ValueError(f"{path} holds a {meta.get('kind')!r}, not a {kind!r}")
     if meta.get("schema") != SCHEMA_VERSION:
