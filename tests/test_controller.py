@@ -298,6 +298,9 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
     (lambda: gm.Noise(position=float("nan")), "noise position"),
     (lambda: gm.Noise(joints=-0.1), "noise joints"),
     (lambda: gm.evaluate("cylinder", None, workers=0), "workers"),
+    (lambda: gm.evaluate("cylinder", None, seed=-1), "seed must be a whole number >= 0"),
+    (lambda: gm.generate_postures("cylinder", 4, seed=-1), "seed must be a whole number >= 0"),
+    (lambda: gm.Noise("a"), "noise position must be a finite standard deviation"),  # was a ufunc TypeError
     # an object no pose of the grid can hold used to run 0 trials and write NaN into summary.json
     (lambda: gm.evaluate(gm.make_object("box", size=(0.3, 0.3, 0.3)), None, "quick"), "no pose of the 'quick' grid"),
 ])

@@ -266,6 +266,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     obj = get_object(obj)
     experience = check_experience(experience)
     workers = check_int(workers, "workers")
+    seed = check_int(seed, "seed", low=0)
     noise = noise or Noise()
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")

@@ -447,6 +447,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         GenerationError: no starting posture was found, or with verification fewer than n candidates
             held within the budget (the message gives the yield per starting posture).
     """
+    seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
     n, workers = check_int(n, "n"), check_int(workers, "workers")
     params = params or GeneratorParams()

@@ -46,7 +46,8 @@ class Noise:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if not np.isfinite(value) or value < 0:
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                    or not np.isfinite(value) or value < 0:
                 raise ValueError(f"noise {name} must be a finite standard deviation >= 0, got {value!r}")
 
 
