@@ -53,6 +53,24 @@ def test_missing_and_unreadable_files_are_refused(tmp_path):
         gm.make_object("sphere", radius=0.03, mesh=cylinder_mesh())
 
 
+def test_misleading_mesh_messages_say_what_is_wrong(tmp_path):
+    """A NaN vertex was reported as 'not watertight', a 0.04 mm mesh as '0.0 mm thick' and a directory named
+    x.stl as 'does not exist'."""
+    box = trimesh.creation.box(extents=(0.05, 0.05, 0.05))
+    vertices = box.vertices.copy()
+    vertices[3, 1] = np.nan
+    broken = tmp_path / "broken.obj"
+    broken.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in vertices)
+                      + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in box.faces))
+    with pytest.raises(ValueError, match="1 vertices with non-finite coordinates .* index 3"):
+        gm.make_object("mesh", mesh=broken)
+    with pytest.raises(ValueError, match="only 0.04 mm thick"):
+        gm.make_object("mesh", mesh=trimesh.creation.box(extents=(0.05, 0.05, 0.00004)))
+    (tmp_path / "folder.stl").mkdir()
+    with pytest.raises(ValueError, match="is a directory, not a mesh file"):
+        gm.make_object("mesh", mesh=tmp_path / "folder.stl")
+
+
 def test_a_file_in_millimetres_loads_with_its_scale(tmp_path):
     path = tmp_path / "can.stl"
     trimesh.creation.cylinder(radius=30.0, height=160.0, sections=48).export(path)

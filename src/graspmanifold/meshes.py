@@ -36,13 +36,19 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
     if isinstance(mesh, (str, os.PathLike)):
         path = Path(mesh)
         if not path.is_file():
-            raise ValueError(f"mesh file {str(path)!r} does not exist")
-        try:
-            loaded = trimesh.load(path, force="mesh")
+            raise ValueError(f"mesh file {str(path)!r} " + ("is a directory, not a mesh file" if path.is_dir()
+                                                             else "does not exist"))
+        try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
+            loaded = trimesh.load(path, force="mesh", process=False)
         except Exception as error:  # trimesh raises many kinds for a file it cannot parse
             raise ValueError(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
             raise ValueError(f"mesh file {str(path)!r} holds no triangles")
+        bad = np.flatnonzero(~np.isfinite(loaded.vertices).all(axis=1))
+        if len(bad):
+            raise ValueError(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
+                             f"inf), the first at index {bad[0]}")
+        loaded.process()
         mesh = loaded
     elif not isinstance(mesh, trimesh.Trimesh):
         raise ValueError(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
@@ -74,7 +80,7 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
         raise ValueError(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "
                          "(a file in millimetres needs scale=0.001)")
     if float(mesh.extents.min()) < MIN_EXTENT:
-        raise ValueError(f"mesh is only {mesh.extents.min() * 1000:.1f} mm thick; a grasp object needs at least "
+        raise ValueError(f"mesh is only {mesh.extents.min() * 1000:.3g} mm thick; a grasp object needs at least "
                          f"{MIN_EXTENT * 1000:.0f} mm in every direction")
 
 
