@@ -437,3 +437,25 @@ def test_every_loader_names_the_file_for_any_corrupt_or_foreign_input(tmp_path):
         with pytest.raises(FileNotFoundError, match="it is a directory"):
             load(directory)
     assert checked >= 4 * 30  # nearly every corruption is caught, not silently loaded
+
+
+@pytest.mark.parametrize("args, message", [
+    (["demo", "--seconds", "0"], "seconds must be a positive"),
+    (["reproduce", "--out", "{file}"], "is a file; results go into a directory"),
+    (["evaluate", "--object", "box", "--experience", "none", "--out", "{file}"], "is a file; results go into"),
+    (["generate", "--object", "cylinder", "--n", "4", "--force", "--out", "{folder}"], "is a directory; name an .npz"),
+    (["figure", "fig4_box", "{foreign}"], "is not a graspmanifold run's record"),
+    (["generate", "--object", "cylinder", "--n", "4", "--seed", "-1", "--out", "{folder}/x.npz"], "seed must be"),
+])
+def test_ordinary_mistakes_end_in_one_line_not_a_traceback(tmp_path, args, message):
+    """Each of these used to end in a traceback (ValueError, NotADirectoryError, AttributeError, IsADirectoryError
+    after the work was done)."""
+    from graspmanifold.cli import main as cli
+
+    (tmp_path / "file").write_text("not a directory")
+    (tmp_path / "folder.npz").mkdir()
+    (tmp_path / "foreign").mkdir()
+    (tmp_path / "foreign" / "run.json").write_text('{"config": 1}')
+    places = {"file": tmp_path / "file", "folder": tmp_path / "folder.npz", "foreign": tmp_path / "foreign"}
+    with pytest.raises(SystemExit, match=message):
+        cli([arg.format(**places) for arg in args])

@@ -57,7 +57,10 @@ def _closed_scene(obj: GraspObject, seconds: float, clearance: float) -> Scene:
 def _demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     obj = _object(args)
-    scene = _closed_scene(obj, args.seconds, args.clearance)
+    try:
+        scene = _closed_scene(obj, args.seconds, args.clearance)
+    except ValueError as error:
+        raise SystemExit(f"error: {error}") from None
     wall = time.perf_counter() - start
     reading = scene.tactile()
     print(f"closed the hand on the {obj.name} for {scene.time:.2f} s of simulated time "
@@ -87,6 +90,8 @@ def _check_output(path: str, force: bool) -> Path:
     out = Path(path)
     if out.suffix != ".npz":
         raise SystemExit(f"error: --out must end in .npz, got {path!r}")
+    if out.is_dir():
+        raise SystemExit(f"error: --out {out} is a directory; name an .npz file")
     if out.exists() and not force:
         raise SystemExit(f"error: {out} exists; pass --force to overwrite it")
     _check_writable_directory(out.parent)
@@ -95,6 +100,8 @@ def _check_output(path: str, force: bool) -> Path:
 
 def _check_writable_directory(out: Path) -> None:
     """Make `out` and write a probe file in it, before any work that would be lost if it failed."""
+    if out.exists() and not out.is_dir():
+        raise SystemExit(f"error: {out} is a file; results go into a directory: name another --out")
     try:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out):
@@ -233,6 +240,7 @@ def _reproduce(args: argparse.Namespace) -> int:
     if args.preset not in PRESETS:
         raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
     config = PRESETS[args.preset]
+    _check_writable_directory(Path(args.out))
     try:
         if args.objects:
             sizes = config.postures

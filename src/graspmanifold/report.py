@@ -73,7 +73,13 @@ class RunData:
         out = Path(out)
         if not (out / "run.json").exists():
             raise ValueError(f"{out} is not a graspmanifold reproduce run (no run.json)")
-        config = json.loads((out / "run.json").read_text())["config"]
+        try:
+            config = json.loads((out / "run.json").read_text())["config"]
+            if not isinstance(config, dict) or not isinstance(config.get("postures"), dict):
+                raise TypeError("its config names no objects")
+        except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as error:
+            raise ValueError(f"{out / 'run.json'} is not a graspmanifold run's record ({type(error).__name__}: "
+                             f"{error})") from None
         held = "_held" if config.get("procedure") == "verified" else ""  # the training postures of the procedure
         sets = {name: PostureSet.load(out / "postures" / f"{name}{held}.npz") for name in config["postures"]}
         maps = {p.stem: SOM.load(p) for p in sorted((out / "maps").glob("*.npz")) if not p.stem.endswith("_resumed")}

@@ -255,6 +255,9 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
 
         def train(name=name, path=path):
             data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
+            if not len(data):
+                raise ValueError(f"no training postures for the {name} map: the {config.procedure} procedure kept none "
+                                 f"of the candidates; ask for more (ReproduceConfig.postures) or use the paper procedure")
             SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
         stages.run(f"train_{name}", _digest(config.map_size, schedule, config.seed, *inputs), [path], train)
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
