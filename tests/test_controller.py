@@ -300,7 +300,11 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
     (lambda: gm.evaluate("cylinder", None, workers=0), "workers"),
     (lambda: gm.evaluate("cylinder", None, seed=-1), "seed must be a whole number >= 0"),
     (lambda: gm.generate_postures("cylinder", 4, seed=-1), "seed must be a whole number >= 0"),
-    (lambda: gm.Noise("a"), "noise position must be a finite standard deviation"),  # was a ufunc TypeError
+    (lambda: gm.Noise("a"), "noise position must be a standard deviation"),  # was a ufunc TypeError
+    (lambda: gm.Noise(joints=1e9), "noise joints must be a standard deviation 0 ... 0.5"),
+    (lambda: gm.evaluate("box", None, np.array([0.0, 0.0, 5.0, 0.0])), "beyond the hand's reach"),
+    (lambda: gm.facing_pose("box", clearance=-0.01), "a negative one puts the palm inside"),
+    (lambda: gm.GeneratorParams(verify_hold_seconds=0), "verify_hold_seconds must be > 0"),
     # an object no pose of the grid can hold used to run 0 trials and write NaN into summary.json
     (lambda: gm.evaluate(gm.make_object("box", size=(0.3, 0.3, 0.3)), None, "quick"), "no pose of the 'quick' grid"),
 ])

@@ -373,8 +373,6 @@ def test_every_loader_names_the_file_for_any_corrupt_or_foreign_input(tmp_path):
     import io
     import zipfile
 
-    from graspmanifold.io import write_npz
-
     postures = gm.generate_postures("cylinder", 4, params=gm.GeneratorParams(verify=False, job_size=4))
     som = gm.SOM(3, 4, 22, seed=0).fit(postures.postures, epochs=2)
     valid = {"posture set": (postures.save(tmp_path / "postures.npz"), gm.PostureSet.load),

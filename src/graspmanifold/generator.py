@@ -120,6 +120,8 @@ class GeneratorParams:
                      "max_candidates_per_posture"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
                 raise ValueError(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
+        if self.verify_hold_seconds <= 0:  # 0 marked every candidate verified without a hold test
+            raise ValueError(f"GeneratorParams.verify_hold_seconds must be > 0 s, got {self.verify_hold_seconds!r}")
 
 
 #: The generator settings of each preset, the paper's procedure: every candidate with its five fingertips

@@ -22,7 +22,7 @@ from .hand import SEGMENTS, segment_of_geoms
 from .objects import GraspObject, get_object
 from .poses import compose, invert, rotate, to_quat
 from .posture import open_posture
-from .scene import Scene, facing_pose
+from .scene import MAX_GAP, Scene, placed_facing
 
 GRID_COLUMNS = ("x", "z", "gap", "yaw")
 GRID_PRESETS = ("quick", "paper", "far", "hard")
@@ -145,6 +145,10 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
                          f"got shape {poses.shape}")
     if not np.all(np.isfinite(poses)):
         raise ValueError("grid poses must be finite")
+    far = np.flatnonzero((np.abs(poses[:, :3]) > MAX_GAP).any(axis=1) | (np.abs(poses[:, 3]) > np.pi))
+    if len(far):  # a pose 5 m away ran as a valid trial that failed
+        raise ValueError(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
+                         f"±{MAX_GAP} m and the yaw within ±π rad")
     inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
         first = inside[0]
@@ -159,7 +163,7 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
 def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Palm pose in the object frame that places the object at a grid pose relative to the palm."""
     x, z, gap, yaw = grid_pose
-    object_in_palm = invert(*facing_pose(obj, clearance=gap))
+    object_in_palm = invert(*placed_facing(obj, gap))
     turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
     _, quat = compose(np.zeros(3), turn, np.zeros(3), object_in_palm[1])
     return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)

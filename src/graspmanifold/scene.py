@@ -43,6 +43,10 @@ GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
 PALM_HALF_THICKNESS = 0.013
 
 
+#: m, the farthest a grid pose or a facing pose may put the object from the palm: beyond the fingers' reach
+MAX_GAP = 0.2
+
+
 def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float = 0.0
                 ) -> tuple[np.ndarray, np.ndarray]:
     """A palm pose (object frame) for a side wrap: the palm faces the object from +x.
@@ -50,7 +54,15 @@ def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float =
     The object's long axis (z) runs across the fingers (palm x), the object's surface is `clearance`
     metres in front of the palm's inner face, and `height` shifts the hand along the object's axis.
     """
-    obj = get_object(obj)
+    if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and 0.0 <= clearance <= MAX_GAP):
+        raise ValueError(f"clearance must be 0 ... {MAX_GAP} m between the palm and the object, got {clearance!r} "
+                         "(a negative one puts the palm inside the object)")
+    return placed_facing(get_object(obj), clearance, height)
+
+
+def placed_facing(obj: GraspObject, clearance: float, height: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """`facing_pose` without its checks, for a grid pose whose reachability is judged afterwards (a
+    negative clearance puts the palm inside the object, which `grid.why_unreachable` then reports)."""
     # columns: palm x -> object z, palm y -> object x, palm z -> object y
     rotation = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
     quat = np.zeros(4)

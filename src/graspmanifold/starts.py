@@ -317,7 +317,7 @@ def save_starting_postures(path, starts_by_object: dict[tuple[GraspObject, str],
     parameters are stored, so a changed object is never given another's starts)."""
     arrays, index = {}, {}
     for (obj, family), starts in starts_by_object.items():
-        name, key = obj.name, _key(obj.name, family)
+        key = _key(obj.name, family)
         arrays[f"{key}/pos"] = np.array([s.hand_pos for s in starts]).reshape(-1, 3)
         arrays[f"{key}/quat"] = np.array([s.hand_quat for s in starts]).reshape(-1, 4)
         arrays[f"{key}/posture"] = np.array([s.posture for s in starts]).reshape(-1, len(FINGER_JOINTS))

@@ -17,6 +17,7 @@ keeps its states for pictures and animations.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
@@ -36,6 +37,11 @@ from .scene import Scene, SimulationError
 from .validation import check_int
 
 
+#: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
+#: noise of 1e9 rad was accepted)
+MAX_NOISE = {"position": 0.05, "yaw": math.pi, "joints": 0.5}
+
+
 @dataclass(frozen=True)
 class Noise:
     """Standard deviations of the trial noise: object position (m) and yaw (rad), sensed joints (rad)."""
@@ -47,8 +53,8 @@ class Noise:
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-                    or not np.isfinite(value) or value < 0:
-                raise ValueError(f"noise {name} must be a finite standard deviation >= 0, got {value!r}")
+                    or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
+                raise ValueError(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
 
 
 
