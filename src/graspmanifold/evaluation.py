@@ -204,8 +204,15 @@ def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarra
     (`version.code_fingerprint`): stored trials under another key are never mixed in or reused.
 
     Args:
-        obj: the object; experience: the experience base (None: the heuristic); poses: grid poses (n, 4)
-        in m and rad; seed, noise, params, table, preshape, backend: as `evaluate` takes them.
+        obj: the object.
+        experience: the experience base (None: the heuristic).
+        poses: grid poses (n, 4), m and rad.
+        seed: as `evaluate` takes it.
+        noise: as `evaluate` takes it.
+        params: as `evaluate` takes them.
+        table: as `evaluate` takes it.
+        preshape: as `evaluate` takes it.
+        backend: as `evaluate` takes it.
 
     Returns:
         A 20-character hexadecimal key.
