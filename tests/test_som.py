@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.som import decay_schedule
+from graspmanifold.som import SOM, decay_schedule
 
 
 def clustered_postures(rng, n=600, clusters=5, dim=22, spread=0.05):
@@ -286,3 +286,15 @@ def test_the_schedule_lives_in_the_constructor_and_survives_saving(rng, tmp_path
         gm.SOM(5, 5, 22, epochs=0)
     with pytest.raises(ValueError, match="algorithm"):
         gm.SOM(5, 5, 22, algorithm="magic")
+
+
+def test_the_map_takes_its_dimension_from_the_data_and_random_state_names_the_seed(rng):
+    """The SOM took `dim` instead of inferring it, and `seed` where scikit-learn users look for `random_state`."""
+    data = rng.normal(size=(60, 5))
+    inferred = SOM(4, 4, random_state=7).fit(data, epochs=3)
+    given = SOM(4, 4, 5, seed=7).fit(data, epochs=3)
+    assert inferred.dim == 5 and inferred.seed == 7 and np.array_equal(inferred.weights, given.weights)
+    with pytest.raises(ValueError, match="name the same thing"):
+        SOM(4, 4, seed=1, random_state=2)
+    with pytest.raises(ValueError, match="must be an \\(n, dim\\) array"):
+        SOM(4, 4).fit(np.zeros(5))

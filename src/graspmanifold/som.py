@@ -126,14 +126,29 @@ RESUME = SOMSchedule(10, (0.1, 0.05), (3.0, 0.7))
 class SOM:
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
-    def __init__(self, rows: int, cols: int, dim: int, *, seed: int = 0, epochs: int = PAPER.epochs,
+    def __init__(self, rows: int, cols: int, dim: int | None = None, *, seed: int = 0, epochs: int = PAPER.epochs,
                  learning_rate: tuple[float, float] = PAPER.learning_rate, sigma: tuple[float, float] = PAPER.sigma,
-                 algorithm: str = "online"):
-        """The lattice, the seed (presentation order) and the training schedule `fit` uses (the
-        paper's: 300 epochs, learning rate 0.95 -> 0.05, sigma 6 -> 0.7, online)."""
+                 algorithm: str = "online", random_state: int | None = None):
+        """The lattice, the seed (presentation order) and the training schedule `fit` uses.
+
+        Args:
+            rows: lattice rows.
+            cols: lattice columns.
+            dim: length of the reference vectors (None: taken from the data at the first `fit`).
+            seed: the random presentation order's seed.
+            epochs: training epochs (the paper: 300).
+            learning_rate: (start, end), decaying exponentially (the paper: 0.95 -> 0.05).
+            sigma: neighbourhood width in lattice units, (start, end) (the paper: 6 -> 0.7).
+            algorithm: 'online' (the paper's) or 'batch'.
+            random_state: another name for `seed`, as scikit-learn users look for it.
+        """
+        if random_state is not None:
+            if seed != 0 and seed != random_state:
+                raise ValueError(f"seed ({seed!r}) and random_state ({random_state!r}) name the same thing; give one")
+            seed = random_state
         self.rows = check_int(rows, "rows")
         self.cols = check_int(cols, "cols")
-        self.dim = check_int(dim, "dim")
+        self.dim = None if dim is None else check_int(dim, "dim")
         self.seed = check_int(seed, "seed", low=0)
         self.epochs = check_int(epochs, "epochs")
         self.learning_rate = check_schedule(learning_rate, "learning_rate", upper=1.0)
@@ -186,9 +201,18 @@ class SOM:
         return self._search
 
     # -- training --------------------------------------------------------------------------------
+    def _data(self, X: np.ndarray) -> np.ndarray:
+        """X checked as training data; a map made without `dim` takes it from the first data it sees."""
+        if self.dim is None:
+            shape = np.shape(X)
+            if len(shape) != 2 or not shape[1]:
+                raise ValueError(f"X must be an (n, dim) array of training vectors, got shape {shape}")
+            self.dim = check_int(shape[1], "dim")
+        return check_data(X, self.dim)
+
     def initialize(self, X: np.ndarray) -> SOM:
         """Place the lattice on the data's first two principal axes (deterministic)."""
-        data = check_data(X, self.dim)
+        data = self._data(X)
         mean = data.mean(axis=0)
         centred = data - mean
         if len(data) > 1:
@@ -212,7 +236,7 @@ class SOM:
             sigma: tuple[float, float] | None = None, algorithm: str | None = None, progress: bool | None = None) -> SOM:
         """Train afresh on X (n, dim) with the constructor's schedule (or these overrides): the map
         is initialised from the data's principal components and its history starts over. Returns self."""
-        data = check_data(X, self.dim)
+        data = self._data(X)
         schedule = _schedule(self.epochs if epochs is None else epochs,
                              self.learning_rate if learning_rate is None else learning_rate,
                              self.sigma if sigma is None else sigma, algorithm or self.algorithm)
