@@ -289,3 +289,16 @@ def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cli(["generate", "--object", "teapot", "--out", str(tmp_path / "y.npz")])
     assert not (tmp_path / "x.npz").exists() and not (tmp_path / "y.npz").exists()
+
+
+def test_a_new_objects_slow_set_up_and_a_verification_that_keeps_few_are_announced(monkeypatch):
+    """A mesh torus's starting postures took 148 s in silence, and a verification that kept 1 of 20 said nothing."""
+    from graspmanifold import generator
+
+    with pytest.warns(UserWarning, match="no shipped starting postures .* searching them now"):
+        gm.starting_postures(gm.make_object("cylinder", radius=0.026, length=0.13))
+    assert len(gm.starting_postures(gm.make_object("cylinder", friction=0.3))) == len(gm.starting_postures("cylinder"))
+    candidates = gm.generate_postures("sphere", 6, params=gm.GeneratorParams(verify=False, job_size=6))
+    monkeypatch.setattr(generator, "FEW_HOLD", 1.01)  # whatever holds, it is "few"
+    with pytest.warns(UserWarning, match=r"only \d+ of 6 sphere candidates hold"):
+        gm.verify_postures(candidates, "sphere")

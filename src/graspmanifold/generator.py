@@ -74,6 +74,9 @@ PRESETS: dict[str, dict[str, int]] = {
 }
 
 
+#: `verify_postures` warns when fewer than this share of the candidates hold
+FEW_HOLD = 0.1
+
 #: how candidates are taken along the walk (`GeneratorParams.mode`)
 MODES = ("settled", "recording")
 
@@ -598,6 +601,11 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
                               or [np.zeros((0, 3))])
     held = rows[:, 0] > 0
     kept = postures.subset(held)
+    if len(held) and held.mean() < FEW_HOLD:
+        warnings.warn(f"only {int(held.sum())} of {len(held)} {obj.name} candidates hold ({held.mean():.0%}): too few to "
+                      "map a grasp manifold on; more candidates, another mode or design family "
+                      "(GeneratorParams.mode, .designs), or the paper's procedure (every candidate) give more",
+                      stacklevel=2)
     names = [name.split(":", 1)[-1] for name in postures.start_names]
     by_start = {names[i]: float(held[postures.start_ids == i].mean()) for i in np.unique(postures.start_ids)}
     metadata = {**postures.metadata, "verified": True, "candidates": len(postures),

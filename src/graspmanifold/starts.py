@@ -24,6 +24,7 @@ hand size gets its grasps this way.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
@@ -357,11 +358,23 @@ def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, 
         arrays, meta = {}, {"objects": {}}
     key = _key(obj.name, family)
     entry = meta["objects"].get(key)
-    if entry is not None and entry["object"] == obj.params():
+    if entry is None or entry["object"] != obj.params():  # a variant of a shipped object (another mass or
+        # friction, `GraspObject.with_`) has the same geometry, so the same designed grasps
+        key, entry = next(((k, e) for k, e in meta["objects"].items() if e.get("family", "five_fingertip") == family
+                           and _geometry(e["object"]) == _geometry(obj.params())), (key, None))
+    if entry is not None:
         count = len(entry["names"])
         contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
         designs = {d.name: d for d in designs_for(obj, family)}
         types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
         return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
                                      tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
+    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now, once per process, "
+                  "takes seconds for a primitive and minutes for a mesh (python scripts/find_starting_postures.py --all "
+                  "stores them for the paper's objects and the family)", stacklevel=3)
     return tuple(find_starting_postures(obj, family))
+
+
+def _geometry(params: dict) -> dict:
+    """An object's parameters less those that do not change where a grasp is (name, mass, friction)."""
+    return {k: v for k, v in params.items() if k not in ("name", "mass", "friction")}
