@@ -144,3 +144,17 @@ def test_pictures_after_the_first_reuse_one_drawing_process_which_comes_back_if_
     (again,) = render._drawing.values()
     assert again is not child and again.process.poll() is None
     assert "<mujoco" in scene.to_xml() and "cylinder" in scene.to_xml()
+
+
+def test_long_jobs_use_the_commands_default_workers_and_small_ones_stay_in_this_process(monkeypatch):
+    """From Python every job ran on one worker while the command used two."""
+    from graspmanifold import workers
+    from graspmanifold.cli import DEFAULT_WORKERS
+
+    assert DEFAULT_WORKERS == workers.default_workers()  # the command's default is the library's
+    monkeypatch.setattr(workers, "usable_cores", lambda: 8)
+    assert workers.default_workers() == 2
+    assert workers.workers_for(None, 500, 16) == 2 and workers.workers_for(None, 10, 16) == 1
+    assert workers.workers_for(3, 10, 16) == 3  # what the caller asks for, it gets
+    monkeypatch.setattr(workers, "usable_cores", lambda: 1)
+    assert workers.workers_for(None, 500, 16) == 1

@@ -124,7 +124,7 @@ def cells() -> list[tuple[str, str]]:
 
 def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
                   preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
-                  every: int = 1, workers: int = 1, seed: int = 0, store: str | os.PathLike | None = None,
+                  every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
                   label: str = "", progress: bool | None = None, executor: Executor | None = None
                   ) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.

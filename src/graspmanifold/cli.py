@@ -22,6 +22,7 @@ from .generator import MODES, PRESET_PARAMS
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
 from .io import LOCK_FILE, OutputInUse, output_lock
+from .workers import default_workers
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
@@ -254,7 +255,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 
 #: one default for every command that runs workers: the machine's cores, at most two
-DEFAULT_WORKERS = max(1, min(2, os.cpu_count() or 1))
+DEFAULT_WORKERS = default_workers()
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -35,7 +35,7 @@ from .stats import rate_text, wilson_interval
 from .trial import Noise, Trial
 from .validation import check_int
 from .version import code_fingerprint
-from .workers import parallel_map
+from .workers import parallel_map, workers_for
 
 
 @dataclass
@@ -253,7 +253,8 @@ def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dic
 
 
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
-             seed: int = 0, workers: int = 1, *, noise: Noise | None = None, params: ControllerParams | None = None,
+             seed: int = 0, workers: int | None = None, *, noise: Noise | None = None,
+             params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH) -> EvaluationResult:
@@ -268,17 +269,18 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     `backend`: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
     `trial.run_trial` bit for bit) in the worker processes; 'warp' runs up to `batch_size` trials at
     once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
-    The same seed gives the same trials, whatever the number of workers, the executor or interruptions
-    (on one backend)."""
+    `workers`: worker processes (None: `workers.default_workers()`, at most two, but this process alone for
+    up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start). The same seed gives the same trials,
+    whatever the number of workers, the executor or interruptions (on one backend)."""
     obj = get_object(obj)
     experience = check_experience(experience)
-    workers = check_int(workers, "workers")
     seed = check_int(seed, "seed", low=0)
     noise = noise or Noise()
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     batch_size = check_int(batch_size, "batch_size")
     grid_name, poses = check_grid(grid, obj, table)
+    workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
     directory = Path(checkpoint_dir) if checkpoint_dir is not None else None

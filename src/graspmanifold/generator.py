@@ -65,7 +65,7 @@ from .scene import Scene, SimulationError
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 from .validation import check_int
 from .version import code_fingerprint
-from .workers import parallel_map
+from .workers import parallel_map, workers_for
 
 #: The paper's dataset sizes (Section 5), and a small set for tests and demos.
 PRESETS: dict[str, dict[str, int]] = {
@@ -74,6 +74,9 @@ PRESETS: dict[str, dict[str, int]] = {
 }
 
 
+#: postures that pay for a worker process when `workers` is not given (a pool's start costs about a second)
+GENERATE_PER_WORKER = 50
+VERIFY_PER_WORKER = 20
 #: `verify_postures` warns when fewer than this share of the candidates hold
 FEW_HOLD = 0.1
 
@@ -417,7 +420,7 @@ def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[st
     return found
 
 
-def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int = 1, *,
+def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
                       progress: bool | None = None, executor: Executor | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
@@ -435,7 +438,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         n: postures to return (>= 1).
         seed: the random seed; the same seed gives the same set, whatever the number of workers or
             the `executor` (e.g. a Dask cluster's, `workers.cluster_executor`) the jobs run on.
-        workers: worker processes.
+        workers: worker processes (None: `workers.default_workers()`, one for fewer than
+            `GENERATE_PER_WORKER` postures).
         params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
         checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
             them up.
@@ -454,7 +458,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     """
     seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
-    n, workers = check_int(n, "n"), check_int(workers, "workers")
+    n = check_int(n, "n")
+    workers = workers_for(workers, n, GENERATE_PER_WORKER)
     params = params or GeneratorParams()
     starts = starting_postures(obj, params.designs)
     if not starts:
@@ -569,7 +574,7 @@ def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarr
     return np.array(rows).reshape(-1, 3)
 
 
-def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int = 1, *,
+def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int | None = None, *,
                     params: GeneratorParams | None = None, executor: Executor | None = None,
                     progress: bool | None = None) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
@@ -583,7 +588,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
     Args:
         postures: the set to verify (its palm poses are in the object frame of `obj`).
         obj: the object the set was generated on, or its name.
-        workers: worker processes.
+        workers: worker processes (None: `workers.default_workers()`, one for fewer than `VERIFY_PER_WORKER`).
         params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
         executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
@@ -594,6 +599,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int =
     """
     obj = get_object(obj)
     params = params or GeneratorParams()
+    workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
     tasks = [(obj, params, postures.postures[c], postures.hand_poses[c]) for c in chunks if len(c)]
     with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:

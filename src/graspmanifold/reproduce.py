@@ -192,7 +192,7 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
         raise ValueError(f"{out} is not empty and holds no graspmanifold run; pass --force to write into it")
 
 
-def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", workers: int = 1, *,
+def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", workers: int | None = None, *,
               force: bool = False, log: Callable[[str], None] = print, executor: Executor | None = None) -> dict:
     """Run (or resume) the whole pipeline into `out`; returns the summary written to summary.json.
     `executor` runs the generator's jobs and the trials elsewhere (a Dask cluster:

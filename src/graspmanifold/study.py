@@ -46,7 +46,7 @@ def train_experience_map(postures: np.ndarray, seed: int = 0, shape: tuple[int, 
 
 
 def grow_experience(obj: GraspObject, postures: np.ndarray, grid: np.ndarray, rounds: int, *, seed: int = 0,
-                    workers: int = 1, on_round: Callable[[int, SOM | None, np.ndarray], None] | None = None,
+                    workers: int | None = None, on_round: Callable[[int, SOM | None, np.ndarray], None] | None = None,
                     progress: bool | None = None) -> tuple[np.ndarray, list[dict]]:
     """The paper's resumed learning as a loop: grasp, keep what held, retrain, grasp again.
 

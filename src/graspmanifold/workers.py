@@ -50,6 +50,29 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def default_workers() -> int:
+    """Worker processes a job uses when not told: the cores this process may run on, at most two (the
+    `graspmanifold` command's default too)."""
+    return max(1, min(2, usable_cores()))
+
+
+def workers_for(workers: int | None, units: int, per_worker: int) -> int:
+    """The worker processes for a job of `units` pieces of work (trials, postures).
+
+    Args:
+        workers: the caller's choice, kept as given; None: `default_workers()`, but no more than the job
+            fills (one, this process, below `per_worker` units: a pool's start costs about a second).
+        units: the job's size.
+        per_worker: the units that pay for one worker process.
+
+    Returns:
+        The number of worker processes (1: this process).
+    """
+    if workers is not None:
+        return check_int(workers, "workers")
+    return max(1, min(default_workers(), units // per_worker))
+
+
 def _die_with_parent(parent: int) -> None:
     if sys.platform.startswith("linux"):
         try:
