@@ -158,3 +158,16 @@ def test_long_jobs_use_the_commands_default_workers_and_small_ones_stay_in_this_
     assert workers.workers_for(3, 10, 16) == 3  # what the caller asks for, it gets
     monkeypatch.setattr(workers, "usable_cores", lambda: 1)
     assert workers.workers_for(None, 500, 16) == 1
+
+
+def test_the_viewer_says_it_needs_a_display(monkeypatch):
+    import sys
+
+    from graspmanifold.render import RenderingUnavailable
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the display check is Linux's")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RenderingUnavailable, match="needs a display"):
+        gm.Scene("cylinder").viewer()

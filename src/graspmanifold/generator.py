@@ -67,11 +67,11 @@ from .validation import check_int
 from .version import code_fingerprint
 from .workers import parallel_map, workers_for
 
-#: The paper's dataset sizes (Section 5), and a small set for tests and demos.
 PRESETS: dict[str, dict[str, int]] = {
     "paper": {"box": 4069, "cylinder": 4220, "sphere": 1885},
     "quick": {"box": 240, "cylinder": 240, "sphere": 160},
 }
+"""Postures per object: the paper's dataset sizes (Section 5), and a small set for tests and demos."""
 
 
 #: postures that pay for a worker process when `workers` is not given (a pool's start costs about a second)

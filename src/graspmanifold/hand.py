@@ -15,8 +15,8 @@ import mujoco
 import numpy as np
 
 FINGERS: tuple[str, ...] = ("ff", "mf", "rf", "lf", "th")
+"""The five fingers: first, middle, ring, little finger and thumb."""
 
-#: The 22 finger joints in grasp-posture order: finger by finger, proximal to distal.
 FINGER_JOINTS: tuple[str, ...] = (
     "FFJ4", "FFJ3", "FFJ2", "FFJ1",
     "MFJ4", "MFJ3", "MFJ2", "MFJ1",
@@ -24,13 +24,13 @@ FINGER_JOINTS: tuple[str, ...] = (
     "LFJ5", "LFJ4", "LFJ3", "LFJ2", "LFJ1",
     "THJ5", "THJ4", "THJ3", "THJ2", "THJ1",
 )  # fmt: skip
+"""The 22 finger joints in grasp-posture order: finger by finger, proximal to distal."""
 
 WRIST_JOINTS: tuple[str, ...] = ("WRJ2", "WRJ1")
 
-#: All 24 hinge joints, wrist first, in the model's order.
 HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS
+"""All 24 hinge joints, wrist first, in the model's order."""
 
-#: Joint ranges (radians) from the kinematics sheet, in HAND_JOINTS order.
 _KNUCKLE = (-0.349066, 0.349066)
 _PROXIMAL = (-0.261799, 1.5708)
 _DISTAL = (0.0, 1.5708)
@@ -47,8 +47,8 @@ JOINT_RANGES: dict[str, tuple[float, float]] = {
     "THJ2": (-0.698132, 0.698132),
     "THJ1": (-0.261799, 1.5708),
 }
+"""Joint ranges (radians) from the kinematics sheet, by joint name."""
 
-#: The segments of each finger that carry collision geometry, palm side first.
 FINGER_SEGMENTS: dict[str, tuple[str, ...]] = {
     "ff": ("ffproximal", "ffmiddle", "ffdistal"),
     "mf": ("mfproximal", "mfmiddle", "mfdistal"),
@@ -56,14 +56,17 @@ FINGER_SEGMENTS: dict[str, tuple[str, ...]] = {
     "lf": ("lfmetacarpal", "lfproximal", "lfmiddle", "lfdistal"),
     "th": ("thproximal", "thmiddle", "thdistal"),
 }
+"""The segments of each finger that carry collision geometry, palm side first."""
 
-#: Every hand body that can touch an object (a tactile "segment"), in a fixed order.
 SEGMENTS: tuple[str, ...] = ("forearm", "wrist", "palm") + tuple(
     s for f in FINGERS for s in FINGER_SEGMENTS[f]
 )
+"""Every hand body that can touch an object (a tactile "segment"), in a fixed order."""
 
 DISTAL_SEGMENTS: tuple[str, ...] = tuple(FINGER_SEGMENTS[f][-1] for f in FINGERS)
+"""The fingertip segments, one per finger in FINGERS order."""
 FINGERTIP_SITES: tuple[str, ...] = tuple(f"{f}tip" for f in FINGERS)
+"""The fingertip sites of the model (the springs of the posture generator pull there)."""
 
 #: The segment S_{i,j} that joint j of finger i moves: the first body with geometry at or
 #: beyond the joint (knuckle, thbase and thhub carry no geometry of their own).
@@ -76,7 +79,6 @@ JOINT_SEGMENT: dict[str, str] = {
     "THJ1": "thdistal",
 }  # fmt: skip
 
-#: The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger.
 ACTUATORS: tuple[str, ...] = (
     "A_WRJ2", "A_WRJ1",
     "A_FFJ4", "A_FFJ3", "A_FFJ0",
@@ -85,6 +87,7 @@ ACTUATORS: tuple[str, ...] = (
     "A_LFJ5", "A_LFJ4", "A_LFJ3", "A_LFJ0",
     "A_THJ5", "A_THJ4", "A_THJ3", "A_THJ2", "A_THJ1",
 )  # fmt: skip
+"""The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger."""
 
 HAND_MODEL_FILE = "shadow_hand.xml"
 #: s, the physics step of the model (its <option timestep>): a control period is a whole number of them

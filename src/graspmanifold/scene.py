@@ -8,6 +8,8 @@ palm frame in the object frame (position in m, quaternion w x y z).
 from __future__ import annotations
 
 import math
+import os
+import sys
 from collections.abc import Iterable
 
 import mujoco
@@ -119,6 +121,13 @@ class Scene:
     world's z); `set_table(False)` takes it away, as lifting the object off it would.
     Every geom gets the object's sliding friction, so each hand-object contact has exactly that
     coefficient (MuJoCo would otherwise take the larger of the two geoms' values).
+
+    Attributes:
+        object: the object (`GraspObject`).
+        spec: the `mujoco.MjSpec` the model was compiled from (`to_xml()` writes it out).
+        model: the compiled `mujoco.MjModel`; change it in place (geom colours, options) as MuJoCo allows.
+        data: the `mujoco.MjData` of the simulation; `run`, `step` and the setters keep it consistent.
+        free_object: whether the object hangs on a free joint (True) or is welded to the world.
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
@@ -337,6 +346,27 @@ class Scene:
         from .render import render_states
 
         return render_states(self, self.state()[None], camera, width, height)[0]
+
+    def viewer(self) -> mujoco.viewer.Handle:
+        """MuJoCo's interactive viewer on this scene, passive: the scene keeps stepping in this program.
+
+        Call `.sync()` on the returned handle after `run` or `step` to show the new state, and `.close()`
+        when done (`graspmanifold view` opens one from the command line).
+
+        Returns:
+            The viewer's handle (`mujoco.viewer.Handle`).
+
+        Raises:
+            RenderingUnavailable: there is no display (pictures work without one: `render`).
+        """
+        from .render import RenderingUnavailable
+
+        if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise RenderingUnavailable("the viewer needs a display (DISPLAY is not set); on a headless machine draw "
+                                       "pictures with Scene.render or record_trial(...).save_gif")
+        import mujoco.viewer
+
+        return mujoco.viewer.launch_passive(self.model, self.data)
 
     def to_xml(self) -> str:
         """The scene's MJCF: the hand, the object (and the table, with one) as MuJoCo compiled them.

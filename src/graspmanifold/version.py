@@ -9,6 +9,7 @@ import hashlib
 from pathlib import Path
 
 __version__ = "0.1.0"
+"""The library's version (pyproject.toml reads it from here)."""
 
 
 @functools.cache
