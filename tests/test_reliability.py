@@ -457,3 +457,42 @@ def test_ordinary_mistakes_end_in_one_line_not_a_traceback(tmp_path, args, messa
     places = {"file": tmp_path / "file", "folder": tmp_path / "folder.npz", "foreign": tmp_path / "foreign"}
     with pytest.raises(SystemExit, match=message):
         cli([arg.format(**places) for arg in args])
+
+
+def _slow_square(x):
+    import time
+
+    time.sleep(0.2)
+    return x * x
+
+
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("signal_name, warning", [("SIGKILL", "a worker process died"),
+                                                  ("SIGSTOP", "ran past 2 s \\(a stopped worker\\?\\)")])
+def test_a_worker_that_dies_or_stalls_costs_only_its_unfinished_tasks(monkeypatch, signal_name, warning):
+    """A killed worker ended the job in a BrokenProcessPool traceback; a stopped one stalled it forever."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from graspmanifold import workers
+
+    monkeypatch.setattr(workers, "TASK_TIMEOUT", 2.0)
+    before = set(_children(os.getpid()))
+
+    def saboteur():
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            fresh = [pid for pid in _children(os.getpid()) if pid not in before]
+            if len(fresh) == 2:
+                time.sleep(0.5)  # both workers are busy
+                os.kill(fresh[0], getattr(signal, signal_name))
+                return
+            time.sleep(0.05)
+
+    threading.Thread(target=saboteur, daemon=True).start()
+    with pytest.warns(UserWarning, match=warning):
+        assert workers.parallel_map(_slow_square, range(24), 2) == [x * x for x in range(24)]
+    time.sleep(0.5)
+    assert set(_children(os.getpid())) <= before  # the broken pool's workers, the stopped one too, are gone

@@ -22,7 +22,7 @@ from .generator import MODES, PRESET_PARAMS
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
 from .io import LOCK_FILE, OutputInUse, output_lock
-from .workers import default_workers
+from .workers import WorkersLost, default_workers
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
@@ -144,7 +144,7 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
     try:
         postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
                                      checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
-    except (ValueError, GenerationError) as error:
+    except (ValueError, GenerationError, WorkersLost) as error:
         raise SystemExit(f"error: {error}") from None
     postures.save(out)
     remove_checkpoints(checkpoints)
@@ -248,7 +248,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
         reproduce(args.out, config, workers=args.workers, force=args.force,
                   log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
-    except (ValueError, OutputInUse) as error:
+    except (ValueError, OutputInUse, WorkersLost) as error:
         raise SystemExit(f"error: {error}") from None
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0

@@ -23,9 +23,12 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from typing import TypeVar
 
@@ -108,7 +111,7 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
         processes = list((getattr(pool, "_processes", None) or {}).values())
         pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:
-            process.terminate()
+            process.kill()  # SIGKILL: a stopped worker ignores SIGTERM until continued
         for process in processes:
             process.join(timeout=5)
         raise
@@ -141,24 +144,49 @@ def cluster_executor(address: str) -> Executor:
 #: tasks handed to the workers ahead of the results taken, per worker: the work in flight (and its
 #: memory) stays bounded however many tasks there are
 TASKS_AHEAD = 4
+#: s a task may take, counted from when its result is the next one awaited: beyond it its worker is taken
+#: as stopped, and the pool is started again with the unfinished tasks
+TASK_TIMEOUT = 1800.0
+#: how often a local pool whose worker died or stalled is started again before the job gives up
+POOL_RESTARTS = 2
+
+
+class WorkersLost(RuntimeError):
+    """The worker processes or the cluster running a job are gone, and starting again did not help."""
+
+
+class _PoolBroke(Exception):
+    """A local pool lost a worker (killed, or stalled past TASK_TIMEOUT): these tasks did not finish."""
+
+    def __init__(self, unfinished: list, why: str):
+        super().__init__(why)
+        self.unfinished, self.why = unfinished, why
 
 
 def _bounded_map(executor: Executor, function: Callable[[Task], Result], tasks: Iterable[Task],
-                 ahead: int) -> Iterator[Result]:
+                 ahead: int, timeout: float | None = None) -> Iterator[Result]:
     """`executor.map`, but with at most `ahead` tasks submitted and not yet taken back (the executors'
-    own `map` submits every task at once)."""
-    pending: deque[Future] = deque()
+    own `map` submits every task at once); a local pool that breaks raises `_PoolBroke` with the tasks
+    it had not finished, in order."""
+    pending: deque[tuple[Task, Future]] = deque()
     remaining = iter(tasks)
     try:
         for task in itertools.islice(remaining, ahead):
-            pending.append(executor.submit(function, task))
+            pending.append((task, executor.submit(function, task)))
         while pending:
-            result = pending.popleft().result()
+            task, future = pending[0]
+            try:
+                result = future.result(timeout=timeout)
+            except (BrokenProcessPool, FutureTimeout) as error:
+                why = ("a worker process died" if isinstance(error, BrokenProcessPool)
+                       else f"a task ran past {timeout:g} s (a stopped worker?)")
+                raise _PoolBroke([t for t, _ in pending], why) from None
+            pending.popleft()
             for task in itertools.islice(remaining, 1):
-                pending.append(executor.submit(function, task))
+                pending.append((task, executor.submit(function, task)))
             yield result
     finally:
-        for future in pending:
+        for _, future in pending:
             future.cancel()
 
 
@@ -173,7 +201,9 @@ def parallel_map(function: Callable[[Task], Result], tasks: Iterable[Task], work
     `functools.partial` of one with the shared inputs bound. Every task carries what it needs, seed
     included, so the results are the same wherever the tasks run. `tasks` may be a generator: they are
     drawn only as workers become free (`TASKS_AHEAD` per worker in flight), so memory does not grow
-    with their number.
+    with their number. A local worker that dies or stalls (`TASK_TIMEOUT`) costs only its unfinished
+    tasks: the pool starts again with them, up to `POOL_RESTARTS` times; a cluster that loses its
+    scheduler or workers ends the job with `WorkersLost`.
     """
     check_int(workers, "workers")
     results: list[Result] = []
@@ -186,13 +216,30 @@ def parallel_map(function: Callable[[Task], Result], tasks: Iterable[Task], work
     if executor is not None:
         if not isinstance(executor, Executor):
             raise TypeError(f"executor must be a concurrent.futures.Executor, got {type(executor).__name__}")
-        for result in _bounded_map(executor, function, tasks, TASKS_AHEAD * max(workers, 8)):
-            keep(result)
+        try:
+            for result in _bounded_map(executor, function, tasks, TASKS_AHEAD * max(workers, 8)):
+                keep(result)
+        except (CancelledError, _PoolBroke) as error:  # the cluster's scheduler or workers went away
+            raise WorkersLost(f"the cluster stopped running this job ({type(error).__name__}: its scheduler or "
+                              "workers are gone); finished work is kept where the job checkpoints it: run the "
+                              "same command again once the cluster is back") from None
     elif workers == 1:
         for task in tasks:
             keep(function(task))
     else:
-        with worker_pool(workers) as pool:
-            for result in _bounded_map(pool, function, tasks, TASKS_AHEAD * workers):
-                keep(result)
+        remaining: Iterator[Task] = iter(tasks)
+        for restart in range(POOL_RESTARTS + 1):
+            try:
+                with worker_pool(workers) as pool:
+                    for result in _bounded_map(pool, function, remaining, TASKS_AHEAD * workers, TASK_TIMEOUT):
+                        keep(result)
+                break
+            except _PoolBroke as broke:
+                if restart == POOL_RESTARTS:
+                    raise WorkersLost(f"{broke.why}, and again after {POOL_RESTARTS} fresh starts of the "
+                                      f"{workers} worker processes; finished work is kept where the job "
+                                      "checkpoints it") from None
+                warnings.warn(f"{broke.why}: starting the worker processes again for the {len(broke.unfinished)} "
+                              "unfinished tasks", stacklevel=2)
+                remaining = itertools.chain(broke.unfinished, remaining)
     return results
