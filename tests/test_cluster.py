@@ -48,3 +48,17 @@ def test_bad_executors_are_refused():
         cluster_executor("")
     with pytest.raises(SystemExit, match="--executor"):
         cli(["generate", "--object", "cylinder", "--n", "4", "--out", "x.npz", "--executor", "dask://tcp://127.0.0.1:1"])
+
+
+def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_disks(cluster, tmp_path, monkeypatch):
+    """With an external scheduler the workers wrote the job checkpoints on their own disks: after Ctrl-C the
+    client's folder was empty, and a rerun redid the jobs."""
+    from graspmanifold import generator
+
+    _, executor = cluster
+    written, real = [], generator.save_npz
+    monkeypatch.setattr(generator, "save_npz", lambda path, *a, **k: written.append(path) or real(path, *a, **k))
+    parts = tmp_path / "parts"
+    gm.generate_postures("cylinder", 8, params=gm.GeneratorParams(job_size=2, verify=False), executor=executor,
+                         checkpoint_dir=parts)
+    assert written and sorted(written) == sorted(parts.glob("job_*.npz"))  # every job file, written here

@@ -391,11 +391,8 @@ def _job_file(directory: Path, job: _Job) -> Path:
 
 
 def _job_worker(args: tuple) -> tuple[_Job, dict[str, np.ndarray]]:
-    obj, start, job, seed, params, directory, signature = args
-    result = _run_job(obj, start, job, seed, params)
-    if directory is not None:
-        save_npz(_job_file(directory, job), "generator_job", result, {"signature": signature, "job": asdict(job)})
-    return job, result
+    obj, start, job, seed, params = args
+    return job, _run_job(obj, start, job, seed, params)
 
 
 def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[str, np.ndarray]]:
@@ -503,7 +500,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
                 return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
 
-            pending = ((obj, starts[job.start_index], job, seed, params, directory, signature)
+            pending = ((obj, starts[job.start_index], job, seed, params)
                        for job in jobs() if (job.start_index, job.chunk) not in saved)
             finished = {key: result for key, result in saved.items() if any(
                 key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
@@ -511,6 +508,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
                 job, result = done
                 finished[(job.start_index, job.chunk)] = result
+                if directory is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
+                    save_npz(_job_file(directory, job), "generator_job", result,
+                             {"signature": signature, "job": asdict(job)})
                 report.update(len(result["postures"]))
 
             report.update(sum(len(r["postures"]) for r in finished.values()))
