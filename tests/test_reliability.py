@@ -439,8 +439,8 @@ def test_every_loader_names_the_file_for_any_corrupt_or_foreign_input(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["demo", "--seconds", "0"], "seconds must be a positive"),
-    (["reproduce", "--out", "{file}"], "is a file; results go into a directory"),
-    (["evaluate", "--object", "box", "--experience", "none", "--out", "{file}"], "is a file; results go into"),
+    (["reproduce", "--out", "{file}"], "cannot write results to .* it is a file, not a directory"),
+    (["evaluate", "--object", "box", "--experience", "none", "--out", "{file}"], "it is a file, not a directory"),
     (["generate", "--object", "cylinder", "--n", "4", "--force", "--out", "{folder}"], "is a directory; name an .npz"),
     (["figure", "fig4_box", "{foreign}"], "is not a graspmanifold run's record"),
     (["generate", "--object", "cylinder", "--n", "4", "--seed", "-1", "--out", "{folder}/x.npz"], "seed must be"),

@@ -102,7 +102,8 @@ def _check_output(path: str, force: bool) -> Path:
 def _check_writable_directory(out: Path) -> None:
     """Make `out` and write a probe file in it, before any work that would be lost if it failed."""
     if out.exists() and not out.is_dir():
-        raise SystemExit(f"error: {out} is a file; results go into a directory: name another --out")
+        raise SystemExit(f"error: cannot write results to {out}: it is a file, not a directory "
+                         "(name another --out)")
     try:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=out):

@@ -53,6 +53,17 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
+def free_cores() -> int:
+    """Cores not busy with other work now: the usable cores less the one-minute load average beyond this
+    process's own share (at least one). Threads sized by it degrade gracefully on a shared machine instead
+    of fighting the other processes for the cores."""
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # not on a Unix
+        return usable_cores()
+    return max(1, min(usable_cores(), round(usable_cores() - max(0.0, load - 1.0))))
+
+
 def default_workers() -> int:
     """Worker processes a job uses when not told: the cores this process may run on, at most two (the
     `graspmanifold` command's default too)."""
