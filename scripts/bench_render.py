@@ -2,7 +2,7 @@
 process) against a fresh child process per picture (the library's path before issue 25).
 
     python scripts/bench_render.py [--pictures 5]
-    MUJOCO_GL=egl python scripts/bench_render.py      # drawn in this process
+    DISPLAY=:0 python scripts/bench_render.py       # no backend chosen on import: the kept drawing process
 
 Prints the first picture's time and the median of the following ones for each path.
 """
@@ -36,7 +36,7 @@ def main() -> None:
     parser.add_argument("--pictures", type=int, default=5)
     args = parser.parse_args()
     scene = gm.Scene("cylinder")
-    now = "in this process (MUJOCO_GL set)" if os.environ.get("MUJOCO_GL") else "kept drawing process"
+    now = "in this process (MUJOCO_GL set)" if os.environ.get("MUJOCO_GL") in render.BACKENDS else "kept drawing process"
     for label, fresh in ((now, False), ("a fresh child process per picture (before)", True)):
         times = seconds(scene, args.pictures, fresh)
         print(f"{label}: first {times[0]:.2f} s, then median {statistics.median(times[1:]):.3f} s "

@@ -126,24 +126,45 @@ def test_progress_is_on_by_default_with_one_switch_and_a_rate_that_reads_right(c
 
 
 def test_pictures_after_the_first_reuse_one_drawing_process_which_comes_back_if_killed():
-    """Every picture used to start a child process (about 7 s each, a notebook's _repr_png_ too)."""
+    """Every picture used to start a child process (about 7 s each, a notebook's _repr_png_ too). The child
+    path (MuJoCo imported before the library, or no in-process context) keeps one child for later pictures."""
     import os
     import signal
 
     from graspmanifold import render
 
     scene = gm.Scene("cylinder")
-    first = scene.render("hand", 64, 48)
-    if os.environ.get("MUJOCO_GL") in render.BACKENDS:  # drawn in this process: no child to keep
-        assert render._drawing == {}
-        return
-    (child,) = render._drawing.values()
-    assert np.array_equal(scene.render("hand", 64, 48), first) and list(render._drawing.values()) == [child]
+    state = scene.state()[None]
+    first = render.render_states(scene, state, "hand", 64, 48, backends=render.BACKENDS)[0]
+    (child,) = [render._drawing[b] for b in render.BACKENDS if b in render._drawing]
+    again = render.render_states(scene, state, "hand", 64, 48, backends=render.BACKENDS)[0]
+    assert np.array_equal(again, first) and child.process.poll() is None
+    assert [render._drawing[b] for b in render.BACKENDS if b in render._drawing] == [child]
     os.kill(child.process.pid, signal.SIGKILL)
-    assert np.array_equal(scene.render("hand", 64, 48), first)  # a fresh child takes over
-    (again,) = render._drawing.values()
-    assert again is not child and again.process.poll() is None
+    assert np.array_equal(render.render_states(scene, state, "hand", 64, 48, backends=render.BACKENDS)[0], first)
+    (fresh,) = [render._drawing[b] for b in render.BACKENDS if b in render._drawing]
+    assert fresh is not child and fresh.process.poll() is None
+    assert scene.render("hand", 64, 48).shape == (48, 64, 3)  # the default route: in this process, or the child
     assert "<mujoco" in scene.to_xml() and "cylinder" in scene.to_xml()
+
+
+def test_a_headless_import_chooses_the_offscreen_backend_for_pictures_in_this_process(tmp_path):
+    """MUJOCO_GL set before MuJoCo's import, where it is unset and there is no display; left alone otherwise."""
+    import ctypes.util
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, graspmanifold; print(os.environ.get('MUJOCO_GL'))"
+    base = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY",
+                                                             "PYOPENGL_PLATFORM")}
+    expected = "egl" if ctypes.util.find_library("EGL") else "osmesa" if ctypes.util.find_library("OSMesa") else "None"
+    for env, chosen in ((base, expected), ({**base, "MUJOCO_GL": "osmesa"}, "osmesa"),
+                        ({**base, "DISPLAY": ":0"}, "None")):
+        done = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120)
+        assert done.returncode == 0 and done.stdout.strip() == chosen, (env.get("MUJOCO_GL"), done.stderr[-500:])
+
 
 
 def test_long_jobs_use_the_commands_default_workers_and_small_ones_stay_in_this_process(monkeypatch):

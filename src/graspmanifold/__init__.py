@@ -4,7 +4,11 @@ An implementation (and extension) of "SOM-based experience representation for de
 (WSOM 2007) on a MuJoCo model of the 24-joint Shadow Dexterous Hand.
 """
 
-from .analysis import resume_learning, smoothness
+from .render import choose_offscreen_backend
+
+choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
+
+from .analysis import resume_learning, smoothness  # noqa: E402
 from .controller import ControllerParams, GraspController
 from .evaluation import EvaluationResult, evaluate
 from .experience import Experience, PostureDatabase

@@ -1,17 +1,20 @@
 """Offscreen pictures of hand postures and of scenes with MuJoCo's renderer, on a headless machine,
 and animations of them (GIF, through Pillow).
 
-MuJoCo picks its OpenGL backend when it is first imported (from the MUJOCO_GL environment variable),
-and this library imports MuJoCo on its own import. So, unless MUJOCO_GL was set before (then the
-pictures are drawn in this process, the fastest way), they are drawn by one child process started
-with MUJOCO_GL set explicitly (EGL first, then OSMesa) and kept for the pictures that follow: the
-first picture pays its start (a few seconds), later ones do not. Where no backend works,
+MuJoCo picks its OpenGL backend when it is first imported, from the MUJOCO_GL environment variable.
+On a headless Linux machine where it is unset, `import graspmanifold` sets it, before MuJoCo's import,
+to the offscreen backend whose library is installed (EGL, then OSMesa: `choose_offscreen_backend`), and
+pictures are drawn in this process. Where that is not possible (MuJoCo was imported first, the variable
+names another backend, or the in-process context fails) they are drawn by one child process started
+with MUJOCO_GL set explicitly (EGL first, then OSMesa) and kept for the pictures that follow: the first
+picture pays its start (about a second), later ones do not. Where no backend works,
 `RenderingUnavailable` says what to install.
 """
 
 from __future__ import annotations
 
 import atexit
+import ctypes.util
 import io
 import os
 import subprocess
@@ -38,6 +41,29 @@ HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get ins
 
 class RenderingUnavailable(RuntimeError):
     """No offscreen OpenGL context could be created."""
+
+
+def choose_offscreen_backend() -> str | None:
+    """On a headless Linux machine, before MuJoCo's first import and with MUJOCO_GL unset: set MUJOCO_GL
+    (and PyOpenGL's platform) to the offscreen backend whose library is installed, EGL first, then OSMesa,
+    so that pictures are drawn in this process. `import graspmanifold` calls it.
+
+    Returns:
+        The backend set, or None where nothing was changed (a display, MuJoCo already imported, the
+        variable already set, no offscreen library, not Linux).
+    """
+    if (os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules or not sys.platform.startswith("linux")
+            or os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return None
+    for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
+        if ctypes.util.find_library(library):
+            os.environ["MUJOCO_GL"] = backend
+            os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+            return backend
+    return None
+
+
+_in_process_failed = False  # this process's context failed once: the kept child draws from then on
 
 
 class _DrawingProcess:
@@ -89,13 +115,14 @@ def _close_drawing() -> None:
 def _draw(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.ndarray:
     """The images of a drawing job: in this process where MUJOCO_GL was set before MuJoCo's import,
     otherwise in the kept child process (started with each offscreen backend in turn until one works)."""
-    if backends is None and os.environ.get("MUJOCO_GL") in BACKENDS:
+    global _in_process_failed
+    in_process = ""
+    if backends is None and os.environ.get("MUJOCO_GL") in BACKENDS and not _in_process_failed:
         try:
             return _draw_job(job)
         except Exception as error:  # noqa: BLE001 - no context in this process: the child may still draw
+            _in_process_failed = True
             in_process = f"MUJOCO_GL={os.environ['MUJOCO_GL']} in this process: {error}"
-    else:
-        in_process = ""
     errors = [in_process] if in_process else []
     with _drawing_lock:
         for backend in backends or BACKENDS:

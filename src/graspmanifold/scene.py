@@ -328,9 +328,9 @@ class Scene:
     def render(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
         """An RGB picture of the scene now, drawn offscreen (works on a headless machine).
 
-        With MUJOCO_GL=egl (or osmesa) set before the library is imported, it is drawn in this process;
-        otherwise by one child process kept for the pictures that follow (the first picture takes a
-        few seconds, the next a fraction of one; `graspmanifold.render` says why).
+        On a headless Linux machine the library chose the offscreen backend on import and the picture is
+        drawn in this process; otherwise by one child process kept for the pictures that follow
+        (`graspmanifold.render` says when and why).
 
         Args:
             camera: one of `CAMERAS`, or `render.THUMB_SIDE`.
