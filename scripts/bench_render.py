@@ -36,7 +36,8 @@ def main() -> None:
     parser.add_argument("--pictures", type=int, default=5)
     args = parser.parse_args()
     scene = gm.Scene("cylinder")
-    now = "in this process (MUJOCO_GL set)" if os.environ.get("MUJOCO_GL") in render.BACKENDS else "kept drawing process"
+    in_process = os.environ.get("MUJOCO_GL") in render.BACKENDS
+    now = "in this process (MUJOCO_GL set)" if in_process else "kept drawing process"
     for label, fresh in ((now, False), ("a fresh child process per picture (before)", True)):
         times = seconds(scene, args.pictures, fresh)
         print(f"{label}: first {times[0]:.2f} s, then median {statistics.median(times[1:]):.3f} s "
