@@ -279,6 +279,10 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
     assert a.summary == b.summary
     loaded = gm.EvaluationResult.load(a.save(tmp_path / "trials.npz"))
     assert loaded.summary == a.summary and loaded.noise == noise
+    assert loaded.object is gm.get_object("cylinder") is a.object  # the object, not a plain dict
+    slippery = gm.make_object("cylinder", friction=0.3)
+    variant = gm.EvaluationResult(slippery, "none", "custom", 0, a.trials[:1])
+    assert gm.EvaluationResult.load(variant.save(tmp_path / "variant.npz")).object == slippery
     assert a.successful_postures().shape[1] == 22
     # the per-cycle best-match winners travel with the trials: one SOM node per match used
     assert sum(t.matches for t in a.trials) > 0

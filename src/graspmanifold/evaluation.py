@@ -28,7 +28,7 @@ from .grid import check_grid
 from .hand import SEGMENTS
 from .io import library_version, load_npz, save_npz
 from .judge import EPSILON_THRESHOLD
-from .objects import GraspObject, get_object
+from .objects import GraspObject, get_object, object_from_params
 from .posture import N_FINGER_JOINTS
 from .progress import progress_bar
 from .stats import rate_text, wilson_interval
@@ -40,15 +40,29 @@ from .workers import parallel_map, workers_for
 
 @dataclass
 class EvaluationResult:
-    """Trials of one controller (method) on one object, with their summary."""
+    """Trials of one controller (method) on one object, with their summary.
 
-    object: dict
+    Attributes:
+        object: the object (a `GraspObject`; read from a file, `objects.object_from_params` makes it again).
+        method: the controller's experience ('none', 'database', 'som', or a study's label).
+        grid_name: the grid preset's name, or 'custom'.
+        seed: the trials' seed.
+        trials: one `Trial` per grid pose, in grid order.
+        noise: the trial noise.
+        backend: the physics engine the trials ran on (`batch_trials.BACKENDS`).
+    """
+
+    object: GraspObject
     method: str
     grid_name: str
     seed: int
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
     backend: str = "cpu"  # the physics engine the trials ran on (batch_trials.BACKENDS)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.object, dict):  # parameters, as a file stores them
+            self.object = object_from_params(self.object)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -69,7 +83,7 @@ class EvaluationResult:
             return float(np.mean(values)) if values else float("nan")
 
         return {
-            "object": self.object["name"], "method": self.method, "grid": self.grid_name, "trials": n,
+            "object": self.object.name, "method": self.method, "grid": self.grid_name, "trials": n,
             "invalid_trials": len(self.trials) - n,
             "hold_rate": holds / n if n else float("nan"), "hold_interval": list(wilson_interval(int(holds), n)),
             "force_closure_rate": closures / n if n else float("nan"),
@@ -133,7 +147,7 @@ class EvaluationResult:
                   "fault": np.array([x.fault for x in t], dtype=str)}
         if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
-        meta = {"object": self.object, "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
+        meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
                 "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
         return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
@@ -298,7 +312,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         number = pending[task]
         done[number] = trials
         if directory is not None:
-            EvaluationResult(obj.params(), method, grid_name, seed, trials, noise, backend).save(
+            EvaluationResult(obj, method, grid_name, seed, trials, noise, backend).save(
                 directory / f"part_{chunks[number][0]:05d}.npz", extra={"signature": signature,
                                                                          "first": chunks[number][0]})
         report.update(len(trials))
@@ -317,7 +331,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
                     keep(first + k, trials[:len(task[0])])
                     trials = trials[len(task[0]):]
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
-    return EvaluationResult(obj.params(), method, grid_name, seed, trials, noise, backend)
+    return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend)
 
 
 def summary_json(results: list[EvaluationResult]) -> str:

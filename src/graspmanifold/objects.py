@@ -344,3 +344,33 @@ def get_object(obj: str | GraspObject) -> GraspObject:
 @cache
 def _family_object(name: str) -> GraspObject:
     return make_object("mesh", mesh=family_mesh(name), name=name)
+
+
+def object_from_params(params: dict) -> GraspObject:
+    """The object a stored result describes by its parameters (`GraspObject.params()`).
+
+    Args:
+        params: name, shape, half_sizes, mass, friction (and a mesh's digest), as `params()` wrote them.
+
+    Returns:
+        The paper's or the family's object of that name where the parameters match it, else the primitive
+        made again, or, for a mesh whose file a result does not store, a description without the mesh
+        (its name, sizes, mass, friction and digest; it cannot be simulated).
+
+    Raises:
+        ValueError: the parameters name no shape or sizes.
+    """
+    try:
+        name, shape, half = str(params["name"]), str(params["shape"]), tuple(float(h) for h in params["half_sizes"])
+        mass, friction = float(params["mass"]), float(params["friction"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"object parameters must give name, shape, half_sizes, mass and friction, got {params!r} "
+                         f"({error})") from None
+    try:
+        known = get_object(name)
+        if known.params() == params:
+            return known
+    except ValueError:
+        pass
+    return GraspObject(name=name, shape=shape, half_sizes=half, mass=mass, friction=friction,
+                       mesh_digest=str(params.get("mesh_digest", "")))
