@@ -56,3 +56,18 @@ def test_the_verified_runs_verdicts_come_from_its_published_run():
     run = json.loads((published / "run.json").read_text())
     assert run["config"]["procedure"] == "verified"
     assert all(d["trained_on"] < d["candidates"] for d in run["datasets"].values())
+
+
+def test_the_headline_numbers_trace_to_the_study_they_name():
+    """The README's first screen once quoted one run's numbers beside another's for the same thing; its
+    verdict's numbers now come from docs/experience_study.md, which it names."""
+    readme = README.read_text()
+    headline = readme[readme.index("**Does experience pay?"):readme.index("## Status")]
+    study = (README.parent / "docs" / "experience_study.md").read_text()
+    assert "docs/experience_study.md" in headline
+    for number in ("37 % [34, 41]", "36 % [32, 39]", "17.6 points", "+1.3 points", "p = 0.43", "+1.4 points",
+                   "+2.7", "0.053", "708 paired"):
+        assert number in headline, number
+    for figure in ("37.0%", "35.6%", "+1.3 points", "McNemar p = 0.43", "17.6 points", "+1.4 points", "+2.7",
+                   "708 paired", "[34, 41]", "[32, 39]", "0.053"):
+        assert figure in study, figure
