@@ -42,3 +42,22 @@ def test_the_tutorial_page_is_the_stored_notebook_and_the_notebooks_are_stored_e
         code = [cell for cell in notebook.cells if cell.cell_type == "code"]
         assert all(cell.execution_count for cell in code), f"{path.name} is stored unexecuted"
         assert any(output.get("output_type") == "display_data" for cell in code for output in cell.outputs), path.name
+
+
+def test_the_public_functions_and_methods_say_their_arguments():
+    """`Args:` (with units) on every function of gm.__all__ that takes arguments, and on the public methods of
+    its classes (a dataclass's fields are its arguments)."""
+    import dataclasses
+
+    missing = []
+    for name in gm.__all__:
+        thing = getattr(gm, name)
+        members = [(name, thing)] if inspect.isfunction(thing) else [
+            (f"{name}.{m}", f) for m, f in inspect.getmembers(thing, inspect.isfunction)
+            if (not m.startswith("_") or (m == "__init__" and not dataclasses.is_dataclass(thing)))
+            and f.__qualname__.split(".")[0] == thing.__name__] if inspect.isclass(thing) else []
+        for label, function in members:
+            takes = [p for p in inspect.signature(function).parameters if p not in ("self", "cls")]
+            if takes and "Args:" not in (function.__doc__ or ""):
+                missing.append(label)
+    assert missing == []

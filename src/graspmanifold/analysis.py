@@ -82,12 +82,20 @@ def nearest_neighbour_deg(postures: np.ndarray) -> dict[str, float]:
 
 def smoothness(som: SOM, training: np.ndarray | None = None, evaluation: np.ndarray | None = None
                ) -> dict[str, float | int]:
-    """Inter-node distance statistics (degrees over all joints), errors and data support.
+    """Inter-node distance statistics (degrees over all joints), errors and data support of a map.
 
-    With `training` / `evaluation` postures: quantisation and topographic error on the training
-    data, how many nodes no training (evaluation) posture falls on, and which fraction of the
-    evaluation postures land on nodes that no training posture supports (the paper's observation
-    that evaluation grasps match mainly inter-cluster nodes).
+    With `training` / `evaluation` postures: quantisation and topographic error on the training data, how
+    many nodes no training (evaluation) posture falls on, and which fraction of the evaluation postures
+    land on nodes that no training posture supports (the paper's observation that evaluation grasps match
+    mainly inter-cluster nodes).
+
+    Args:
+        som: a fitted map.
+        training: its training postures (n, dim), rad.
+        evaluation: postures from an evaluation (m, dim), rad.
+
+    Returns:
+        The statistics by name (distances in degrees, errors in rad, counts of nodes).
     """
     stats = som.distance_stats(degrees=True)
     report: dict[str, float | int] = {f"distance_{k}_deg" if k != "cv" else "distance_cv": v
@@ -111,8 +119,20 @@ def resume_learning(som: SOM, postures: np.ndarray, *, epochs: int = RESUME.epoc
                     learning_rate: tuple[float, float] = RESUME.learning_rate,
                     sigma: tuple[float, float] = RESUME.sigma, training: np.ndarray | None = None
                     ) -> tuple[SOM, dict[str, dict]]:
-    """A copy of `som` trained further on `postures` (the paper's second phase), with the
-    smoothness report before and after. `som` itself is left unchanged."""
+    """A copy of `som` trained further on `postures` (the paper's second phase), with the smoothness
+    report before and after; `som` itself is left unchanged.
+
+    Args:
+        som: a fitted map.
+        postures: the new postures (n, dim), e.g. the successful grasps of an evaluation, rad.
+        epochs: epochs of the resumed learning (the paper: 10).
+        learning_rate: (start, end) (the paper: 0.1 -> 0.05).
+        sigma: neighbourhood width (start, end), lattice units (the paper: 3 -> 0.7).
+        training: the original training postures, for the report's data support.
+
+    Returns:
+        The resumed map and {"before": smoothness, "after": smoothness} (`smoothness`).
+    """
     before = smoothness(som, training, postures)
     resumed = copy.deepcopy(som).resume(postures, epochs=epochs, learning_rate=learning_rate, sigma=sigma)
     return resumed, {"before": before, "after": smoothness(resumed, training, postures)}

@@ -166,8 +166,15 @@ class GraspController:
 
     def __init__(self, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None):
-        """`preshape`: a fixed base posture for phase B (a constant preshape) instead of matching the
-        experience there; phase C still steers with the experience, if any."""
+        """A controller ready for its first grasp.
+
+        Args:
+            experience: None (the plain tactile controller), a PostureDatabase, a SOM or a PostureSet.
+            params: timing, gains and switches (`ControllerParams`).
+            initial_posture: the open hand it starts from (22,), rad (default `open_posture()`).
+            preshape: a fixed base posture for phase B, rad (a constant preshape) instead of matching the
+                experience there; phase C still steers with the experience, if any.
+        """
         self.experience = check_experience(experience)
         self.params = params or ControllerParams()
         self.initial = validate_posture(open_posture() if initial_posture is None else initial_posture,
@@ -209,7 +216,15 @@ class GraspController:
                 f"{', done' if self.done else ''})")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
-        """One control cycle: sensed joint angles (22,) and normal force per segment -> joint targets (22,)."""
+        """One control cycle.
+
+        Args:
+            joints: the sensed joint angles (22,), rad.
+            segment_forces: the normal force on each segment (len(SEGMENTS),), N, in `SEGMENTS` order.
+
+        Returns:
+            The joint targets (22,), rad.
+        """
         joints = validate_posture(joints, name="joints")
         forces = np.asarray(segment_forces, dtype=float)
         if forces.shape != (len(SEGMENTS),) or not np.all(np.isfinite(forces)):

@@ -101,20 +101,40 @@ class EvaluationResult:
         return np.array([t.valid for t in self.trials], dtype=bool)
 
     def outcomes(self, measure: str = "hold") -> np.ndarray:
-        """Success per trial (bool, grid order) by 'hold' or 'force_closure'; an invalid trial
-        reads False here, so pair it with `valid()` (or use `rate`)."""
+        """Success per trial; an invalid trial reads False here, so pair it with `valid()` (or use `rate`).
+
+        Args:
+            measure: 'hold' or 'force_closure'.
+
+        Returns:
+            (n,) bool in grid order.
+        """
         if measure not in ("hold", "force_closure"):
             raise ValueError(f"measure must be 'hold' or 'force_closure', got {measure!r}")
         return np.array([t.valid and bool(getattr(t, measure)) for t in self.trials], dtype=bool)
 
     def rate(self, measure: str = "hold", rows: np.ndarray | None = None) -> float:
-        """The success rate over the valid trials (of `rows`, a bool mask in grid order, if given)."""
+        """The success rate over the valid trials.
+
+        Args:
+            measure: 'hold' or 'force_closure'.
+            rows: a bool mask in grid order to count only some trials.
+
+        Returns:
+            The rate, 0 ... 1 (NaN without a valid trial).
+        """
         keep = self.valid() if rows is None else self.valid() & np.asarray(rows, dtype=bool)
         return float(self.outcomes(measure)[keep].mean()) if keep.any() else float("nan")
 
     def successful_postures(self, require_hold: bool = True) -> np.ndarray:
-        """Final postures (m, 22) of the trials that held (or, with require_hold=False, reached force
-        closure): the grasps that may join the experience."""
+        """Final postures of the successful trials: the grasps that may join the experience.
+
+        Args:
+            require_hold: count the trials that held (False: that reached force closure).
+
+        Returns:
+            Postures (m, 22), rad.
+        """
         keep = [t.posture for t in self.trials if t.valid and (t.hold if require_hold else t.force_closure)]
         return np.array(keep).reshape(-1, N_FINGER_JOINTS)
 
@@ -134,7 +154,16 @@ class EvaluationResult:
                 f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
-        """Write the trials and the summary (plus `extra` metadata) to an .npz file."""
+        """Write the trials, their winners and the summary to an .npz file, atomically.
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+            extra: more metadata to store.
+
+        Returns:
+            The path written.
+        """
         t = self.trials
         arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
                   "postures": np.array([x.posture for x in t]).reshape(-1, N_FINGER_JOINTS),
@@ -272,20 +301,42 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH) -> EvaluationResult:
-    """Run the controller with this experience (None, a PostureDatabase or a SOM) on every grid pose.
+    """Run the controller with this experience on every grid pose, and judge each grasp.
 
-    `table=True`: the object stands on a table (gravity on) while the hand closes, instead of being
-    held by a spring; grid poses where the open hand would touch the table are left out of presets
-    (and refused in a custom grid). `preshape`: a constant phase-B posture (see `GraspController`).
-    With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun with
-    the same arguments picks them up (parts of another configuration are discarded with a warning).
-    `executor` runs the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
-    `backend`: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
-    `trial.run_trial` bit for bit) in the worker processes; 'warp' runs up to `batch_size` trials at
-    once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
-    `workers`: worker processes (None: `workers.default_workers()`, at most two, but this process alone for
-    up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start). The same seed gives the same trials,
-    whatever the number of workers, the executor or interruptions (on one backend)."""
+    The object is held by a spring support with gravity off while the hand closes (or stands on a table
+    with gravity on), then released and judged: the hold test, its margin, and epsilon at the object's
+    friction. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun
+    with the same arguments (and the same library code) picks them up; parts of another configuration are
+    discarded with a warning. The same seed gives the same trials, whatever the number of workers, the
+    executor or interruptions (on one backend).
+
+    Args:
+        obj: the object, or its name.
+        experience: None (the plain tactile controller), a PostureDatabase, a SOM or a PostureSet.
+        grid: a preset name (`GRID_PRESETS`), or poses (n, 4) or one pose (4,): x, z, gap in m, yaw in rad.
+        seed: trial i draws its noise from the generator seeded [seed, i].
+        workers: worker processes (None: `workers.default_workers()`, at most two, but this process alone
+            for up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start).
+        noise: object pose and sensed joint noise (`Noise`).
+        params: controller parameters (`ControllerParams`).
+        table: the object stands on a table with gravity on while the hand closes (grid poses where the
+            open hand would touch the table are left out of presets and refused in a custom grid).
+        preshape: a constant phase-B posture (22,), rad (see `GraspController`).
+        checkpoint_dir: where finished trials are kept until the end.
+        progress: show a progress bar (None: as `progress.show_progress` says, on by default).
+        executor: run the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
+        backend: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
+            `trial.run_trial` bit for bit) in worker processes; 'warp' runs up to `batch_size` trials at
+            once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
+        batch_size: trials at once on the GPU.
+
+    Returns:
+        The result: one `Trial` per pose, in grid order, and its summary.
+
+    Raises:
+        ValueError: an unknown object or grid, a pose no trial can start from (`why_unreachable`), a bad
+            argument.
+    """
     obj = get_object(obj)
     experience = check_experience(experience)
     seed = check_int(seed, "seed", low=0)

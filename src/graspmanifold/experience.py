@@ -32,19 +32,64 @@ class Experience(Protocol):
         """The reference postures (k, dim) that `best_match` indexes."""
         ...
 
-    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int: ...
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """The reference posture nearest to x under the masked distance of Eq. 2.
 
-    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray: ...
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
 
-    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray: ...
+        Returns:
+            Its index: a row of `references`.
+        """
+        ...
 
-    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray: ...
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`best_match` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Indices (m,).
+        """
+        ...
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching reference posture in full: x completed from what the mask specifies.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
+        ...
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Postures (m, dim), rad.
+        """
+        ...
 
 
 class PostureDatabase:
     """All stored postures (n, dim); best matches are row indices into `postures`."""
 
     def __init__(self, postures: np.ndarray):
+        """The database of these postures.
+
+        Args:
+            postures: (n, dim) finite postures, rad; stored read-only.
+        """
         data = np.asarray(postures, dtype=float)
         if data.ndim != 2:
             raise ValueError(f"postures must be an (n, dim) array, got shape {data.shape}")
@@ -62,19 +107,51 @@ class PostureDatabase:
         return self.postures
 
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
-        """Row of the stored posture nearest to x under the PCP distance of Eq. 2."""
+        """The reference posture nearest to x under the masked distance of Eq. 2.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            Its index: the stored posture's row.
+        """
         return self._search.nearest(x, mask)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """Best-matching rows (m,) for queries X (m, dim), with one mask or one per row."""
+        """`best_match` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Indices (m,).
+        """
         return self._search.nearest_batch(X, masks)
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching stored posture, in full."""
+        """The best-matching reference posture in full: x completed from what the mask specifies.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
         return self.references[self.best_match(x, mask)].copy()
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching stored postures (m, dim) of queries X (m, dim): `complete` of every row."""
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Postures (m, dim), rad.
+        """
         return self.references[self.best_match_batch(X, masks)]
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:

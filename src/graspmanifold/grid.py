@@ -38,16 +38,27 @@ START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the o
 
 
 def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
-    """Grid poses (n, 4): object shift across (x) and along (z) the fingers, palm gap, yaw (m, rad).
+    """Grid poses of a preset: object shift across (x) and along (z) the fingers, palm gap, yaw.
 
-    A regular grid less the poses the open hand cannot reach (`reachable`; `why_unreachable` says why
-    one is refused: a cylinder turned by a positive yaw brings its end into the thumb, so the cylinder's
-    grids keep only yaws <= 0). 'quick': x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in
-    {-0.5, 0, 0.5} before that (box 37, cylinder 30 poses);
-    'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over +-0.5 rad (box 263, cylinder 224).
-    A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225 poses, all reachable).
-    'far': gaps 3, 4 and 5 cm, x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in {-0.5, 0, 0.5};
-    'hard': x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in {-0.8, -0.4, 0, 0.4, 0.8}.
+    A regular grid less the poses the open hand cannot reach (`reachable`; `why_unreachable` says why one is
+    refused: a cylinder turned by a positive yaw brings its end into the thumb, so the cylinder's grids keep
+    only yaws <= 0). 'quick': x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} before
+    that (box 37, cylinder 30 poses); 'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over
+    +-0.5 rad (box 263, cylinder 224). A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225
+    poses, all reachable). 'far': gaps 3, 4 and 5 cm, x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in
+    {-0.5, 0, 0.5}; 'hard': x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in
+    {-0.8, -0.4, 0, 0.4, 0.8}.
+
+    Args:
+        name: the preset, one of `GRID_PRESETS`.
+        obj: the object, or its name.
+        table: the object stands on a table (poses where the open hand would touch it are left out).
+
+    Returns:
+        The poses (n, 4): x, z, gap in m, yaw in rad.
+
+    Raises:
+        ValueError: an unknown preset, or no pose of it is reachable for this object.
     """
     obj = get_object(obj)
     sphere = obj.shape == "sphere"
@@ -129,8 +140,16 @@ def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray, table: bool = 
 
 
 def reachable(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
-    """Which grid poses (bool, (n,)) leave the open hand clear of the object (and the table, with one),
-    so a trial can start there."""
+    """Which grid poses leave the open hand clear of the object (and of the table, with one).
+
+    Args:
+        obj: the object, or its name.
+        grid: poses (n, 4): x, z, gap in m, yaw in rad.
+        table: the object stands on a table.
+
+    Returns:
+        (n,) bool: True where a trial can start (at least `START_CLEARANCE` of clearance).
+    """
     return open_hand_clearance(obj, grid, table) >= START_CLEARANCE
 
 

@@ -88,7 +88,14 @@ class GraspObject:
         return params | ({"mesh_digest": self.mesh_digest} if self.shape == "mesh" else {})
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
-        """Signed distance (m) of points (n, 3) or (3,) in the object frame to the surface; < 0 inside."""
+        """Signed distance to the surface, negative inside.
+
+        Args:
+            points: (n, 3) or (3,), m, in the object frame.
+
+        Returns:
+            Distances (n,) or a float, m.
+        """
         p, single = _check_points(points)
         if self.mesh is not None:
             distance = -trimesh.proximity.signed_distance(self.mesh, p)  # trimesh counts inside as positive
@@ -97,7 +104,14 @@ class GraspObject:
         return distance[0] if single else distance
 
     def closest_point(self, points: np.ndarray) -> np.ndarray:
-        """Closest surface points for points (n, 3) or (3,) in the object frame."""
+        """The closest surface points.
+
+        Args:
+            points: (n, 3) or (3,), m, in the object frame.
+
+        Returns:
+            Points on the surface, the shape of `points`, m.
+        """
         p, single = _check_points(points)
         if self.mesh is not None:
             closest = self._mesh_closest(p)[0]
@@ -106,8 +120,15 @@ class GraspObject:
         return closest[0] if single else closest
 
     def surface_normal(self, points: np.ndarray) -> np.ndarray:
-        """Outward unit normals of the surface at the closest points to points (n, 3) or (3,): a mesh's
-        face normal there, a primitive's gradient of the signed distance (central differences)."""
+        """Outward unit normals of the surface at the closest points: a mesh's face normal there, a
+        primitive's gradient of the signed distance (central differences).
+
+        Args:
+            points: (n, 3) or (3,), m, in the object frame.
+
+        Returns:
+            Unit normals, the shape of `points`.
+        """
         p, single = _check_points(points)
         if self.mesh is not None:
             normal = self.mesh.face_normals[self._mesh_closest(p)[1]]
@@ -258,16 +279,31 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
                 size: tuple[float, float, float] | None = None,
                 mesh: trimesh.Trimesh | str | os.PathLike | None = None, scale: float | None = None,
                 mass: float | None = None, friction: float | None = None, name: str | None = None) -> GraspObject:
-    """Make a box (`size`: full x, y, z extents), cylinder (`radius`, `length`), sphere (`radius`) or
-    mesh (`mesh`: a trimesh or a mesh file, times `scale`, default 1); or, with only `mass` and
-    `friction`, a variant of the paper's object of that name (`make_object("cylinder", friction=0.3)`
-    is `get_object("cylinder").with_(friction=0.3)`, named 'cylinder_friction0.3').
+    """Make a box, cylinder, sphere or mesh object, or a variant of one of the paper's objects.
 
-    Sizes are in metres (every extent `MIN_EXTENT` to `MAX_EXTENT`, 5 mm to 30 cm, as for meshes), mass in
-    kg (default 0.1); `friction` is the sliding friction coefficient (default `DEFAULT_FRICTION`, at most
-    `MAX_FRICTION`). A mesh must be a watertight solid; it is moved to its centre of mass and turned onto
-    its principal axes (long axis z), and a non-convex one is split into convex parts for MuJoCo
+    With only `mass` and `friction`, a variant of the paper's object of that name:
+    `make_object("cylinder", friction=0.3)` is `get_object("cylinder").with_(friction=0.3)`, named
+    'cylinder_friction0.3'. A mesh must be a watertight solid; it is moved to its centre of mass and turned
+    onto its principal axes (long axis z), and a non-convex one is split into convex parts for MuJoCo
     (`meshes.py` says how).
+
+    Args:
+        shape: 'box', 'cylinder', 'sphere' or 'mesh'.
+        radius: a cylinder's or a sphere's, m.
+        length: a cylinder's, m.
+        size: a box's full x, y, z extents, m.
+        mesh: a `trimesh.Trimesh` or a mesh file (.stl, .obj, .ply, ...).
+        scale: metres per unit of the mesh (0.001 for a file in mm; default 1).
+        mass: kg (default 0.1).
+        friction: the sliding friction coefficient, at most `MAX_FRICTION` (default `DEFAULT_FRICTION`).
+        name: the object's name (default: made from the shape and sizes).
+
+    Returns:
+        The object; every extent `MIN_EXTENT` to `MAX_EXTENT` (5 mm to 30 cm).
+
+    Raises:
+        ValueError: a missing or extra size for the shape, a size, mass or friction out of range, a mesh
+            that is not a graspable closed solid; the message names the argument.
     """
     if shape in PAPER_SHAPES and radius is None and length is None and size is None and mesh is None \
             and scale is None and (mass is not None or friction is not None):
@@ -328,8 +364,18 @@ of 3 cm radius; 0.1 kg, friction 0.6."""
 
 
 def get_object(obj: str | GraspObject) -> GraspObject:
-    """The object itself, the paper's object of that name, or a member of the object family
-    (`family.FAMILY`, e.g. "capsule_m", "ring_l", "cylinder_mesh")."""
+    """The object itself, the paper's object of that name, or a member of the object family.
+
+    Args:
+        obj: a `GraspObject`, or a name: 'box', 'cylinder', 'sphere', or a family member (`family.FAMILY`,
+            e.g. "capsule_m", "ring_l", "cylinder_mesh").
+
+    Returns:
+        The object.
+
+    Raises:
+        ValueError: an unknown name.
+    """
     if isinstance(obj, GraspObject):
         return obj
     if isinstance(obj, str) and obj in PAPER_OBJECTS:

@@ -30,9 +30,16 @@ _JOINT_INDEX = {name: i for i, name in enumerate(FINGER_JOINTS)}
 
 def validate_posture(posture: object, *, name: str = "posture", check_limits: bool = False,
                      tol: float = 1e-6) -> np.ndarray:
-    """Return `posture` as a float (22,) array, or raise ValueError saying what is wrong.
+    """A posture as a float (22,) array, or a ValueError saying what is wrong.
 
-    With `check_limits`, a joint further than `tol` outside its range is an error too.
+    Args:
+        posture: 22 finger joint angles, rad.
+        name: what to call it in the message.
+        check_limits: a joint further than `tol` outside its range is an error too.
+        tol: rad.
+
+    Returns:
+        The posture (22,), rad.
     """
     array = np.asarray(posture, dtype=float)
     if array.shape != (N_FINGER_JOINTS,):
@@ -52,23 +59,52 @@ def validate_posture(posture: object, *, name: str = "posture", check_limits: bo
 
 
 def within_limits(posture: np.ndarray, tol: float = 1e-6) -> bool:
-    """True when every joint of a (22,) posture lies inside its range (± tol)."""
+    """Whether every joint of a posture lies inside its range.
+
+    Args:
+        posture: 22 finger joint angles, rad.
+        tol: how far outside counts as inside, rad.
+
+    Returns:
+        True when every joint is within its range (± tol).
+    """
     p = validate_posture(posture)
     return bool(np.all((p >= _LIMITS[:, 0] - tol) & (p <= _LIMITS[:, 1] + tol)))
 
 
 def clip_posture(posture: np.ndarray) -> np.ndarray:
-    """A copy of the posture with every joint clipped into its range."""
+    """A copy of the posture with every joint clipped into its range.
+
+    Args:
+        posture: 22 finger joint angles, rad.
+
+    Returns:
+        The clipped posture (22,), rad.
+    """
     return np.clip(validate_posture(posture), _LIMITS[:, 0], _LIMITS[:, 1])
 
 
 def posture_to_dict(posture: np.ndarray) -> dict[str, float]:
-    """{joint name: angle} for a (22,) posture."""
+    """The joint angles of a posture by name.
+
+    Args:
+        posture: 22 finger joint angles, rad.
+
+    Returns:
+        {joint name: angle in rad} in `FINGER_JOINTS` order.
+    """
     return dict(zip(FINGER_JOINTS, validate_posture(posture).tolist()))
 
 
 def dict_to_posture(joints: Mapping[str, float]) -> np.ndarray:
-    """A (22,) posture from a {joint name: angle} dict holding exactly the 22 finger joints."""
+    """A posture from a {joint name: angle} dict holding exactly the 22 finger joints.
+
+    Args:
+        joints: angle by joint name (`FINGER_JOINTS`), rad.
+
+    Returns:
+        The posture (22,) in `FINGER_JOINTS` order, rad.
+    """
     unknown = sorted(set(joints) - set(FINGER_JOINTS))
     if unknown:
         raise ValueError(f"joints has unknown joint names {unknown}; expected names from FINGER_JOINTS")
@@ -95,9 +131,16 @@ CTRL_MATRIX = _ctrl_matrix()
 
 
 def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> np.ndarray:
-    """Actuator targets (20,) in ACTUATORS order for a finger posture and wrist angles (WRJ2, WRJ1).
+    """Actuator targets for a finger posture and wrist angles.
 
     J1 and J2 of FF, MF, RF and LF become one target J0 = J1 + J2, as on the real hand.
+
+    Args:
+        posture: 22 finger joint angles, rad.
+        wrist: (WRJ2, WRJ1), rad.
+
+    Returns:
+        The targets (20,) in `ACTUATORS` order, rad.
     """
     ctrl = CTRL_MATRIX @ validate_posture(posture)
     wrist = np.asarray(tuple(wrist), dtype=float)
@@ -119,8 +162,14 @@ _JOINT_DEPTH = np.array([_SEGMENT_DEPTH[JOINT_SEGMENT[j]] for j in FINGER_JOINTS
 def pcp_mask(segments: Iterable[str]) -> np.ndarray:
     """Partial Contact Posture mask (paper Eq. 1): which of the 22 joints are specified.
 
-    Joint j of finger i is specified when the segment it moves, or any segment further out on the
-    same finger, is among the touching `segments`. Palm, wrist and forearm contacts specify nothing.
+    Joint j of finger i is specified when the segment it moves, or any segment further out on the same
+    finger, is among the touching `segments`. Palm, wrist and forearm contacts specify nothing.
+
+    Args:
+        segments: the touching segments (names from `SEGMENTS`).
+
+    Returns:
+        (22,) bool in `FINGER_JOINTS` order.
     """
     segments = list(segments)
     unknown = sorted({s for s in segments if s not in SEGMENTS})

@@ -68,7 +68,15 @@ class PostureSet:
                 f"{verified} verified)")
 
     def subset(self, index: np.ndarray | slice) -> PostureSet:
-        """The postures selected by an index array, boolean mask or slice."""
+        """The postures selected by an index array, boolean mask or slice, with their palm poses, starts,
+        contacts and judgements.
+
+        Args:
+            index: row indices, a boolean mask (n,) or a slice.
+
+        Returns:
+            The selected set (the same metadata).
+        """
         return PostureSet(self.postures[index], self.hand_poses[index], self.start_ids[index],
                           self.contacts[index], self.start_names, dict(self.metadata),
                           self.epsilon[index], self.hold_displacement[index])

@@ -54,7 +54,15 @@ def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float =
     """A palm pose (object frame) for a side wrap: the palm faces the object from +x.
 
     The object's long axis (z) runs across the fingers (palm x), the object's surface is `clearance`
-    metres in front of the palm's inner face, and `height` shifts the hand along the object's axis.
+    in front of the palm's inner face, and `height` shifts the hand along the object's axis.
+
+    Args:
+        obj: the object, or its name.
+        clearance: palm to object surface, 0 ... `MAX_GAP` m.
+        height: shift along the object's axis, m.
+
+    Returns:
+        The palm's position (3,), m, and orientation (4,), a w x y z quaternion, in the object frame.
     """
     if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and 0.0 <= clearance <= MAX_GAP):
         raise ValueError(f"clearance must be 0 ... {MAX_GAP} m between the palm and the object, got {clearance!r} "
@@ -132,6 +140,14 @@ class Scene:
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
                  gravity: bool = False, table: bool = False):
+        """The hand and one object in a new MuJoCo model.
+
+        Args:
+            obj: the object, or its name.
+            free_object: the object hangs on a free joint (False: welded to the world).
+            gravity: gravity on from the start.
+            table: a table top under the object.
+        """
         self.object = get_object(obj)
         self.free_object = free_object
         spec = hand_spec()
@@ -184,7 +200,14 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
-        """Advance the physics by n timesteps; SimulationError when the physics fails (see `check`)."""
+        """Advance the physics by n timesteps of 2 ms.
+
+        Args:
+            n: timesteps, >= 0.
+
+        Raises:
+            SimulationError: the physics failed (see `check`).
+        """
         for _ in range(check_int(n, "n (timesteps)", low=0)):
             mujoco.mj_step(self.model, self.data)
         self.check()
@@ -224,7 +247,14 @@ class Scene:
         return max(0.0, -float(self.data.contact.dist[:ncon].min())) if ncon else 0.0
 
     def run(self, seconds: float) -> None:
-        """Advance the physics by (about) `seconds` of simulated time (at least one timestep)."""
+        """Advance the physics by (about) this much simulated time, at least one timestep.
+
+        Args:
+            seconds: simulated seconds, > 0.
+
+        Raises:
+            SimulationError: the physics failed (see `check`).
+        """
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) \
                 or seconds <= 0:
             raise ValueError(f"seconds must be a positive finite duration, got {seconds!r}")
@@ -235,8 +265,13 @@ class Scene:
         return float(self.data.time)
 
     def set_object_support(self, stiffness: float = 0.0, damping: float = 0.0) -> None:
-        """A spring-damper holding a free object near its start pose (N/m and N s/m, the same
-        numbers per radian for rotation), like a support it rests on; 0, 0 releases it."""
+        """A spring-damper holding a free object near its start pose, like a support it rests on; 0, 0
+        releases it.
+
+        Args:
+            stiffness: N/m (and N m/rad for rotation).
+            damping: N s/m (and N m s/rad).
+        """
         if not self.free_object:
             raise ValueError("set_object_support needs a Scene with free_object=True")
         if not (np.isfinite(stiffness) and np.isfinite(damping)) or stiffness < 0 or damping < 0:
@@ -246,13 +281,21 @@ class Scene:
         self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
 
     def set_table(self, present: bool) -> None:
-        """Put the table back (True) or take it away (False); needs a Scene made with table=True."""
+        """Put the table back or take it away (a Scene made with table=True).
+
+        Args:
+            present: True to put it back, False to take it away.
+        """
         if self.table_geom is None:
             raise ValueError("set_table needs a Scene made with table=True")
         self.model.geom_contype[self.table_geom] = self.model.geom_conaffinity[self.table_geom] = int(bool(present))
 
     def set_gravity(self, gravity: bool | Iterable[float]) -> None:
-        """Gravity on (True: -z of the world), off (False), or an explicit vector (m/s^2)."""
+        """Gravity on, off, or along a vector.
+
+        Args:
+            gravity: True (-z of the world), False, or a vector (3,), m/s^2.
+        """
         if gravity is True:
             vector = np.array([0.0, 0.0, -GRAVITY])
         elif gravity is False:
@@ -273,8 +316,16 @@ class Scene:
         return compose(*invert(*self.object_pose()), *palm)
 
     def mount_pose_for(self, pos: Iterable[float], quat: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
-        """The pose of the mocap body `hand_mount` that puts the palm at (pos, quat) in the object
-        frame, for the current joint angles."""
+        """The pose of the mocap body `hand_mount` that puts the palm at (pos, quat) in the object frame, for
+        the current joint angles.
+
+        Args:
+            pos: the palm's position (3,), m, object frame.
+            quat: its orientation (4,), w x y z.
+
+        Returns:
+            The mount's position (3,), m, and orientation (4,).
+        """
         pos, quat = check_vec3(pos, "pos"), check_quat(quat, "quat")
         mujoco.mj_kinematics(self.model, self.data)
         target = compose(*self.object_pose(), pos, quat)
@@ -283,21 +334,38 @@ class Scene:
         return compose(*target, *invert(*mount_to_palm))
 
     def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
-        """Move the hand so that the palm frame has this pose in the object frame."""
+        """Move the hand so that the palm frame has this pose in the object frame.
+
+        Args:
+            pos: the palm's position (3,), m.
+            quat: its orientation (4,), w x y z.
+        """
         self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
         self.forward()
         self._placed = self.data.mocap_pos[self.mount_id].copy(), self.data.xmat[self.palm_id].reshape(3, 3).copy()
 
     def shift_hand(self, offset: Iterable[float]) -> None:
-        """Move the hand by `offset` (m, in the palm frame) from where `set_hand_pose` last put it, as an
-        arm would carry it; the joints and the object stay (the physics moves on at the next step)."""
+        """Move the hand from where `set_hand_pose` last put it, as an arm would carry it; the joints and
+        the object stay (the physics moves on at the next step).
+
+        Args:
+            offset: (3,), m, in the palm frame.
+        """
         position, palm_rotation = self._placed
         self.data.mocap_pos[self.mount_id] = position + palm_rotation @ check_vec3(offset, "offset")
 
     # -- postures --------------------------------------------------------------------------------
     def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:
-        """Distance (m) from a geom to the object's collision geometry at the current kinematics (the
-        nearest of a mesh's convex parts); negative when they overlap, `cutoff` when farther."""
+        """Distance from a geom to the object's collision geometry at the current kinematics (the nearest
+        of a mesh's convex parts).
+
+        Args:
+            geom: the geom's id.
+            cutoff: the largest distance looked for, m.
+
+        Returns:
+            The distance, m: negative when they overlap, `cutoff` when farther.
+        """
         return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, self._fromto)
                    for g in self.object_geoms)
 
@@ -306,7 +374,12 @@ class Scene:
         return self.data.qpos[self.finger_qpos].copy()
 
     def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
-        """Put the hand in a posture at rest and make the actuators hold it."""
+        """Put the hand in a posture at rest and make the actuators hold it.
+
+        Args:
+            posture: 22 finger joint angles, rad.
+            wrist: (WRJ2, WRJ1), rad.
+        """
         posture = validate_posture(posture, check_limits=True)
         ctrl = posture_to_ctrl(posture, wrist)
         self.data.qpos[self.finger_qpos] = posture
@@ -316,7 +389,12 @@ class Scene:
         self.forward()
 
     def set_target(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
-        """Command the actuators towards a posture (the hand moves when the physics steps)."""
+        """Command the actuators towards a posture (the hand moves when the physics steps).
+
+        Args:
+            posture: 22 finger joint angles, rad.
+            wrist: (WRJ2, WRJ1), rad.
+        """
         self.data.ctrl[:] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True), wrist)
 
     # -- pictures --------------------------------------------------------------------------------

@@ -211,7 +211,14 @@ class SOM:
         return check_data(X, self.dim)
 
     def initialize(self, X: np.ndarray) -> SOM:
-        """Place the lattice on the data's first two principal axes (deterministic)."""
+        """Place the lattice on the data's first two principal axes (deterministic).
+
+        Args:
+            X: samples (n, dim), rad; a map made without `dim` takes it from X.
+
+        Returns:
+            This map, initialised.
+        """
         data = self._data(X)
         mean = data.mean(axis=0)
         centred = data - mean
@@ -234,8 +241,21 @@ class SOM:
 
     def fit(self, X: np.ndarray, *, epochs: int | None = None, learning_rate: tuple[float, float] | None = None,
             sigma: tuple[float, float] | None = None, algorithm: str | None = None, progress: bool | None = None) -> SOM:
-        """Train afresh on X (n, dim) with the constructor's schedule (or these overrides): the map
-        is initialised from the data's principal components and its history starts over. Returns self."""
+        """Train afresh with the constructor's schedule (or these overrides).
+
+        The map is initialised on the data's principal components and its history starts over.
+
+        Args:
+            X: training vectors (n, dim), rad for postures; a map made without `dim` takes it from X.
+            epochs: override the constructor's epochs.
+            learning_rate: override (start, end).
+            sigma: override (start, end), lattice units.
+            algorithm: override 'online' / 'batch'.
+            progress: show a progress bar (None: as `progress.show_progress` says).
+
+        Returns:
+            This map, trained.
+        """
         data = self._data(X)
         schedule = _schedule(self.epochs if epochs is None else epochs,
                              self.learning_rate if learning_rate is None else learning_rate,
@@ -246,9 +266,22 @@ class SOM:
 
     def resume(self, X: np.ndarray, *, epochs: int = RESUME.epochs, learning_rate: tuple[float, float] = RESUME.learning_rate,
                sigma: tuple[float, float] = RESUME.sigma, algorithm: str | None = None, progress: bool | None = None) -> SOM:
-        """Resumed learning (paper Section 5): continue training the fitted map on X from its current
-        weights, by default with the paper's gentle schedule (10 epochs, lr 0.1 -> 0.05, sigma
-        3 -> 0.7), so new experience is folded in without unfolding the map. Returns self."""
+        """Resumed learning (paper Section 5): continue training the fitted map from its current weights.
+
+        By default with the paper's gentle schedule (10 epochs, learning rate 0.1 -> 0.05, sigma 3 -> 0.7), so
+        new experience is folded in without unfolding the map.
+
+        Args:
+            X: the new samples (n, dim), rad.
+            epochs: epochs.
+            learning_rate: (start, end).
+            sigma: (start, end), lattice units.
+            algorithm: 'online' / 'batch' (default: the constructor's).
+            progress: show a progress bar (None: as `progress.show_progress` says).
+
+        Returns:
+            This map, trained further.
+        """
         data = check_data(X, self.dim)
         schedule = _schedule(epochs, learning_rate, sigma, algorithm or self.algorithm)
         if not self.is_fitted:
@@ -331,34 +364,76 @@ class SOM:
 
     # -- best match and completion (Eq. 3 with the masked distance of Eq. 4) ------------------------
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
-        """Flat index (row * cols + col) of the node nearest to x under the masked distance.
+        """The node nearest to x under the masked distance of Eq. 2.
 
-        `mask`: None (plain Euclidean), boolean, or weights p_k >= 0 (not all zero). x may hold NaN
-        where the mask is 0.
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The node's flat index (row * cols + col).
         """
         return self._nearest().nearest(x, mask)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """Best-matching flat node indices (m,) for queries X (m, dim), with one mask or one per row."""
+        """The nodes nearest to many queries (`best_match` of every row).
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Flat node indices (m,).
+        """
         return self._nearest().nearest_batch(X, masks)
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching node's full reference vector: x pulled onto the map."""
+        """The best-matching node's full reference vector: x pulled onto the map.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The reference vector (dim,), rad.
+        """
         return self.references[self.best_match(x, mask)].copy()
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching nodes' reference vectors (m, dim) of queries X (m, dim): `complete` of every row."""
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Reference vectors (m, dim), rad.
+        """
         return self.references[self.best_match_batch(X, masks)]
 
     # -- quality and structure -------------------------------------------------------------------
     def quantization_error(self, X: np.ndarray) -> float:
-        """Mean Euclidean distance from each sample to its best-matching reference vector."""
+        """Mean Euclidean distance from each sample to its best-matching reference vector.
+
+        Args:
+            X: samples (n, dim), rad.
+
+        Returns:
+            The mean distance, rad.
+        """
         data = check_data(X, self.dim)
         flat = self._require_weights().reshape(-1, self.dim)
         return float(np.mean(np.linalg.norm(data - flat[self.best_match_batch(data)], axis=1)))
 
     def topographic_error(self, X: np.ndarray) -> float:
-        """Fraction of samples whose best and second-best nodes are not lattice neighbours (8-neighbourhood)."""
+        """Fraction of samples whose best and second-best nodes are not lattice neighbours (8-neighbourhood).
+
+        Args:
+            X: samples (n, dim), rad.
+
+        Returns:
+            The fraction, 0 ... 1.
+        """
         data = check_data(X, self.dim)
         flat = self._require_weights().reshape(-1, self.dim)
         errors = 0
@@ -371,12 +446,26 @@ class SOM:
         return errors / len(data)
 
     def hit_counts(self, X: np.ndarray) -> np.ndarray:
-        """(rows, cols) number of samples whose best match is each node."""
+        """How many samples best-match each node.
+
+        Args:
+            X: samples (n, dim), rad.
+
+        Returns:
+            Counts (rows, cols).
+        """
         return np.bincount(self.best_match_batch(check_data(X, self.dim)),
                            minlength=self.n_nodes).reshape(self.rows, self.cols)
 
     def unsupported_nodes(self, X: np.ndarray) -> np.ndarray:
-        """Flat indices of the nodes that no sample of X falls on."""
+        """The nodes that no sample falls on.
+
+        Args:
+            X: samples (n, dim), rad.
+
+        Returns:
+            Flat node indices.
+        """
         return np.flatnonzero(self.hit_counts(X).ravel() == 0)
 
     def internode_distances(self) -> tuple[np.ndarray, np.ndarray]:
@@ -385,9 +474,13 @@ class SOM:
         return (np.linalg.norm(np.diff(w, axis=1), axis=2), np.linalg.norm(np.diff(w, axis=0), axis=2))
 
     def distance_stats(self, degrees: bool = False) -> dict[str, float]:
-        """min, max, mean, std and coefficient of variation of the inter-node distances.
+        """Minimum, maximum, mean, standard deviation and coefficient of variation of the inter-node distances.
 
-        `degrees=True` reports distances between posture vectors in degrees (the paper's Fig. 4 text).
+        Args:
+            degrees: report distances between posture vectors in degrees (the paper's Fig. 4 text), not rad.
+
+        Returns:
+            The statistics by name ('min', 'max', 'mean', 'std', 'cv').
         """
         horizontal, vertical = self.internode_distances()
         d = np.concatenate([horizontal.ravel(), vertical.ravel()])
@@ -401,7 +494,15 @@ class SOM:
 
     # -- files -----------------------------------------------------------------------------------
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
-        """Write the map to a .npz file (atomically) with its shape, seed and training history."""
+        """Write the map to an .npz file, atomically, with its shape, seed and training history.
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+
+        Returns:
+            The path written.
+        """
         meta = {"rows": self.rows, "cols": self.cols, "dim": self.dim, "seed": self.seed, "history": self.history,
                 "schedule": {"epochs": self.epochs, "learning_rate": list(self.learning_rate),
                              "sigma": list(self.sigma), "algorithm": self.algorithm},

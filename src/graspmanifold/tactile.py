@@ -41,12 +41,26 @@ class TactileReading:
     depths: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def touches(self, segment: str) -> bool:
-        """True when `segment` touches the object."""
+        """Whether a segment touches the object.
+
+        Args:
+            segment: a name from `SEGMENTS`.
+
+        Returns:
+            True when it does.
+        """
         _check_segment(segment)
         return segment in self.segments
 
     def force_on(self, segment: str) -> float:
-        """Summed normal force on one segment (N)."""
+        """Summed normal force on one segment.
+
+        Args:
+            segment: a name from `SEGMENTS`.
+
+        Returns:
+            The force, N.
+        """
         return float(self.segment_forces[_check_segment(segment)])
 
     @property
@@ -65,6 +79,13 @@ class TactileSensor:
     """Reads TactileReadings from a model holding the hand and a body named `object`."""
 
     def __init__(self, model: mujoco.MjModel, object_body: str = "object", min_force: float = 0.0):
+        """A sensor of the hand-object contacts of a model.
+
+        Args:
+            model: the scene's model.
+            object_body: the object's body name.
+            min_force: contacts with less normal force than this are not felt, N.
+        """
         try:
             object_id = model.body(object_body).id
         except KeyError:
@@ -77,13 +98,27 @@ class TactileSensor:
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
 
     def read(self, data: mujoco.MjData) -> TactileReading:
-        """The current hand-object contacts (call after mj_step or mj_forward)."""
+        """The current hand-object contacts (call after mj_step or mj_forward).
+
+        Args:
+            data: the simulation's data.
+
+        Returns:
+            The reading.
+        """
         n, contact = data.ncon, data.contact
         return self.reading(_geom_pairs(data), self._normal_forces(data), contact.frame[:n, :3], contact.pos[:n],
                             contact.dist[:n])
 
     def segment_forces(self, data: mujoco.MjData) -> np.ndarray:
-        """Only the summed normal force per segment (len(SEGMENTS),) of `read`: what the controller needs."""
+        """Only the summed normal force per segment of `read`: what the controller needs.
+
+        Args:
+            data: the simulation's data.
+
+        Returns:
+            Forces (len(SEGMENTS),), N, in `SEGMENTS` order.
+        """
         segment_forces = np.zeros(len(SEGMENTS))
         if data.ncon:
             segments, forces, _ = self._hand_object(_geom_pairs(data), self._normal_forces(data))
@@ -92,9 +127,19 @@ class TactileSensor:
 
     def reading(self, geoms: np.ndarray, forces: np.ndarray, normals: np.ndarray, points: np.ndarray,
                 dists: np.ndarray) -> TactileReading:
-        """The reading of a list of contacts, from any engine: geom pairs (k, 2), normal forces (k,)
-        (NaN: not in the constraint solver), normals (k, 3) from the first geom to the second,
-        points (k, 3), distances (k,). Contacts other than hand-object ones are left out."""
+        """The reading of a list of contacts, from any engine; contacts other than hand-object ones are
+        left out.
+
+        Args:
+            geoms: geom pairs (k, 2).
+            forces: normal forces (k,), N (NaN: not in the constraint solver).
+            normals: (k, 3), from the first geom to the second.
+            points: (k, 3), m.
+            dists: (k,), m.
+
+        Returns:
+            The reading.
+        """
         segment_forces = np.zeros(len(SEGMENTS))
         segment_ids, forces, rows = self._hand_object(np.asarray(geoms), np.asarray(forces, dtype=float))
         if not len(rows):

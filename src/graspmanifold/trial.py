@@ -169,14 +169,34 @@ class Recording:
     period: float
 
     def frames(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
-        """Pictures (k, height, width, 3) uint8 of every recorded state from a named camera."""
+        """Pictures of every recorded state from a named camera.
+
+        Args:
+            camera: one of `scene.CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels.
+            height: pixels.
+
+        Returns:
+            (k, height, width, 3) uint8.
+        """
         from .render import render_states
 
         return render_states(self.scene, self.states, camera, width, height)
 
     def save_gif(self, path: str | os.PathLike, camera: str = "hand", width: int = 320, height: int = 240,
                  speed: float = 1.0) -> Path:
-        """An animated GIF of the trial, `speed` times real time."""
+        """An animated GIF of the trial.
+
+        Args:
+            path: the file, ending in .gif.
+            camera: one of `scene.CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels.
+            height: pixels.
+            speed: times real time.
+
+        Returns:
+            The path written.
+        """
         from .render import save_animation
 
         return save_animation(self.frames(camera, width, height), path, fps=speed / self.period)
@@ -186,9 +206,24 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
                  grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
                  noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
                  preshape: np.ndarray | None = None) -> Recording:
-    """Run one trial as `evaluate` would at this grid pose (x, z, gap, yaw) and keep the scene's
-    state every `every` control periods: `record_trial("box").save_gif("grasp.gif")`, or
-    `recording.scene.render()` for its final state."""
+    """Run one trial as `evaluate` would at a grid pose and keep the scene's state along the way.
+
+    `record_trial("box").save_gif("grasp.gif")` animates it; `recording.scene.render()` draws its final state.
+
+    Args:
+        obj: the object, or its name.
+        experience: the experience base (None: the plain tactile controller), as `evaluate` takes it.
+        grid_pose: (x, z, gap, yaw) in m and rad; refused as `evaluate` refuses it (`why_unreachable` says why).
+        seed: the trial's seed (trial 0 of `evaluate` with this seed).
+        every: keep the state every this many control periods.
+        noise: pose and joint noise (`Noise`).
+        params: controller parameters.
+        table: the object stands on a table with gravity on.
+        preshape: a constant phase-B posture (22,), rad.
+
+    Returns:
+        The recording: the trial's outcome, its scene and the kept states.
+    """
     obj = get_object(obj)
     check_int(every, "every (control periods)")
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
