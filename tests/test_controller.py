@@ -298,6 +298,7 @@ def test_evaluation_is_deterministic_and_files_round_trip(experience, tmp_path):
 @pytest.mark.parametrize("call, message", [
     (lambda: gm.evaluate("cylinder", None, grid=np.zeros((0, 4))), "grid"),
     (lambda: gm.evaluate("cylinder", None, grid="huge"), "unknown grid"),
+    (lambda: gm.evaluate("cylinder", None, grid=[["a", "b", "c", "d"]]), "an \\(n, 4\\) array of numbers"),
     (lambda: gm.evaluate("cylinder", None, grid=np.array([[0, 0, np.nan, 0]])), "finite"),
     (lambda: gm.Noise(position=float("nan")), "noise position"),
     (lambda: gm.Noise(joints=-0.1), "noise joints"),

@@ -156,7 +156,11 @@ def reachable(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> 
 def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str, np.ndarray]:
     if isinstance(grid, str):
         return grid, grid_preset(grid, obj, table)
-    poses = np.asarray(grid, dtype=float)
+    try:
+        poses = np.asarray(grid, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"grid must be one of {GRID_PRESETS} or an (n, 4) array of numbers {GRID_COLUMNS} "
+                         f"(m, rad), got {grid!r:.80}") from None
     if poses.shape == (4,):  # one pose
         poses = poses.reshape(1, 4)
     if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
