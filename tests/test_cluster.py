@@ -1,5 +1,7 @@
 """The same trials and postures on a Dask cluster (a LocalCluster here) as in this process."""
 
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -62,3 +64,60 @@ def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_di
     gm.generate_postures("cylinder", 8, params=gm.GeneratorParams(job_size=2, verify=False), executor=executor,
                          checkpoint_dir=parts)
     assert written and sorted(written) == sorted(parts.glob("job_*.npz"))  # every job file, written here
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.mark.parametrize("lost", ["workers", "scheduler"])
+def test_a_cluster_that_loses_its_workers_or_scheduler_ends_the_job_with_one_message(lost, monkeypatch, capfd):
+    """A killed scheduler ended in a `FutureCancelledError` traceback; with every worker gone the job waited
+    without a word, for ever."""
+    import subprocess
+    import sys
+    import time
+
+    from graspmanifold import workers
+
+    monkeypatch.setattr(workers, "CLUSTER_PATIENCE", 3.0)
+    monkeypatch.setattr(workers, "CLUSTER_LOOK_SECONDS", 0.5)
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", address.rsplit(":", 1)[1], "--no-dashboard"], **quiet)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                               "--no-nanny", "--no-dashboard"], **quiet)
+    try:
+        executor = cluster_executor(address)
+        executor.client.wait_for_workers(1, timeout=60)
+        done = []
+
+        def kill_after_two(index: int, _) -> None:
+            done.append(index)
+            if index == 1:
+                (worker if lost == "workers" else scheduler).kill()
+
+        start = time.monotonic()
+        with pytest.warns(UserWarning, match="no worker") if lost == "workers" else _nothing():
+            with pytest.raises(workers.WorkersLost, match="finished work is kept") as raised:
+                parallel_map(time.sleep, [0.5 + i * 1e-6 for i in range(40)], executor=executor,  # distinct keys
+                             on_result=kill_after_two)
+        assert time.monotonic() - start < 30 and len(done) < 40
+        expected = "no worker for 3 s" if lost == "workers" else "scheduler"
+        assert expected in str(raised.value)
+        executor.shutdown()
+        assert "Traceback" not in capfd.readouterr().err  # nor distributed's log of its reconnection
+    finally:
+        for process in (worker, scheduler):
+            process.kill()
+            process.wait()
+
+
+@contextlib.contextmanager
+def _nothing():
+    yield

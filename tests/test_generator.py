@@ -302,3 +302,14 @@ def test_a_new_objects_slow_set_up_and_a_verification_that_keeps_few_are_announc
     monkeypatch.setattr(generator, "FEW_HOLD", 1.01)  # whatever holds, it is "few"
     with pytest.warns(UserWarning, match=r"only \d+ of 6 sphere candidates hold"):
         gm.verify_postures(candidates, "sphere")
+
+
+def test_springs_that_break_the_physics_are_named_not_reported_as_a_low_yield():
+    """A spring stiffness of 1e12 gave 40 MuJoCo warnings, then 'only 0 of 8 ... keep every candidate
+    (verify=False)' without naming the faults, though verification was already off."""
+    params = gm.GeneratorParams(spring_stiffness=1e12, spring_max_force=1e9, job_size=4, verify=False,
+                                max_tries_per_posture=3)
+    with pytest.raises(generator.GenerationError, match=r"simulation failed \d+ times in \d+ walk steps \(first: "
+                       r"MuJoCo warning \w+.*spring_stiffness 1e\+12 N/m") as raised:
+        gm.generate_postures("cylinder", 4, seed=0, params=params)
+    assert "verify=False" not in str(raised.value)

@@ -289,6 +289,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
     tries, walks, misses, candidates, faults, steps = 0, 0, 0, 0, 0, 0
+    first_fault = ""  # what the first failed simulation reported
     exhausted = False
     recording = params.mode == "recording"
     frames: list[tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]] = []
@@ -317,6 +318,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
         settled = rig.settle(record if recording else None)
         if not rig.scene.healthy():  # the physics failed: nothing of this walk can be trusted
             faults += 1
+            first_fault = first_fault or "; ".join(rig.scene.faults())
             rig.reset_to(start)
             offset, turn, misses = np.zeros(3), np.zeros(3), 0
             continue
@@ -335,8 +337,9 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
             candidates += 1
             try:
                 judgement = verifier(posture, pos, quat) if verifier is not None else None
-            except SimulationError:  # the replay's physics failed: not a verified grasp
+            except SimulationError as error:  # the replay's physics failed: not a verified grasp
                 faults += 1
+                first_fault = first_fault or str(error)
                 continue
             if judgement is not None and not judgement.hold:
                 continue
@@ -349,7 +352,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
             "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
             "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
             "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults),
-            "exhausted": np.array(exhausted)}
+            "first_fault": np.array(first_fault), "exhausted": np.array(exhausted)}
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -523,6 +526,15 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
     kept = [min(held(s), allocation[s]) for s in range(len(starts))]
     candidates = sum(drawn(s) for s in range(len(starts)))
+    tries = sum(int(r["tries"]) for rs in results for r in rs)
+    faults = sum(int(r.get("faults", 0)) for rs in results for r in rs)
+    if sum(kept) < n and faults:
+        first = next(str(r["first_fault"]) for rs in results for r in rs if str(r.get("first_fault", "")))
+        raise GenerationError(
+            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found, and the simulation failed "
+            f"{faults} times in {tries} walk steps (first: {first}): check GeneratorParams (spring_stiffness "
+            f"{params.spring_stiffness:g} N/m, spring_max_force {params.spring_max_force:g} N, "
+            f"servo_stiffness_scale {params.servo_stiffness_scale:g}) and the object's mass and size")
     if sum(kept) < n:
         by_start = ", ".join(f"{start.name} {held(s)} of {drawn(s)}" + (" (gave up)" if given_up[s] else "")
                              for s, start in enumerate(starts))
@@ -530,10 +542,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             f"only {sum(kept)} of the {n} {obj.name} postures asked for were found: of {candidates} candidates "
             f"{sum(held(s) for s in range(len(starts)))} held (yield {sum(map(held, range(len(starts)))) / max(1, candidates):.1%}; "
             f"by starting posture: {by_start}). Ask for fewer postures, raise "
-            "GeneratorParams.max_candidates_per_posture, or keep every candidate (verify=False)")
-
-    tries = sum(int(r["tries"]) for rs in results for r in rs)
-    faults = sum(int(r.get("faults", 0)) for rs in results for r in rs)
+            "GeneratorParams.max_candidates_per_posture" + (", or keep every candidate (verify=False)" if params.verify
+                                                            else ", or max_tries_per_posture"))
     present = [s for s in range(len(starts)) if results[s]]
 
     def take(key: str) -> np.ndarray:

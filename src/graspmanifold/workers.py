@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ctypes
 import itertools
+import logging
 import os
 import signal
 import sys
@@ -129,10 +130,70 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     pool.shutdown(wait=True)
 
 
-def cluster_executor(address: str) -> Executor:
-    """A `concurrent.futures.Executor` that runs tasks on a Dask cluster (dask.distributed): `address`
-    is the scheduler's (`tcp://host:8786`, with or without `dask://` in front), or `local` for a
-    `LocalCluster` on this machine. Needs `pip install 'graspmanifold[cluster]'`."""
+class ClusterExecutor(Executor):
+    """A `concurrent.futures.Executor` on a Dask cluster that can say when the cluster is gone.
+
+    `parallel_map` asks it while it waits for a result: a cluster whose scheduler is gone, or that has
+    had no worker for `CLUSTER_PATIENCE` seconds, ends the job with `WorkersLost` instead of a
+    wait without end. Made by `cluster_executor`; wraps any connected `distributed.Client`.
+
+    Args:
+        client: a connected `distributed.Client`.
+        owned: objects to close with the executor (the `LocalCluster` it started), besides the client.
+    """
+
+    def __init__(self, client, owned: tuple = ()):
+        self.client = client
+        self._owned = owned
+        self._executor = client.get_executor()
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        """Runs `fn(*args, **kwargs)` on a worker of the cluster.
+
+        Returns:
+            the task's future.
+        """
+        return self._executor.submit(fn, *args, **kwargs)
+
+    def workers(self) -> int | None:
+        """The worker processes connected to the cluster now.
+
+        Returns:
+            their number, or None when the scheduler cannot be reached.
+        """
+        if self.client.status not in ("running", "connecting"):
+            return None
+        try:
+            return len(self.client.nthreads())
+        except Exception:  # noqa: BLE001 - any failure to reach the scheduler means the same
+            return None
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Closes the connection to the cluster (and the cluster itself, when it was started here)."""
+        self._executor.shutdown(wait=wait)
+        client_log = logging.getLogger("distributed.client")
+        level = client_log.level
+        client_log.setLevel(logging.CRITICAL)  # a gone scheduler's connection logs its cancelled reconnection
+        try:
+            self.client.close(timeout=CONNECT_SECONDS)
+        finally:
+            client_log.setLevel(level)
+        for thing in self._owned:
+            thing.close()
+
+
+def cluster_executor(address: str) -> ClusterExecutor:
+    """An executor that runs tasks on a Dask cluster (dask.distributed).
+
+    Needs `pip install 'graspmanifold[cluster]'`.
+
+    Args:
+        address: the scheduler's (`tcp://host:8786`, with or without `dask://` in front), or `local` for
+            a `LocalCluster` of one single-threaded worker process per core on this machine.
+
+    Returns:
+        a `ClusterExecutor` connected to it.
+    """
     if not isinstance(address, str) or not address:
         raise ValueError(f"executor address must be a string such as 'dask://tcp://host:8786' or 'local', "
                          f"got {address!r}")
@@ -143,13 +204,14 @@ def cluster_executor(address: str) -> Executor:
                           ) from None
     address = address.removeprefix("dask://")
     if address == "local":
-        return Client(LocalCluster(processes=True, threads_per_worker=1)).get_executor()
+        cluster = LocalCluster(processes=True, threads_per_worker=1)
+        return ClusterExecutor(Client(cluster), owned=(cluster,))
     for _ in range(CONNECT_TRIES - 1):
         try:
-            return Client(address, timeout=CONNECT_SECONDS).get_executor()
+            return ClusterExecutor(Client(address, timeout=CONNECT_SECONDS))
         except AssertionError:  # distributed's handshake now and then reads two messages as one: try again
             pass
-    return Client(address, timeout=CONNECT_SECONDS).get_executor()
+    return ClusterExecutor(Client(address, timeout=CONNECT_SECONDS))
 
 
 #: tasks handed to the workers ahead of the results taken, per worker: the work in flight (and its
@@ -160,6 +222,10 @@ TASKS_AHEAD = 4
 TASK_TIMEOUT = 1800.0
 #: how often a local pool whose worker died or stalled is started again before the job gives up
 POOL_RESTARTS = 2
+#: s a Dask cluster may have no worker before a job on it gives up (workers that come back in time resume it)
+CLUSTER_PATIENCE = 120.0
+#: s between looks at a Dask cluster's health while a result is awaited
+CLUSTER_LOOK_SECONDS = 5.0
 
 
 class WorkersLost(RuntimeError):
@@ -174,11 +240,35 @@ class _PoolBroke(Exception):
         self.unfinished, self.why = unfinished, why
 
 
+def _result(future: Future, timeout: float | None, executor: Executor) -> Result:
+    """The future's result; on a `ClusterExecutor`, `_PoolBroke` once the cluster's scheduler is gone
+    or it has had no worker for `CLUSTER_PATIENCE` s (with a warning when the wait begins)."""
+    if not isinstance(executor, ClusterExecutor):
+        return future.result(timeout=timeout)
+    without_workers: float | None = None
+    while True:
+        try:
+            return future.result(timeout=CLUSTER_LOOK_SECONDS)
+        except FutureTimeout:
+            pass
+        workers = executor.workers()
+        if workers is None:
+            raise _PoolBroke([], "the cluster's scheduler cannot be reached")
+        if workers:
+            without_workers = None
+        elif without_workers is None:
+            without_workers = time.monotonic()
+            warnings.warn(f"the Dask cluster has no worker: waiting up to {CLUSTER_PATIENCE:g} s for one",
+                          stacklevel=4)
+        elif time.monotonic() - without_workers > CLUSTER_PATIENCE:
+            raise _PoolBroke([], f"the Dask cluster has had no worker for {CLUSTER_PATIENCE:g} s")
+
+
 def _bounded_map(executor: Executor, function: Callable[[Task], Result], tasks: Iterable[Task],
                  ahead: int, timeout: float | None = None) -> Iterator[Result]:
     """`executor.map`, but with at most `ahead` tasks submitted and not yet taken back (the executors'
     own `map` submits every task at once); a local pool that breaks raises `_PoolBroke` with the tasks
-    it had not finished, in order."""
+    it had not finished, in order, and so does a `ClusterExecutor` whose cluster is gone."""
     pending: deque[tuple[Task, Future]] = deque()
     remaining = iter(tasks)
     try:
@@ -187,11 +277,13 @@ def _bounded_map(executor: Executor, function: Callable[[Task], Result], tasks: 
         while pending:
             task, future = pending[0]
             try:
-                result = future.result(timeout=timeout)
+                result = _result(future, timeout, executor)
             except (BrokenProcessPool, FutureTimeout) as error:
                 why = ("a worker process died" if isinstance(error, BrokenProcessPool)
                        else f"a task ran past {timeout:g} s (a stopped worker?)")
                 raise _PoolBroke([t for t, _ in pending], why) from None
+            except _PoolBroke as broke:
+                raise _PoolBroke([t for t, _ in pending], broke.why) from None
             pending.popleft()
             for task in itertools.islice(remaining, 1):
                 pending.append((task, executor.submit(function, task)))
@@ -231,9 +323,11 @@ def parallel_map(function: Callable[[Task], Result], tasks: Iterable[Task], work
             for result in _bounded_map(executor, function, tasks, TASKS_AHEAD * max(workers, 8)):
                 keep(result)
         except (CancelledError, _PoolBroke) as error:  # the cluster's scheduler or workers went away
-            raise WorkersLost(f"the cluster stopped running this job ({type(error).__name__}: its scheduler or "
-                              "workers are gone); finished work is kept where the job checkpoints it: run the "
-                              "same command again once the cluster is back") from None
+            why = error.why if isinstance(error, _PoolBroke) else "its scheduler or workers are gone"
+            if isinstance(executor, ClusterExecutor) and executor.client.status != "running":
+                executor.shutdown(wait=False)  # the scheduler is gone: stop the client's attempts to reconnect
+            raise WorkersLost(f"the cluster stopped running this job ({why}); finished work is kept where the "
+                              "job checkpoints it: run the same command again once the cluster is back") from None
     elif workers == 1:
         for task in tasks:
             keep(function(task))
