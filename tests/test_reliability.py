@@ -496,3 +496,20 @@ def test_a_worker_that_dies_or_stalls_costs_only_its_unfinished_tasks(monkeypatc
         assert workers.parallel_map(_slow_square, range(24), 2) == [x * x for x in range(24)]
     time.sleep(0.5)
     assert set(_children(os.getpid())) <= before  # the broken pool's workers, the stopped one too, are gone
+
+
+def test_a_full_disk_ends_in_one_line_naming_the_file_and_what_is_kept(tmp_path, monkeypatch):
+    """A full disk (ENOSPC) ended the CLI in a traceback, the file it failed on unnamed."""
+    import errno
+
+    from graspmanifold import io
+    from graspmanifold.cli import main as cli
+
+    def full(_fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(io.os, "fsync", full)
+    out = tmp_path / "cylinder.npz"
+    with pytest.raises(SystemExit, match=r"cannot write .*\.npz: No space left on device; finished jobs are kept"):
+        cli(["generate", "--object", "cylinder", "--n", "2", "--no-verify", "--workers", "1", "--out", str(out)])
+    assert not list(tmp_path.rglob("*" + io.TEMPORARY_SUFFIX)) and not out.exists()  # nothing half-written

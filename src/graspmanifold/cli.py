@@ -371,6 +371,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         kept = _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", ""))
         print(f"\ninterrupted: {kept}", file=sys.stderr)
         return 130
+    except OSError as error:  # a file that could not be written (a full disk): one line, what is kept
+        if error.filename is None:
+            raise
+        kept = _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", ""))
+        raise SystemExit(f"error: {error.strerror}; {kept}") from None
 
 
 if __name__ == "__main__":

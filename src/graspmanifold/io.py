@@ -81,6 +81,9 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
             os.fsync(handle.fileno())
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files
         os.replace(tmp, path)
+    except OSError as error:  # a full disk, a quota, a folder gone: name the file that could not be written
+        Path(tmp).unlink(missing_ok=True)
+        raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}", str(path)) from error
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
