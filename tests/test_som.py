@@ -234,8 +234,10 @@ def test_constructor_and_untrained_map_errors():
         gm.SOM(0, 5, 3)
     with pytest.raises(ValueError, match="seed"):
         gm.SOM(2, 2, 3, seed=-1)
-    with pytest.raises(RuntimeError, match="fit"):
+    with pytest.raises(gm.NotFittedError, match="fit"):
         gm.SOM(2, 2, 3).best_match(np.zeros(3))
+    assert not isinstance(gm.SOM(2, 2, 3), gm.Experience)  # the protocol check read the error, not raised it
+    assert isinstance(gm.NotFittedError("x"), (gm.GraspManifoldError, RuntimeError))
     som = gm.SOM(2, 2, 3)
     with pytest.raises(ValueError, match="weights must have shape"):
         som.weights = np.zeros((2, 3, 3))

@@ -4,6 +4,10 @@ An implementation (and extension) of "SOM-based experience representation for de
 (WSOM 2007) on a MuJoCo model of the 24-joint Shadow Dexterous Hand.
 """
 
+from .errors import (
+    BackendUnavailable, GenerationError, GraspManifoldError, InvalidInput, NotFittedError, OutputInUse, QualityError,
+    RenderingUnavailable, SimulationError, WorkersLost,
+)
 from .render import choose_offscreen_backend
 
 choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
@@ -12,7 +16,7 @@ from .analysis import resume_learning, smoothness  # noqa: E402
 from .controller import ControllerParams, GraspController
 from .evaluation import EvaluationResult, evaluate
 from .experience import Experience, PostureDatabase
-from .generator import PRESETS, GenerationError, GeneratorParams, generate_postures, verify_postures
+from .generator import PRESETS, GeneratorParams, generate_postures, verify_postures
 from .grid import grid_preset, reachable, why_unreachable
 from .hand import (
     ACTUATORS,
@@ -40,8 +44,8 @@ from .posture import (
     within_limits,
 )
 from .postureset import PostureSet
-from .quality import QualityError, epsilon_l1
-from .scene import Scene, SimulationError, facing_pose
+from .quality import epsilon_l1
+from .scene import Scene, facing_pose
 from .som import SOM, SOMSchedule
 from .starts import StartingPosture, starting_postures
 from .tactile import TactileReading, TactileSensor
@@ -51,7 +55,7 @@ from .version import __version__
 
 #: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
 #: plotting pulls in matplotlib, which a simulation-only user does not need
-_SUBMODULES = ("analysis", "benchmark", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
+_SUBMODULES = ("analysis", "benchmark", "errors", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
                "reproduce", "stats", "study", "trial", "validation", "workers")
 
 
@@ -72,7 +76,8 @@ __all__ = [
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
-    "epsilon_l1", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
+    "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
+    "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
     "posture_to_dict", "show_progress", "validate_posture", "within_limits", "__version__",
 ]

@@ -21,6 +21,7 @@ from .controller import (
     GraspController,
     palm_shift,
 )
+from .errors import InvalidInput
 from .experience import Experience
 from .hand import FINGERS, SEGMENTS
 from .posture import N_FINGER_JOINTS, SEGMENT_FINGER, pcp_masks
@@ -55,7 +56,7 @@ class BatchController:
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-            raise ValueError(f"n (worlds) must be a positive integer, got {n!r}")
+            raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
         # the reference validates the arguments and computes the per-finger constants once
         reference = GraspController(experience, params, initial_posture, preshape)
         self.n = int(n)
@@ -102,9 +103,9 @@ class BatchController:
         joints = np.asarray(joints, dtype=float)
         forces = np.asarray(segment_forces, dtype=float)
         if joints.shape != (self.n, N_FINGER_JOINTS) or not np.all(np.isfinite(joints)):
-            raise ValueError(f"joints must be ({self.n}, {N_FINGER_JOINTS}) finite angles, got shape {joints.shape}")
+            raise InvalidInput(f"joints must be ({self.n}, {N_FINGER_JOINTS}) finite angles, got shape {joints.shape}")
         if forces.shape != (self.n, len(SEGMENTS)) or not np.all(np.isfinite(forces)):
-            raise ValueError(f"segment_forces must be ({self.n}, {len(SEGMENTS)}) finite forces in SEGMENTS order, "
+            raise InvalidInput(f"segment_forces must be ({self.n}, {len(SEGMENTS)}) finite forces in SEGMENTS order, "
                              f"got shape {forces.shape}")
         p, dt = self.params, self.params.control_period
         self.time += dt

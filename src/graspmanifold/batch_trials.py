@@ -16,6 +16,7 @@ import numpy as np
 
 from .batch_controller import BatchController, row_norms
 from .controller import ControllerParams
+from .errors import InvalidInput, QualityError
 from .experience import Experience
 from .hand import SEGMENTS
 from .judge import (
@@ -28,7 +29,7 @@ from .judge import (
 )
 from .objects import GraspObject
 from .posture import N_FINGER_JOINTS
-from .quality import QualityError
+
 from .scene import GRAVITY
 from .trial import Noise, Trial, trial_scene
 from .worlds import CpuWorlds, Worlds
@@ -43,7 +44,7 @@ def make_worlds(obj: GraspObject, poses: np.ndarray, rngs: Sequence[np.random.Ge
                 initial: np.ndarray, table: bool, backend: str) -> Worlds:
     """The trial scenes of these grid poses (placed as `run_trial` places them) on a backend."""
     if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        raise InvalidInput(f"backend must be one of {BACKENDS}, got {backend!r}")
     scenes = [trial_scene(obj, pose, rng, noise, initial, table) for pose, rng in zip(poses, rngs)]
     if backend == "cpu":
         return CpuWorlds(scenes)

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .controller import ControllerParams
+from .errors import InvalidInput
 from .evaluation import EvaluationResult, evaluate, trials_key
 from .experience import Experience, check_experience
 from .generator import remove_checkpoints
@@ -100,11 +101,11 @@ def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray
         Grid poses: shift across (x) and along (z) the fingers, palm gap (m), yaw (rad).
     """
     if name not in OBJECTS:
-        raise ValueError(f"unknown benchmark object {name!r}; expected one of {tuple(OBJECTS)}")
+        raise InvalidInput(f"unknown benchmark object {name!r}; expected one of {tuple(OBJECTS)}")
     if placement not in PLACEMENTS:
-        raise ValueError(f"placement must be one of {PLACEMENTS}, got {placement!r}")
+        raise InvalidInput(f"placement must be one of {PLACEMENTS}, got {placement!r}")
     if split not in SPLITS:
-        raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
+        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
     obj = OBJECTS[name].object
     ball = obj.shape == "sphere"
     gaps = _BALL_GAPS[placement] if ball else _GAPS[placement]
@@ -149,9 +150,9 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
     names = tuple(OBJECTS) if objects is None else tuple(objects)
     unknown = [name for name in names if name not in OBJECTS]
     if unknown or not names:
-        raise ValueError(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
+        raise InvalidInput(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
     if split not in SPLITS:
-        raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
+        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
     every = check_int(every, "every")
     results = {}
     for name, placement in cells():
@@ -195,6 +196,6 @@ def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hol
     """
     keys = [key for key in cells() if key in results and (rows is None or key in rows)]
     if not keys:
-        raise ValueError("results hold none of the cells asked for")
+        raise InvalidInput("results hold none of the cells asked for")
     return (np.concatenate([results[key].outcomes(measure) for key in keys]),
             np.concatenate([results[key].valid() for key in keys]))

@@ -12,17 +12,17 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from .errors import GraspManifoldError, InvalidInput
 from .family import FAMILY
 from .generator import MODES, PRESET_PARAMS
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_PRESETS
-from .io import LOCK_FILE, OutputInUse, output_lock
-from .workers import WorkersLost, default_workers
+from .io import LOCK_FILE, output_lock
+from .workers import default_workers
 from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .posture import closed_posture, open_posture
 from .report import FIGURES
@@ -37,12 +37,12 @@ def _object(args: argparse.Namespace) -> GraspObject:
     try:
         if text in PAPER_OBJECTS or text in FAMILY:
             if args.scale != 1.0:
-                raise ValueError(f"--scale is for mesh files, not the named object {text!r}")
+                raise InvalidInput(f"--scale is for mesh files, not the named object {text!r}")
             return get_object(text)
         if Path(text).suffix or os.sep in text:
             return make_object("mesh", mesh=text, scale=args.scale)
         return get_object(text)
-    except (ValueError, ImportError) as error:
+    except (InvalidInput, ImportError) as error:
         raise SystemExit(f"error: --object: {error}") from None
 
 
@@ -112,26 +112,16 @@ def _check_writable_directory(out: Path) -> None:
         raise SystemExit(f"error: cannot write results to {out}: {error.strerror or error}") from None
 
 
-@contextmanager
-def _held(lock: Path, output: Path) -> Iterator[None]:
-    """`io.output_lock`, a second writer refused with the library's one-line error."""
-    try:
-        with output_lock(lock, output):
-            yield
-    except OutputInUse as error:
-        raise SystemExit(f"error: {error}") from None
-
-
 def _generate(args: argparse.Namespace) -> int:
     obj = _object(args)
     out = _check_output(args.out, args.force)
-    with _held(out.with_name(f".{out.name}.lock"), out):
+    with output_lock(out.with_name(f".{out.name}.lock"), out):
         return _generate_into(args, obj, out)
 
 
 def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
     """`generate` with its output file held."""
-    from .generator import PRESETS, GenerationError, generate_postures, remove_checkpoints
+    from .generator import PRESETS, generate_postures, remove_checkpoints
 
     n = args.n if args.n is not None else PRESETS[args.preset].get(obj.name, PRESETS[args.preset]["cylinder"])
     if n <= 0:
@@ -142,11 +132,8 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
-    try:
-        postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
-                                     checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
-    except (ValueError, GenerationError, WorkersLost) as error:
-        raise SystemExit(f"error: {error}") from None
+    postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
+                                 checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = (f"verified: {postures.metadata['verified_ratio']:.0%} of {postures.metadata['candidates']} candidates "
@@ -179,7 +166,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     obj = _object(args)
     out = Path(args.out)
     _check_writable_directory(out)
-    with _held(out / LOCK_FILE, out):
+    with output_lock(out / LOCK_FILE, out):
         return _evaluate_into(args, obj, out)
 
 
@@ -203,7 +190,7 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
         result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
                           noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
                           executor=_executor(args), backend=args.backend)
-    except (ValueError, FileNotFoundError, ImportError, RuntimeError) as error:
+    except (FileNotFoundError, ImportError) as error:
         raise SystemExit(f"error: {error}") from None
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
@@ -218,7 +205,7 @@ def _figure(args: argparse.Namespace) -> int:
 
     try:
         figure_from_run(args.run_dir, args.name, args.out)
-    except (ValueError, FileNotFoundError) as error:
+    except FileNotFoundError as error:
         raise SystemExit(f"error: {error}") from None
     print(f"wrote {args.name}.png and {args.name}.pdf to {args.out or Path(args.run_dir) / 'figures'}")
     return 0
@@ -232,7 +219,7 @@ def _executor(args: argparse.Namespace):
 
     try:
         return cluster_executor(args.executor)
-    except (ImportError, ValueError, OSError) as error:
+    except (ImportError, InvalidInput, OSError) as error:
         raise SystemExit(f"error: --executor: {error}") from None
 
 
@@ -243,14 +230,11 @@ def _reproduce(args: argparse.Namespace) -> int:
         raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
     config = PRESETS[args.preset]
     _check_writable_directory(Path(args.out))
-    try:
-        if args.objects:
-            sizes = config.postures
-            config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
-        reproduce(args.out, config, workers=args.workers, force=args.force,
-                  log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
-    except (ValueError, OutputInUse, WorkersLost) as error:
-        raise SystemExit(f"error: {error}") from None
+    if args.objects:
+        sizes = config.postures
+        config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
+    reproduce(args.out, config, workers=args.workers, force=args.force,
+              log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
@@ -371,6 +355,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         kept = _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", ""))
         print(f"\ninterrupted: {kept}", file=sys.stderr)
         return 130
+    except GraspManifoldError as error:  # the library's refusals and failures: one line, no traceback
+        raise SystemExit(f"error: {error}") from None
     except OSError as error:  # a file that could not be written (a full disk): one line, what is kept
         if error.filename is None:
             raise

@@ -63,6 +63,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import InvalidInput
 from .experience import Experience, check_experience
 from .hand import PHYSICS_TIMESTEP, FINGER_JOINTS, FINGERS, SEGMENTS, SegmentKinematics, finger_limits, finger_of
 from .posture import closed_posture, open_posture, pcp_mask, validate_posture
@@ -104,31 +105,31 @@ class ControllerParams:
         for name in ("control_period", "closing_rate", "follow_speed", "timeout", "reach_speed"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
+                raise InvalidInput(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
         steps = self.control_period / PHYSICS_TIMESTEP
         if isinstance(self.control_period, bool) or round(steps) < 1 or abs(steps - round(steps)) > 1e-6:
-            raise ValueError(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
+            raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
                              f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
                              "make the controller's clock run apart from the physics")
         for name in ("preshape_time", "squeeze", "release_time", "stable_time", "reach"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
+                raise InvalidInput(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
         if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
-            raise ValueError(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
+            raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
                              f"got {self.max_match_distance!r}")
         if self.steered_joints not in STEERED_JOINTS:
-            raise ValueError(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
+            raise InvalidInput(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
                              f"got {self.steered_joints!r}")
         if not isinstance(self.restart_closure, bool):
-            raise ValueError(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
+            raise InvalidInput(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
         for name in ("restart_closure", "reach"):
             if getattr(self, name) and self.steered_joints != "all":
-                raise ValueError(f"ControllerParams.{name} needs steered_joints='all': with only the spread joints "
+                raise InvalidInput(f"ControllerParams.{name} needs steered_joints='all': with only the spread joints "
                                  "recalled, a restarted closure would open the fingers' flexion again")
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
-            raise ValueError(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
+            raise InvalidInput(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
 
 def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
@@ -228,7 +229,7 @@ class GraspController:
         joints = validate_posture(joints, name="joints")
         forces = np.asarray(segment_forces, dtype=float)
         if forces.shape != (len(SEGMENTS),) or not np.all(np.isfinite(forces)):
-            raise ValueError(f"segment_forces must be {len(SEGMENTS)} finite forces in SEGMENTS order")
+            raise InvalidInput(f"segment_forces must be {len(SEGMENTS)} finite forces in SEGMENTS order")
         p, dt = self.params, self.params.control_period
         self.time += dt
         if self.done:

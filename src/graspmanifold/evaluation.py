@@ -23,6 +23,7 @@ import numpy as np
 
 from .batch_trials import BACKENDS, run_trials
 from .controller import ControllerParams
+from .errors import InvalidInput
 from .experience import Experience, check_experience
 from .grid import check_grid
 from .hand import SEGMENTS
@@ -110,7 +111,7 @@ class EvaluationResult:
             (n,) bool in grid order.
         """
         if measure not in ("hold", "force_closure"):
-            raise ValueError(f"measure must be 'hold' or 'force_closure', got {measure!r}")
+            raise InvalidInput(f"measure must be 'hold' or 'force_closure', got {measure!r}")
         return np.array([t.valid and bool(getattr(t, measure)) for t in self.trials], dtype=bool)
 
     def rate(self, measure: str = "hold", rows: np.ndarray | None = None) -> float:
@@ -204,7 +205,7 @@ class EvaluationResult:
         if "winners" in a:
             ends = np.cumsum(np.asarray(a["matches"], dtype=int))
             if len(ends) and (ends[-1] != len(a["winners"]) or (np.diff(ends, prepend=0) < 0).any()):
-                raise ValueError(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
+                raise InvalidInput(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
                                  f"{int(ends[-1])} matches; the file is corrupt")
             winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
@@ -342,7 +343,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     seed = check_int(seed, "seed", low=0)
     noise = noise or Noise()
     if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        raise InvalidInput(f"backend must be one of {BACKENDS}, got {backend!r}")
     batch_size = check_int(batch_size, "batch_size")
     grid_name, poses = check_grid(grid, obj, table)
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)

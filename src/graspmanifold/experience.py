@@ -15,6 +15,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .errors import InvalidInput
 from .io import fingerprint, load_npz, save_npz
 from .nearest import MaskedNearest
 from .postureset import N_JOINTS, PostureSet
@@ -92,7 +93,7 @@ class PostureDatabase:
         """
         data = np.asarray(postures, dtype=float)
         if data.ndim != 2:
-            raise ValueError(f"postures must be an (n, dim) array, got shape {data.shape}")
+            raise InvalidInput(f"postures must be an (n, dim) array, got shape {data.shape}")
         self.postures = check_data(data, data.shape[1], "postures")
         self.postures.flags.writeable = False
         self.dim = self.postures.shape[1]
@@ -195,8 +196,8 @@ def check_experience(experience: object) -> Experience | None:
     if isinstance(experience, PostureSet):
         experience = PostureDatabase(experience.postures)
     if not isinstance(experience, Experience):
-        raise ValueError(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
+        raise InvalidInput(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
                          f"got {type(experience).__name__}")
     if experience.dim != N_JOINTS:
-        raise ValueError(f"experience must hold {N_JOINTS}-joint postures, it has dim {experience.dim}")
+        raise InvalidInput(f"experience must hold {N_JOINTS}-joint postures, it has dim {experience.dim}")
     return experience

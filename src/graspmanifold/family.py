@@ -23,6 +23,8 @@ from collections.abc import Callable
 import numpy as np
 import trimesh
 
+from .errors import InvalidInput
+
 SIZES: dict[str, float] = {"s": 0.8, "m": 1.0, "l": 1.2}
 
 
@@ -84,7 +86,7 @@ def family_mesh(name: str) -> trimesh.Trimesh:
         return PAPER_MESHES[name]()
     shape, _, size = name.rpartition("_")
     if shape not in SHAPES or size not in SIZES:
-        raise ValueError(f"unknown family object {name!r}; expected one of {FAMILY}")
+        raise InvalidInput(f"unknown family object {name!r}; expected one of {FAMILY}")
     mesh = SHAPES[shape]()
     mesh.apply_scale(SIZES[size])
     return mesh

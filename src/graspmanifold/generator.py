@@ -46,6 +46,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .controller import ControllerParams, squeezed
+from .errors import GenerationError, InvalidInput, SimulationError
 from .hand import (
     DISTAL_SEGMENTS,
     FINGER_JOINTS,
@@ -61,7 +62,7 @@ from .poses import to_quat, to_rotation
 from .posture import posture_to_ctrl
 from .postureset import PostureSet
 from .progress import progress_bar
-from .scene import Scene, SimulationError
+from .scene import Scene
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 from .validation import check_int
 from .version import code_fingerprint
@@ -114,20 +115,20 @@ class GeneratorParams:
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
-            raise ValueError(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
+            raise InvalidInput(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
         if self.designs not in DESIGN_FAMILIES:
-            raise ValueError(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
+            raise InvalidInput(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
         for name, value in asdict(self).items():
             if name in ("verify", "mode", "designs"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
-                raise ValueError(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
+                raise InvalidInput(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
         for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture", "record_every",
                      "max_candidates_per_posture"):
             if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
-                raise ValueError(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
+                raise InvalidInput(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
         if self.verify_hold_seconds <= 0:  # 0 marked every candidate verified without a hold test
-            raise ValueError(f"GeneratorParams.verify_hold_seconds must be > 0 s, got {self.verify_hold_seconds!r}")
+            raise InvalidInput(f"GeneratorParams.verify_hold_seconds must be > 0 s, got {self.verify_hold_seconds!r}")
 
 
 #: The generator settings of each preset, the paper's procedure: every candidate with its five fingertips
@@ -271,9 +272,6 @@ class _Job:
     chunk: int
     quota: int  # candidates to find
 
-
-class GenerationError(RuntimeError):
-    """The generator could not find the postures asked for (too few candidates verified, or none found)."""
 
 
 def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams

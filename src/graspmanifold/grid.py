@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .errors import InvalidInput
 from .hand import SEGMENTS, segment_of_geoms
 from .objects import GraspObject, get_object
 from .poses import compose, invert, rotate, to_quat
@@ -65,7 +66,7 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
     yaws = {"quick": [-0.5, 0.0, 0.5], "paper": np.linspace(-0.5, 0.5, 5), "far": [-0.5, 0.0, 0.5],
             "hard": [-0.8, -0.4, 0.0, 0.4, 0.8]}
     if name not in GRID_PRESETS:
-        raise ValueError(f"unknown grid preset {name!r}; expected one of {GRID_PRESETS} or an (n, 4) array")
+        raise InvalidInput(f"unknown grid preset {name!r}; expected one of {GRID_PRESETS} or an (n, 4) array")
     yaw = [0.0] if sphere else yaws[name]
     if name == "quick":
         axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015], [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], yaw)
@@ -80,7 +81,7 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
     poses = np.array(list(itertools.product(*axes)), dtype=float)
     poses = poses[reachable(obj, poses, table)]
     if not len(poses):
-        raise ValueError(f"no pose of the {name!r} grid is reachable for {obj.name}: at every one the object lies "
+        raise InvalidInput(f"no pose of the {name!r} grid is reachable for {obj.name}: at every one the object lies "
                          f"inside (or within {START_CLEARANCE * 1000:.0f} mm of) the open hand{' or the table' if table else ''}; "
                          "an object this large needs a custom grid with larger gaps (graspmanifold.reachable)")
     return poses
@@ -122,7 +123,7 @@ def why_unreachable(obj: str | GraspObject, pose: object, table: bool = False) -
     """
     pose = np.asarray(pose, dtype=float)
     if pose.shape != (4,) or not np.all(np.isfinite(pose)):
-        raise ValueError(f"pose must be four finite numbers {GRID_COLUMNS}, got {pose!r}")
+        raise InvalidInput(f"pose must be four finite numbers {GRID_COLUMNS}, got {pose!r}")
     obj = get_object(obj)
     distance, segment, what = _nearest_to_hand(Scene(obj, free_object=True, table=table), pose)
     if distance >= START_CLEARANCE:
@@ -159,23 +160,23 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
     try:
         poses = np.asarray(grid, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"grid must be one of {GRID_PRESETS} or an (n, 4) array of numbers {GRID_COLUMNS} "
+        raise InvalidInput(f"grid must be one of {GRID_PRESETS} or an (n, 4) array of numbers {GRID_COLUMNS} "
                          f"(m, rad), got {grid!r:.80}") from None
     if poses.shape == (4,):  # one pose
         poses = poses.reshape(1, 4)
     if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
-        raise ValueError(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
+        raise InvalidInput(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
                          f"got shape {poses.shape}")
     if not np.all(np.isfinite(poses)):
-        raise ValueError("grid poses must be finite")
+        raise InvalidInput("grid poses must be finite")
     far = np.flatnonzero((np.abs(poses[:, :3]) > MAX_GAP).any(axis=1) | (np.abs(poses[:, 3]) > np.pi))
     if len(far):  # a pose 5 m away ran as a valid trial that failed
-        raise ValueError(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
+        raise InvalidInput(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
                          f"±{MAX_GAP} m and the yaw within ±π rad")
     inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
         first = inside[0]
-        raise ValueError(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
+        raise InvalidInput(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
                          f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start (row "
                          f"{first}, {dict(zip(GRID_COLUMNS, poses[first].round(4).tolist()))}: "
                          f"{why_unreachable(obj, poses[first], table)}); keep the reachable ones: "
@@ -206,7 +207,7 @@ def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -
     obj = get_object(obj)
     poses = np.asarray(hand_poses, dtype=float).reshape(-1, 7)
     if not len(poses):
-        raise ValueError("hand_poses must hold at least one experienced palm pose (m, 7)")
+        raise InvalidInput("hand_poses must hold at least one experienced palm pose (m, 7)")
 
     def seen_from_palm(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         centre, inverse = invert(pos, quat)

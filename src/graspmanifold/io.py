@@ -21,6 +21,7 @@ from typing import IO
 
 import numpy as np
 
+from .errors import InvalidInput, OutputInUse
 from .version import __version__, code_fingerprint
 
 SCHEMA_VERSION = 2
@@ -70,7 +71,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
     given the mode the user's umask gives new files, and renamed into place, so readers never see
     half of it; on any error it is removed and `path` is untouched."""
     if mode not in ("w", "wb"):
-        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
+        raise InvalidInput(f"mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=TEMPORARY_SUFFIX, dir=path.parent)
@@ -94,9 +95,6 @@ TEMPORARY_SUFFIX = ".graspmanifold.tmp"
 #: the lock file that marks an output folder as being written (`output_lock`)
 LOCK_FILE = ".graspmanifold.lock"
 
-
-class OutputInUse(RuntimeError):
-    """Another graspmanifold process is writing the same output."""
 
 
 @contextmanager
@@ -148,11 +146,11 @@ def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], 
     """Write arrays and metadata to `path` atomically; refuse an existing file unless `overwrite`."""
     path = Path(path)
     if path.suffix != ".npz":
-        raise ValueError(f"path must end in .npz, got {str(path)!r}")
+        raise InvalidInput(f"path must end in .npz, got {str(path)!r}")
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (or --force) to replace it")
     if _METADATA_KEY in arrays:
-        raise ValueError(f"{_METADATA_KEY!r} is reserved")
+        raise InvalidInput(f"{_METADATA_KEY!r} is reserved")
     meta = {"schema": SCHEMA_VERSION, "kind": kind, "library_version": library_version(), **metadata}
     with atomic_write(path, "wb") as handle:
         write_npz(handle, {**arrays, _METADATA_KEY: np.array(json.dumps(meta))})
@@ -177,7 +175,7 @@ class _Arrays(dict):
         self.path = path
 
     def __missing__(self, name: str) -> np.ndarray:
-        raise ValueError(f"{self.path} lacks the array {name!r} (a file of another version, or corrupt)")
+        raise InvalidInput(f"{self.path} lacks the array {name!r} (a file of another version, or corrupt)")
 
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
@@ -187,17 +185,17 @@ def _read_arrays(path: Path) -> dict[str, np.ndarray]:
     with zipfile.ZipFile(path) as archive:
         for info in archive.infolist():
             if not info.filename.endswith(".npy"):
-                raise ValueError(f"member {info.filename!r} is not an array")
+                raise InvalidInput(f"member {info.filename!r} is not an array")
             with archive.open(info) as member:
                 version = np.lib.format.read_magic(member)
                 read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                                else np.lib.format.read_array_header_2_0)
                 shape, fortran, dtype = read_header(member)
                 if dtype.hasobject:
-                    raise ValueError(f"member {info.filename!r} holds Python objects")
+                    raise InvalidInput(f"member {info.filename!r} holds Python objects")
                 size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
                 if size != info.file_size - member.tell():
-                    raise ValueError(f"member {info.filename!r} declares shape {shape} of {dtype} ({size} bytes) but "
+                    raise InvalidInput(f"member {info.filename!r} declares shape {shape} of {dtype} ({size} bytes) but "
                                      f"holds {info.file_size - member.tell()} bytes")
                 data = np.frombuffer(member.read(size), dtype=dtype, count=int(np.prod(shape, dtype=np.int64)))
                 arrays[info.filename[:-4]] = data.reshape(shape, order="F" if fortran else "C").copy()
@@ -227,25 +225,25 @@ def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int |
     try:
         arrays = _read_arrays(path)
     except Exception as error:  # noqa: BLE001 - whatever a corrupt file does to the parser, the file is at fault
-        raise ValueError(f"{path} is not a readable .npz file (truncated or corrupt?): "
+        raise InvalidInput(f"{path} is not a readable .npz file (truncated or corrupt?): "
                          f"{type(error).__name__}: {error}") from None
     arrays = _Arrays(path, arrays)
     if _METADATA_KEY not in arrays:
-        raise ValueError(f"{path} is not a graspmanifold file: it has no metadata")
+        raise InvalidInput(f"{path} is not a graspmanifold file: it has no metadata")
     try:
         meta = json.loads(str(arrays.pop(_METADATA_KEY)))
     except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path} has corrupt metadata: {error}") from None
+        raise InvalidInput(f"{path} has corrupt metadata: {error}") from None
     if not isinstance(meta, dict):
-        raise ValueError(f"{path} has corrupt metadata: a JSON {type(meta).__name__}, not an object")
+        raise InvalidInput(f"{path} has corrupt metadata: a JSON {type(meta).__name__}, not an object")
     if meta.get("kind") != kind:
-        raise ValueError(f"{path} holds a {meta.get('kind')!r}, not a {kind!r}")
+        raise InvalidInput(f"{path} holds a {meta.get('kind')!r}, not a {kind!r}")
     if meta.get("schema") != SCHEMA_VERSION:
-        raise ValueError(f"{path} has schema version {meta.get('schema')!r}; this library reads {SCHEMA_VERSION}")
+        raise InvalidInput(f"{path} has schema version {meta.get('schema')!r}; this library reads {SCHEMA_VERSION}")
     for name, shape in required.items():
         if name not in arrays:
-            raise ValueError(f"{path} lacks the array {name!r}")
+            raise InvalidInput(f"{path} lacks the array {name!r}")
         got = arrays[name].shape
         if len(got) != len(shape) or any(s is not None and s != g for s, g in zip(shape, got)):
-            raise ValueError(f"{path}: array {name!r} has shape {got}, expected {shape}")
+            raise InvalidInput(f"{path}: array {name!r} has shape {got}, expected {shape}")
     return arrays, meta

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .errors import InvalidInput
+
 MIN_EXTENT = 0.005  # m: smaller than this is below what the fingertips can resolve
 MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a unit error)
 
@@ -36,28 +38,28 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
     if isinstance(mesh, (str, os.PathLike)):
         path = Path(mesh)
         if not path.is_file():
-            raise ValueError(f"mesh file {str(path)!r} " + ("is a directory, not a mesh file" if path.is_dir()
+            raise InvalidInput(f"mesh file {str(path)!r} " + ("is a directory, not a mesh file" if path.is_dir()
                                                              else "does not exist"))
         try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
             loaded = trimesh.load(path, force="mesh", process=False)
         except Exception as error:  # trimesh raises many kinds for a file it cannot parse
-            raise ValueError(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
+            raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise ValueError(f"mesh file {str(path)!r} holds no triangles")
+            raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
         bad = np.flatnonzero(~np.isfinite(loaded.vertices).all(axis=1))
         if len(bad):
-            raise ValueError(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
+            raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
                              f"inf), the first at index {bad[0]}")
         loaded.process()
         mesh = loaded
     elif not isinstance(mesh, trimesh.Trimesh):
-        raise ValueError(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
+        raise InvalidInput(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
     try:
         scale = float(scale)
     except (TypeError, ValueError):
-        raise ValueError(f"scale must be a positive finite number, got {scale!r}") from None
+        raise InvalidInput(f"scale must be a positive finite number, got {scale!r}") from None
     if not np.isfinite(scale) or scale <= 0:
-        raise ValueError(f"scale must be a positive finite number, got {scale!r}")
+        raise InvalidInput(f"scale must be a positive finite number, got {scale!r}")
     mesh = mesh.copy()
     mesh.apply_scale(scale)
     return mesh
@@ -66,21 +68,21 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
 def check_solid(mesh: trimesh.Trimesh) -> None:
     """Raise ValueError unless the mesh is a closed solid of a graspable size."""
     if len(mesh.faces) == 0 or not np.all(np.isfinite(mesh.vertices)):
-        raise ValueError("mesh has no triangles or non-finite vertices")
+        raise InvalidInput("mesh has no triangles or non-finite vertices")
     if not mesh.is_watertight:
-        raise ValueError("mesh is not watertight (it has holes or open edges): a grasp object must be a closed "
+        raise InvalidInput("mesh is not watertight (it has holes or open edges): a grasp object must be a closed "
                          "solid; repair it first, e.g. with trimesh.repair.fill_holes")
     with np.errstate(invalid="ignore", divide="ignore"):  # a flat mesh divides by its zero volume
         solid = bool(mesh.is_volume) and float(mesh.volume) > 0
     if not solid:
-        raise ValueError(f"mesh encloses no positive volume (volume {mesh.volume:.3g} m^3): it is flat, "
+        raise InvalidInput(f"mesh encloses no positive volume (volume {mesh.volume:.3g} m^3): it is flat, "
                          "inside out or self-intersecting")
     extent = float(mesh.extents.max())
     if extent > MAX_EXTENT:
-        raise ValueError(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "
+        raise InvalidInput(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "
                          "(a file in millimetres needs scale=0.001)")
     if float(mesh.extents.min()) < MIN_EXTENT:
-        raise ValueError(f"mesh is only {mesh.extents.min() * 1000:.3g} mm thick; a grasp object needs at least "
+        raise InvalidInput(f"mesh is only {mesh.extents.min() * 1000:.3g} mm thick; a grasp object needs at least "
                          f"{MIN_EXTENT * 1000:.0f} mm in every direction")
 
 

@@ -20,6 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .errors import InvalidInput
 from .kernels import compiled, masked_argmin, masked_argmin_rows
 from .workers import usable_cores
 
@@ -38,26 +39,26 @@ def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.nda
     single = queries.ndim == 1
     queries = np.atleast_2d(queries)
     if queries.ndim != 2 or queries.shape[1] != dim:
-        raise ValueError(f"x must have shape ({dim},) or (m, {dim}), got {np.shape(x)}")
+        raise InvalidInput(f"x must have shape ({dim},) or (m, {dim}), got {np.shape(x)}")
     if mask is None:
         weights = np.ones_like(queries)
     else:
         weights = np.array(mask, dtype=float, ndmin=1)
         if weights.shape not in ((dim,), queries.shape) and not (single and weights.shape == (1, dim)):
-            raise ValueError(f"mask must have shape ({dim},) or {queries.shape}, got {np.shape(mask)}")
+            raise InvalidInput(f"mask must have shape ({dim},) or {queries.shape}, got {np.shape(mask)}")
         weights = np.broadcast_to(weights, queries.shape)
         if not np.all(np.isfinite(weights)):
-            raise ValueError("mask has non-finite weights")
+            raise InvalidInput("mask has non-finite weights")
         if np.any(weights < 0):
-            raise ValueError("mask has negative weights; expected booleans or weights p_k >= 0")
+            raise InvalidInput("mask has negative weights; expected booleans or weights p_k >= 0")
         empty = ~np.any(weights > 0, axis=1)
         if empty.any():
-            raise ValueError(f"mask selects no dimension (all zero) for query rows {np.flatnonzero(empty)[:10].tolist()}")
+            raise InvalidInput(f"mask selects no dimension (all zero) for query rows {np.flatnonzero(empty)[:10].tolist()}")
     used = weights > 0
     bad = used & ~np.isfinite(queries)
     if bad.any():
         rows, cols = np.nonzero(bad)
-        raise ValueError(f"x has non-finite values where the mask is non-zero (row {rows[0]}, column {cols[0]})")
+        raise InvalidInput(f"x has non-finite values where the mask is non-zero (row {rows[0]}, column {cols[0]})")
     queries = np.where(used, queries, 0.0)
     return queries, np.ascontiguousarray(weights)
 
@@ -66,23 +67,23 @@ def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarr
     """`check_queries` for one query: returns float (dim,) arrays."""
     query = np.asarray(x, dtype=float)
     if query.shape != (dim,):
-        raise ValueError(f"x must have shape ({dim},), got {np.shape(x)}")
+        raise InvalidInput(f"x must have shape ({dim},), got {np.shape(x)}")
     if mask is None:
         weights = np.ones(dim)
     else:
         weights = np.asarray(mask, dtype=float)
         if weights.shape != (dim,):
-            raise ValueError(f"mask must have shape ({dim},), got {np.shape(mask)}")
+            raise InvalidInput(f"mask must have shape ({dim},), got {np.shape(mask)}")
         total = float(weights.sum())
         if not math.isfinite(total):
-            raise ValueError("mask has non-finite weights")
+            raise InvalidInput("mask has non-finite weights")
         if weights.min() < 0:
-            raise ValueError("mask has negative weights; expected booleans or weights p_k >= 0")
+            raise InvalidInput("mask has negative weights; expected booleans or weights p_k >= 0")
         if total == 0.0:
-            raise ValueError("mask selects no dimension (all zero)")
+            raise InvalidInput("mask selects no dimension (all zero)")
     query = np.where(weights > 0, query, 0.0)
     if not np.isfinite(query).all():
-        raise ValueError(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
+        raise InvalidInput(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
     return query, weights
 
 
@@ -92,7 +93,7 @@ class MaskedNearest:
     def __init__(self, points: np.ndarray):
         self.points = np.ascontiguousarray(points, dtype=float)
         if self.points.ndim != 2 or len(self.points) == 0:
-            raise ValueError(f"points must be a non-empty (n, dim) array, got shape {self.points.shape}")
+            raise InvalidInput(f"points must be a non-empty (n, dim) array, got shape {self.points.shape}")
         self._points_t = np.ascontiguousarray(self.points.T)  # (dim, n): the kernels run along points
         self._ones = np.ones(self.dim)
         squares = self.points * self.points
@@ -120,7 +121,7 @@ class MaskedNearest:
             index = masked_argmin(self._points_t, query, weights)
         if index < 0:  # the reference's validation names what is wrong
             check_query(x, mask, self.dim)
-            raise ValueError(f"x or mask rejected by the best-match kernel (code {index})")
+            raise InvalidInput(f"x or mask rejected by the best-match kernel (code {index})")
         return index
 
     def nearest_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
@@ -145,7 +146,7 @@ class MaskedNearest:
                     list(pool.map(lambda args: masked_argmin_rows(*args), work))
         if np.any(result < 0):  # the reference's validation names what is wrong
             check_queries(X, masks, self.dim)
-            raise ValueError(f"X or masks rejected by the best-match kernel (codes {np.unique(result[result < 0])})")
+            raise InvalidInput(f"X or masks rejected by the best-match kernel (codes {np.unique(result[result < 0])})")
         return result
 
     def _weights(self, mask: np.ndarray | None) -> np.ndarray:

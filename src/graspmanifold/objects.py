@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .errors import InvalidInput
 from .family import FAMILY, family_mesh
 from .meshes import MAX_EXTENT, MIN_EXTENT, convex_parts, load_mesh, mesh_digest, object_frame
 
@@ -181,7 +182,7 @@ def _check_points(points: object) -> tuple[np.ndarray, bool]:
     single = p.ndim == 1
     p = np.atleast_2d(p)
     if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
-        raise ValueError(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
+        raise InvalidInput(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
     return p, single
 
 
@@ -261,7 +262,7 @@ PAPER_SHAPES = ("box", "cylinder", "sphere")
 def _friction(value: object) -> float:
     friction = _positive(value, "friction")
     if friction > MAX_FRICTION:
-        raise ValueError(f"friction must be at most {MAX_FRICTION:g} (a sliding friction coefficient), got {value!r}")
+        raise InvalidInput(f"friction must be at most {MAX_FRICTION:g} (a sliding friction coefficient), got {value!r}")
     return friction
 
 
@@ -269,9 +270,9 @@ def _positive(value: object, argument: str) -> float:
     try:
         number = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
-        raise ValueError(f"{argument} must be a positive number, got {value!r}") from None
+        raise InvalidInput(f"{argument} must be a positive number, got {value!r}") from None
     if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{argument} must be a positive finite number, got {value!r}")
+        raise InvalidInput(f"{argument} must be a positive finite number, got {value!r}")
     return number
 
 
@@ -312,10 +313,10 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
     friction = DEFAULT_FRICTION if friction is None else _friction(friction)
     if shape == "mesh":
         if mesh is None:
-            raise ValueError("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
+            raise InvalidInput("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
         extra = [k for k, v in {"radius": radius, "length": length, "size": size}.items() if v is not None]
         if extra:
-            raise ValueError(f"a mesh takes mesh= and scale=, not {extra}")
+            raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
         solid = object_frame(load_mesh(mesh, 1.0 if scale is None else scale))
         digest = mesh_digest(solid)
         label = name or (Path(mesh).stem if isinstance(mesh, (str, os.PathLike)) else f"mesh_{digest[:8]}")
@@ -323,21 +324,21 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
                            mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
                            parts=tuple(convex_parts(solid)), mesh_digest=digest)
     if mesh is not None or scale is not None:
-        raise ValueError(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
+        raise InvalidInput(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
     given = {"radius": radius, "length": length, "size": size}
     needed = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
     if shape not in needed:
-        raise ValueError(f"unknown object shape {shape!r}; expected one of {SHAPES}")
+        raise InvalidInput(f"unknown object shape {shape!r}; expected one of {SHAPES}")
     extra = [k for k, v in given.items() if v is not None and k not in needed[shape]]
     if extra:
-        raise ValueError(f"a {shape} takes {needed[shape]}, not {extra}")
+        raise InvalidInput(f"a {shape} takes {needed[shape]}, not {extra}")
     missing = [k for k in needed[shape] if given[k] is None]
     if missing:
-        raise ValueError(f"a {shape} needs {missing}")
+        raise InvalidInput(f"a {shape} needs {missing}")
     if shape == "box":
         extents = tuple(np.asarray(size, dtype=float).ravel())
         if len(extents) != 3:
-            raise ValueError(f"size must be three extents (x, y, z) in metres, got {size!r}")
+            raise InvalidInput(f"size must be three extents (x, y, z) in metres, got {size!r}")
         half = tuple(_positive(e, "size") / 2.0 for e in extents)
         label = "box_{:.3f}x{:.3f}x{:.3f}".format(*extents)
     elif shape == "cylinder":
@@ -348,7 +349,7 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         label = f"sphere_r{half[0]:.3f}"
     extents = 2 * np.asarray(half)
     if extents.max() > MAX_EXTENT or extents.min() < MIN_EXTENT:
-        raise ValueError(f"a {shape} of {' x '.join(f'{e * 100:.3g}' for e in extents)} cm is not a one-hand grasp: "
+        raise InvalidInput(f"a {shape} of {' x '.join(f'{e * 100:.3g}' for e in extents)} cm is not a one-hand grasp: "
                          f"every extent must be {MIN_EXTENT * 1000:.0f} mm to {MAX_EXTENT * 100:.0f} cm (sizes in m)")
     return GraspObject(name=name or label, shape=shape, half_sizes=half,
                        mass=_positive(mass, "mass"), friction=friction)
@@ -382,7 +383,7 @@ def get_object(obj: str | GraspObject) -> GraspObject:
         return PAPER_OBJECTS[obj]
     if isinstance(obj, str) and obj in FAMILY:
         return _family_object(obj)
-    raise ValueError(f"unknown object {obj!r}; expected one of {tuple(PAPER_OBJECTS)}, a family name "
+    raise InvalidInput(f"unknown object {obj!r}; expected one of {tuple(PAPER_OBJECTS)}, a family name "
                      f"({', '.join(FAMILY[:3])}, ...; see graspmanifold.family.FAMILY) or an object made by "
                      "make_object()")
 
@@ -410,7 +411,7 @@ def object_from_params(params: dict) -> GraspObject:
         name, shape, half = str(params["name"]), str(params["shape"]), tuple(float(h) for h in params["half_sizes"])
         mass, friction = float(params["mass"]), float(params["friction"])
     except (KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"object parameters must give name, shape, half_sizes, mass and friction, got {params!r} "
+        raise InvalidInput(f"object parameters must give name, shape, half_sizes, mass and friction, got {params!r} "
                          f"({error})") from None
     try:
         known = get_object(name)

@@ -11,6 +11,7 @@ from matplotlib.axes import Axes
 from matplotlib.collections import LineCollection
 from matplotlib.patches import Rectangle
 
+from .errors import InvalidInput
 from .som import SOM
 
 HIT_COLOUR = (0.35, 0.8, 0.35)
@@ -33,7 +34,7 @@ def plot_lattice(som: SOM, ax: Axes | None = None, *, hits: np.ndarray | None = 
     nodes that data falls on with a green background (Fig. 4b).
     """
     if scale not in ("linear", "log"):
-        raise ValueError(f"scale must be 'linear' or 'log', got {scale!r}")
+        raise InvalidInput(f"scale must be 'linear' or 'log', got {scale!r}")
     ax = ax if ax is not None else _new_axes()
     horizontal, vertical = som.internode_distances()
     segments, values = [], []
@@ -49,7 +50,7 @@ def plot_lattice(som: SOM, ax: Axes | None = None, *, hits: np.ndarray | None = 
     if hits is not None:
         hits = np.asarray(hits)
         if hits.shape != (som.rows, som.cols):
-            raise ValueError(f"hits must have shape {(som.rows, som.cols)}, got {hits.shape}")
+            raise InvalidInput(f"hits must have shape {(som.rows, som.cols)}, got {hits.shape}")
         for r, c in zip(*np.nonzero(hits)):
             ax.add_patch(Rectangle((c - 0.5, r - 0.5), 1.0, 1.0, color=HIT_COLOUR, zorder=0, linewidth=0))
     if len(values):

@@ -9,12 +9,14 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .errors import InvalidInput
+
 
 def check_quat(quat: Iterable[float], name: str) -> np.ndarray:
     """A unit quaternion (w, x, y, z) from any non-zero finite 4-vector, or ValueError naming it."""
     q = np.asarray(tuple(quat), dtype=float)
     if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-9:
-        raise ValueError(f"{name} must be a non-zero finite quaternion (w, x, y, z), got {quat!r}")
+        raise InvalidInput(f"{name} must be a non-zero finite quaternion (w, x, y, z), got {quat!r}")
     return q / np.linalg.norm(q)
 
 
@@ -22,7 +24,7 @@ def check_vec3(vec: Iterable[float], name: str) -> np.ndarray:
     """Three finite numbers, or ValueError naming them."""
     v = np.asarray(tuple(vec), dtype=float)
     if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be three finite numbers, got {vec!r}")
+        raise InvalidInput(f"{name} must be three finite numbers, got {vec!r}")
     return v
 
 

@@ -11,6 +11,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+from .errors import InvalidInput
 from .hand import (
     ACTUATORS,
     FINGER_JOINTS,
@@ -43,18 +44,18 @@ def validate_posture(posture: object, *, name: str = "posture", check_limits: bo
     """
     array = np.asarray(posture, dtype=float)
     if array.shape != (N_FINGER_JOINTS,):
-        raise ValueError(f"{name} must have shape ({N_FINGER_JOINTS},) (finger joints in FINGER_JOINTS "
+        raise InvalidInput(f"{name} must have shape ({N_FINGER_JOINTS},) (finger joints in FINGER_JOINTS "
                          f"order), got shape {array.shape}")
     bad = ~np.isfinite(array)
     if bad.any():
         joints = [FINGER_JOINTS[i] for i in np.flatnonzero(bad)]
-        raise ValueError(f"{name} has non-finite values at joints {joints}")
+        raise InvalidInput(f"{name} has non-finite values at joints {joints}")
     if check_limits:
         outside = (array < _LIMITS[:, 0] - tol) | (array > _LIMITS[:, 1] + tol)
         if outside.any():
             details = ", ".join(f"{FINGER_JOINTS[i]}={array[i]:.4f} not in [{_LIMITS[i, 0]:.4f}, "
                                 f"{_LIMITS[i, 1]:.4f}]" for i in np.flatnonzero(outside))
-            raise ValueError(f"{name} is outside the joint limits: {details}")
+            raise InvalidInput(f"{name} is outside the joint limits: {details}")
     return array
 
 
@@ -107,10 +108,10 @@ def dict_to_posture(joints: Mapping[str, float]) -> np.ndarray:
     """
     unknown = sorted(set(joints) - set(FINGER_JOINTS))
     if unknown:
-        raise ValueError(f"joints has unknown joint names {unknown}; expected names from FINGER_JOINTS")
+        raise InvalidInput(f"joints has unknown joint names {unknown}; expected names from FINGER_JOINTS")
     missing = [j for j in FINGER_JOINTS if j not in joints]
     if missing:
-        raise ValueError(f"joints is missing finger joints {missing}")
+        raise InvalidInput(f"joints is missing finger joints {missing}")
     return validate_posture([joints[j] for j in FINGER_JOINTS], name="joints")
 
 
@@ -145,11 +146,11 @@ def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) ->
     ctrl = CTRL_MATRIX @ validate_posture(posture)
     wrist = np.asarray(tuple(wrist), dtype=float)
     if wrist.shape != (2,) or not np.all(np.isfinite(wrist)):
-        raise ValueError(f"wrist must be two finite angles (WRJ2, WRJ1), got {wrist!r}")
+        raise InvalidInput(f"wrist must be two finite angles (WRJ2, WRJ1), got {wrist!r}")
     for name, angle in zip(WRIST_JOINTS, wrist):
         low, high = JOINT_RANGES[name]
         if not low - 1e-9 <= angle <= high + 1e-9:
-            raise ValueError(f"wrist angle {name} = {angle:.4g} rad is outside its range [{low:.4g}, {high:.4g}]")
+            raise InvalidInput(f"wrist angle {name} = {angle:.4g} rad is outside its range [{low:.4g}, {high:.4g}]")
     ctrl[:2] = wrist
     return ctrl
 
@@ -174,7 +175,7 @@ def pcp_mask(segments: Iterable[str]) -> np.ndarray:
     segments = list(segments)
     unknown = sorted({s for s in segments if s not in SEGMENTS})
     if unknown:
-        raise ValueError(f"segments has unknown segment names {unknown}; expected names from SEGMENTS")
+        raise InvalidInput(f"segments has unknown segment names {unknown}; expected names from SEGMENTS")
     deepest = {}
     for seg in segments:
         finger = finger_of(seg)
@@ -194,7 +195,7 @@ def pcp_masks(touching: np.ndarray) -> np.ndarray:
     order -> masks (m, 22)."""
     touching = np.asarray(touching, dtype=bool)
     if touching.ndim != 2 or touching.shape[1] != len(SEGMENTS):
-        raise ValueError(f"touching must have shape (m, {len(SEGMENTS)}) (SEGMENTS order), got {touching.shape}")
+        raise InvalidInput(f"touching must have shape (m, {len(SEGMENTS)}) (SEGMENTS order), got {touching.shape}")
     depth = np.where(touching, _SEGMENT_DEPTH_ARRAY, -1)
     reach = np.column_stack([depth[:, SEGMENT_FINGER == f].max(axis=1) for f in _JOINT_FINGER])
     return _JOINT_DEPTH <= reach

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InvalidInput
 from .hand import FINGER_JOINTS, SEGMENTS
 from .io import load_npz, save_npz
 
@@ -41,11 +42,11 @@ class PostureSet:
         for name, shape in expected.items():
             value = getattr(self, name)
             if np.shape(value) != shape:
-                raise ValueError(f"{name} must have shape {shape}, got {np.shape(value)}")
+                raise InvalidInput(f"{name} must have shape {shape}, got {np.shape(value)}")
         if not (np.all(np.isfinite(self.postures)) and np.all(np.isfinite(self.hand_poses))):
-            raise ValueError("postures and hand_poses must be finite")
+            raise InvalidInput("postures and hand_poses must be finite")
         if n and (self.start_ids.min() < 0 or self.start_ids.max() >= len(self.start_names)):
-            raise ValueError(f"start_ids must index start_names (0 ... {len(self.start_names) - 1})")
+            raise InvalidInput(f"start_ids must index start_names (0 ... {len(self.start_names) - 1})")
 
     def __len__(self) -> int:
         return len(self.postures)
@@ -85,7 +86,7 @@ class PostureSet:
     def concatenate(cls, sets: list[PostureSet]) -> PostureSet:
         """One set holding all postures; start names are merged and ids remapped."""
         if not sets:
-            raise ValueError("sets must hold at least one PostureSet")
+            raise InvalidInput("sets must hold at least one PostureSet")
         names: list[str] = []
         for s in sets:
             names.extend(n for n in s.start_names if n not in names)
@@ -146,7 +147,7 @@ class PostureSet:
                                                       "start_ids": (None,), "contacts": (None, len(SEGMENTS)),
                                                       "epsilon": (None,), "hold_displacement": (None,)})
         if meta.get("joints") != list(FINGER_JOINTS) or meta.get("segments") != list(SEGMENTS):
-            raise ValueError(f"{path} uses another joint or segment order than this library")
+            raise InvalidInput(f"{path} uses another joint or segment order than this library")
         names = tuple(meta.pop("start_names", ()))
         for key in ("joints", "segments", "units", "schema", "kind"):
             meta.pop(key, None)
@@ -155,4 +156,4 @@ class PostureSet:
                        arrays["start_ids"].astype(np.int64), arrays["contacts"].astype(bool), names, meta,
                        arrays["epsilon"].astype(float), arrays["hold_displacement"].astype(float))
         except ValueError as error:
-            raise ValueError(f"{path} is inconsistent: {error}") from None
+            raise InvalidInput(f"{path} is inconsistent: {error}") from None

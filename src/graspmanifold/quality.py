@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from .errors import InvalidInput, QualityError
 from .validation import check_int
 
 #: epsilon with many cone edges starts from this many per cone and adds, round by round, at most
@@ -40,9 +41,9 @@ MAX_EDGES = 64
 def _array(value: object, shape: tuple[int | None, ...], name: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
     if a.ndim != len(shape) or any(s is not None and s != g for s, g in zip(shape, a.shape)):
-        raise ValueError(f"{name} must have shape {tuple('k' if s is None else s for s in shape)}, got {a.shape}")
+        raise InvalidInput(f"{name} must have shape {tuple('k' if s is None else s for s in shape)}, got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite")
+        raise InvalidInput(f"{name} must be finite")
     return a
 
 
@@ -66,17 +67,17 @@ def contact_wrenches(points: np.ndarray, normals: np.ndarray, center: np.ndarray
     normals = _array(normals, (len(points), 3), "normals")
     center = _array(center, (3,), "center")
     if not np.isfinite(mu) or mu < 0:
-        raise ValueError(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
+        raise InvalidInput(f"mu must be a finite friction coefficient >= 0, got {mu!r}")
     check_int(num_edges, "num_edges", low=3, high=MAX_EDGES)
     length = np.linalg.norm(normals, axis=1)
     if np.any(length < 1e-12):
-        raise ValueError("normals must be non-zero vectors")
+        raise InvalidInput("normals must be non-zero vectors")
     normals = normals / length[:, None]
     levers = points - center
     if torque_scale is None:
         torque_scale = float(np.max(np.linalg.norm(levers, axis=1))) if len(points) else 1.0
     elif not np.isfinite(torque_scale) or torque_scale <= 0:
-        raise ValueError(f"torque_scale must be positive, got {torque_scale!r}")
+        raise InvalidInput(f"torque_scale must be positive, got {torque_scale!r}")
     if torque_scale <= 0:
         torque_scale = 1.0  # every contact at the centre: torques are zero anyway
     t1, t2 = _tangent_bases(normals, levers)
@@ -129,9 +130,6 @@ def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: 
             return float(distance) if distance > 1e-12 else 0.0
         chosen[beyond[np.argsort(-heights[beyond])[:REFINE_WRENCHES]]] = True
 
-
-class QualityError(RuntimeError):
-    """Qhull could not build the grasp wrench space: a numerical failure, not a verdict on the grasp."""
 
 
 def _hull(wrenches: np.ndarray) -> ConvexHull:

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .errors import InvalidInput, RenderingUnavailable
 from .validation import check_int
 
 if TYPE_CHECKING:
@@ -38,9 +39,6 @@ THUMB_SIDE = "thumb_side"
 HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get install libegl1 libgl1 "
                  "libegl-mesa0 libosmesa6) so that MUJOCO_GL=egl or MUJOCO_GL=osmesa works")
 
-
-class RenderingUnavailable(RuntimeError):
-    """No offscreen OpenGL context could be created."""
 
 
 def choose_offscreen_backend() -> str | None:
@@ -152,12 +150,12 @@ def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width:
     one of its named cameras (`scene.CAMERAS`) or from the palm's thumb side (`THUMB_SIDE`)."""
     cameras = tuple(scene.model.camera(i).name for i in range(scene.model.ncam)) + (THUMB_SIDE,)
     if camera not in cameras:
-        raise ValueError(f"unknown camera {camera!r}; expected one of {cameras}")
+        raise InvalidInput(f"unknown camera {camera!r}; expected one of {cameras}")
     for name, value in (("width", width), ("height", height)):
         check_int(value, f"{name} (pixels)", low=16, high=4096)
     states = np.asarray(states, dtype=float)
     if states.ndim != 2 or states.shape[1] != len(scene.state()) or not np.all(np.isfinite(states)):
-        raise ValueError(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
+        raise InvalidInput(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
                          f"got {states.shape}")
     return _draw({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
                       "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height))},
@@ -181,12 +179,12 @@ def save_animation(frames: np.ndarray, path: str | os.PathLike, fps: float = 25.
 
     frames = np.asarray(frames)
     if frames.ndim != 4 or frames.shape[-1] != 3 or not len(frames):
-        raise ValueError(f"frames must have shape (k, height, width, 3) with k >= 1, got {frames.shape}")
+        raise InvalidInput(f"frames must have shape (k, height, width, 3) with k >= 1, got {frames.shape}")
     if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be positive, got {fps!r}")
+        raise InvalidInput(f"fps must be positive, got {fps!r}")
     path = Path(path)
     if path.suffix.lower() != ".gif":
-        raise ValueError(f"path must end in .gif, got {str(path)!r}")
+        raise InvalidInput(f"path must end in .gif, got {str(path)!r}")
     images = [Image.fromarray(frame.astype(np.uint8)) for frame in frames]
     with atomic_write(path) as handle:
         images[0].save(handle, format="GIF", save_all=True, append_images=images[1:],

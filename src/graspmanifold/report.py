@@ -19,6 +19,7 @@ from .analysis import (
     smoothness,
 )
 from .controller import ControllerParams
+from .errors import InvalidInput, RenderingUnavailable
 from .evaluation import EvaluationResult, trial_count
 from .generator import PRESETS as DATASET_PRESETS
 from .grid import GRID_DESCRIPTIONS
@@ -72,13 +73,13 @@ class RunData:
         """Read a finished run's files (postures/, maps/, evaluation/)."""
         out = Path(out)
         if not (out / "run.json").exists():
-            raise ValueError(f"{out} is not a graspmanifold reproduce run (no run.json)")
+            raise InvalidInput(f"{out} is not a graspmanifold reproduce run (no run.json)")
         try:
             config = json.loads((out / "run.json").read_text())["config"]
             if not isinstance(config, dict) or not isinstance(config.get("postures"), dict):
                 raise TypeError("its config names no objects")
         except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as error:
-            raise ValueError(f"{out / 'run.json'} is not a graspmanifold run's record ({type(error).__name__}: "
+            raise InvalidInput(f"{out / 'run.json'} is not a graspmanifold run's record ({type(error).__name__}: "
                              f"{error})") from None
         held = "_held" if config.get("procedure") == "verified" else ""  # the training postures of the procedure
         sets = {name: PostureSet.load(out / "postures" / f"{name}{held}.npz") for name in config["postures"]}
@@ -138,7 +139,7 @@ def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
     """Hand pictures for Figs. 3, 5 and 7: each posture in the figure object's scene, seen from the
     thumb side, with the object drawn faintly where the nearest training posture grasped it (a map
     node has no palm pose of its own)."""
-    from .render import THUMB_SIDE, RenderingUnavailable, render_postures, render_states
+    from .render import THUMB_SIDE, render_postures, render_states
     from .scene import OBJECT_RGBA, Scene
 
     try:
@@ -430,5 +431,5 @@ def figure_from_run(run_dir: str | os.PathLike, name: str, out_dir: str | os.Pat
         rendered = name.split("_")[0] in RENDERED_KINDS and name in figure_names(list(run.sets))
         reason = info["message"] if rendered and not info["rendered"] else (
             f"unknown figure name; this run draws {', '.join(figure_names(list(run.sets)))}")
-        raise ValueError(f"figure {name!r} was not drawn: {reason}")
+        raise InvalidInput(f"figure {name!r} was not drawn: {reason}")
     return info

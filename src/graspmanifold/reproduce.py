@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import InvalidInput
 from .evaluation import EvaluationResult, evaluate
 from .experience import PostureDatabase
 from .generator import (
@@ -70,32 +71,32 @@ class ReproduceConfig:
 
     def __post_init__(self) -> None:
         if self.procedure not in PROCEDURES:
-            raise ValueError(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
+            raise InvalidInput(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
         if self.procedure == "verified" and self.generator.verify:
-            raise ValueError("ReproduceConfig: procedure 'verified' verifies the generator's candidates itself; "
+            raise InvalidInput("ReproduceConfig: procedure 'verified' verifies the generator's candidates itself; "
                              "leave generator.verify False")
         def positive_int(value: object) -> bool:
             return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > 0
 
         if not isinstance(self.postures, dict) or not self.postures \
                 or not all(positive_int(v) for v in self.postures.values()):
-            raise ValueError(f"ReproduceConfig.postures must give a positive number of postures per object "
+            raise InvalidInput(f"ReproduceConfig.postures must give a positive number of postures per object "
                              f"(e.g. {dict(DATASET_SIZES['quick'])}), got {self.postures!r}")
         for name in self.postures:
             if name == "all":
-                raise ValueError("ReproduceConfig.postures: 'all' names the map of every object; rename the object")
+                raise InvalidInput("ReproduceConfig.postures: 'all' names the map of every object; rename the object")
             try:
                 get_object(name)
             except ValueError as error:
-                raise ValueError(f"ReproduceConfig.postures: {error}") from None
+                raise InvalidInput(f"ReproduceConfig.postures: {error}") from None
         if len(self.map_size) != 2 or not all(positive_int(v) for v in self.map_size):
-            raise ValueError(f"ReproduceConfig.map_size must be two positive integers, got {self.map_size!r}")
+            raise InvalidInput(f"ReproduceConfig.map_size must be two positive integers, got {self.map_size!r}")
         if min(self.map_size) < 2 or max(self.map_size) < 4:
-            raise ValueError(f"ReproduceConfig.map_size must be at least 2 x 4: Figs. 3 and 5 show two 1 x 4 runs of "
+            raise InvalidInput(f"ReproduceConfig.map_size must be at least 2 x 4: Figs. 3 and 5 show two 1 x 4 runs of "
                              f"nodes, got {tuple(self.map_size)}")
         for name in ("epochs", "image_size"):
             if not positive_int(getattr(self, name)):
-                raise ValueError(f"ReproduceConfig.{name} must be a positive integer, got {getattr(self, name)!r}")
+                raise InvalidInput(f"ReproduceConfig.{name} must be a positive integer, got {getattr(self, name)!r}")
         check_schedule(self.learning_rate, "ReproduceConfig.learning_rate", upper=1.0)
         check_schedule(self.sigma, "ReproduceConfig.sigma")
 
@@ -183,13 +184,13 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             previous = json.loads(run_file.read_text()).get("config")
         except (json.JSONDecodeError, UnicodeDecodeError, AttributeError) as error:
             if not force:
-                raise ValueError(f"{run_file} is unreadable ({error}); pass --force to start the run again") from None
+                raise InvalidInput(f"{run_file} is unreadable ({error}); pass --force to start the run again") from None
             previous = None
         if previous != json.loads(json.dumps(config.to_json())) and not force:
-            raise ValueError(f"{out} holds another run's files with other parameters; pass --force to "
+            raise InvalidInput(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
     elif out.exists() and any(p.name != LOCK_FILE for p in out.iterdir()) and not force:
-        raise ValueError(f"{out} is not empty and holds no graspmanifold run; pass --force to write into it")
+        raise InvalidInput(f"{out} is not empty and holds no graspmanifold run; pass --force to write into it")
 
 
 def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", workers: int | None = None, *,
@@ -199,7 +200,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     `workers.cluster_executor`), with the same results."""
     if isinstance(preset, str):
         if preset not in PRESETS:
-            raise ValueError(f"unknown preset {preset!r}; expected one of {tuple(PRESETS)}")
+            raise InvalidInput(f"unknown preset {preset!r}; expected one of {tuple(PRESETS)}")
         config = PRESETS[preset]
     else:
         config = preset
@@ -256,7 +257,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
         def train(name=name, path=path):
             data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
             if not len(data):
-                raise ValueError(f"no training postures for the {name} map: the {config.procedure} procedure kept none "
+                raise InvalidInput(f"no training postures for the {name} map: the {config.procedure} procedure kept none "
                                  f"of the candidates; ask for more (ReproduceConfig.postures) or use the paper procedure")
             SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
         stages.run(f"train_{name}", _digest(config.map_size, schedule, config.seed, *inputs), [path], train)

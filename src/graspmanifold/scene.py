@@ -15,6 +15,7 @@ from collections.abc import Iterable
 import mujoco
 import numpy as np
 
+from .errors import InvalidInput, RenderingUnavailable, SimulationError
 from .hand import HAND_JOINTS, hand_spec
 from .objects import GraspObject, get_object
 from .poses import check_quat, check_vec3, compose, invert
@@ -35,9 +36,6 @@ PENETRATION_LIMIT = 0.005
 _WARNINGS = sorted((int(getattr(mujoco.mjtWarning, name)), name.removeprefix("mjWARN_"))
                    for name in dir(mujoco.mjtWarning) if name.startswith("mjWARN_"))
 
-
-class SimulationError(RuntimeError):
-    """The physics failed: MuJoCo raised a warning (it resets a diverging state) or the state is not finite."""
 
 
 #: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
@@ -65,7 +63,7 @@ def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float =
         The palm's position (3,), m, and orientation (4,), a w x y z quaternion, in the object frame.
     """
     if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and 0.0 <= clearance <= MAX_GAP):
-        raise ValueError(f"clearance must be 0 ... {MAX_GAP} m between the palm and the object, got {clearance!r} "
+        raise InvalidInput(f"clearance must be 0 ... {MAX_GAP} m between the palm and the object, got {clearance!r} "
                          "(a negative one puts the palm inside the object)")
     return placed_facing(get_object(obj), clearance, height)
 
@@ -257,7 +255,7 @@ class Scene:
         """
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) \
                 or seconds <= 0:
-            raise ValueError(f"seconds must be a positive finite duration, got {seconds!r}")
+            raise InvalidInput(f"seconds must be a positive finite duration, got {seconds!r}")
         self.step(max(1, round(seconds / self.model.opt.timestep)))
 
     @property
@@ -273,9 +271,9 @@ class Scene:
             damping: N s/m (and N m s/rad).
         """
         if not self.free_object:
-            raise ValueError("set_object_support needs a Scene with free_object=True")
+            raise InvalidInput("set_object_support needs a Scene with free_object=True")
         if not (np.isfinite(stiffness) and np.isfinite(damping)) or stiffness < 0 or damping < 0:
-            raise ValueError(f"stiffness and damping must be finite and >= 0, got {stiffness!r}, {damping!r}")
+            raise InvalidInput(f"stiffness and damping must be finite and >= 0, got {stiffness!r}, {damping!r}")
         joint = self.model.joint("object_free")
         self.model.jnt_stiffness[joint.id] = stiffness
         self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
@@ -287,7 +285,7 @@ class Scene:
             present: True to put it back, False to take it away.
         """
         if self.table_geom is None:
-            raise ValueError("set_table needs a Scene made with table=True")
+            raise InvalidInput("set_table needs a Scene made with table=True")
         self.model.geom_contype[self.table_geom] = self.model.geom_conaffinity[self.table_geom] = int(bool(present))
 
     def set_gravity(self, gravity: bool | Iterable[float]) -> None:
@@ -437,8 +435,6 @@ class Scene:
         Raises:
             RenderingUnavailable: there is no display (pictures work without one: `render`).
         """
-        from .render import RenderingUnavailable
-
         if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise RenderingUnavailable("the viewer needs a display (DISPLAY is not set); on a headless machine draw "
                                        "pictures with Scene.render or record_trial(...).save_gif")
@@ -457,7 +453,7 @@ class Scene:
 
     def _repr_png_(self) -> bytes | None:
         """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""
-        from .render import RenderingUnavailable, png_bytes
+        from .render import png_bytes
 
         try:
             return png_bytes(self.render())

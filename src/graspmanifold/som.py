@@ -44,6 +44,7 @@ from scipy import sparse
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
+from .errors import InvalidInput, NotFittedError
 from .io import fingerprint, load_npz, save_npz
 from .kernels import compiled, online_epoch
 from .nearest import MaskedNearest
@@ -68,13 +69,13 @@ def check_schedule(value: object, name: str, upper: float | None = None) -> tupl
     try:
         start, end = (float(v) for v in value)  # type: ignore[union-attr]
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a (start, end) pair of numbers, got {value!r}") from None
+        raise InvalidInput(f"{name} must be a (start, end) pair of numbers, got {value!r}") from None
     for v in (start, end):
         if not math.isfinite(v) or v <= 0 or (upper is not None and v >= upper):
             bound = f" and below {upper}" if upper is not None else ""
-            raise ValueError(f"{name} values must be positive{bound}, got {value!r}")
+            raise InvalidInput(f"{name} values must be positive{bound}, got {value!r}")
     if start < end:
-        raise ValueError(f"{name} must decay: (start, end) with start >= end, got {value!r} (reversed?)")
+        raise InvalidInput(f"{name} must decay: (start, end) with start >= end, got {value!r} (reversed?)")
     return start, end
 
 
@@ -104,7 +105,7 @@ def _schedule(epochs: object, learning_rate: object, sigma: object, algorithm: o
 
 def _algorithm(value: object) -> str:
     if value not in ALGORITHMS:
-        raise ValueError(f"algorithm must be one of {ALGORITHMS}, got {value!r}")
+        raise InvalidInput(f"algorithm must be one of {ALGORITHMS}, got {value!r}")
     return str(value)
 
 
@@ -144,7 +145,7 @@ class SOM:
         """
         if random_state is not None:
             if seed != 0 and seed != random_state:
-                raise ValueError(f"seed ({seed!r}) and random_state ({random_state!r}) name the same thing; give one")
+                raise InvalidInput(f"seed ({seed!r}) and random_state ({random_state!r}) name the same thing; give one")
             seed = random_state
         self.rows = check_int(rows, "rows")
         self.cols = check_int(cols, "cols")
@@ -180,7 +181,7 @@ class SOM:
     def weights(self, value: np.ndarray) -> None:
         array = np.array(value, dtype=float)
         if array.shape != (self.rows, self.cols, self.dim):
-            raise ValueError(f"weights must have shape {(self.rows, self.cols, self.dim)}, got {array.shape}")
+            raise InvalidInput(f"weights must have shape {(self.rows, self.cols, self.dim)}, got {array.shape}")
         check_data(array.reshape(-1, self.dim), self.dim, "weights")
         self._weights = array
         self._search = None
@@ -192,7 +193,7 @@ class SOM:
 
     def _require_weights(self) -> np.ndarray:
         if self._weights is None:
-            raise RuntimeError("this SOM has no weights yet: call fit() (or initialize()) first")
+            raise NotFittedError("this SOM has no weights yet: call fit() (or initialize()) first")
         return self._weights
 
     def _nearest(self) -> MaskedNearest:
@@ -206,7 +207,7 @@ class SOM:
         if self.dim is None:
             shape = np.shape(X)
             if len(shape) != 2 or not shape[1]:
-                raise ValueError(f"X must be an (n, dim) array of training vectors, got shape {shape}")
+                raise InvalidInput(f"X must be an (n, dim) array of training vectors, got shape {shape}")
             self.dim = check_int(shape[1], "dim")
         return check_data(X, self.dim)
 
@@ -285,7 +286,7 @@ class SOM:
         data = check_data(X, self.dim)
         schedule = _schedule(epochs, learning_rate, sigma, algorithm or self.algorithm)
         if not self.is_fitted:
-            raise RuntimeError("resume() continues a fitted map: call fit() first")
+            raise NotFittedError("resume() continues a fitted map: call fit() first")
         return self._train(data, *schedule, progress)
 
     def _train(self, data: np.ndarray, epochs: int, learning_rate: tuple[float, float], sigma: tuple[float, float],
@@ -487,7 +488,7 @@ class SOM:
         if degrees:
             d = np.degrees(d)
         if len(d) == 0:
-            raise ValueError("a 1 x 1 map has no inter-node distances")
+            raise InvalidInput("a 1 x 1 map has no inter-node distances")
         mean = float(d.mean())
         return {"min": float(d.min()), "max": float(d.max()), "mean": mean, "std": float(d.std()),
                 "cv": float(d.std() / mean) if mean > 0 else float("nan"), "edges": int(len(d))}
@@ -517,7 +518,7 @@ class SOM:
         try:
             som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"], **meta.get("schedule", {}))
         except KeyError as missing:
-            raise ValueError(f"{path} lacks SOM metadata {missing}") from None
+            raise InvalidInput(f"{path} lacks SOM metadata {missing}") from None
         som.weights = arrays["weights"]
         som.history = list(meta.get("history", []))
         return som

@@ -33,6 +33,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from .errors import InvalidInput
 from .hand import (
     DISTAL_SEGMENTS,
     FINGER_JOINTS,
@@ -168,7 +169,7 @@ def designs_for(obj: GraspObject, family: str = "five_fingertip") -> tuple[Grasp
     designs that do not fit the object (a pinch of a ball too big to pinch) find no valid grasp.
     """
     if family not in DESIGN_FAMILIES:
-        raise ValueError(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
     power = GRASP_DESIGNS[nearest_primitive(obj)]
     return power if family == "five_fingertip" else power + PRECISION_DESIGNS
 
@@ -346,7 +347,7 @@ def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") ->
         The valid starting postures, in the order of `designs_for(obj, family)`.
     """
     if family not in DESIGN_FAMILIES:
-        raise ValueError(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
     return list(_starting_postures(get_object(obj), family))
 
 

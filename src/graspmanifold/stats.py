@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binomtest, norm
 
+from .errors import InvalidInput
 from .validation import check_int
 
 
@@ -30,9 +31,9 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
     """
     k, n = check_int(successes, "successes", low=0), check_int(trials, "trials", low=0)
     if k > n:
-        raise ValueError(f"successes ({k}) must not exceed trials ({n})")
+        raise InvalidInput(f"successes ({k}) must not exceed trials ({n})")
     if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+        raise InvalidInput(f"confidence must be in (0, 1), got {confidence!r}")
     if n == 0:
         return 0.0, 1.0
     z = float(norm.ppf(0.5 + confidence / 2))
@@ -70,9 +71,9 @@ def mcnemar(outcomes_a: object, outcomes_b: object) -> PairedComparison:
     a = np.asarray(outcomes_a)
     b = np.asarray(outcomes_b)
     if a.ndim != 1 or a.shape != b.shape:
-        raise ValueError(f"outcomes_a and outcomes_b must be 1-D and of one length, got {a.shape} and {b.shape}")
+        raise InvalidInput(f"outcomes_a and outcomes_b must be 1-D and of one length, got {a.shape} and {b.shape}")
     if a.dtype != bool or b.dtype != bool:
-        raise ValueError("outcomes_a and outcomes_b must be boolean arrays (success per pose)")
+        raise InvalidInput("outcomes_a and outcomes_b must be boolean arrays (success per pose)")
     only_a, only_b = int(np.sum(a & ~b)), int(np.sum(~a & b))
     discordant = only_a + only_b
     p = 1.0 if discordant == 0 else float(binomtest(only_a, discordant, 0.5).pvalue)
@@ -103,9 +104,9 @@ def holm(p_values: object) -> np.ndarray:
     """
     p = np.asarray(p_values, dtype=float)
     if p.ndim != 1:
-        raise ValueError(f"p_values must be a 1-D sequence of p-values, got shape {p.shape}")
+        raise InvalidInput(f"p_values must be a 1-D sequence of p-values, got shape {p.shape}")
     if not np.all(np.isfinite(p)) or np.any((p < 0) | (p > 1)):
-        raise ValueError(f"p_values must lie in [0, 1], got {p.tolist()}")
+        raise InvalidInput(f"p_values must lie in [0, 1], got {p.tolist()}")
     m = len(p)
     order = np.argsort(p, kind="stable")
     stepped = np.minimum(1.0, (m - np.arange(m)) * p[order])
@@ -177,23 +178,23 @@ def headroom(outcomes: Mapping[str, object], valid: Mapping[str, object] | None 
         The `Headroom` (counts, rates and the best strategy).
     """
     if not outcomes:
-        raise ValueError("outcomes must name at least one strategy")
+        raise InvalidInput("outcomes must name at least one strategy")
     names = list(outcomes)
     table = [np.asarray(outcomes[name]) for name in names]
     for name, column in zip(names, table):
         if column.ndim != 1 or column.dtype != bool:
-            raise ValueError(f"outcomes[{name!r}] must be a 1-D boolean array (success per pose), "
+            raise InvalidInput(f"outcomes[{name!r}] must be a 1-D boolean array (success per pose), "
                              f"got dtype {column.dtype} and shape {column.shape}")
         if len(column) != len(table[0]):
-            raise ValueError(f"outcomes must all cover the same poses: {names[0]!r} has {len(table[0])}, "
+            raise InvalidInput(f"outcomes must all cover the same poses: {names[0]!r} has {len(table[0])}, "
                              f"{name!r} has {len(column)}")
     keep = np.ones(len(table[0]), dtype=bool)
     for name, flags in (valid or {}).items():
         if name not in outcomes:
-            raise ValueError(f"valid names strategy {name!r}, which outcomes does not have ({names})")
+            raise InvalidInput(f"valid names strategy {name!r}, which outcomes does not have ({names})")
         flags = np.asarray(flags)
         if flags.dtype != bool or flags.shape != keep.shape:
-            raise ValueError(f"valid[{name!r}] must be a boolean array of {len(keep)} poses")
+            raise InvalidInput(f"valid[{name!r}] must be a boolean array of {len(keep)} poses")
         keep &= flags
     success = np.column_stack(table)[keep]
     counts = success.sum(axis=0)

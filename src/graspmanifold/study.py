@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .controller import ControllerParams
+from .errors import InvalidInput
 from .evaluation import EvaluationResult, evaluate
 from .objects import GraspObject
 from .posture import N_FINGER_JOINTS
@@ -35,7 +36,7 @@ def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> 
     grid_a = np.array([t.grid_pose for t in a.trials])
     grid_b = np.array([t.grid_pose for t in b.trials])
     if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
-        raise ValueError(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
+        raise InvalidInput(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
     both = a.valid() & b.valid()
     return mcnemar(a.outcomes(measure)[both], b.outcomes(measure)[both])
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from .errors import InvalidInput
 from .hand import SEGMENTS, segment_of_geoms
 
 _SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
@@ -19,7 +20,7 @@ _SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
 
 def _check_segment(segment: str) -> int:
     if segment not in _SEGMENT_INDEX:
-        raise ValueError(f"unknown segment {segment!r}; expected one of {SEGMENTS}")
+        raise InvalidInput(f"unknown segment {segment!r}; expected one of {SEGMENTS}")
     return _SEGMENT_INDEX[segment]
 
 
@@ -89,7 +90,7 @@ class TactileSensor:
         try:
             object_id = model.body(object_body).id
         except KeyError:
-            raise ValueError(f"the model has no body named {object_body!r}") from None
+            raise InvalidInput(f"the model has no body named {object_body!r}") from None
         self.model = model
         self.min_force = float(min_force)
         self._segment_of_geom = segment_of_geoms(model)

@@ -26,14 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from .controller import ControllerParams, GraspController
+from .errors import InvalidInput, QualityError, SimulationError
 from .experience import Experience, check_experience
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 from .hand import SEGMENTS
 from .judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
 from .objects import GraspObject, get_object
 from .posture import N_FINGER_JOINTS
-from .quality import QualityError
-from .scene import Scene, SimulationError
+
+from .scene import Scene
 from .validation import check_int
 
 
@@ -54,7 +55,7 @@ class Noise:
         for name, value in asdict(self).items():
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                     or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
-                raise ValueError(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
+                raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
 
 
 
@@ -228,7 +229,7 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
     check_int(every, "every (control periods)")
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
-        raise ValueError(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
+        raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
     check_grid(grid_pose, obj, table)  # the poses `evaluate` would refuse are refused here too
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}

@@ -20,6 +20,7 @@ import os
 
 import numpy as np
 
+from .errors import BackendUnavailable, InvalidInput, SimulationError
 from .hand import SEGMENTS, segment_of_geoms
 from .posture import CTRL_MATRIX
 from .scene import PENETRATION_LIMIT, Scene
@@ -80,7 +81,7 @@ def _device() -> wp.context.Device:
     if wanted:
         return wp.get_device(wanted)
     if not wp.get_cuda_device_count():
-        raise RuntimeError("backend='warp' needs an NVIDIA GPU with CUDA, and Warp found none on this machine "
+        raise BackendUnavailable("backend='warp' needs an NVIDIA GPU with CUDA, and Warp found none on this machine "
                            "(use backend='cpu'; GRASPMANIFOLD_WARP_DEVICE=cpu runs Warp's slow CPU device)")
     return wp.get_device("cuda")
 
@@ -90,9 +91,9 @@ class WarpWorlds:
 
     def __init__(self, scenes: list[Scene]):
         if not scenes:
-            raise ValueError("scenes must hold at least one Scene")
+            raise InvalidInput("scenes must hold at least one Scene")
         if any(scene.table_geom is not None for scene in scenes):
-            raise ValueError("backend='warp' does not support table=True (the table is taken away per world)")
+            raise InvalidInput("backend='warp' does not support table=True (the table is taken away per world)")
         self.scenes, self.n = scenes, len(scenes)
         first = scenes[0]
         mjm = first.model
@@ -225,7 +226,7 @@ class WarpWorlds:
                     mjw.step(self._m, self._d)
         overflow = int(self._d.overflow.numpy()[0]) if hasattr(self._d, "overflow") else 0
         if overflow:
-            raise RuntimeError(f"MuJoCo Warp's buffers overflowed (flags {overflow:#x}): more than "
+            raise SimulationError(f"MuJoCo Warp's buffers overflowed (flags {overflow:#x}): more than "
                                f"{CONTACTS_PER_WORLD} contacts or {CONSTRAINTS_PER_WORLD} constraint rows in a world")
         self._observe()
         self._max_penetration = np.maximum(self._max_penetration, self._penetration)

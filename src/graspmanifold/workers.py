@@ -31,11 +31,15 @@ from concurrent.futures import CancelledError, Executor, Future, ProcessPoolExec
 from concurrent.futures import TimeoutError as FutureTimeout
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from threadpoolctl import threadpool_limits
 
+from .errors import InvalidInput, WorkersLost
 from .validation import check_int
+
+if TYPE_CHECKING:
+    import distributed
 
 Task = TypeVar("Task")
 Result = TypeVar("Result")
@@ -142,7 +146,7 @@ class ClusterExecutor(Executor):
         owned: objects to close with the executor (the `LocalCluster` it started), besides the client.
     """
 
-    def __init__(self, client, owned: tuple = ()):
+    def __init__(self, client: "distributed.Client", owned: tuple = ()):
         self.client = client
         self._owned = owned
         self._executor = client.get_executor()
@@ -171,13 +175,9 @@ class ClusterExecutor(Executor):
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         """Closes the connection to the cluster (and the cluster itself, when it was started here)."""
         self._executor.shutdown(wait=wait)
-        client_log = logging.getLogger("distributed.client")
-        level = client_log.level
-        client_log.setLevel(logging.CRITICAL)  # a gone scheduler's connection logs its cancelled reconnection
-        try:
-            self.client.close(timeout=CONNECT_SECONDS)
-        finally:
-            client_log.setLevel(level)
+        if self.client.status != "running":  # the scheduler is gone: its cancelled reconnection would log
+            logging.getLogger("distributed.client").setLevel(logging.CRITICAL)  # tracebacks, now and later
+        self.client.close(timeout=CONNECT_SECONDS)
         for thing in self._owned:
             thing.close()
 
@@ -195,7 +195,7 @@ def cluster_executor(address: str) -> ClusterExecutor:
         a `ClusterExecutor` connected to it.
     """
     if not isinstance(address, str) or not address:
-        raise ValueError(f"executor address must be a string such as 'dask://tcp://host:8786' or 'local', "
+        raise InvalidInput(f"executor address must be a string such as 'dask://tcp://host:8786' or 'local', "
                          f"got {address!r}")
     try:
         from distributed import Client, LocalCluster
@@ -227,9 +227,6 @@ CLUSTER_PATIENCE = 120.0
 #: s between looks at a Dask cluster's health while a result is awaited
 CLUSTER_LOOK_SECONDS = 5.0
 
-
-class WorkersLost(RuntimeError):
-    """The worker processes or the cluster running a job are gone, and starting again did not help."""
 
 
 class _PoolBroke(Exception):

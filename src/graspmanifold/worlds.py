@@ -16,9 +16,10 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
+from .errors import InvalidInput, SimulationError
 from .hand import SEGMENTS
 from .posture import CTRL_MATRIX, N_FINGER_JOINTS
-from .scene import Scene, SimulationError
+from .scene import Scene
 from .tactile import TactileReading
 
 
@@ -61,7 +62,7 @@ class CpuWorlds:
 
     def __init__(self, scenes: list[Scene]):
         if not scenes:
-            raise ValueError("scenes must hold at least one Scene")
+            raise InvalidInput("scenes must hold at least one Scene")
         self.scenes = scenes
         self.n = len(scenes)
 
