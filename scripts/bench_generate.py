@@ -13,7 +13,7 @@ import os
 import time
 from pathlib import Path
 
-from graspmanifold.generator import PRESETS, GeneratorParams, generate_postures, verify_postures
+from graspmanifold.control.generator import PRESETS, GeneratorParams, generate_postures, verify_postures
 
 
 def main() -> None:

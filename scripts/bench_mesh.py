@@ -18,7 +18,7 @@ import time
 import trimesh
 
 import graspmanifold as gm
-from graspmanifold.stats import mcnemar, rate_text
+from graspmanifold.trials.stats import mcnemar, rate_text
 
 
 def main() -> None:

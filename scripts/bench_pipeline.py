@@ -2,7 +2,7 @@
 
     python scripts/bench_pipeline.py [--preset quick|paper] [--workers 2] [--out DIR]
 
-Runs `graspmanifold.reproduce.reproduce` into DIR (a fresh temporary directory by default, so
+Runs `graspmanifold.paper.reproduce.reproduce` into DIR (a fresh temporary directory by default, so
 every stage runs) and prints, from the stage manifests it writes, the wall time of each stage,
 postures or trials per second where a stage makes them, and the evaluation rates from its summary.
 There is no second pipeline here: what is timed is what `graspmanifold reproduce` runs.
@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from graspmanifold.reproduce import PRESETS, reproduce
+from graspmanifold.paper.reproduce import PRESETS, reproduce
 
 
 def stage_rows(out: Path, summary: dict) -> list[tuple[str, float, str]]:

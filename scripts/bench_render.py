@@ -15,7 +15,7 @@ import statistics
 import time
 
 import graspmanifold as gm
-from graspmanifold import render
+from graspmanifold.sim import render
 
 
 def seconds(scene: gm.Scene, pictures: int, fresh: bool) -> list[float]:

@@ -15,8 +15,8 @@ import statistics
 import time
 
 import graspmanifold as gm
-from graspmanifold import som as som_module
-from graspmanifold import workers
+from graspmanifold.manifold import som as som_module
+from graspmanifold.base import workers
 
 from bench_som import COLS, DIM, ROWS, synthetic_postures
 

@@ -23,10 +23,10 @@ import time
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.grid import check_grid
-from graspmanifold.stats import mcnemar, rate_text
-from graspmanifold.trial import Noise, run_trial
-from graspmanifold.workers import parallel_map
+from graspmanifold.trials.grid import check_grid
+from graspmanifold.trials.stats import mcnemar, rate_text
+from graspmanifold.trials.trial import Noise, run_trial
+from graspmanifold.base.workers import parallel_map
 
 FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
           "penetration", "fault")
@@ -88,7 +88,7 @@ def bench_agree(args: argparse.Namespace) -> None:
 
 
 def bench_gpu(args: argparse.Namespace) -> None:
-    from graspmanifold import warp_worlds
+    from graspmanifold.sim import warp_worlds
 
     physics = {"s": 0.0}
     step = warp_worlds.WarpWorlds.step

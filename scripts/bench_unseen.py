@@ -30,12 +30,12 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.family import SHAPES
-from graspmanifold.generator import PRESETS, remove_checkpoints
-from graspmanifold.io import write_text_atomic
-from graspmanifold.starts import nearest_primitive
-from graspmanifold.stats import headroom, holm, rate_text
-from graspmanifold.study import compare, train_experience_map
+from graspmanifold.sim.family import SHAPES
+from graspmanifold.control.generator import PRESETS, remove_checkpoints
+from graspmanifold.base.io import write_text_atomic
+from graspmanifold.control.starts import nearest_primitive
+from graspmanifold.trials.stats import headroom, holm, rate_text
+from graspmanifold.trials.study import compare, train_experience_map
 
 
 def posture_set(out: Path, obj: gm.GraspObject, n: int, workers: int) -> gm.PostureSet:

@@ -4,7 +4,7 @@ in assets/.
     python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz] [--recompute]
                                              [--all]
 
-Deterministic: a least-squares search from each grasp design (graspmanifold.starts.designs_for): the
+Deterministic: a least-squares search from each grasp design (graspmanifold.control.starts.designs_for): the
 five-fingertip family for the paper's objects, the benchmark's and the object family, the grasp-types
 family for the paper's and the benchmark's objects (with --all for the family's meshes too, which
 takes tens of minutes). Starting postures
@@ -19,11 +19,11 @@ import argparse
 import time
 from pathlib import Path
 
-from graspmanifold.benchmark import OBJECTS as BENCHMARK_OBJECTS
-from graspmanifold.family import FAMILY
-from graspmanifold.io import load_npz
-from graspmanifold.objects import PAPER_OBJECTS, get_object
-from graspmanifold.starts import (
+from graspmanifold.trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
+from graspmanifold.sim.family import FAMILY
+from graspmanifold.base.io import load_npz
+from graspmanifold.sim.objects import PAPER_OBJECTS, get_object
+from graspmanifold.control.starts import (
     DESIGN_FAMILIES,
     STARTS_FILE,
     StartingPosture,
@@ -31,7 +31,7 @@ from graspmanifold.starts import (
     find_starting_postures,
     save_starting_postures,
 )
-from graspmanifold.workers import parallel_map
+from graspmanifold.base.workers import parallel_map
 
 
 def shipped(path: Path) -> dict[tuple[str, str], list[StartingPosture]]:

@@ -20,11 +20,11 @@ import time
 from pathlib import Path
 
 import graspmanifold as gm
-from graspmanifold.analysis import nearest_neighbour_deg
-from graspmanifold.generator import PRESETS, remove_checkpoints
-from graspmanifold.io import write_text_atomic
-from graspmanifold.study import train_experience_map
-from graspmanifold.verdicts import PAPER_MAX_DISTANCE_DEG, PAPER_MIN_DISTANCE_DEG
+from graspmanifold.manifold.analysis import nearest_neighbour_deg
+from graspmanifold.control.generator import PRESETS, remove_checkpoints
+from graspmanifold.base.io import write_text_atomic
+from graspmanifold.trials.study import train_experience_map
+from graspmanifold.base.paper_numbers import MAX_DISTANCE_DEG, MIN_DISTANCE_DEG
 
 
 def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_every: int, verify: bool, workers: int
@@ -74,7 +74,7 @@ def main() -> None:
                          f"{clusters['starts']} of {len(postures.start_names)} | "
                          f"{near['min']:.3g} / {near['median']:.3g} / {near['p90']:.3g} | "
                          f"{clusters['within_deg']:.3g} | {clusters['between_deg']:.3g} | {stats['min']:.3g} | "
-                         f"{PAPER_MIN_DISTANCE_DEG[name]} | {stats['max']:.3g} | {PAPER_MAX_DISTANCE_DEG[name]} |")
+                         f"{MIN_DISTANCE_DEG[name]} | {stats['max']:.3g} | {MAX_DISTANCE_DEG[name]} |")
             print(lines[-1], flush=True)
     lines += ["", f"{time.perf_counter() - started:.0f} s with {args.workers} workers."]
     write_text_atomic(out / f"data_character_{'_'.join(args.modes)}{args.record_every}"

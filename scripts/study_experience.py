@@ -2,7 +2,7 @@
 
     python scripts/study_experience.py [--quick] [--workers 2] [--out study] [--doc docs/experience_study.md]
 
-The benchmark (`graspmanifold.benchmark`): the paper's three objects and four small or flat ones
+The benchmark (`graspmanifold.trials.benchmark`): the paper's three objects and four small or flat ones
 (marble, pen, disc, cube), each placed near the palm and out at the fingertips; the controller is
 never told which object it grasps. The study, in the order a careful reviewer would ask for it:
 
@@ -38,12 +38,12 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.generator import remove_checkpoints
-from graspmanifold.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
-from graspmanifold.io import write_text_atomic
-from graspmanifold.workers import worker_pool
-from graspmanifold.stats import MIN_HEADROOM, headroom, holm, mcnemar, rate_text
-from graspmanifold.study import train_experience_map
+from graspmanifold.control.generator import remove_checkpoints
+from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
+from graspmanifold.base.io import write_text_atomic
+from graspmanifold.base.workers import worker_pool
+from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, mcnemar, rate_text
+from graspmanifold.trials.study import train_experience_map
 
 #: the target of issue 23, pooled over the test grid
 TARGET_POINTS, TARGET_P, TARGET_POSES, TARGET_GAP_SHARE = 0.08, 0.01, 600, 0.5
@@ -326,7 +326,7 @@ def report(study: Study, info: dict) -> str:
               f"- The SOM's final grasp against the shared preshape's on the same pose: median RMS difference "
               f"{why['final_rms_deg_median']:.1f} degrees per joint; {why['final_rms_deg_over_5']:.0%} of the poses "
               "differ by more than 5 degrees.", ""]
-    lines += ["## The benchmark", "", "Objects (`graspmanifold.benchmark.OBJECTS`), each chosen for a reason stated "
+    lines += ["## The benchmark", "", "Objects (`graspmanifold.trials.benchmark.OBJECTS`), each chosen for a reason stated "
               "before any method ran on it, placed near the palm and out at the fingertips "
               "(`benchmark_grid`); the controller is never told the object.", "",
               "| object | size | mass | asks for | why | test poses (palm / fingertips) | selection poses |",
@@ -356,7 +356,7 @@ def report(study: Study, info: dict) -> str:
               + f"; SOM controller **{selected['som']}** ({SOM_DESCRIPTIONS[selected['som']]}).", ""]
     lines += ["## Headroom (test grid)", "",
               "The per-pose oracle over the strategies (the plain heuristic and one constant preshape per grasp type) "
-              "against the best single one (`graspmanifold.stats.headroom`). Beside it, the same oracle over the plain "
+              "against the best single one (`graspmanifold.trials.stats.headroom`). Beside it, the same oracle over the plain "
               "heuristic and a rerun of it with 1 mm / 0.02 rad pose noise: what two runs of one strategy gain by "
               "chance alone.", "",
               "| object | n | oracle | best strategy | headroom | chance (heuristic + its rerun) | held by none |",

@@ -41,13 +41,13 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.evaluation import EvaluationResult, trial_count
-from graspmanifold.generator import remove_checkpoints, verify_postures
-from graspmanifold.grid import GRID_COLUMNS, coverage, grid_preset
-from graspmanifold.io import atomic_write, write_npz, write_text_atomic
-from graspmanifold.judge import EPSILON_THRESHOLD
-from graspmanifold.stats import MIN_HEADROOM, headroom, holm, rate_text
-from graspmanifold.study import (
+from graspmanifold.trials.evaluation import EvaluationResult, trial_count
+from graspmanifold.control.generator import remove_checkpoints, verify_postures
+from graspmanifold.trials.grid import GRID_COLUMNS, coverage, grid_preset
+from graspmanifold.base.io import atomic_write, write_npz, write_text_atomic
+from graspmanifold.control.judge import EPSILON_THRESHOLD
+from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, rate_text
+from graspmanifold.trials.study import (
     TRAINING_NOISE,
     closing_rate_params,
     compare,
@@ -293,7 +293,7 @@ def report(study: Study, info: dict) -> str:
              f"and {sum(r['p_holm'] < 0.05 and r['verdict'] == 'better' for r in rows)} significantly better "
              "(adjusted p < 0.05).", ""]
     lines += ["## Headroom", "", "Before any comparison: how much could choosing among the controls per pose gain "
-              "(`graspmanifold.stats.headroom`: the per-pose oracle over the plain heuristic, the fast heuristic and "
+              "(`graspmanifold.trials.stats.headroom`: the per-pose oracle over the plain heuristic, the fast heuristic and "
               "the best constant preshape, against the best of them)? Below 15 points a benchmark cannot show a "
               "recall effect.", "", "| grid | object | n | oracle | best control | headroom |", "|---|---|---|---|---|---|"]
     able: list[str] = []

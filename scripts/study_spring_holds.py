@@ -26,11 +26,11 @@ import mujoco
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.controller import squeezed
-from graspmanifold.generator import GeneratorParams
-from graspmanifold.hand import DISTAL_SEGMENTS
-from graspmanifold.io import write_text_atomic
-from graspmanifold.judge import (
+from graspmanifold.control.controller import squeezed
+from graspmanifold.control.generator import GeneratorParams
+from graspmanifold.sim.hand import DISTAL_SEGMENTS
+from graspmanifold.base.io import write_text_atomic
+from graspmanifold.control.judge import (
     EPSILON_THRESHOLD,
     HOLD_DIRECTIONS,
     HOLD_LIMIT,
@@ -38,8 +38,8 @@ from graspmanifold.judge import (
     SUPPORT_STIFFNESS,
     grasp_epsilon,
 )
-from graspmanifold.scene import GRAVITY
-from graspmanifold.stats import rate_text
+from graspmanifold.sim.scene import GRAVITY
+from graspmanifold.trials.stats import rate_text
 
 DIRECTION_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
 PERIOD = 0.02  # s, as the verifier checks

@@ -10,7 +10,7 @@ def rng() -> np.random.Generator:
 @pytest.fixture(params=["compiled", "numpy"])
 def engine(request) -> str:
     """Run a test with the compiled kernels and again with their NumPy references."""
-    from graspmanifold import kernels
+    from graspmanifold.manifold import kernels
 
     previous = kernels.use_compiled(request.param == "compiled")
     yield request.param

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.study import compare
+from graspmanifold.trials.study import compare
 
 gm.show_progress(False)  # a script's log, not bars
 

@@ -71,7 +71,7 @@ def test_the_command_line_is_consistent(capsys):
 
 
 def test_a_scene_draws_itself_from_named_cameras():
-    from graspmanifold.scene import CAMERAS
+    from graspmanifold.sim.scene import CAMERAS
 
     scene = gm.Scene("cylinder")
     scene.set_hand_pose(*gm.facing_pose("cylinder"))
@@ -106,7 +106,7 @@ def test_progress_is_on_by_default_with_one_switch_and_a_rate_that_reads_right(c
     """Long jobs were silent from Python unless asked (progress=False), and a slow bar read "2.06s/ trials"."""
     import time
 
-    from graspmanifold.progress import progress_bar
+    from graspmanifold.base.progress import progress_bar
 
     assert "plots" in dir(gm) and "show_progress" in gm.__all__
     previous = gm.show_progress(True)
@@ -131,7 +131,7 @@ def test_pictures_after_the_first_reuse_one_drawing_process_which_comes_back_if_
     import os
     import signal
 
-    from graspmanifold import render
+    from graspmanifold.sim import render
 
     scene = gm.Scene("cylinder")
     state = scene.state()[None]
@@ -169,7 +169,7 @@ def test_a_headless_import_chooses_the_offscreen_backend_for_pictures_in_this_pr
 
 def test_long_jobs_use_the_commands_default_workers_and_small_ones_stay_in_this_process(monkeypatch):
     """From Python every job ran on one worker while the command used two."""
-    from graspmanifold import workers
+    from graspmanifold.base import workers
     from graspmanifold.cli import DEFAULT_WORKERS
 
     assert DEFAULT_WORKERS == workers.default_workers()  # the command's default is the library's
@@ -184,7 +184,7 @@ def test_long_jobs_use_the_commands_default_workers_and_small_ones_stay_in_this_
 def test_the_viewer_says_it_needs_a_display(monkeypatch):
     import sys
 
-    from graspmanifold.render import RenderingUnavailable
+    from graspmanifold.sim.render import RenderingUnavailable
 
     if not sys.platform.startswith("linux"):
         pytest.skip("the display check is Linux's")

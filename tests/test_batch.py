@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.batch_controller import PHASES, BatchController
-from graspmanifold.grid import check_grid, palm_pose_for
-from graspmanifold.posture import pcp_mask, pcp_masks
+from graspmanifold.control.batch_controller import PHASES, BatchController
+from graspmanifold.trials.grid import check_grid, palm_pose_for
+from graspmanifold.sim.posture import pcp_mask, pcp_masks
 
 
 @pytest.fixture(scope="module")
@@ -104,8 +104,8 @@ TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "
 @pytest.mark.parametrize("kind,noise,params", [("database", gm.Noise(), None), ("som", gm.Noise(0.004, 0.08, 0.01), None),
                                                ("som", gm.Noise(), gm.ControllerParams(reach=0.03))])
 def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, noise, params):
-    from graspmanifold.batch_trials import run_trials
-    from graspmanifold.trial import run_trial
+    from graspmanifold.trials.batch_trials import run_trials
+    from graspmanifold.trials.trial import run_trial
 
     obj = gm.get_object("cylinder")
     _, poses = check_grid("quick", obj)

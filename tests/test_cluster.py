@@ -7,7 +7,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.cli import main as cli
-from graspmanifold.workers import cluster_executor, parallel_map
+from graspmanifold.base.workers import cluster_executor, parallel_map
 
 distributed = pytest.importorskip("distributed")
 
@@ -55,7 +55,7 @@ def test_bad_executors_are_refused():
 def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_disks(cluster, tmp_path, monkeypatch):
     """With an external scheduler the workers wrote the job checkpoints on their own disks: after Ctrl-C the
     client's folder was empty, and a rerun redid the jobs."""
-    from graspmanifold import generator
+    from graspmanifold.control import generator
 
     _, executor = cluster
     written, real = [], generator.save_npz
@@ -82,7 +82,7 @@ def test_a_cluster_that_loses_its_workers_or_scheduler_ends_the_job_with_one_mes
     import sys
     import time
 
-    from graspmanifold import workers
+    from graspmanifold.base import workers
 
     monkeypatch.setattr(workers, "CLUSTER_PATIENCE", 3.0)
     monkeypatch.setattr(workers, "CLUSTER_LOOK_SECONDS", 0.5)

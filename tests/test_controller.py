@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.grid import palm_pose_for
-from graspmanifold.hand import PHYSICS_TIMESTEP
+from graspmanifold.trials.grid import palm_pose_for
+from graspmanifold.sim.hand import PHYSICS_TIMESTEP
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +180,7 @@ def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the
     """With reach, the first trusted recall after a contact moves the palm (at reach_speed, at most reach
     far) by the difference between where the touching segment is and where the recalled grasp puts it,
     and every finger, the touching one too, follows the recall meanwhile."""
-    from graspmanifold.hand import SegmentKinematics
+    from graspmanifold.sim.hand import SegmentKinematics
 
     recalled = gm.closed_posture() * 0.5
     sensed = recalled.copy()
@@ -345,7 +345,7 @@ def test_an_object_on_a_table_is_grasped_and_lifted_off():
 
 
 def test_trials_start_with_the_open_hand_clear_of_the_object():
-    from graspmanifold.grid import START_CLEARANCE, open_hand_clearance
+    from graspmanifold.trials.grid import START_CLEARANCE, open_hand_clearance
     for name in ("box", "cylinder", "sphere"):
         for preset in ("quick", "paper"):
             assert np.all(open_hand_clearance(name, gm.grid_preset(preset, name)) >= START_CLEARANCE)
@@ -393,8 +393,8 @@ def test_a_constant_preshape_replaces_phase_b_matching(experience):
 
 
 def test_coverage_sees_placements_up_to_the_objects_symmetry():
-    from graspmanifold.grid import coverage
-    from graspmanifold.poses import compose
+    from graspmanifold.trials.grid import coverage
+    from graspmanifold.base.poses import compose
 
     grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
     turn = np.array([np.cos(0.5), 0.0, 0.0, np.sin(0.5)])  # 1 rad about the cylinder's axis

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold import generator
-from graspmanifold.analysis import nearest_neighbour_deg
+from graspmanifold.control import generator
+from graspmanifold.manifold.analysis import nearest_neighbour_deg
 from graspmanifold.cli import main as cli
 
 SMALL = gm.GeneratorParams(job_size=6, verify=False)  # every five-fingertip candidate, for exact counts
@@ -51,7 +51,7 @@ def test_shipped_starting_postures_are_five_fingertip_grasps(name):
 def test_every_grasp_type_has_valid_starting_postures(name):
     """The grasp-types family: the power grasps of the five-fingertip family plus a pinch, a tripod and a
     lateral grasp, each touching with its own contact segments (shipped, like the five-fingertip ones)."""
-    from graspmanifold.starts import is_design_grasp
+    from graspmanifold.control.starts import is_design_grasp
 
     starts = gm.starting_postures(name, "grasp_types")
     assert [s.name for s in starts][: len(gm.starting_postures(name))] == [s.name for s in gm.starting_postures(name)]
@@ -91,8 +91,8 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
 def replay_holds(obj, posture, pose) -> bool:
     """The generator's verification by hand: the hand at its palm pose, the fingers pressing with the
     controller's squeeze on the free object, gravity in six directions."""
-    from graspmanifold.controller import squeezed
-    from graspmanifold.judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+    from graspmanifold.control.controller import squeezed
+    from graspmanifold.control.judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
 
     scene = gm.Scene(obj, free_object=True)
     scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
@@ -293,7 +293,7 @@ def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
 
 def test_a_new_objects_slow_set_up_and_a_verification_that_keeps_few_are_announced(monkeypatch):
     """A mesh torus's starting postures took 148 s in silence, and a verification that kept 1 of 20 said nothing."""
-    from graspmanifold import generator
+    from graspmanifold.control import generator
 
     with pytest.warns(UserWarning, match="no shipped starting postures .* searching them now"):
         gm.starting_postures(gm.make_object("cylinder", radius=0.026, length=0.13))

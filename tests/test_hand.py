@@ -8,7 +8,7 @@ import pytest
 from sheet import SHEET, TIPS, WRIST_RANGES, sheet_fk
 
 import graspmanifold as gm
-from graspmanifold.hand import JOINT_SEGMENT
+from graspmanifold.sim.hand import JOINT_SEGMENT
 
 
 @pytest.fixture(scope="module")

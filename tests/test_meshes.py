@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import graspmanifold as gm
-from graspmanifold.family import FAMILY, SHAPES, family_mesh
+from graspmanifold.sim.family import FAMILY, SHAPES, family_mesh
 
 RNG = np.random.default_rng(0)
 
@@ -208,8 +208,8 @@ def test_the_cli_generates_and_evaluates_on_a_mesh_file(tmp_path):
 
 
 def test_a_reproduction_runs_from_a_config_that_names_family_objects(tmp_path):
-    from graspmanifold.report import RunData, figure_from_run
-    from graspmanifold.reproduce import ReproduceConfig, reproduce
+    from graspmanifold.paper.report import RunData, figure_from_run
+    from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
 
     config = ReproduceConfig(postures={"capsule_s": 40}, grid=((0.0, 0.0, 0.01, 0.0), (0.0, 0.01, 0.02, 0.2)),
                              map_size=(4, 4), epochs=5, image_size=32, generator=gm.GeneratorParams(verify=False))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.posture import CTRL_MATRIX
+from graspmanifold.sim.posture import CTRL_MATRIX
 
 
 def idx(*joints):

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.evaluation import EvaluationResult
-from graspmanifold.scene import PENETRATION_LIMIT, SimulationError
-from graspmanifold.study import compare
-from graspmanifold.trial import run_trial
+from graspmanifold.trials.evaluation import EvaluationResult
+from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
+from graspmanifold.trials.study import compare
+from graspmanifold.trials.trial import run_trial
 
 # -- simulation faults -----------------------------------------------------------------------------
 
@@ -119,7 +119,7 @@ def test_many_cone_edges_do_not_turn_a_grasp_into_no_force_closure():
 def test_symmetric_contacts_with_fine_cones_return_and_absurd_cones_are_refused():
     """Four antipodal contacts on a sphere put many cone edges on one facet: at 128 edges epsilon did not
     return within 120 s. Cones are now at most MAX_EDGES edges, and the hull grows a few edges a round."""
-    from graspmanifold.quality import MAX_EDGES
+    from graspmanifold.control.quality import MAX_EDGES
 
     points = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]) * 0.03
     values = [gm.epsilon_l1(points, -points / 0.03, np.zeros(3), mu=0.6, num_edges=k) for k in (16, 32, MAX_EDGES)]
@@ -132,7 +132,7 @@ def test_symmetric_contacts_with_fine_cones_return_and_absurd_cones_are_refused(
 def test_epsilon_grown_from_a_coarse_hull_equals_the_full_hull():
     from scipy.spatial import ConvexHull
 
-    from graspmanifold.quality import contact_wrenches
+    from graspmanifold.control.quality import contact_wrenches
 
     rng = np.random.default_rng(2)
     checked = 0
@@ -160,7 +160,7 @@ def test_degenerate_wrench_sets_still_give_zero():
 def test_written_files_get_the_umask_mode_and_failed_writes_leave_nothing(tmp_path):
     import os
 
-    from graspmanifold.io import atomic_write, save_npz, write_text_atomic
+    from graspmanifold.base.io import atomic_write, save_npz, write_text_atomic
 
     old = os.umask(0o022)
     try:
@@ -265,7 +265,7 @@ def test_ctrl_c_stops_at_once_with_one_line_and_no_traceback(tmp_path):
 # -- no work lost at the end -----------------------------------------------------------------------
 
 def test_evaluate_refuses_an_unwritable_output_before_running_any_trial(tmp_path, monkeypatch):
-    from graspmanifold import evaluation
+    from graspmanifold.trials import evaluation
     from graspmanifold.cli import main as cli
 
     calls = []
@@ -278,7 +278,7 @@ def test_evaluate_refuses_an_unwritable_output_before_running_any_trial(tmp_path
 
 
 def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_path, monkeypatch):
-    from graspmanifold import evaluation
+    from graspmanifold.trials import evaluation
 
     grid = gm.grid_preset("quick", "box")[:10]
     parts = tmp_path / "parts"
@@ -310,8 +310,8 @@ def test_an_interrupted_evaluation_resumes_without_redoing_finished_trials(tmp_p
 def test_results_of_other_code_are_never_reused(tmp_path, monkeypatch):
     """Checkpoint parts, generator jobs and reproduce stages are keyed by the library's version and code
     (`version.code_fingerprint`): after an upgrade they run again instead of mixing old results in."""
-    from graspmanifold import version
-    from graspmanifold.reproduce import _Stages
+    from graspmanifold.base import version
+    from graspmanifold.paper.reproduce import _Stages
 
     grid = gm.grid_preset("quick", "box")[:2]
     gm.evaluate("box", None, grid, checkpoint_dir=tmp_path / "parts")
@@ -344,7 +344,7 @@ def test_a_hand_placed_inside_an_object_is_a_fault_not_a_huge_force():
                                            ({"map_size": (3, 3)}, "at least 2 x 4"),
                                            ({"epochs": 0}, "epochs"), ({"sigma": (0.5, 6.0)}, "sigma")])
 def test_a_bad_reproduce_config_is_refused_before_any_work(change, field):
-    from graspmanifold.reproduce import ReproduceConfig
+    from graspmanifold.paper.reproduce import ReproduceConfig
 
     with pytest.raises(ValueError, match=field):
         ReproduceConfig(**{"postures": {"box": 4, "cylinder": 4, "sphere": 4}, **change})
@@ -476,7 +476,7 @@ def test_a_worker_that_dies_or_stalls_costs_only_its_unfinished_tasks(monkeypatc
     import threading
     import time
 
-    from graspmanifold import workers
+    from graspmanifold.base import workers
 
     monkeypatch.setattr(workers, "TASK_TIMEOUT", 2.0)
     before = set(_children(os.getpid()))
@@ -502,7 +502,7 @@ def test_a_full_disk_ends_in_one_line_naming_the_file_and_what_is_kept(tmp_path,
     """A full disk (ENOSPC) ended the CLI in a traceback, the file it failed on unnamed."""
     import errno
 
-    from graspmanifold import io
+    from graspmanifold.base import io
     from graspmanifold.cli import main as cli
 
     def full(_fd):

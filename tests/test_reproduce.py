@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold import render
-from graspmanifold.reproduce import ReproduceConfig, reproduce
+from graspmanifold.sim import render
+from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
 
 REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 48},
                           grid=((0.0, 0.0, 0.01, 0.0), (0.01, 0.0, 0.02, 0.0)), map_size=(10, 10), epochs=4,
@@ -177,7 +177,7 @@ KILLED_RUN = """
 import os, sys
 sys.path.insert(0, {tests!r})
 from test_reproduce import REDUCED
-from graspmanifold.reproduce import reproduce
+from graspmanifold.paper.reproduce import reproduce
 
 seen, real_replace = [], os.replace
 
@@ -233,7 +233,7 @@ def test_a_second_writer_is_refused_and_only_the_librarys_temporary_files_are_re
     """Two runs on one folder used to destroy each other (the second removed the first's temporary file),
     and a forced run removed every hidden *.tmp file under the folder, the user's own included."""
     from graspmanifold.cli import main as cli
-    from graspmanifold.io import LOCK_FILE, OutputInUse, output_lock
+    from graspmanifold.base.io import LOCK_FILE, OutputInUse, output_lock
 
     out = tmp_path / "run"
     shutil.copytree(finished[0], out)
@@ -274,7 +274,7 @@ def test_the_figure_command_redraws_one_figure(finished, tmp_path):
 def test_the_quick_preset_is_the_same_run_twice_and_its_figures_regenerate(tmp_path):
     """Two `--preset quick` runs from nothing: the same summary and data files byte for byte; a figure
     of the finished run is drawn again from its files alone."""
-    from graspmanifold.report import figure_from_run
+    from graspmanifold.paper.report import figure_from_run
 
     first, second = tmp_path / "first", tmp_path / "second"
     for out in (first, second):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.som import SOM, decay_schedule
+from graspmanifold.manifold.som import SOM, decay_schedule
 
 
 def clustered_postures(rng, n=600, clusters=5, dim=22, spread=0.05):
@@ -102,8 +102,8 @@ def test_online_training_equals_the_textbook_update_and_is_no_worse(rng, engine)
 
 
 def test_compiled_best_match_equals_the_numpy_reference_on_large_batches(rng):
-    from graspmanifold import kernels
-    from graspmanifold.nearest import _PER_THREAD
+    from graspmanifold.manifold import kernels
+    from graspmanifold.manifold.nearest import _PER_THREAD
 
     data = clustered_postures(rng, n=500, clusters=6)
     # a batch large enough to be split across threads
@@ -264,7 +264,7 @@ def test_lattice_plots_render_headless(trained, tmp_path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from graspmanifold.plots import lattice_figure
+    from graspmanifold.manifold.plots import lattice_figure
 
     som, data = trained
     figure = lattice_figure(som, data, title="test")

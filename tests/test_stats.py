@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from graspmanifold.stats import headroom, holm, mcnemar, rate_text, wilson_interval
-from graspmanifold.study import judge_target
+from graspmanifold.trials.stats import headroom, holm, mcnemar, rate_text, wilson_interval
+from graspmanifold.trials.study import judge_target
 
 
 @pytest.mark.parametrize("k, n, low, high", [

@@ -1,4 +1,4 @@
-"""Every row of the verdict table follows its stated rule (`graspmanifold.verdicts`), each rule passing and
+"""Every row of the verdict table follows its stated rule (`graspmanifold.paper.verdicts`), each rule passing and
 failing on hand-made summaries, the collapse and low-data cases included."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import copy
 
 import pytest
 
-from graspmanifold.verdicts import NOT_ENOUGH_DATA, NOT_REPRODUCED, PARTLY, REPRODUCED, judge_claims
+from graspmanifold.paper.verdicts import NOT_ENOUGH_DATA, NOT_REPRODUCED, PARTLY, REPRODUCED, judge_claims
 
 
 def _object(min_deg: float, max_deg: float) -> dict:

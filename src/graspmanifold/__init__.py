@@ -4,21 +4,21 @@ An implementation (and extension) of "SOM-based experience representation for de
 (WSOM 2007) on a MuJoCo model of the 24-joint Shadow Dexterous Hand.
 """
 
-from .errors import (
+from .base.errors import (
     BackendUnavailable, GenerationError, GraspManifoldError, InvalidInput, NotFittedError, OutputInUse, QualityError,
     RenderingUnavailable, SimulationError, WorkersLost,
 )
-from .render import choose_offscreen_backend
+from .sim.render import choose_offscreen_backend
 
 choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
 
-from .analysis import resume_learning, smoothness  # noqa: E402
-from .controller import ControllerParams, GraspController
-from .evaluation import EvaluationResult, evaluate
-from .experience import Experience, PostureDatabase
-from .generator import PRESETS, GeneratorParams, generate_postures, verify_postures
-from .grid import grid_preset, reachable, why_unreachable
-from .hand import (
+from .manifold.analysis import resume_learning, smoothness  # noqa: E402
+from .control.controller import ControllerParams, GraspController
+from .trials.evaluation import EvaluationResult, evaluate
+from .manifold.experience import Experience, PostureDatabase
+from .control.generator import PRESETS, GeneratorParams, generate_postures, verify_postures
+from .trials.grid import grid_preset, reachable, why_unreachable
+from .sim.hand import (
     ACTUATORS,
     DISTAL_SEGMENTS,
     FINGER_JOINTS,
@@ -31,8 +31,8 @@ from .hand import (
     finger_limits,
     load_hand,
 )
-from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
-from .posture import (
+from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
+from .sim.posture import (
     clip_posture,
     closed_posture,
     dict_to_posture,
@@ -43,27 +43,31 @@ from .posture import (
     validate_posture,
     within_limits,
 )
-from .postureset import PostureSet
-from .quality import epsilon_l1
-from .scene import Scene, facing_pose
-from .som import SOM, SOMSchedule
-from .starts import StartingPosture, starting_postures
-from .tactile import TactileReading, TactileSensor
-from .trial import Noise, Recording, record_trial
-from .progress import show_progress
-from .version import __version__
+from .manifold.postureset import PostureSet
+from .control.quality import epsilon_l1
+from .sim.scene import Scene, facing_pose
+from .manifold.som import SOM, SOMSchedule
+from .control.starts import StartingPosture, starting_postures
+from .sim.tactile import TactileReading, TactileSensor
+from .trials.trial import Noise, Recording, record_trial
+from .base.progress import show_progress
+from .base.version import __version__
 
-#: modules reachable as attributes (`gm.plots`, `gm.stats`, ...) without importing them up front:
-#: plotting pulls in matplotlib, which a simulation-only user does not need
-_SUBMODULES = ("analysis", "benchmark", "errors", "evaluation", "figures", "grid", "io", "judge", "plots", "quality", "render", "report",
-               "reproduce", "stats", "study", "trial", "validation", "workers")
+#: modules reachable as attributes (`gm.plots`, `gm.stats`, ...), by the subpackage they live in, without
+#: importing them up front: plotting pulls in matplotlib, which a simulation-only user does not need
+_SUBMODULES = {
+    "analysis": "manifold", "benchmark": "trials", "errors": "base", "evaluation": "trials", "figures": "paper",
+    "grid": "trials", "io": "base", "judge": "control", "plots": "manifold", "quality": "control", "render": "sim",
+    "report": "paper", "reproduce": "paper", "stats": "trials", "study": "trials", "trial": "trials", "validation":
+    "base", "workers": "base"
+}
 
 
 def __getattr__(name: str) -> object:
     if name in _SUBMODULES:
         import importlib
 
-        return importlib.import_module(f".{name}", __name__)
+        return importlib.import_module(f".{_SUBMODULES[name]}.{name}", __name__)
     raise AttributeError(f"module 'graspmanifold' has no attribute {name!r}")
 
 

@@ -16,19 +16,20 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from .errors import GraspManifoldError, InvalidInput
-from .family import FAMILY
-from .generator import MODES, PRESET_PARAMS
-from .generator import PRESETS as DATASET_PRESETS
-from .grid import GRID_PRESETS
-from .io import LOCK_FILE, output_lock
-from .workers import default_workers
-from .objects import PAPER_OBJECTS, GraspObject, get_object, make_object
-from .posture import closed_posture, open_posture
-from .report import FIGURES
-from .scene import Scene, facing_pose
-from .starts import DESIGN_FAMILIES
-from .version import __version__
+from .base.errors import GraspManifoldError, InvalidInput
+from .base.paper_numbers import MAP_SIZE
+from .sim.family import FAMILY
+from .control.generator import MODES, PRESET_PARAMS
+from .control.generator import PRESETS as DATASET_PRESETS
+from .trials.grid import GRID_PRESETS
+from .base.io import LOCK_FILE, output_lock
+from .base.workers import default_workers
+from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
+from .sim.posture import closed_posture, open_posture
+from .paper.report import FIGURES
+from .sim.scene import Scene, facing_pose
+from .control.starts import DESIGN_FAMILIES
+from .base.version import __version__
 
 
 def _object(args: argparse.Namespace) -> GraspObject:
@@ -121,7 +122,7 @@ def _generate(args: argparse.Namespace) -> int:
 
 def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
     """`generate` with its output file held."""
-    from .generator import PRESETS, generate_postures, remove_checkpoints
+    from .control.generator import PRESETS, generate_postures, remove_checkpoints
 
     n = args.n if args.n is not None else PRESETS[args.preset].get(obj.name, PRESETS[args.preset]["cylinder"])
     if n <= 0:
@@ -145,9 +146,9 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
 
 def _load_experience(kind: str, postures: list[str], som_path: str | None, seed: int):
     """The experience base the evaluate command asks for: none, a database or a SOM."""
-    from .experience import PostureDatabase
-    from .postureset import PostureSet
-    from .som import SOM
+    from .manifold.experience import PostureDatabase
+    from .manifold.postureset import PostureSet
+    from .manifold.som import SOM
 
     if kind == "none":
         return None
@@ -158,8 +159,8 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
     data = PostureSet.concatenate([PostureSet.load(p) for p in postures]).postures
     if kind == "database":
         return PostureDatabase(data)
-    print(f"training a 25x25 SOM on {len(data)} postures (paper schedule) ...", file=sys.stderr)
-    return SOM(25, 25, data.shape[1], seed=seed).fit(data, progress=True)
+    print(f"training a {MAP_SIZE[0]}x{MAP_SIZE[1]} SOM on {len(data)} postures (paper schedule) ...", file=sys.stderr)
+    return SOM(*MAP_SIZE, data.shape[1], seed=seed).fit(data, progress=True)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -172,10 +173,10 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
     """`evaluate` with its output folder held."""
-    from .evaluation import evaluate, summary_json
-    from .generator import remove_checkpoints
-    from .io import write_text_atomic
-    from .trial import Noise
+    from .trials.evaluation import evaluate, summary_json
+    from .control.generator import remove_checkpoints
+    from .base.io import write_text_atomic
+    from .trials.trial import Noise
 
     checkpoints = out / "trials.parts"
     results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
@@ -201,7 +202,7 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
 
 
 def _figure(args: argparse.Namespace) -> int:
-    from .report import figure_from_run
+    from .paper.report import figure_from_run
 
     try:
         figure_from_run(args.run_dir, args.name, args.out)
@@ -215,7 +216,7 @@ def _executor(args: argparse.Namespace):
     """The executor named by --executor, if any (a Dask cluster's)."""
     if not args.executor:
         return None
-    from .workers import cluster_executor
+    from .base.workers import cluster_executor
 
     try:
         return cluster_executor(args.executor)
@@ -224,7 +225,7 @@ def _executor(args: argparse.Namespace):
 
 
 def _reproduce(args: argparse.Namespace) -> int:
-    from .reproduce import PRESETS, reproduce
+    from .paper.reproduce import PRESETS, reproduce
 
     if args.preset not in PRESETS:
         raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
@@ -254,7 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     def object_options(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--object", default="cylinder", help="a paper object (box, cylinder, sphere), a family "
-                         "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.family.FAMILY) or a mesh file "
+                         "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
                          "(.stl, .obj, .ply, ...: a watertight solid)")
         sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
 

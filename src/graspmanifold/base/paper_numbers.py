@@ -1,0 +1,12 @@
+"""The numbers of the paper, "SOM-based experience representation for dextrous grasping" (WSOM 2007),
+in one place: what the library reproduces and what its verdicts compare against (Section 5).
+"""
+
+#: postures recorded per object
+DATASET_SIZES: dict[str, int] = {"box": 4069, "cylinder": 4220, "sphere": 1885}
+#: the SOM's lattice: rows x columns of nodes
+MAP_SIZE: tuple[int, int] = (25, 25)
+#: the smallest angle between neighbouring nodes of each object's map, degrees
+MIN_DISTANCE_DEG: dict[str, float] = {"box": 0.013, "cylinder": 0.013, "sphere": 0.007}
+#: the largest angle between neighbouring nodes of each object's map, degrees
+MAX_DISTANCE_DEG: dict[str, float] = {"box": 55.06, "cylinder": 63.45, "sphere": 66.23}

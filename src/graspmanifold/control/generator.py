@@ -1,0 +1,635 @@
+"""Spring-based grasp posture generation (paper Section 5).
+
+The object is held fixed. Each fingertip is pulled towards its closest point on the object surface
+by a spring force applied in the simulation, while the finger servos hold the starting posture
+only softly, so the fingers follow the springs. Around each starting posture the hand takes a
+random walk through nearby positions and orientations, in steps small enough for the springs to
+keep up; after each step the hand settles and the posture is tested. Postures in which all five
+distal segments touch the object (gap <= 1 mm), nothing penetrates deeper than 2 mm, every joint is
+inside its range and the hand is at rest are candidates. Because the walk stays near its starting
+posture, the data clusters around the starting postures, as the paper's did.
+
+The starting postures come from a family of designs (`GeneratorParams.designs`): the paper's
+five-fingertip grasps, or every grasp type (`starts.DESIGN_FAMILIES`), where only the design's own
+contact segments are pulled by springs (a fingertip by its tip, another segment at its point
+nearest the object) and must touch, while the fingers that take no part stay curled.
+
+Our extension of the paper's procedure verifies every candidate as a grasp
+(`GeneratorParams.verify`, on by default): the hand is put at the candidate's palm pose in front of
+the free object, the fingers press with the controller's squeeze, the support is released and the
+hold test runs (`judge.judge_grasp`, six gravity directions of `verify_hold_seconds` each); only
+candidates that hold are kept, with their epsilon (at the object's friction) and largest
+displacement recorded in the set. `generate_postures(obj, n)` returns n postures either way: with
+verification it draws candidates in waves until n hold, at most `max_candidates_per_posture` times
+n of them, and names the yield when that is not enough (`GenerationError`).
+
+Work is cut into jobs (a starting posture and a chunk of candidates) with their own random streams,
+so the set depends on the seed alone (not on the number of workers), jobs run in parallel
+processes, and a run with a checkpoint directory resumes after an interruption without redoing
+finished jobs.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import shutil
+import warnings
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .controller import ControllerParams, squeezed
+from ..base.errors import GenerationError, InvalidInput, SimulationError
+from ..sim.hand import (
+    DISTAL_SEGMENTS,
+    FINGER_JOINTS,
+    FINGERTIP_SITES,
+    SEGMENTS,
+    finger_limits,
+    segment_of_geoms,
+)
+from ..base.io import library_version, load_npz, save_npz
+from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
+from ..sim.objects import GraspObject, get_object
+from ..base.poses import to_quat, to_rotation
+from ..sim.posture import posture_to_ctrl
+from ..manifold.postureset import PostureSet
+from ..base.progress import progress_bar
+from ..sim.scene import Scene
+from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
+from ..base.validation import check_int
+from ..base.paper_numbers import DATASET_SIZES
+from ..base.version import code_fingerprint
+from ..base.workers import parallel_map, workers_for
+
+PRESETS: dict[str, dict[str, int]] = {
+    "paper": dict(DATASET_SIZES),
+    "quick": {"box": 240, "cylinder": 240, "sphere": 160},
+}
+"""Postures per object: the paper's dataset sizes (Section 5), and a small set for tests and demos."""
+
+
+#: postures that pay for a worker process when `workers` is not given (a pool's start costs about a second)
+GENERATE_PER_WORKER = 50
+VERIFY_PER_WORKER = 20
+#: `verify_postures` warns when fewer than this share of the candidates hold
+FEW_HOLD = 0.1
+
+#: how candidates are taken along the walk (`GeneratorParams.mode`)
+MODES = ("settled", "recording")
+
+
+@dataclass(frozen=True)
+class GeneratorParams:
+    """Settings of the spring generator (SI units, radians)."""
+
+    spring_stiffness: float = 150.0  # N/m, fingertip to closest surface point
+    spring_max_force: float = 2.0  # N
+    servo_stiffness_scale: float = 0.15  # finger servo gains are scaled down so the fingers follow
+    walk_radius: float = 0.012  # m, how far the hand strays from its starting pose
+    walk_angle: float = 0.2  # rad, how far it turns
+    step_size: float = 0.003  # m, standard deviation of one walk step
+    step_angle: float = 0.04  # rad
+    move_steps: int = 15  # physics steps to move the hand by one walk step
+    settle_steps: int = 150  # physics steps at most to come to rest
+    rest_speed: float = 0.1  # rad/s, the hand is at rest below this joint speed
+    job_size: int = 200  # postures per job (the unit of parallel work and of checkpoints)
+    #: "settled": one candidate per walk step, once the hand has come to rest; "recording": like the
+    #: paper's procedure, a candidate every `record_every` physics steps along the hand's slow motion
+    #: (while it glides to the next placement and while it dwells there)
+    mode: str = "settled"
+    record_every: int = 5  # physics steps between recorded postures in "recording" mode
+    max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
+    verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
+    verify_hold_seconds: float = 0.25  # s per gravity direction of the verifying hold test
+    squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
+    #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
+    max_candidates_per_posture: int = 50
+    designs: str = "five_fingertip"  # the family of starting postures (starts.DESIGN_FAMILIES)
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise InvalidInput(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
+        if self.designs not in DESIGN_FAMILIES:
+            raise InvalidInput(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
+        for name, value in asdict(self).items():
+            if name in ("verify", "mode", "designs"):
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+                raise InvalidInput(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
+        for name in ("job_size", "move_steps", "settle_steps", "max_tries_per_posture", "record_every",
+                     "max_candidates_per_posture"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 1:
+                raise InvalidInput(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
+        if self.verify_hold_seconds <= 0:  # 0 marked every candidate verified without a hold test
+            raise InvalidInput(f"GeneratorParams.verify_hold_seconds must be > 0 s, got {self.verify_hold_seconds!r}")
+
+
+#: The generator settings of each preset, the paper's procedure: every candidate with its five fingertips
+#: on the object is kept (the paper describes no verification). The quick preset takes one settled posture
+#: per walk step (small and fast, for tests and demos); the paper preset records along the hand's motion
+#: as the paper did, at every physics step: of the modes measured, the one whose maps come closest to the
+#: paper's inter-node distances (docs/data_character.md).
+PRESET_PARAMS: dict[str, GeneratorParams] = {
+    "quick": GeneratorParams(verify=False),
+    "paper": GeneratorParams(mode="recording", record_every=1, verify=False),
+}
+
+
+class _Verifier:
+    """Replays a candidate at its palm pose on the free object and runs the hold test."""
+
+    PERIOD = 0.02  # s between checks of the object's displacement
+
+    def __init__(self, obj: GraspObject, params: GeneratorParams):
+        self.scene = Scene(obj, free_object=True)
+        self.params = params
+
+    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
+        scene = self.scene
+        mujoco.mj_resetData(scene.model, scene.data)
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+        scene.set_hand_pose(hand_pos, hand_quat)
+        scene.set_posture(posture)
+        scene.set_target(squeezed(posture, self.params.squeeze))
+        scene.run(0.2)  # the fingers press (SimulationError if the physics fails)
+        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD, hold_seconds=self.params.verify_hold_seconds, margin=False)
+
+
+class _SpringRig:
+    """A scene with springs on a starting posture's contact segments and compliant finger servos.
+
+    A distal contact segment is pulled by its fingertip site, any other contact segment (the index
+    finger's middle segment in a lateral grasp) at its point nearest the object; the segments that
+    must touch for a candidate are the contact segments (the five distal ones for the paper's kind).
+    """
+
+    def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS):
+        self.scene = Scene(obj)
+        self.params = params
+        model = self.scene.model
+        fingers = slice(2, None)  # actuators after the two wrist servos
+        model.actuator_gainprm[fingers, 0] *= params.servo_stiffness_scale
+        model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
+        tips = [FINGERTIP_SITES[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
+        self.tip_sites = [model.site(s).id for s in tips]
+        self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
+        self.side_geoms = [model.geom(c).id for c in contacts if c not in DISTAL_SEGMENTS]
+        segment_of = segment_of_geoms(model)
+        self.segment_geoms = [[int(g) for g in np.flatnonzero(segment_of == i)] for i in range(len(SEGMENTS))]
+        self.contact_geoms = [model.geom(c).id for c in contacts]
+        self.finger_dofs = self.scene.hand_dofs[2:]
+        self.limits = finger_limits()
+        self._torque = np.zeros(3)
+        self._fromto = np.zeros(6)
+
+    def apply_springs(self) -> None:
+        scene, data = self.scene, self.scene.data
+        data.qfrc_applied[:] = 0.0
+        points = [data.site_xpos[self.tip_sites]]  # the object sits at the world origin, unrotated
+        bodies = list(self.tip_bodies)
+        for geom in self.side_geoms:  # the segment's point nearest the object (of its nearest convex part)
+            nearest = min(scene.object_geoms, key=lambda g: mujoco.mj_geomDistance(
+                scene.model, data, geom, g, 0.1, self._fromto))
+            mujoco.mj_geomDistance(scene.model, data, geom, nearest, 0.1, self._fromto)
+            points.append(self._fromto[None, :3].copy())
+            bodies.append(int(scene.model.geom_bodyid[geom]))
+        points = np.concatenate(points)
+        pull = self.params.spring_stiffness * (scene.object.closest_point(points) - points)
+        norm = np.linalg.norm(pull, axis=1, keepdims=True)
+        pull *= np.minimum(1.0, self.params.spring_max_force / np.maximum(norm, 1e-12))
+        for force, point, body in zip(pull, points, bodies):
+            mujoco.mj_applyFT(scene.model, data, force, self._torque, point, body, data.qfrc_applied)
+
+    def simulate(self, steps: int, on_step: Callable[[], None] | None = None) -> None:
+        for _ in range(steps):
+            self.apply_springs()
+            mujoco.mj_step(self.scene.model, self.scene.data)
+            if on_step is not None:
+                on_step()
+
+    def move_to(self, pos: np.ndarray, quat: np.ndarray, on_step: Callable[[], None] | None = None) -> None:
+        """Glide the hand so the palm reaches a pose in `move_steps` physics steps, springs on;
+        `on_step()` is called after every physics step."""
+        data, mount = self.scene.data, self.scene.mount_id
+        start_pos, start_quat = data.mocap_pos[mount].copy(), data.mocap_quat[mount].copy()
+        end_pos, end_quat = self.scene.mount_pose_for(pos, quat)
+        turn = to_rotation(start_quat)
+        delta = (turn.inv() * to_rotation(end_quat)).as_rotvec()
+        steps = self.params.move_steps
+        for k in range(1, steps + 1):
+            f = k / steps
+            data.mocap_pos[mount] = start_pos + f * (end_pos - start_pos)
+            data.mocap_quat[mount] = to_quat(turn * Rotation.from_rotvec(f * delta))
+            self.simulate(1, on_step)
+
+    def settle(self, on_step: Callable[[], None] | None = None) -> bool:
+        """Step until the fingers rest (True) or `settle_steps` run out (False)."""
+        for _ in range(0, self.params.settle_steps, 5):
+            self.simulate(5, on_step)
+            if np.max(np.abs(self.scene.data.qvel[self.finger_dofs])) < self.params.rest_speed:
+                return True
+        return False
+
+    def accepted_posture(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(posture, contacts) when the current state is an acceptable grasp, else None."""
+        scene, model, data = self.scene, self.scene.model, self.scene.data
+        posture = scene.posture()
+        if np.any(posture < self.limits[:, 0] - 1e-3) or np.any(posture > self.limits[:, 1] + 1e-3):
+            return None
+        clipped = np.clip(posture, self.limits[:, 0], self.limits[:, 1])
+        saved = data.qpos.copy()
+        data.qpos[scene.finger_qpos] = clipped  # judge exactly what is stored
+        mujoco.mj_kinematics(model, data)
+        gap = scene.distance_to_object
+        try:
+            if any(gap(g) > CONTACT_GAP for g in self.contact_geoms):
+                return None
+            distances = [min(gap(g) for g in geoms) for geoms in self.segment_geoms]
+            if min(distances) < -MAX_PENETRATION:
+                return None
+            return clipped, np.array(distances) <= CONTACT_GAP
+        finally:
+            data.qpos[:] = saved
+            mujoco.mj_kinematics(model, data)
+
+    def reset_to(self, start: StartingPosture) -> None:
+        scene = self.scene
+        mujoco.mj_resetData(scene.model, scene.data)
+        scene.set_hand_pose(start.hand_pos, start.hand_quat)
+        scene.set_posture(start.posture)
+
+
+@dataclass(frozen=True)
+class _Job:
+    start_index: int
+    chunk: int
+    quota: int  # candidates to find
+
+
+
+def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
+             ) -> dict[str, np.ndarray]:
+    """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
+    after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
+    rng = np.random.default_rng([seed, job.start_index, job.chunk])
+    rig = _SpringRig(obj, params, start.contacts)
+    verifier = _Verifier(obj, params) if params.verify else None
+    rig.reset_to(start)
+    rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
+    base = to_rotation(start.hand_quat)
+    offset, turn = np.zeros(3), np.zeros(3)
+    postures, poses, contacts, epsilons, displacements = [], [], [], [], []
+    tries, walks, misses, candidates, faults, steps = 0, 0, 0, 0, 0, 0
+    first_fault = ""  # what the first failed simulation reported
+    exhausted = False
+    recording = params.mode == "recording"
+    frames: list[tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]] = []
+
+    def record() -> None:
+        """Recording mode: test the posture every `record_every` physics steps along the motion."""
+        nonlocal tries, steps
+        steps += 1
+        if steps % params.record_every == 0 and candidates + len(frames) < job.quota:
+            tries += 1
+            result = rig.accepted_posture()
+            if result is not None:
+                frames.append((result, rig.scene.hand_pose()))
+
+    while candidates < job.quota:
+        walks += 1
+        if not recording:
+            tries += 1
+        if walks > params.max_tries_per_posture * job.quota:
+            exhausted = True  # the springs rarely make the design's contacts here: this start gives up
+            break
+        offset = _bounded(offset + rng.normal(0.0, params.step_size, 3), params.walk_radius)
+        turn = _bounded(turn + rng.normal(0.0, params.step_angle, 3), params.walk_angle)
+        frames.clear()
+        rig.move_to(start.hand_pos + offset, to_quat(Rotation.from_rotvec(turn) * base), record if recording else None)
+        settled = rig.settle(record if recording else None)
+        if not rig.scene.healthy():  # the physics failed: nothing of this walk can be trusted
+            faults += 1
+            first_fault = first_fault or "; ".join(rig.scene.faults())
+            rig.reset_to(start)
+            offset, turn, misses = np.zeros(3), np.zeros(3), 0
+            continue
+        if not recording:
+            result = rig.accepted_posture() if settled else None
+            if result is not None:
+                frames.append((result, rig.scene.hand_pose()))
+        if not frames:
+            misses += 1
+            if misses >= 5:  # lost the grasp: back to the starting posture
+                rig.reset_to(start)
+                offset, turn, misses = np.zeros(3), np.zeros(3), 0
+            continue
+        misses = 0
+        for (posture, touching), (pos, quat) in frames:
+            candidates += 1
+            try:
+                judgement = verifier(posture, pos, quat) if verifier is not None else None
+            except SimulationError as error:  # the replay's physics failed: not a verified grasp
+                faults += 1
+                first_fault = first_fault or str(error)
+                continue
+            if judgement is not None and not judgement.hold:
+                continue
+            postures.append(posture)
+            contacts.append(touching)
+            poses.append(np.concatenate([pos, quat]))
+            epsilons.append(np.nan if judgement is None else judgement.epsilon)
+            displacements.append(np.nan if judgement is None else judgement.displacement)
+    return {"postures": np.array(postures).reshape(-1, len(FINGER_JOINTS)), "hand_poses": np.array(poses).reshape(-1, 7),
+            "contacts": np.array(contacts).reshape(-1, len(SEGMENTS)),
+            "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
+            "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults),
+            "first_fault": np.array(first_fault), "exhausted": np.array(exhausted)}
+
+
+def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
+    norm = np.linalg.norm(v)
+    return v if norm <= radius else v * (radius / norm)
+
+
+def _allocate(n: int, capacity: list[int | None]) -> list[int]:
+    """Split n postures over the starting postures as evenly as their capacity allows: a start with a
+    capacity (it can give no more than that) gets at most that, the others share the rest evenly, the
+    first of them one more where it does not divide."""
+    allocation = [0] * len(capacity)
+    open_starts, remaining = list(range(len(capacity))), n
+    while open_starts:
+        fair = remaining / len(open_starts)
+        limited = [s for s in open_starts if capacity[s] is not None and capacity[s] <= fair]
+        if not limited:
+            break
+        for s in limited:
+            allocation[s] = int(capacity[s])
+            remaining -= allocation[s]
+            open_starts.remove(s)
+    if open_starts:
+        share, extra = divmod(remaining, len(open_starts))
+        for k, s in enumerate(open_starts):
+            allocation[s] = share + (1 if k < extra else 0)
+    return allocation
+
+
+def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> Iterator[_Job]:
+    """Jobs of at most `job_size` candidates for one start, numbered on from `first_chunk` (made as they
+    are taken: a wave of a billion candidates is not held in memory)."""
+    return (_Job(start, first_chunk + k, min(job_size, candidates - done))
+            for k, done in enumerate(range(0, candidates, job_size)))
+
+
+def _job_file(directory: Path, job: _Job) -> Path:
+    return directory / f"job_{job.start_index:03d}_{job.chunk:04d}.npz"
+
+
+def _job_worker(args: tuple) -> tuple[_Job, dict[str, np.ndarray]]:
+    obj, start, job, seed, params = args
+    return job, _run_job(obj, start, job, seed, params)
+
+
+def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[str, np.ndarray]]:
+    """Finished jobs of an earlier run with this signature; parts of another configuration or that
+    cannot be read are removed (with a warning)."""
+    found, discarded = {}, []
+    for path in sorted(directory.glob("job_*.npz")):
+        try:
+            arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
+        except ValueError:
+            meta = {}
+        job = meta.get("job") if isinstance(meta.get("job"), dict) else None
+        if meta.get("signature") == signature and job is not None and path == _job_file(directory, _Job(**job)):
+            found[(job["start_index"], job["chunk"])] = arrays
+        else:
+            discarded.append(path.name)
+            path.unlink()
+    if discarded:
+        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
+                      "configuration (object, seed, n or parameters) or could not be read: "
+                      f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
+    return found
+
+
+def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
+                      params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
+                      progress: bool | None = None, executor: Executor | None = None) -> PostureSet:
+    """Generate n grasp postures for an object with the spring generator.
+
+    Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
+    n candidates. With it (the default) candidates are drawn in waves until n of them hold the
+    object: each wave asks every starting posture that is short of its share for as many candidates
+    as its yield so far says it needs; a start that used up its part of the budget
+    (`max_candidates_per_posture` times n over the starts) or whose springs rarely make its contacts
+    gives up, as does one none of whose first `max_candidates_per_posture` candidates held, and the
+    others share its part. The shares are as even as the starts allow.
+
+    Args:
+        obj: an object or its name.
+        n: postures to return (>= 1).
+        seed: the random seed; the same seed gives the same set, whatever the number of workers or
+            the `executor` (e.g. a Dask cluster's, `workers.cluster_executor`) the jobs run on.
+        workers: worker processes (None: `workers.default_workers()`, one for fewer than
+            `GENERATE_PER_WORKER` postures).
+        params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
+        checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
+            them up.
+        progress: show a progress bar of the postures found (None: as `progress.show_progress` says, on by
+            default).
+        executor: run the jobs there instead of in `workers` local processes.
+
+    Returns:
+        A `PostureSet` of n postures; its metadata says how many candidates were drawn and how many
+        held (`candidates`, `verified_ratio`, and per starting posture `candidates_by_start`,
+        `verified_by_start`, `kept_by_start`).
+
+    Raises:
+        GenerationError: no starting posture was found, or with verification fewer than n candidates
+            held within the budget (the message gives the yield per starting posture).
+    """
+    seed = check_int(seed, "seed", low=0)
+    obj = get_object(obj)
+    n = check_int(n, "n")
+    workers = workers_for(workers, n, GENERATE_PER_WORKER)
+    params = params or GeneratorParams()
+    starts = starting_postures(obj, params.designs)
+    if not starts:
+        raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
+    signature = json.dumps({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
+                            "starts": [s.name for s in starts], "code": code_fingerprint()}, sort_keys=True)
+    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
+    saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
+        saved = _load_jobs(directory, signature)
+    results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
+    budget = params.max_candidates_per_posture * n if params.verify else None
+    held = lambda s: sum(len(r["postures"]) for r in results[s])  # noqa: E731
+    drawn = lambda s: sum(int(r["candidates"]) for r in results[s])  # noqa: E731
+    given_up = [False] * len(starts)
+    with progress_bar(n, f"generate {obj.name}", "postures", enabled=progress) as report:
+        while True:
+            allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+            short = [s for s in range(len(starts)) if not given_up[s] and held(s) < allocation[s]]
+            if not short:
+                break
+            for s in short:  # a start past its part of the budget gives up, and one none of whose first
+                # max_candidates_per_posture candidates held (by the rule of three its yield is then below
+                # 3 / max_candidates_per_posture, 6 % by default, with 95 % confidence)
+                if budget is not None and (drawn(s) >= budget / len(starts)
+                                           or (held(s) == 0 and drawn(s) >= params.max_candidates_per_posture)):
+                    given_up[s] = True
+            if any(given_up[s] for s in short):
+                if all(given_up):
+                    break
+                continue
+            plan = []  # (start, its first chunk in this wave, candidates to draw)
+            for s in short:
+                wanted = allocation[s] - held(s)
+                if params.verify and results[s]:  # as many as the yield so far says, and a tenth more
+                    rate = (held(s) + 1) / (drawn(s) + 2)
+                    wanted = min(int(np.ceil(1.1 * wanted / rate)), int(budget / len(starts)) - drawn(s))
+                plan.append((s, len(results[s]), max(1, wanted)))
+
+            def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
+                return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
+
+            pending = ((obj, starts[job.start_index], job, seed, params)
+                       for job in jobs() if (job.start_index, job.chunk) not in saved)
+            finished = {key: result for key, result in saved.items() if any(
+                key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
+
+            def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
+                job, result = done
+                finished[(job.start_index, job.chunk)] = result
+                if directory is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
+                    save_npz(_job_file(directory, job), "generator_job", result,
+                             {"signature": signature, "job": asdict(job)})
+                report.update(len(result["postures"]))
+
+            report.update(sum(len(r["postures"]) for r in finished.values()))
+            parallel_map(_job_worker, pending, workers, keep, executor)
+            for job in jobs():
+                result = finished[(job.start_index, job.chunk)]
+                results[job.start_index].append(result)
+                if bool(result.get("exhausted", False)):
+                    given_up[job.start_index] = True
+    allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+    kept = [min(held(s), allocation[s]) for s in range(len(starts))]
+    candidates = sum(drawn(s) for s in range(len(starts)))
+    tries = sum(int(r["tries"]) for rs in results for r in rs)
+    faults = sum(int(r.get("faults", 0)) for rs in results for r in rs)
+    if sum(kept) < n and faults:
+        first = next(str(r["first_fault"]) for rs in results for r in rs if str(r.get("first_fault", "")))
+        raise GenerationError(
+            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found, and the simulation failed "
+            f"{faults} times in {tries} walk steps (first: {first}): check GeneratorParams (spring_stiffness "
+            f"{params.spring_stiffness:g} N/m, spring_max_force {params.spring_max_force:g} N, "
+            f"servo_stiffness_scale {params.servo_stiffness_scale:g}) and the object's mass and size")
+    if sum(kept) < n:
+        by_start = ", ".join(f"{start.name} {held(s)} of {drawn(s)}" + (" (gave up)" if given_up[s] else "")
+                             for s, start in enumerate(starts))
+        raise GenerationError(
+            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found: of {candidates} candidates "
+            f"{sum(held(s) for s in range(len(starts)))} held (yield {sum(map(held, range(len(starts)))) / max(1, candidates):.1%}; "
+            f"by starting posture: {by_start}). Ask for fewer postures, raise "
+            "GeneratorParams.max_candidates_per_posture" + (", or keep every candidate (verify=False)" if params.verify
+                                                            else ", or max_tries_per_posture"))
+    present = [s for s in range(len(starts)) if results[s]]
+
+    def take(key: str) -> np.ndarray:
+        """Each start's first `kept` rows of a result array, start after start."""
+        return np.concatenate([np.concatenate([r[key] for r in results[s]])[: kept[s]] for s in present])
+
+    posture_set = PostureSet(
+        postures=take("postures"), hand_poses=take("hand_poses"),
+        start_ids=np.concatenate([np.full(kept[s], s) for s in present]).astype(np.int64),
+        contacts=take("contacts").astype(bool), epsilon=take("epsilon"), hold_displacement=take("hold_displacement"),
+        start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
+        metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
+                  "acceptance_ratio": candidates / tries, "simulation_faults": faults, "verified": params.verify,
+                  "candidates": int(candidates), "verified_ratio": sum(map(held, range(len(starts)))) / candidates,
+                  "verified_by_start": {starts[s].name: held(s) / drawn(s) for s in present if drawn(s)},
+                  "candidates_by_start": {starts[s].name: drawn(s) for s in present},
+                  "kept_by_start": {starts[s].name: kept[s] for s in present},
+                  "grasp_types": {starts[s].name: starts[s].grasp_type for s in range(len(starts))},
+                  "library_version": library_version(),
+                  "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
+                                                 "posture": s.posture.tolist(), "contacts": list(s.contacts),
+                                                 "grasp_type": s.grasp_type} for s in starts}},
+    )
+    return posture_set
+
+
+def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
+    """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
+    obj, params, postures, poses = task
+    verifier = _Verifier(obj, params)
+    rows = []
+    for posture, pose in zip(postures, poses):
+        try:
+            judgement = verifier(posture, pose[:3], pose[3:])
+            rows.append((float(judgement.hold), judgement.epsilon, judgement.displacement))
+        except SimulationError:  # the replay's physics failed: not a verified grasp
+            rows.append((0.0, np.nan, np.nan))
+    return np.array(rows).reshape(-1, 3)
+
+
+def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int | None = None, *,
+                    params: GeneratorParams | None = None, executor: Executor | None = None,
+                    progress: bool | None = None) -> PostureSet:
+    """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
+
+    Each posture is replayed at its palm pose in front of the free object, the fingers press with
+    the controller's squeeze, the support is released and the hold test runs (`verify_hold_seconds`
+    per gravity direction). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
+    by this keeps exactly the candidates that the generator with verification keeps among its first
+    n (the walk does not depend on the verification).
+
+    Args:
+        postures: the set to verify (its palm poses are in the object frame of `obj`).
+        obj: the object the set was generated on, or its name.
+        workers: worker processes (None: `workers.default_workers()`, one for fewer than `VERIFY_PER_WORKER`).
+        params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
+        executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
+        progress: show a progress bar (None: as `progress.show_progress` says, on by default).
+
+    Returns:
+        The postures that held, with their epsilon and largest hold displacement (m); the metadata
+        counts the candidates (`candidates`, `verified_ratio`, `verified_by_start`).
+    """
+    obj = get_object(obj)
+    params = params or GeneratorParams()
+    workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
+    chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
+    tasks = [(obj, params, postures.postures[c], postures.hand_poses[c]) for c in chunks if len(c)]
+    with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:
+        rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers, lambda _, r: report.update(len(r)), executor)
+                              or [np.zeros((0, 3))])
+    held = rows[:, 0] > 0
+    kept = postures.subset(held)
+    if len(held) and held.mean() < FEW_HOLD:
+        warnings.warn(f"only {int(held.sum())} of {len(held)} {obj.name} candidates hold ({held.mean():.0%}): too few to "
+                      "map a grasp manifold on; more candidates, another mode or design family "
+                      "(GeneratorParams.mode, .designs), or the paper's procedure (every candidate) give more",
+                      stacklevel=2)
+    names = [name.split(":", 1)[-1] for name in postures.start_names]
+    by_start = {names[i]: float(held[postures.start_ids == i].mean()) for i in np.unique(postures.start_ids)}
+    metadata = {**postures.metadata, "verified": True, "candidates": len(postures),
+                "verified_ratio": float(held.mean()) if len(held) else float("nan"), "verified_by_start": by_start,
+                "verify_hold_seconds": params.verify_hold_seconds}
+    return PostureSet(kept.postures, kept.hand_poses, kept.start_ids, kept.contacts, kept.start_names, metadata,
+                      rows[held, 1], rows[held, 2])
+
+
+def remove_checkpoints(directory: str | os.PathLike) -> None:
+    """Delete a checkpoint directory once its run has been saved."""
+    shutil.rmtree(directory, ignore_errors=True)

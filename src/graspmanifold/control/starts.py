@@ -1,0 +1,381 @@
+"""Starting postures: designed grasps that the spring-based generator explores around.
+
+The paper actuated its starting postures by hand, each a five-fingertip grasp. Here each one comes
+from a designed grasp (a palm pose relative to the object, a hand posture and the segments that
+must touch, see `GraspDesign`) refined by a deterministic least-squares search over the 22 joints
+and a small hand-pose correction, which brings the design's contact segments onto the surface,
+keeps every other segment out of the object and the fingers out of each other.
+
+Two families of designs (`DESIGN_FAMILIES`): `five_fingertip`, the paper's kind (all five distal
+segments touch; wraps of the object's nearest primitive shape, `GRASP_DESIGNS`), and
+`grasp_types`, ours: those wraps (power grasps) and one design of each precision grasp type
+(`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of thumb, index and
+middle tips, and a lateral grasp pressing the object between the thumb's pad and the side of the
+index finger), with the fingers that take no part curled into the palm.
+
+The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
+families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object
+family its five-fingertip ones; the rest is computed on first use. A mesh object
+is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
+designs place the palm relative to the object's principal axes and its extents, and the
+least-squares refinement brings the fingertips onto the actual surface, so any watertight solid of
+hand size gets its grasps this way.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from functools import cache, lru_cache
+
+import mujoco
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from ..base.errors import InvalidInput
+from ..sim.hand import (
+    DISTAL_SEGMENTS,
+    FINGER_JOINTS,
+    SEGMENTS,
+    asset_path,
+    finger_limits,
+    finger_of,
+    segment_of_geoms,
+)
+from ..base.io import load_npz, save_npz
+from ..sim.objects import GraspObject, get_object
+from ..base.poses import to_quat, to_rotation
+from ..sim.posture import dict_to_posture
+from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
+
+STARTS_FILE = "starting_postures.npz"
+CONTACT_GAP = 0.001  # a contact segment "touches" within 1 mm
+MAX_PENETRATION = 0.002
+
+#: the grasp types a design can be (Cutkosky's taxonomy, coarsely): power wraps, the two-finger
+#: precision pinch, the three-finger tripod, and the lateral (key) grasp
+GRASP_TYPES: tuple[str, ...] = ("power", "precision", "tripod", "lateral")
+#: the families of designs `starting_postures` searches (see the module doc)
+DESIGN_FAMILIES: tuple[str, ...] = ("five_fingertip", "grasp_types")
+
+
+@dataclass(frozen=True)
+class StartingPosture:
+    """A designed grasp: palm pose in the object frame (pos, quat w x y z), 22 joint angles, the
+    segments that touch the object (`contacts`, the five distal ones for the paper's kind) and the
+    design's grasp type."""
+
+    name: str
+    hand_pos: np.ndarray
+    hand_quat: np.ndarray
+    posture: np.ndarray
+    contacts: tuple[str, ...] = DISTAL_SEGMENTS
+    grasp_type: str = "power"
+
+
+@dataclass(frozen=True)
+class GraspDesign:
+    """A grasp design: the object's centre point in the palm frame, the object axes' directions, the
+    hand's posture and the segments that must touch.
+
+    `axis_in_palm` is the palm-frame direction of the object's long axis (z); `standoff` is the gap
+    between palm and surface; `hand` lists the joints (name, radians) whose designed angle differs
+    from the half-closed hand; `contacts` are the segments that must touch the object.
+    """
+
+    name: str
+    axis_in_palm: tuple[float, float, float]
+    centre_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    standoff: float = 0.008
+    roll: float = 0.0  # rotation of the object about its own long axis (radians)
+    end_on: bool = False  # the palm faces the object's +z end instead of its side
+    grasp_type: str = "power"
+    contacts: tuple[str, ...] = DISTAL_SEGMENTS
+    hand: tuple[tuple[str, float], ...] = ()
+
+
+def _designs(shape: str) -> tuple[GraspDesign, ...]:
+    side = (1.0, 0.0, 0.0)  # object axis across the fingers: a wrap
+    tilt = (np.cos(0.5), 0.0, np.sin(0.5))
+    if shape == "sphere":  # a ball in the whole hand, and held by the five fingertips (a precision sphere grasp)
+        return (
+            GraspDesign("power", side, standoff=0.006),
+            GraspDesign("precision", side, centre_offset=(0.0, 0.0, 0.03), standoff=0.03, grasp_type="precision"),
+            GraspDesign("thumb_side", side, centre_offset=(0.02, 0.0, 0.01), standoff=0.015, grasp_type="precision"),
+            GraspDesign("fingertip_low", side, centre_offset=(-0.01, 0.0, 0.015), standoff=0.022,
+                        grasp_type="precision"),
+        )
+    designs = [
+        GraspDesign("wrap_mid", side),
+        GraspDesign("wrap_tilted", tilt),
+        GraspDesign("wrap_low", side, centre_offset=(0.0, 0.0, -0.012), standoff=0.012),
+        # the five fingertips on the end: a precision disc grasp
+        GraspDesign("end_on", (0.0, 0.0, 1.0), centre_offset=(0.0, 0.0, 0.02), standoff=0.01, end_on=True,
+                    grasp_type="precision"),
+    ]
+    if shape == "box":
+        designs.append(GraspDesign("wrap_edge", side, roll=np.pi / 4))
+    return tuple(designs)
+
+
+GRASP_DESIGNS = {shape: _designs(shape) for shape in ("box", "cylinder", "sphere")}
+
+#: a mesh whose longest extent is at most this many times its shortest is grasped like a sphere
+ROUND_RATIO = 1.3
+#: an elongated mesh whose two short extents differ by at most this factor is grasped like a cylinder
+ROUND_SECTION_RATIO = 1.1
+
+
+def nearest_primitive(obj: GraspObject) -> str:
+    """The paper shape an object is closest to in proportion: its own for a primitive; for a mesh a
+    sphere when it is about as long as it is wide (`ROUND_RATIO`), a cylinder when it is elongated
+    with a round-ish section (`ROUND_SECTION_RATIO`), otherwise a box."""
+    if obj.shape != "mesh":
+        return obj.shape
+    x, y, z = np.sort(obj.half_extents)
+    if z <= ROUND_RATIO * x:
+        return "sphere"
+    return "cylinder" if y <= ROUND_SECTION_RATIO * x else "box"
+
+
+def _curled(*fingers: str) -> tuple[tuple[str, float], ...]:
+    """Joint angles that curl these fingers ('MF', 'RF', 'LF') into the palm, out of a precision grasp."""
+    return tuple((f"{f}J{j}", a) for f in fingers for j, a in ((3, 1.3), (2, 1.4), (1, 1.0)))
+
+
+#: One design per precision grasp type, for any object: the object's centre sits where the thumb's tip
+#: meets the index (and middle) finger's tip, about 4 cm above the palm's centre and 2 cm in front of
+#: it, or, for the lateral grasp, against the thumb-side face of the curled index finger's middle
+#: segment; the refinement then moves the hand by up to 3 cm and 0.5 rad to make the contacts.
+PRECISION_DESIGNS: tuple[GraspDesign, ...] = (
+    GraspDesign("pinch", (1.0, 0.0, 0.0), centre_offset=(0.018, 0.0, 0.045), standoff=0.015, grasp_type="precision",
+                contacts=("ffdistal", "thdistal"), hand=_curled("MF", "RF", "LF")),
+    GraspDesign("tripod", (1.0, 0.0, 0.0), centre_offset=(0.008, 0.0, 0.04), standoff=0.02, grasp_type="tripod",
+                contacts=("ffdistal", "mfdistal", "thdistal"), hand=_curled("RF", "LF")),
+    GraspDesign("lateral", (1.0, 0.0, 0.0), centre_offset=(0.037, 0.0, 0.035), standoff=0.012, grasp_type="lateral",
+                contacts=("ffmiddle", "thdistal"),
+                hand=(("FFJ3", 1.0), ("FFJ2", 1.2), ("FFJ1", 0.6), ("THJ5", 0.2), ("THJ4", 0.7), ("THJ1", 0.2),
+                      *_curled("MF", "RF", "LF"))),
+)
+
+
+def designs_for(obj: GraspObject, family: str = "five_fingertip") -> tuple[GraspDesign, ...]:
+    """The grasp designs to search for an object in a family (`DESIGN_FAMILIES`).
+
+    `five_fingertip`: those of its `nearest_primitive` (a cylinder's: wraps about the long axis z,
+    tilted, low, end-on; a box's add a wrap rolled 45 degrees). `grasp_types`: these power grasps
+    and the `PRECISION_DESIGNS`. The refinement then adapts each design to the actual surface;
+    designs that do not fit the object (a pinch of a ball too big to pinch) find no valid grasp.
+    """
+    if family not in DESIGN_FAMILIES:
+        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    power = GRASP_DESIGNS[nearest_primitive(obj)]
+    return power if family == "five_fingertip" else power + PRECISION_DESIGNS
+
+
+_HALF_CLOSED = dict_to_posture({
+    **{f"{f}J{j}": a for f in ("FF", "MF", "RF", "LF") for j, a in ((3, 0.7), (2, 0.6), (1, 0.5))},
+    "FFJ4": 0.0, "MFJ4": 0.0, "RFJ4": 0.0, "LFJ4": 0.0, "LFJ5": 0.2,
+    "THJ5": 0.7, "THJ4": 1.1, "THJ3": 0.1, "THJ2": 0.2, "THJ1": 0.4,
+})
+
+
+def design_posture(design: GraspDesign) -> np.ndarray:
+    """The hand posture a design starts its search from: the half-closed hand with the design's joints."""
+    posture = _HALF_CLOSED.copy()
+    for joint, angle in design.hand:
+        posture[FINGER_JOINTS.index(joint)] = angle
+    return posture
+
+
+def design_pose(obj: GraspObject, design: GraspDesign) -> tuple[np.ndarray, np.ndarray]:
+    """The palm pose (object frame) a grasp design asks for."""
+    # rotation palm -> object: the object's z maps to `axis_in_palm` in the palm frame
+    if design.end_on:
+        # the palm's inner normal (-y) looks down the object's -z; fingers (palm z) along object x
+        palm_in_object = np.column_stack([(0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)])
+        extent = obj.half_extents[2]
+    else:
+        axis = np.asarray(design.axis_in_palm, dtype=float)
+        axis /= np.linalg.norm(axis)
+        normal = np.array([0.0, -1.0, 0.0])  # palm inner normal, in the palm frame
+        third = np.cross(axis, normal)
+        object_in_palm = np.column_stack([normal, third, axis]) @ Rotation.from_rotvec([0, 0, design.roll]).as_matrix()
+        palm_in_object = object_in_palm.T
+        extent = obj.half_extents[0]
+    centre_in_palm = GRASP_CENTRE_IN_PALM + np.asarray(design.centre_offset) - [
+        0.0, PALM_HALF_THICKNESS + design.standoff + extent, 0.0]
+    pos = -palm_in_object @ centre_in_palm
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, palm_in_object.ravel())
+    return pos, quat
+
+
+class _GraspGeometry:
+    """Fast kinematic queries on a scene for the search: geom distances for a posture and pose.
+
+    `distal` are the geoms of the contact segments (the five distal ones unless told otherwise),
+    `other` every other hand geom but the forearm's."""
+
+    def __init__(self, scene: Scene, contacts: tuple[str, ...] = DISTAL_SEGMENTS):
+        self.scene = scene
+        model = scene.model
+        segment_of = segment_of_geoms(model)
+        hand_geoms = [int(g) for g in np.flatnonzero(segment_of >= 0)]
+        self.distal = [int(g) for s in contacts for g in np.flatnonzero(segment_of == SEGMENTS.index(s))]
+        self.other = [g for g in hand_geoms if g not in self.distal and SEGMENTS[segment_of[g]] != "forearm"]
+        fingers = {g: finger_of(SEGMENTS[segment_of[g]]) for g in hand_geoms}
+        order = ["ff", "mf", "rf", "lf"]
+        self.pairs = [(a, b) for a in hand_geoms for b in hand_geoms if a < b and fingers[a] and fingers[b]
+                      and fingers[a] != fingers[b]
+                      and (fingers[a] == "th" or fingers[b] == "th"
+                           or abs(order.index(fingers[a]) - order.index(fingers[b])) == 1)]
+        self._fromto = np.zeros(6)
+
+    def distances(self, posture: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, ...]:
+        scene, model, data = self.scene, self.scene.model, self.scene.data
+        data.qpos[scene.finger_qpos] = posture
+        scene.set_hand_pose(pos, quat)  # runs mj_forward: kinematics for the distances below
+        dist = lambda a, b: mujoco.mj_geomDistance(model, data, a, b, 0.3, self._fromto)  # noqa: E731
+        distal = np.array([scene.distance_to_object(g, 0.3) for g in self.distal])
+        other = np.array([scene.distance_to_object(g, 0.3) for g in self.other])
+        pairs = np.array([dist(a, b) for a, b in self.pairs])
+        return distal, other, pairs
+
+
+def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray,
+           name: str = "start", contacts: tuple[str, ...] = DISTAL_SEGMENTS, grasp_type: str = "power"
+           ) -> StartingPosture:
+    """Least-squares search from a rough grasp to one where the contact segments (by default all five
+    distal ones) touch, every other segment stays clear of the object and the fingers of each other."""
+    scene = Scene(obj)
+    geometry = _GraspGeometry(scene, contacts)
+    limits = finger_limits()
+    lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
+    base_rotation = to_rotation(quat)
+
+    def unpack(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        rotation = Rotation.from_rotvec(v[25:28]) * base_rotation
+        q = to_quat(rotation)
+        return v[:22], pos + v[22:25], q
+
+    def residuals(v: np.ndarray) -> np.ndarray:
+        joints, p, q = unpack(v)
+        distal, other, pairs = geometry.distances(joints, p, q)
+        return np.concatenate([
+            100.0 * distal,                                   # touch: contact gap 0
+            300.0 * np.maximum(0.0, 0.001 - other),           # other segments stay out of the object
+            300.0 * np.maximum(0.0, 0.002 - pairs),           # fingers stay out of each other
+            0.03 * (joints - posture),                        # stay close to the designed grasp type
+            1.0 * v[22:25], 0.05 * v[25:28],                  # and near the designed hand pose
+        ])
+
+    start = np.concatenate([np.clip(posture, lower, upper), np.zeros(6)])
+    bounds = (np.concatenate([lower, [-0.03] * 3, [-0.5] * 3]), np.concatenate([upper, [0.03] * 3, [0.5] * 3]))
+    result = least_squares(residuals, start, bounds=bounds, x_scale="jac", max_nfev=400, diff_step=1e-6)
+    joints, p, q = unpack(result.x)
+    return StartingPosture(name, p, q, joints, tuple(contacts), grasp_type)
+
+
+def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
+    """The start's contact segments touch (each has a geom within 1 mm), no segment is deeper than
+    2 mm in the object, and every joint is inside its limits."""
+    scene = Scene(obj)
+    geometry = _GraspGeometry(scene, start.contacts)
+    limits = finger_limits()
+    if np.any(start.posture < limits[:, 0] - 1e-9) or np.any(start.posture > limits[:, 1] + 1e-9):
+        return False
+    distal, other, _ = geometry.distances(start.posture, start.hand_pos, start.hand_quat)
+    segment_of = segment_of_geoms(scene.model)
+    touching = {SEGMENTS[segment_of[g]] for g, d in zip(geometry.distal, distal) if abs(d) <= CONTACT_GAP}
+    return bool(set(start.contacts) <= touching and np.all(np.concatenate([distal, other]) >= -MAX_PENETRATION))
+
+
+def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+    """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`).
+    The `grasp_types` family takes its power grasps from the object's five-fingertip starting postures
+    (shipped or searched) and searches the `PRECISION_DESIGNS`."""
+    obj = get_object(obj)
+    if family == "grasp_types":
+        designs, found = PRECISION_DESIGNS, starting_postures(obj, "five_fingertip")
+    else:
+        designs, found = designs_for(obj, family), []
+    for design in designs:
+        pos, quat = design_pose(obj, design)
+        start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
+        if is_design_grasp(obj, start):
+            found.append(start)
+    return found
+
+
+def _key(name: str, family: str) -> str:
+    """The shipped file's key of an object's starts in a family (the five-fingertip ones keep the bare name)."""
+    return name if family == "five_fingertip" else f"{name}@{family}"
+
+
+def save_starting_postures(path, starts_by_object: dict[tuple[GraspObject, str], list[StartingPosture]]) -> None:
+    """Write starting postures keyed by (object, design family) to an .npz file (the object's name and
+    parameters are stored, so a changed object is never given another's starts)."""
+    arrays, index = {}, {}
+    for (obj, family), starts in starts_by_object.items():
+        key = _key(obj.name, family)
+        arrays[f"{key}/pos"] = np.array([s.hand_pos for s in starts]).reshape(-1, 3)
+        arrays[f"{key}/quat"] = np.array([s.hand_quat for s in starts]).reshape(-1, 4)
+        arrays[f"{key}/posture"] = np.array([s.posture for s in starts]).reshape(-1, len(FINGER_JOINTS))
+        index[key] = {"names": [s.name for s in starts], "object": obj.params(), "family": family,
+                      "contacts": [list(s.contacts) for s in starts], "grasp_types": [s.grasp_type for s in starts]}
+    save_npz(path, "starting_postures", arrays, {"objects": index, "units": "m, radians",
+                                                 "joints": list(FINGER_JOINTS)})
+
+
+@cache
+def _shipped() -> tuple[dict[str, np.ndarray], dict]:
+    return load_npz(asset_path(STARTS_FILE), "starting_postures", {})
+
+
+def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+    """The starting postures of an object in a design family (`DESIGN_FAMILIES`): shipped for the
+    paper's objects and the object family, else computed (once per object and process; a few
+    seconds per design for a primitive, longer for a mesh).
+
+    Args:
+        obj: an object or its name.
+        family: 'five_fingertip' (the paper's kind) or 'grasp_types' (power, precision, tripod, lateral).
+
+    Returns:
+        The valid starting postures, in the order of `designs_for(obj, family)`.
+    """
+    if family not in DESIGN_FAMILIES:
+        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    return list(_starting_postures(get_object(obj), family))
+
+
+@lru_cache(maxsize=64)
+def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, ...]:
+    try:
+        arrays, meta = _shipped()
+    except FileNotFoundError:
+        arrays, meta = {}, {"objects": {}}
+    key = _key(obj.name, family)
+    entry = meta["objects"].get(key)
+    if entry is None or entry["object"] != obj.params():  # a variant of a shipped object (another mass or
+        # friction, `GraspObject.with_`) has the same geometry, so the same designed grasps
+        key, entry = next(((k, e) for k, e in meta["objects"].items() if e.get("family", "five_fingertip") == family
+                           and _geometry(e["object"]) == _geometry(obj.params())), (key, None))
+    if entry is not None:
+        count = len(entry["names"])
+        contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
+        designs = {d.name: d for d in designs_for(obj, family)}
+        types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
+        return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
+                                     tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
+    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now, once per process, "
+                  "takes seconds for a primitive and minutes for a mesh (python scripts/find_starting_postures.py --all "
+                  "stores them for the paper's objects and the family)", stacklevel=3)
+    return tuple(find_starting_postures(obj, family))
+
+
+def _geometry(params: dict) -> dict:
+    """An object's parameters less those that do not change where a grasp is (name, mass, friction)."""
+    return {k: v for k, v in params.items() if k not in ("name", "mass", "friction")}

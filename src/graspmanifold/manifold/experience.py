@@ -1,0 +1,203 @@
+"""Experience bases: the interface the grasp controller uses, and the raw posture database.
+
+The paper represents grasp experience either as a database of successful grasp postures
+(Section 2, matched with the PCP distance of Eq. 2) or as a SOM approximating the grasp manifold
+(Section 4, the same masked distance in Eq. 4). Both answer one question: which stored posture
+best matches the current partial contact posture? `Experience` is that question as a protocol;
+`SOM` and `PostureDatabase` both satisfy it.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..base.io import fingerprint, load_npz, save_npz
+from .nearest import MaskedNearest
+from .postureset import N_JOINTS, PostureSet
+from ..base.validation import check_data
+
+
+@runtime_checkable
+class Experience(Protocol):
+    """A set of reference postures answering masked best-match queries."""
+
+    dim: int
+
+    @property
+    def references(self) -> np.ndarray:
+        """The reference postures (k, dim) that `best_match` indexes."""
+        ...
+
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """The reference posture nearest to x under the masked distance of Eq. 2.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            Its index: a row of `references`.
+        """
+        ...
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`best_match` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Indices (m,).
+        """
+        ...
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching reference posture in full: x completed from what the mask specifies.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
+        ...
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Postures (m, dim), rad.
+        """
+        ...
+
+
+class PostureDatabase:
+    """All stored postures (n, dim); best matches are row indices into `postures`."""
+
+    def __init__(self, postures: np.ndarray):
+        """The database of these postures.
+
+        Args:
+            postures: (n, dim) finite postures, rad; stored read-only.
+        """
+        data = np.asarray(postures, dtype=float)
+        if data.ndim != 2:
+            raise InvalidInput(f"postures must be an (n, dim) array, got shape {data.shape}")
+        self.postures = check_data(data, data.shape[1], "postures")
+        self.postures.flags.writeable = False
+        self.dim = self.postures.shape[1]
+        self._search = MaskedNearest(self.postures)
+
+    def __len__(self) -> int:
+        return len(self.postures)
+
+    @property
+    def references(self) -> np.ndarray:
+        """The stored postures (n, dim), read-only: `best_match` gives a row of them."""
+        return self.postures
+
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """The reference posture nearest to x under the masked distance of Eq. 2.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            Its index: the stored posture's row.
+        """
+        return self._search.nearest(x, mask)
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`best_match` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Indices (m,).
+        """
+        return self._search.nearest_batch(X, masks)
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching reference posture in full: x completed from what the mask specifies.
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
+        return self.references[self.best_match(x, mask)].copy()
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Postures (m, dim), rad.
+        """
+        return self.references[self.best_match_batch(X, masks)]
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
+        """Write the database to an .npz file, atomically.
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+
+        Returns:
+            The path written.
+        """
+        meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}
+        return save_npz(path, "posture_database", {"postures": self.postures}, meta, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> PostureDatabase:
+        """Read a database written by `save`.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The database.
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or not a posture database; the message names it.
+        """
+        arrays, _ = load_npz(path, "posture_database", {"postures": (None, None)})
+        return cls(arrays["postures"])
+
+    def __repr__(self) -> str:
+        return f"PostureDatabase({len(self)} postures, dim={self.dim})"
+
+
+def check_experience(experience: object) -> Experience | None:
+    """The experience base a controller uses: None (the purely tactile controller), any `Experience`
+    (a PostureDatabase, a SOM), or a PostureSet, which becomes the database of its postures."""
+    if experience is None:
+        return None
+    if isinstance(experience, PostureSet):
+        experience = PostureDatabase(experience.postures)
+    if not isinstance(experience, Experience):
+        raise InvalidInput(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
+                         f"got {type(experience).__name__}")
+    if experience.dim != N_JOINTS:
+        raise InvalidInput(f"experience must hold {N_JOINTS}-joint postures, it has dim {experience.dim}")
+    return experience

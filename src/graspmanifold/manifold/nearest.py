@@ -1,0 +1,180 @@
+"""Exact masked nearest-neighbour search: the best match of the paper's Eq. 2 and Eq. 4.
+
+    dist_p(w, x) = sum_k p_k (w_k - x_k)^2,   p_k >= 0, not all zero
+
+Both experience bases (the SOM's reference vectors and the raw posture database) answer their
+best-match queries with `MaskedNearest`. By default a compiled kernel (`kernels.masked_argmin`)
+sums the distance directly over the masked dimensions only and validates as it goes, so a single
+query costs a few microseconds; batches are split across threads.
+
+The NumPy reference (`MaskedNearest.query_reference`) expands the distance as
+p.(w*w) - 2 (p*x).w + const, so one matrix product serves a whole batch of queries with different
+masks; candidates whose expanded distance lies within rounding error of the minimum are then
+re-ranked with the direct formula. Both give the brute-force argmin, the lowest index on ties.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from .kernels import compiled, masked_argmin, masked_argmin_rows
+from ..base.workers import usable_cores
+
+_CHUNK = 4096  # queries per matrix product: bounds memory at CHUNK x n distances
+_PER_THREAD = 2048  # a batch gets one thread per this many queries, up to the usable cores
+_RELATIVE_TOLERANCE = 1e-10  # far above the ~1e-14 relative rounding error of the expansion
+
+
+def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validate queries and masks; return float arrays (m, dim) with unspecified entries zeroed.
+
+    `x` is (dim,) or (m, dim); it may hold NaN where the mask is 0 (the PCP's unspecified joints).
+    `mask` is None (all ones), boolean, or non-negative weights p_k, shaped (dim,) or (m, dim).
+    """
+    queries = np.array(x, dtype=float, ndmin=1)
+    single = queries.ndim == 1
+    queries = np.atleast_2d(queries)
+    if queries.ndim != 2 or queries.shape[1] != dim:
+        raise InvalidInput(f"x must have shape ({dim},) or (m, {dim}), got {np.shape(x)}")
+    if mask is None:
+        weights = np.ones_like(queries)
+    else:
+        weights = np.array(mask, dtype=float, ndmin=1)
+        if weights.shape not in ((dim,), queries.shape) and not (single and weights.shape == (1, dim)):
+            raise InvalidInput(f"mask must have shape ({dim},) or {queries.shape}, got {np.shape(mask)}")
+        weights = np.broadcast_to(weights, queries.shape)
+        if not np.all(np.isfinite(weights)):
+            raise InvalidInput("mask has non-finite weights")
+        if np.any(weights < 0):
+            raise InvalidInput("mask has negative weights; expected booleans or weights p_k >= 0")
+        empty = ~np.any(weights > 0, axis=1)
+        if empty.any():
+            raise InvalidInput(f"mask selects no dimension (all zero) for query rows {np.flatnonzero(empty)[:10].tolist()}")
+    used = weights > 0
+    bad = used & ~np.isfinite(queries)
+    if bad.any():
+        rows, cols = np.nonzero(bad)
+        raise InvalidInput(f"x has non-finite values where the mask is non-zero (row {rows[0]}, column {cols[0]})")
+    queries = np.where(used, queries, 0.0)
+    return queries, np.ascontiguousarray(weights)
+
+
+def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """`check_queries` for one query: returns float (dim,) arrays."""
+    query = np.asarray(x, dtype=float)
+    if query.shape != (dim,):
+        raise InvalidInput(f"x must have shape ({dim},), got {np.shape(x)}")
+    if mask is None:
+        weights = np.ones(dim)
+    else:
+        weights = np.asarray(mask, dtype=float)
+        if weights.shape != (dim,):
+            raise InvalidInput(f"mask must have shape ({dim},), got {np.shape(mask)}")
+        total = float(weights.sum())
+        if not math.isfinite(total):
+            raise InvalidInput("mask has non-finite weights")
+        if weights.min() < 0:
+            raise InvalidInput("mask has negative weights; expected booleans or weights p_k >= 0")
+        if total == 0.0:
+            raise InvalidInput("mask selects no dimension (all zero)")
+    query = np.where(weights > 0, query, 0.0)
+    if not np.isfinite(query).all():
+        raise InvalidInput(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
+    return query, weights
+
+
+class MaskedNearest:
+    """Exact nearest point of a fixed set under the masked squared distance."""
+
+    def __init__(self, points: np.ndarray):
+        self.points = np.ascontiguousarray(points, dtype=float)
+        if self.points.ndim != 2 or len(self.points) == 0:
+            raise InvalidInput(f"points must be a non-empty (n, dim) array, got shape {self.points.shape}")
+        self._points_t = np.ascontiguousarray(self.points.T)  # (dim, n): the kernels run along points
+        self._ones = np.ones(self.dim)
+        squares = self.points * self.points
+        self._expanded = np.ascontiguousarray(np.hstack([squares, self.points]).T)  # (2 dim, n)
+        self._scale_sq = squares.max(axis=0)
+
+    @property
+    def dim(self) -> int:
+        return self.points.shape[1]
+
+    def distances(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """Direct masked squared distances (n,) from one query to every point."""
+        query, weights = check_query(x, mask, self.dim)
+        return np.sum(weights * (self.points - query) ** 2, axis=1)
+
+    def nearest(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """Index of the point nearest to one query x (dim,) under `mask` (see check_query)."""
+        if not compiled():
+            query, weights = check_query(x, mask, self.dim)
+            return int(self.query_reference(query[None], weights[None])[0])
+        query = np.asarray(x, dtype=float)
+        weights = self._weights(mask)
+        index = -1
+        if query.shape == weights.shape == (self.dim,):
+            index = masked_argmin(self._points_t, query, weights)
+        if index < 0:  # the reference's validation names what is wrong
+            check_query(x, mask, self.dim)
+            raise InvalidInput(f"x or mask rejected by the best-match kernel (code {index})")
+        return index
+
+    def nearest_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """Indices (m,) of the nearest points of queries X (m, dim) under one mask (dim,) or one per
+        row (m, dim) (see check_queries)."""
+        if not compiled():
+            return self.query_reference(*check_queries(X, masks, self.dim))
+        queries = np.ascontiguousarray(X, dtype=float)
+        queries = queries[None] if queries.ndim == 1 else queries
+        weights = self._weights(masks)
+        result = np.full(len(queries), -1, dtype=np.intp)
+        if queries.ndim == 2 and queries.shape[1] == self.dim and weights.shape in ((self.dim,), queries.shape):
+            weights = np.ascontiguousarray(weights.reshape(-1, self.dim))
+            parts = max(1, min(usable_cores(), len(queries) // _PER_THREAD))
+            bounds = np.linspace(0, len(queries), parts + 1).astype(int)
+            work = [(self._points_t, queries, weights, result, int(start), int(stop))
+                    for start, stop in zip(bounds[:-1], bounds[1:])]
+            if parts == 1:
+                masked_argmin_rows(*work[0])
+            else:  # the kernel releases the GIL
+                with ThreadPoolExecutor(parts) as pool:
+                    list(pool.map(lambda args: masked_argmin_rows(*args), work))
+        if np.any(result < 0):  # the reference's validation names what is wrong
+            check_queries(X, masks, self.dim)
+            raise InvalidInput(f"X or masks rejected by the best-match kernel (codes {np.unique(result[result < 0])})")
+        return result
+
+    def _weights(self, mask: np.ndarray | None) -> np.ndarray:
+        """A mask as the kernels take it: boolean as it is, anything else as float; None as all ones."""
+        if mask is None:
+            return self._ones
+        weights = np.asarray(mask)
+        return weights if weights.dtype == np.bool_ else np.asarray(weights, dtype=float)
+
+    def query_reference(self, queries: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """`nearest_batch` in NumPy for validated queries and weights (see check_queries): the
+        expanded distance by matrix products, near ties re-ranked with the direct formula."""
+        result = np.empty(len(queries), dtype=np.intp)
+        for start in range(0, len(queries), _CHUNK):
+            block = slice(start, start + _CHUNK)
+            result[block] = self._query_block(queries[block], weights[block])
+        return result
+
+    def _query_block(self, queries: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        stacked = np.hstack([weights, -2.0 * weights * queries])
+        expanded = stacked @ self._expanded  # (m, n): distance minus the query's own constant
+        best = expanded.argmin(axis=1)
+        rows = np.arange(len(queries))
+        # |p.w^2 - 2 (p x).w| <= sum p (w_max^2 + x^2) * 2 bounds the magnitude of the rounded terms
+        tolerance = 2.0 * _RELATIVE_TOLERANCE * np.einsum("ij,ij->i", self._scale_sq + queries * queries, weights)
+        near_tie = np.count_nonzero(expanded <= (expanded[rows, best] + tolerance)[:, None], axis=1) > 1
+        for row in np.flatnonzero(near_tie):  # rare: settle with the direct formula
+            candidates = np.flatnonzero(expanded[row] <= expanded[row, best[row]] + tolerance[row])
+            exact = np.sum(weights[row] * (self.points[candidates] - queries[row]) ** 2, axis=1)
+            best[row] = candidates[np.argmin(exact)]
+        return best

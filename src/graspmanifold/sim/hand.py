@@ -1,0 +1,165 @@
+"""The Shadow Dexterous Hand: names, joint ranges and the MJCF model shipped with the library.
+
+Everything that other modules need to know about the hand's structure lives here as plain
+tables: the joint order of a grasp posture, which segment each joint moves (for the Partial
+Contact Posture), the actuators and their J1+J2 coupling. `tests/test_hand.py` checks each
+table against the compiled model.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+FINGERS: tuple[str, ...] = ("ff", "mf", "rf", "lf", "th")
+"""The five fingers: first, middle, ring, little finger and thumb."""
+
+FINGER_JOINTS: tuple[str, ...] = (
+    "FFJ4", "FFJ3", "FFJ2", "FFJ1",
+    "MFJ4", "MFJ3", "MFJ2", "MFJ1",
+    "RFJ4", "RFJ3", "RFJ2", "RFJ1",
+    "LFJ5", "LFJ4", "LFJ3", "LFJ2", "LFJ1",
+    "THJ5", "THJ4", "THJ3", "THJ2", "THJ1",
+)  # fmt: skip
+"""The 22 finger joints in grasp-posture order: finger by finger, proximal to distal."""
+
+WRIST_JOINTS: tuple[str, ...] = ("WRJ2", "WRJ1")
+
+HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS
+"""All 24 hinge joints, wrist first, in the model's order."""
+
+_KNUCKLE = (-0.349066, 0.349066)
+_PROXIMAL = (-0.261799, 1.5708)
+_DISTAL = (0.0, 1.5708)
+JOINT_RANGES: dict[str, tuple[float, float]] = {
+    "WRJ2": (-0.523599, 0.174533),
+    "WRJ1": (-0.698132, 0.488692),
+    **{f"{f}J4": _KNUCKLE for f in ("FF", "MF", "RF", "LF")},
+    **{f"{f}J3": _PROXIMAL for f in ("FF", "MF", "RF", "LF")},
+    **{f"{f}J{j}": _DISTAL for f in ("FF", "MF", "RF", "LF") for j in (2, 1)},
+    "LFJ5": (0.0, 0.785398),
+    "THJ5": (-1.0472, 1.0472),
+    "THJ4": (0.0, 1.22173),
+    "THJ3": (-0.20944, 0.20944),
+    "THJ2": (-0.698132, 0.698132),
+    "THJ1": (-0.261799, 1.5708),
+}
+"""Joint ranges (radians) from the kinematics sheet, by joint name."""
+
+FINGER_SEGMENTS: dict[str, tuple[str, ...]] = {
+    "ff": ("ffproximal", "ffmiddle", "ffdistal"),
+    "mf": ("mfproximal", "mfmiddle", "mfdistal"),
+    "rf": ("rfproximal", "rfmiddle", "rfdistal"),
+    "lf": ("lfmetacarpal", "lfproximal", "lfmiddle", "lfdistal"),
+    "th": ("thproximal", "thmiddle", "thdistal"),
+}
+"""The segments of each finger that carry collision geometry, palm side first."""
+
+SEGMENTS: tuple[str, ...] = ("forearm", "wrist", "palm") + tuple(
+    s for f in FINGERS for s in FINGER_SEGMENTS[f]
+)
+"""Every hand body that can touch an object (a tactile "segment"), in a fixed order."""
+
+DISTAL_SEGMENTS: tuple[str, ...] = tuple(FINGER_SEGMENTS[f][-1] for f in FINGERS)
+"""The fingertip segments, one per finger in FINGERS order."""
+FINGERTIP_SITES: tuple[str, ...] = tuple(f"{f}tip" for f in FINGERS)
+"""The fingertip sites of the model (the springs of the posture generator pull there)."""
+
+#: The segment S_{i,j} that joint j of finger i moves: the first body with geometry at or
+#: beyond the joint (knuckle, thbase and thhub carry no geometry of their own).
+JOINT_SEGMENT: dict[str, str] = {
+    **{f"{F}J{j}": f"{F.lower()}{seg}" for F in ("FF", "MF", "RF", "LF")
+       for j, seg in ((4, "proximal"), (3, "proximal"), (2, "middle"), (1, "distal"))},
+    "LFJ5": "lfmetacarpal",
+    "THJ5": "thproximal", "THJ4": "thproximal",
+    "THJ3": "thmiddle", "THJ2": "thmiddle",
+    "THJ1": "thdistal",
+}  # fmt: skip
+
+ACTUATORS: tuple[str, ...] = (
+    "A_WRJ2", "A_WRJ1",
+    "A_FFJ4", "A_FFJ3", "A_FFJ0",
+    "A_MFJ4", "A_MFJ3", "A_MFJ0",
+    "A_RFJ4", "A_RFJ3", "A_RFJ0",
+    "A_LFJ5", "A_LFJ4", "A_LFJ3", "A_LFJ0",
+    "A_THJ5", "A_THJ4", "A_THJ3", "A_THJ2", "A_THJ1",
+)  # fmt: skip
+"""The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger."""
+
+HAND_MODEL_FILE = "shadow_hand.xml"
+#: s, the physics step of the model (its <option timestep>): a control period is a whole number of them
+PHYSICS_TIMESTEP = 0.002
+
+
+def asset_path(name: str) -> Path:
+    """Path of a file shipped in the library's assets (wheel install or source checkout)."""
+    packaged = resources.files("graspmanifold") / "assets" / name
+    if packaged.is_file():
+        return Path(str(packaged))
+    checkout = Path(__file__).resolve().parents[3] / "assets" / name
+    if checkout.is_file():
+        return checkout
+    raise FileNotFoundError(f"asset {name!r} is neither in the installed package nor in {checkout.parent}")
+
+
+def hand_spec() -> mujoco.MjSpec:
+    """A fresh, editable MjSpec of the hand (Scene adds the object to it)."""
+    return mujoco.MjSpec.from_file(str(asset_path(HAND_MODEL_FILE)))
+
+
+def load_hand() -> mujoco.MjModel:
+    """The compiled hand alone, mounted at the world origin on its mocap body `hand_mount`."""
+    return hand_spec().compile()
+
+
+def finger_of(name: str) -> str | None:
+    """Finger ('ff', 'mf', 'rf', 'lf', 'th') of a joint or segment name; None for palm, wrist, forearm."""
+    prefix = name[:2].lower()
+    return prefix if prefix in FINGERS else None
+
+
+def finger_limits() -> np.ndarray:
+    """(22, 2) array of [lower, upper] joint limits in posture order (radians)."""
+    return np.array([JOINT_RANGES[j] for j in FINGER_JOINTS], dtype=float)
+
+
+def segment_of_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """For every geom of a model holding the hand, the index in SEGMENTS of the segment (body) it
+    belongs to, -1 for geoms that are not the hand's (the object, a table)."""
+    index = {name: i for i, name in enumerate(SEGMENTS)}
+    return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) for g in range(model.ngeom)], dtype=int)
+
+
+class SegmentKinematics:
+    """Where the hand's segments are for a posture: the centre of each segment's collision geometry in
+    the palm frame (m), from the hand model alone (the hand's knowledge of its own body, no object).
+
+    The controller's reach extension compares where a touching segment is now with where a recalled
+    grasp would put it (`controller.ControllerParams.reach`)."""
+
+    def __init__(self) -> None:
+        self.model = load_hand()
+        self.data = mujoco.MjData(self.model)
+        joints = [self.model.joint(name) for name in FINGER_JOINTS]
+        self._qpos = np.array([j.qposadr[0] for j in joints])
+        segment_of = segment_of_geoms(self.model)
+        self._geoms = np.array([int(np.flatnonzero(segment_of == i)[0]) for i in range(len(SEGMENTS))])
+        self._palm = self.model.body("palm").id
+
+    def positions(self, posture: np.ndarray) -> np.ndarray:
+        """Where the segments are for a posture, the wrist straight.
+
+        Args:
+            posture: the 22 finger joint angles, radians.
+
+        Returns:
+            The centres (len(SEGMENTS), 3) of the segments' collision geometry, m, in the palm frame.
+        """
+        self.data.qpos[:] = 0.0
+        self.data.qpos[self._qpos] = posture
+        mujoco.mj_kinematics(self.model, self.data)
+        rotation = self.data.xmat[self._palm].reshape(3, 3)
+        return (self.data.geom_xpos[self._geoms] - self.data.xpos[self._palm]) @ rotation

@@ -1,0 +1,124 @@
+"""Meshes for grasp objects, through trimesh: loading, checks, the object frame, and convex parts.
+
+A mesh object must be a closed solid a hand can hold: watertight, with a positive volume, between
+`MIN_EXTENT` and `MAX_EXTENT` across (a file in millimetres needs `scale=0.001`). It is put into
+the library's object frame (`object_frame`): the centre of mass at the origin and the axes along
+the principal axes of inertia, ordered by the mesh's extent along them, so that z is the longest
+axis (the long axis, as for the paper's box and cylinder) and x the shortest; each axis points to
+the side where the mesh reaches further (third moment of the vertices >= 0), so the frame does not
+depend on how the file was written.
+
+MuJoCo collides a mesh geom as its convex hull. A convex mesh is one geom; a non-convex one (a
+ring handle, a mug) is split into nearly convex parts by V-HACD (`trimesh.decomposition`, through
+the `vhacdx` package), run single-threaded with fixed parameters so the parts are the same on every
+run (`convex_parts`). The closest-point, signed-distance and normal queries use the mesh itself,
+not its parts.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from ..base.errors import InvalidInput
+
+MIN_EXTENT = 0.005  # m: smaller than this is below what the fingertips can resolve
+MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a unit error)
+
+#: V-HACD settings: enough parts for a handle or a mug, deterministic (single-threaded)
+DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64, "asyncACD": False}
+
+
+def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> trimesh.Trimesh:
+    """A copy of `mesh` (a trimesh, or a path to a .stl/.obj/.ply/... file), scaled by `scale`."""
+    if isinstance(mesh, (str, os.PathLike)):
+        path = Path(mesh)
+        if not path.is_file():
+            raise InvalidInput(f"mesh file {str(path)!r} " + ("is a directory, not a mesh file" if path.is_dir()
+                                                             else "does not exist"))
+        try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
+            loaded = trimesh.load(path, force="mesh", process=False)
+        except Exception as error:  # trimesh raises many kinds for a file it cannot parse
+            raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
+        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+            raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
+        bad = np.flatnonzero(~np.isfinite(loaded.vertices).all(axis=1))
+        if len(bad):
+            raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
+                             f"inf), the first at index {bad[0]}")
+        loaded.process()
+        mesh = loaded
+    elif not isinstance(mesh, trimesh.Trimesh):
+        raise InvalidInput(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"scale must be a positive finite number, got {scale!r}") from None
+    if not np.isfinite(scale) or scale <= 0:
+        raise InvalidInput(f"scale must be a positive finite number, got {scale!r}")
+    mesh = mesh.copy()
+    mesh.apply_scale(scale)
+    return mesh
+
+
+def check_solid(mesh: trimesh.Trimesh) -> None:
+    """Raise ValueError unless the mesh is a closed solid of a graspable size."""
+    if len(mesh.faces) == 0 or not np.all(np.isfinite(mesh.vertices)):
+        raise InvalidInput("mesh has no triangles or non-finite vertices")
+    if not mesh.is_watertight:
+        raise InvalidInput("mesh is not watertight (it has holes or open edges): a grasp object must be a closed "
+                         "solid; repair it first, e.g. with trimesh.repair.fill_holes")
+    with np.errstate(invalid="ignore", divide="ignore"):  # a flat mesh divides by its zero volume
+        solid = bool(mesh.is_volume) and float(mesh.volume) > 0
+    if not solid:
+        raise InvalidInput(f"mesh encloses no positive volume (volume {mesh.volume:.3g} m^3): it is flat, "
+                         "inside out or self-intersecting")
+    extent = float(mesh.extents.max())
+    if extent > MAX_EXTENT:
+        raise InvalidInput(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "
+                         "(a file in millimetres needs scale=0.001)")
+    if float(mesh.extents.min()) < MIN_EXTENT:
+        raise InvalidInput(f"mesh is only {mesh.extents.min() * 1000:.3g} mm thick; a grasp object needs at least "
+                         f"{MIN_EXTENT * 1000:.0f} mm in every direction")
+
+
+def object_frame(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """A checked copy of the mesh in the object frame (see the module docstring)."""
+    check_solid(mesh)
+    mesh = mesh.copy()
+    mesh.apply_translation(-mesh.center_mass)
+    axes = np.asarray(mesh.principal_inertia_vectors, dtype=float)  # rows
+    along = mesh.vertices @ axes.T
+    axes = axes[np.argsort(np.ptp(along, axis=0), kind="stable")]  # shortest extent first, longest last
+    along = mesh.vertices @ axes.T
+    axes *= np.where(np.sum(along ** 3, axis=0) >= 0.0, 1.0, -1.0)[:, None]
+    if np.linalg.det(axes) < 0:
+        axes[0] *= -1.0
+    transform = np.eye(4)
+    transform[:3, :3] = axes
+    mesh.apply_transform(transform)
+    check_solid(mesh)
+    return mesh
+
+
+def convex_parts(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
+    """The mesh itself when convex, else its V-HACD parts (deterministic)."""
+    if mesh.is_convex:
+        return [mesh]
+    try:
+        parts = mesh.convex_decomposition(**DECOMPOSITION)
+    except ImportError:
+        raise ImportError("a non-convex mesh needs a convex decomposition for MuJoCo: pip install vhacdx") from None
+    parts = parts if isinstance(parts, list) else [parts]
+    return [part if isinstance(part, trimesh.Trimesh) else trimesh.Trimesh(**part) for part in parts]
+
+
+def mesh_digest(mesh: trimesh.Trimesh) -> str:
+    """A short hash of the vertices and faces: two objects with the same digest are the same solid."""
+    digest = hashlib.sha256(np.ascontiguousarray(mesh.vertices, dtype=float).tobytes())
+    digest.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    return digest.hexdigest()[:16]

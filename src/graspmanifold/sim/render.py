@@ -1,0 +1,289 @@
+"""Offscreen pictures of hand postures and of scenes with MuJoCo's renderer, on a headless machine,
+and animations of them (GIF, through Pillow).
+
+MuJoCo picks its OpenGL backend when it is first imported, from the MUJOCO_GL environment variable.
+On a headless Linux machine where it is unset, `import graspmanifold` sets it, before MuJoCo's import,
+to the offscreen backend whose library is installed (EGL, then OSMesa: `choose_offscreen_backend`), and
+pictures are drawn in this process. Where that is not possible (MuJoCo was imported first, the variable
+names another backend, or the in-process context fails) they are drawn by one child process started
+with MUJOCO_GL set explicitly (EGL first, then OSMesa) and kept for the pictures that follow: the first
+picture pays its start (about a second), later ones do not. Where no backend works,
+`RenderingUnavailable` says what to install.
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes.util
+import io
+import os
+import subprocess
+import sys
+import threading
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..base.errors import InvalidInput, RenderingUnavailable
+from ..base.validation import check_int
+
+if TYPE_CHECKING:
+    from .scene import Scene
+
+BACKENDS = ("egl", "osmesa")
+#: a view for `render_states` besides a scene's named cameras: from the palm's thumb side, as the
+#: hand pictures of the figures are drawn
+THUMB_SIDE = "thumb_side"
+HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get install libegl1 libgl1 "
+                 "libegl-mesa0 libosmesa6) so that MUJOCO_GL=egl or MUJOCO_GL=osmesa works")
+
+
+
+def choose_offscreen_backend() -> str | None:
+    """On a headless Linux machine, before MuJoCo's first import and with MUJOCO_GL unset: set MUJOCO_GL
+    (and PyOpenGL's platform) to the offscreen backend whose library is installed, EGL first, then OSMesa,
+    so that pictures are drawn in this process. `import graspmanifold` calls it.
+
+    Returns:
+        The backend set, or None where nothing was changed (a display, MuJoCo already imported, the
+        variable already set, no offscreen library, not Linux).
+    """
+    if (os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules or not sys.platform.startswith("linux")
+            or os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return None
+    for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
+        if ctypes.util.find_library(library):
+            os.environ["MUJOCO_GL"] = backend
+            os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+            return backend
+    return None
+
+
+_in_process_failed = False  # this process's context failed once: the kept child draws from then on
+
+
+class _DrawingProcess:
+    """A child process that draws with one offscreen backend, kept alive for the pictures that follow.
+
+    A job goes to its stdin and the images come back on its stdout, each as 8 bytes of length and an
+    .npz / .npy payload (a status byte first on the way back). It ends with this process: when its
+    stdin closes, and at exit."""
+
+    def __init__(self, backend: str):
+        env = {**os.environ, "MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
+        self.backend = backend
+        self.process = subprocess.Popen([sys.executable, "-m", "graspmanifold.sim.render", "--serve"], env=env,
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+    def draw(self, job: dict[str, np.ndarray]) -> np.ndarray:
+        buffer = io.BytesIO()
+        np.savez(buffer, **job)
+        try:
+            self.process.stdin.write(len(buffer.getvalue()).to_bytes(8, "little") + buffer.getvalue())
+            self.process.stdin.flush()
+            header = self.process.stdout.read(9)
+            payload = self.process.stdout.read(int.from_bytes(header[1:], "little")) if len(header) == 9 else b""
+        except (BrokenPipeError, OSError):
+            header, payload = b"", b""
+        if len(header) == 9 and header[0] == 0:
+            return np.load(io.BytesIO(payload))
+        self.close()
+        why = payload.decode(errors="replace") if header else self.process.stderr.read().decode(errors="replace")
+        raise RenderingUnavailable(f"{self.backend}: {why.strip().splitlines()[-1:] or ['failed']}")
+
+    def close(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait()
+
+
+_drawing: dict[str, _DrawingProcess] = {}  # the child kept for later pictures, by backend order
+_drawing_lock = threading.Lock()
+
+
+@atexit.register
+def _close_drawing() -> None:
+    for child in _drawing.values():
+        child.close()
+    _drawing.clear()
+
+
+def _draw(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.ndarray:
+    """The images of a drawing job: in this process where MUJOCO_GL was set before MuJoCo's import,
+    otherwise in the kept child process (started with each offscreen backend in turn until one works)."""
+    global _in_process_failed
+    in_process = ""
+    if backends is None and os.environ.get("MUJOCO_GL") in BACKENDS and not _in_process_failed:
+        try:
+            return _draw_job(job)
+        except Exception as error:  # noqa: BLE001 - no context in this process: the child may still draw
+            _in_process_failed = True
+            in_process = f"MUJOCO_GL={os.environ['MUJOCO_GL']} in this process: {error}"
+    errors = [in_process] if in_process else []
+    with _drawing_lock:
+        for backend in backends or BACKENDS:
+            kept = _drawing.pop(backend, None)
+            for child in ([kept] if kept else []) + [None]:  # a kept child that died is started again once
+                child = child or _DrawingProcess(backend)
+                try:
+                    images = child.draw(job)
+                except RenderingUnavailable as error:
+                    failure = str(error)
+                    continue
+                _drawing[backend] = child
+                return images
+            errors.append(failure)
+    raise RenderingUnavailable(f"no offscreen OpenGL context ({'; '.join(errors)}); to enable, {HOW_TO_ENABLE}")
+
+
+def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
+    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
+    postures = np.asarray(postures, dtype=float).reshape(-1, 22)
+    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size))}, backends)
+
+
+def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
+                  backends: tuple[str, ...] | None = None) -> np.ndarray:
+    """Images (k, height, width, 3) uint8 of a scene in each of k states (`Scene.state()`), from
+    one of its named cameras (`scene.CAMERAS`) or from the palm's thumb side (`THUMB_SIDE`)."""
+    cameras = tuple(scene.model.camera(i).name for i in range(scene.model.ncam)) + (THUMB_SIDE,)
+    if camera not in cameras:
+        raise InvalidInput(f"unknown camera {camera!r}; expected one of {cameras}")
+    for name, value in (("width", width), ("height", height)):
+        check_int(value, f"{name} (pixels)", low=16, high=4096)
+    states = np.asarray(states, dtype=float)
+    if states.ndim != 2 or states.shape[1] != len(scene.state()) or not np.all(np.isfinite(states)):
+        raise InvalidInput(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
+                         f"got {states.shape}")
+    return _draw({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
+                      "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height))},
+                     backends)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An RGB image (h, w, 3) uint8 as PNG bytes."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.asarray(image, dtype=np.uint8)).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def save_animation(frames: np.ndarray, path: str | os.PathLike, fps: float = 25.0) -> Path:
+    """Write frames (k, h, w, 3) uint8 as an animated GIF that loops (Pillow), atomically."""
+    from PIL import Image
+
+    from ..base.io import atomic_write
+
+    frames = np.asarray(frames)
+    if frames.ndim != 4 or frames.shape[-1] != 3 or not len(frames):
+        raise InvalidInput(f"frames must have shape (k, height, width, 3) with k >= 1, got {frames.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise InvalidInput(f"fps must be positive, got {fps!r}")
+    path = Path(path)
+    if path.suffix.lower() != ".gif":
+        raise InvalidInput(f"path must end in .gif, got {str(path)!r}")
+    images = [Image.fromarray(frame.astype(np.uint8)) for frame in frames]
+    with atomic_write(path) as handle:
+        images[0].save(handle, format="GIF", save_all=True, append_images=images[1:],
+                       duration=round(1000 / fps), loop=0)
+    return path
+
+
+def _thumb_side_camera(model, data, distance: float = 1.0):
+    """A free camera on the palm's thumb side, level with the fingers: finger flexion shows
+    (`distance` scales how far back it stands)."""
+    import mujoco
+
+    palm = model.body("palm").id
+    rotation = data.xmat[palm].reshape(3, 3)
+    lookat = data.xpos[palm] + rotation @ np.array([0.0, -0.02, 0.085])
+    eye = lookat + rotation @ np.array([0.2, -0.12, 0.05])
+    forward = (lookat - eye) / np.linalg.norm(lookat - eye)
+    camera = mujoco.MjvCamera()
+    camera.lookat[:] = lookat
+    camera.distance = distance * float(np.linalg.norm(lookat - eye))
+    camera.azimuth = float(np.degrees(np.arctan2(forward[1], forward[0])))
+    camera.elevation = float(np.degrees(np.arcsin(forward[2])))
+    return camera
+
+
+def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
+    import mujoco
+
+    from .hand import load_hand
+    from .posture import posture_to_ctrl
+
+    model = load_hand()
+    for name in ("forearm", "wrist"):  # the palm and fingers are the subject
+        model.geom_rgba[model.geom(name).id, 3] = 0.0
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, size)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, size)
+    data = mujoco.MjData(model)
+    renderer = mujoco.Renderer(model, size, size)
+    finger_qpos = model.jnt_qposadr[2:]
+    mujoco.mj_forward(model, data)
+    camera = _thumb_side_camera(model, data)
+    images = np.empty((len(postures), size, size, 3), dtype=np.uint8)
+    for i, posture in enumerate(postures):
+        data.qpos[finger_qpos] = posture
+        data.ctrl[:] = posture_to_ctrl(posture)
+        mujoco.mj_kinematics(model, data)
+        renderer.update_scene(data, camera)
+        image = renderer.render()
+        image[image.max(axis=2) < 6] = 255  # a white background instead of the empty black scene
+        images[i] = image
+    renderer.close()
+    return images
+
+
+def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: int) -> np.ndarray:
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
+    model.vis.global_.offheight = max(model.vis.global_.offheight, height)
+    data = mujoco.MjData(model)
+    renderer = mujoco.Renderer(model, height, width)
+    images = np.empty((len(states), height, width, 3), dtype=np.uint8)
+    for i, state in enumerate(states):
+        data.qpos[:] = state[: model.nq]
+        data.mocap_pos[0], data.mocap_quat[0] = state[model.nq: model.nq + 3], state[model.nq + 3:]
+        mujoco.mj_forward(model, data)
+        renderer.update_scene(data, _thumb_side_camera(model, data, 1.4) if camera == THUMB_SIDE else camera)
+        image = renderer.render()
+        if camera == THUMB_SIDE:
+            image[image.max(axis=2) < 6] = 255  # white around the hand, as in the posture pictures
+        images[i] = image
+    renderer.close()
+    return images
+
+
+def _draw_job(job: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The images of one drawing job (`render_postures` / `render_states` make them)."""
+    if str(job["kind"]) == "postures":
+        return _draw_postures(job["postures"], int(job["size"]))
+    return _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]), int(job["height"]))
+
+
+def _serve() -> None:
+    """The drawing child's loop (`_DrawingProcess`): jobs from stdin, images (or why not) to stdout."""
+    replies = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)  # whatever MuJoCo or OpenGL print goes to stderr, not into the replies
+    requests = sys.stdin.buffer
+    while len(size := requests.read(8)) == 8:
+        with np.load(io.BytesIO(requests.read(int.from_bytes(size, "little")))) as job:
+            try:
+                buffer = io.BytesIO()
+                np.save(buffer, _draw_job(job))
+                status, payload = 0, buffer.getvalue()
+            except Exception as error:  # noqa: BLE001 - told to the parent, which decides
+                status, payload = 1, f"{type(error).__name__}: {error}".encode()
+        replies.write(bytes([status]) + len(payload).to_bytes(8, "little") + payload)
+        replies.flush()
+
+
+if __name__ == "__main__" and sys.argv[1:] == ["--serve"]:
+    _serve()

@@ -1,0 +1,466 @@
+"""A simulated grasp scene: the hand and one object, composed with mujoco.MjSpec.
+
+The object sits at the world origin (its body is named `object`); the hand hangs from the mocap
+body `hand_mount`, so placing the hand is moving that body. Hand poses are always the pose of the
+palm frame in the object frame (position in m, quaternion w x y z).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from collections.abc import Iterable
+
+import mujoco
+import numpy as np
+
+from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
+from .hand import HAND_JOINTS, hand_spec
+from .objects import GraspObject, get_object
+from ..base.poses import check_quat, check_vec3, compose, invert
+from .posture import posture_to_ctrl, validate_posture
+from .tactile import TactileReading, TactileSensor
+from ..base.validation import check_int
+
+GRAVITY = 9.81
+OBJECT_RGBA = (0.25, 0.45, 0.8, 1.0)
+_GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+               "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
+
+#: A contact deeper than this (m) is a failure of the simulation, not a grasp: soft contacts of a
+#: squeezing hand stay below about 1 mm (see RELIABILITY.md for the measurement)
+PENETRATION_LIMIT = 0.005
+
+
+_WARNINGS = sorted((int(getattr(mujoco.mjtWarning, name)), name.removeprefix("mjWARN_"))
+                   for name in dir(mujoco.mjtWarning) if name.startswith("mjWARN_"))
+
+
+
+#: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
+GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
+PALM_HALF_THICKNESS = 0.013
+
+
+#: m, the farthest a grid pose or a facing pose may put the object from the palm: beyond the fingers' reach
+MAX_GAP = 0.2
+
+
+def facing_pose(obj: str | GraspObject, clearance: float = 0.01, height: float = 0.0
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """A palm pose (object frame) for a side wrap: the palm faces the object from +x.
+
+    The object's long axis (z) runs across the fingers (palm x), the object's surface is `clearance`
+    in front of the palm's inner face, and `height` shifts the hand along the object's axis.
+
+    Args:
+        obj: the object, or its name.
+        clearance: palm to object surface, 0 ... `MAX_GAP` m.
+        height: shift along the object's axis, m.
+
+    Returns:
+        The palm's position (3,), m, and orientation (4,), a w x y z quaternion, in the object frame.
+    """
+    if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and 0.0 <= clearance <= MAX_GAP):
+        raise InvalidInput(f"clearance must be 0 ... {MAX_GAP} m between the palm and the object, got {clearance!r} "
+                         "(a negative one puts the palm inside the object)")
+    return placed_facing(get_object(obj), clearance, height)
+
+
+def placed_facing(obj: GraspObject, clearance: float, height: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """`facing_pose` without its checks, for a grid pose whose reachability is judged afterwards (a
+    negative clearance puts the palm inside the object, which `grid.why_unreachable` then reports)."""
+    # columns: palm x -> object z, palm y -> object x, palm z -> object y
+    rotation = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, rotation.ravel())
+    centre_in_palm = GRASP_CENTRE_IN_PALM - [0.0, PALM_HALF_THICKNESS + clearance + obj.half_extents[0], 0.0]
+    pos = -rotation @ centre_in_palm + [0.0, 0.0, height]
+    return pos, quat
+
+
+#: Named cameras of every scene (see `Scene.render`), all aimed at the object: `hand` rides on the
+#: palm (the same view of every grasp), `front` looks at the palm through the object in the nominal
+#: placement, `side` from beyond the fingertips, `top` from above.
+CAMERAS: dict[str, tuple[str, tuple[float, float, float]]] = {
+    "hand": ("palm", (0.2, -0.33, 0.16)),
+    "front": ("world", (-0.4, 0.05, 0.12)),
+    "side": ("world", (0.05, 0.4, 0.12)),
+    "top": ("world", (0.05, 0.0, 0.42)),
+}
+
+
+def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObject) -> None:
+    """The object's collision geometry: one primitive geom, or a mesh geom per convex part of a mesh
+    (whose mass and inertia come from the whole mesh, not from the parts' hulls)."""
+    contact = dict(friction=[obj.friction, 0.005, 0.0001], condim=4, contype=1, conaffinity=1, solref=[0.004, 1.0],
+                   rgba=OBJECT_RGBA)
+    if obj.shape != "mesh":
+        size = np.zeros(3)
+        size[: len(obj.half_sizes)] = obj.half_sizes
+        body.add_geom(name="object", type=_GEOM_TYPES[obj.shape], size=size, mass=obj.mass, **contact)
+        return
+    body.explicitinertial = True
+    body.mass = obj.mass
+    body.ipos = [0.0, 0.0, 0.0]  # the object frame is at the centre of mass, on the principal axes
+    body.inertia = np.diag(obj.mesh.moment_inertia) * obj.mass / obj.mesh.mass
+    for i, part in enumerate(obj.parts):
+        name = "object" if i == 0 else f"object_{i}"
+        spec.add_mesh(name=f"{name}_mesh", uservert=part.vertices.ravel().tolist(), userface=part.faces.ravel().tolist())
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", **contact)
+
+
+def _add_cameras(spec: mujoco.MjSpec) -> None:
+    for name, (parent, pos) in CAMERAS.items():
+        body = spec.worldbody if parent == "world" else spec.body(parent)
+        body.add_camera(name=name, pos=list(pos), mode=mujoco.mjtCamLight.mjCAMLIGHT_TARGETBODY,
+                        targetbody="object", fovy=40.0)
+
+
+class Scene:
+    """The hand and one object in a MuJoCo model, with helpers to pose, actuate and sense.
+
+    `free_object=False` welds the object to the world (the posture generator holds it fixed); with
+    `free_object=True` it hangs on a free joint and can be pushed and dropped. Gravity starts off.
+    `table=True` adds a table top under the object (the object stands on it along its z axis, the
+    world's z); `set_table(False)` takes it away, as lifting the object off it would.
+    Every geom gets the object's sliding friction, so each hand-object contact has exactly that
+    coefficient (MuJoCo would otherwise take the larger of the two geoms' values).
+
+    Attributes:
+        object: the object (`GraspObject`).
+        spec: the `mujoco.MjSpec` the model was compiled from (`to_xml()` writes it out).
+        model: the compiled `mujoco.MjModel`; change it in place (geom colours, options) as MuJoCo allows.
+        data: the `mujoco.MjData` of the simulation; `run`, `step` and the setters keep it consistent.
+        free_object: whether the object hangs on a free joint (True) or is welded to the world.
+    """
+
+    def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
+                 gravity: bool = False, table: bool = False):
+        """The hand and one object in a new MuJoCo model.
+
+        Args:
+            obj: the object, or its name.
+            free_object: the object hangs on a free joint (False: welded to the world).
+            gravity: gravity on from the start.
+            table: a table top under the object.
+        """
+        self.object = get_object(obj)
+        self.free_object = free_object
+        spec = hand_spec()
+        spec.modelname = f"graspmanifold_{self.object.name}"
+        body = spec.worldbody.add_body(name="object")
+        if free_object:
+            body.add_freejoint(name="object_free")
+        _add_object_geoms(spec, body, self.object)
+        spec.add_exclude(bodyname1="object", bodyname2="forearm")
+        if table:  # a table top under the object, which stands on it along its z axis
+            top = -float(self.object.half_extents[2])
+            spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.25, 0.25, 0.01],
+                                    pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
+                                    solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
+        _add_cameras(spec)
+        self.spec = spec
+        self.model = spec.compile()
+        self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
+        self.data = mujoco.MjData(self.model)
+        self.sensor = TactileSensor(self.model)
+        # addresses other modules use to read and write the hand's state directly
+        joint_ids = [self.model.joint(name).id for name in HAND_JOINTS]
+        self.hand_qpos = self.model.jnt_qposadr[joint_ids]
+        self.hand_dofs = self.model.jnt_dofadr[joint_ids]
+        self.finger_qpos = self.hand_qpos[2:]
+        self.mount_id = int(self.model.body("hand_mount").mocapid[0])
+        self.palm_id = self.model.body("palm").id
+        self.object_body = self.model.body("object").id
+        self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
+        self._fromto = np.zeros(6)  # mj_geomDistance's output buffer, reused by distance_to_object
+        self.table_geom = self.model.geom("table").id if table else None
+        self.set_gravity(gravity)
+        self.reset()
+
+    def __repr__(self) -> str:
+        support = "free" if self.free_object else "welded"
+        extras = ", table" if self.table_geom is not None else ""
+        return (f"Scene({self.object.name} ({self.object.shape}, {support}{extras}), t = {self.time:.3f} s, "
+                f"{self.data.ncon} contacts)")
+
+    # -- state -----------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the model's initial state: hand open and straight, 5 cm in front of the object."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.max_penetration = 0.0  # m, the deepest contact `check` has seen since the reset
+        self.set_hand_pose(*facing_pose(self.object, clearance=0.05))
+
+    def forward(self) -> None:
+        """Recompute positions, contacts and sensor values without advancing time."""
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, n: int = 1) -> None:
+        """Advance the physics by n timesteps of 2 ms.
+
+        Args:
+            n: timesteps, >= 0.
+
+        Raises:
+            SimulationError: the physics failed (see `check`).
+        """
+        for _ in range(check_int(n, "n (timesteps)", low=0)):
+            mujoco.mj_step(self.model, self.data)
+        self.check()
+
+    def faults(self) -> list[str]:
+        """What is wrong with the physics: MuJoCo's warnings since the last reset (by name, with
+        their count), a non-finite state, a contact deeper than PENETRATION_LIMIT now; empty when healthy."""
+        found = [f"MuJoCo warning {name} x{self.data.warning[index].number}"
+                 for index, name in _WARNINGS if self.data.warning[index].number > 0]
+        if not (np.all(np.isfinite(self.data.qpos)) and np.all(np.isfinite(self.data.qvel))):
+            found.append("non-finite joint positions or velocities")
+        if self.penetration() > PENETRATION_LIMIT:
+            found.append(f"a contact penetrates {self.penetration() * 1000:.1f} mm "
+                         f"(limit {PENETRATION_LIMIT * 1000:.0f} mm)")
+        return found
+
+    def healthy(self) -> bool:
+        """No fault (see `faults`), checked fast: MuJoCo itself warns about (and resets) non-finite
+        or huge positions, velocities and accelerations, so its warning counters and the deepest
+        contact are all this reads."""
+        return not self.data.warning.number.any() and self.penetration() <= PENETRATION_LIMIT
+
+    def check(self) -> None:
+        """Raise SimulationError if the physics failed (see `faults`); `step` and `run` call it.
+        Keeps `max_penetration` up to date."""
+        depth = self.penetration()
+        self.max_penetration = max(self.max_penetration, depth)
+        if self.data.warning.number.any() or depth > PENETRATION_LIMIT:
+            found = self.faults()
+            raise SimulationError(f"the simulation of the {self.object.name} scene failed at "
+                                  f"t = {self.data.time:.3f} s: {'; '.join(found)}; its state is not "
+                                  "physical (reset() to start again)")
+
+    def penetration(self) -> float:
+        """The deepest penetration (m) of any contact now (0 when nothing overlaps)."""
+        ncon = self.data.ncon
+        return max(0.0, -float(self.data.contact.dist[:ncon].min())) if ncon else 0.0
+
+    def run(self, seconds: float) -> None:
+        """Advance the physics by (about) this much simulated time, at least one timestep.
+
+        Args:
+            seconds: simulated seconds, > 0.
+
+        Raises:
+            SimulationError: the physics failed (see `check`).
+        """
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not math.isfinite(seconds) \
+                or seconds <= 0:
+            raise InvalidInput(f"seconds must be a positive finite duration, got {seconds!r}")
+        self.step(max(1, round(seconds / self.model.opt.timestep)))
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def set_object_support(self, stiffness: float = 0.0, damping: float = 0.0) -> None:
+        """A spring-damper holding a free object near its start pose, like a support it rests on; 0, 0
+        releases it.
+
+        Args:
+            stiffness: N/m (and N m/rad for rotation).
+            damping: N s/m (and N m s/rad).
+        """
+        if not self.free_object:
+            raise InvalidInput("set_object_support needs a Scene with free_object=True")
+        if not (np.isfinite(stiffness) and np.isfinite(damping)) or stiffness < 0 or damping < 0:
+            raise InvalidInput(f"stiffness and damping must be finite and >= 0, got {stiffness!r}, {damping!r}")
+        joint = self.model.joint("object_free")
+        self.model.jnt_stiffness[joint.id] = stiffness
+        self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
+
+    def set_table(self, present: bool) -> None:
+        """Put the table back or take it away (a Scene made with table=True).
+
+        Args:
+            present: True to put it back, False to take it away.
+        """
+        if self.table_geom is None:
+            raise InvalidInput("set_table needs a Scene made with table=True")
+        self.model.geom_contype[self.table_geom] = self.model.geom_conaffinity[self.table_geom] = int(bool(present))
+
+    def set_gravity(self, gravity: bool | Iterable[float]) -> None:
+        """Gravity on, off, or along a vector.
+
+        Args:
+            gravity: True (-z of the world), False, or a vector (3,), m/s^2.
+        """
+        if gravity is True:
+            vector = np.array([0.0, 0.0, -GRAVITY])
+        elif gravity is False:
+            vector = np.zeros(3)
+        else:
+            vector = check_vec3(gravity, "gravity")
+        self.model.opt.gravity[:] = vector
+
+    # -- hand placement --------------------------------------------------------------------------
+    def object_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current object pose in the world (position, quaternion)."""
+        return self.data.xpos[self.object_body].copy(), self.data.xquat[self.object_body].copy()
+
+    def hand_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current palm pose in the object frame."""
+        mujoco.mj_kinematics(self.model, self.data)
+        palm = self.data.xpos[self.palm_id], self.data.xquat[self.palm_id]
+        return compose(*invert(*self.object_pose()), *palm)
+
+    def mount_pose_for(self, pos: Iterable[float], quat: Iterable[float]) -> tuple[np.ndarray, np.ndarray]:
+        """The pose of the mocap body `hand_mount` that puts the palm at (pos, quat) in the object frame, for
+        the current joint angles.
+
+        Args:
+            pos: the palm's position (3,), m, object frame.
+            quat: its orientation (4,), w x y z.
+
+        Returns:
+            The mount's position (3,), m, and orientation (4,).
+        """
+        pos, quat = check_vec3(pos, "pos"), check_quat(quat, "quat")
+        mujoco.mj_kinematics(self.model, self.data)
+        target = compose(*self.object_pose(), pos, quat)
+        mount = self.data.mocap_pos[self.mount_id].copy(), self.data.mocap_quat[self.mount_id].copy()
+        mount_to_palm = compose(*invert(*mount), self.data.xpos[self.palm_id], self.data.xquat[self.palm_id])
+        return compose(*target, *invert(*mount_to_palm))
+
+    def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
+        """Move the hand so that the palm frame has this pose in the object frame.
+
+        Args:
+            pos: the palm's position (3,), m.
+            quat: its orientation (4,), w x y z.
+        """
+        self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
+        self.forward()
+        self._placed = self.data.mocap_pos[self.mount_id].copy(), self.data.xmat[self.palm_id].reshape(3, 3).copy()
+
+    def shift_hand(self, offset: Iterable[float]) -> None:
+        """Move the hand from where `set_hand_pose` last put it, as an arm would carry it; the joints and
+        the object stay (the physics moves on at the next step).
+
+        Args:
+            offset: (3,), m, in the palm frame.
+        """
+        position, palm_rotation = self._placed
+        self.data.mocap_pos[self.mount_id] = position + palm_rotation @ check_vec3(offset, "offset")
+
+    # -- postures --------------------------------------------------------------------------------
+    def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:
+        """Distance from a geom to the object's collision geometry at the current kinematics (the nearest
+        of a mesh's convex parts).
+
+        Args:
+            geom: the geom's id.
+            cutoff: the largest distance looked for, m.
+
+        Returns:
+            The distance, m: negative when they overlap, `cutoff` when farther.
+        """
+        return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, self._fromto)
+                   for g in self.object_geoms)
+
+    def posture(self) -> np.ndarray:
+        """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
+        return self.data.qpos[self.finger_qpos].copy()
+
+    def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
+        """Put the hand in a posture at rest and make the actuators hold it.
+
+        Args:
+            posture: 22 finger joint angles, rad.
+            wrist: (WRJ2, WRJ1), rad.
+        """
+        posture = validate_posture(posture, check_limits=True)
+        ctrl = posture_to_ctrl(posture, wrist)
+        self.data.qpos[self.finger_qpos] = posture
+        self.data.qpos[self.hand_qpos[:2]] = ctrl[:2]
+        self.data.qvel[self.hand_dofs] = 0.0
+        self.data.ctrl[:] = ctrl
+        self.forward()
+
+    def set_target(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
+        """Command the actuators towards a posture (the hand moves when the physics steps).
+
+        Args:
+            posture: 22 finger joint angles, rad.
+            wrist: (WRJ2, WRJ1), rad.
+        """
+        self.data.ctrl[:] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True), wrist)
+
+    # -- pictures --------------------------------------------------------------------------------
+    def state(self) -> np.ndarray:
+        """What a picture of the scene depends on, as one flat array: joint positions and the
+        hand mount's pose (`render_states` draws a list of them, e.g. the frames of a trial)."""
+        return np.concatenate([self.data.qpos, self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id]])
+
+    def render(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
+        """An RGB picture of the scene now, drawn offscreen (works on a headless machine).
+
+        On a headless Linux machine the library chose the offscreen backend on import and the picture is
+        drawn in this process; otherwise by one child process kept for the pictures that follow
+        (`graspmanifold.sim.render` says when and why).
+
+        Args:
+            camera: one of `CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels, 16 ... 4096.
+            height: pixels, 16 ... 4096.
+
+        Returns:
+            The picture, (height, width, 3) uint8.
+
+        Raises:
+            RenderingUnavailable: no offscreen OpenGL backend works; the message says what to install.
+        """
+        from .render import render_states
+
+        return render_states(self, self.state()[None], camera, width, height)[0]
+
+    def viewer(self) -> mujoco.viewer.Handle:
+        """MuJoCo's interactive viewer on this scene, passive: the scene keeps stepping in this program.
+
+        Call `.sync()` on the returned handle after `run` or `step` to show the new state, and `.close()`
+        when done (`graspmanifold view` opens one from the command line).
+
+        Returns:
+            The viewer's handle (`mujoco.viewer.Handle`).
+
+        Raises:
+            RenderingUnavailable: there is no display (pictures work without one: `render`).
+        """
+        if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise RenderingUnavailable("the viewer needs a display (DISPLAY is not set); on a headless machine draw "
+                                       "pictures with Scene.render or record_trial(...).save_gif")
+        import mujoco.viewer
+
+        return mujoco.viewer.launch_passive(self.model, self.data)
+
+    def to_xml(self) -> str:
+        """The scene's MJCF: the hand, the object (and the table, with one) as MuJoCo compiled them.
+
+        Returns:
+            The XML text, loadable with `mujoco.MjModel.from_xml_string` (a mesh object's convex
+            parts are embedded as vertex lists).
+        """
+        return self.spec.to_xml()
+
+    def _repr_png_(self) -> bytes | None:
+        """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""
+        from .render import png_bytes
+
+        try:
+            return png_bytes(self.render())
+        except RenderingUnavailable:
+            return None
+
+    # -- sensing ---------------------------------------------------------------------------------
+    def tactile(self) -> TactileReading:
+        """Hand-object contacts now (see TactileReading)."""
+        return self.sensor.read(self.data)

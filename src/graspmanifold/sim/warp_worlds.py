@@ -1,0 +1,251 @@
+"""Trial scenes stepped all at once on a GPU with MuJoCo Warp (the optional `gpu` extra).
+
+`WarpWorlds` copies N placed trial scenes into one batched MuJoCo Warp model and data (the model
+is the scenes' own; gravity, the object support and the push are per world) and steps them
+together, a control period per CUDA graph launch. Touch per segment, the deepest contact of each
+world and the contacts of a world being judged come from Warp's contact arrays through two small
+kernels; epsilon is computed on the host from those contacts, as for CPU trials. Warp computes
+in single precision and orders its contacts differently, so its trials agree with the CPU's
+trial by trial on most poses, not bit for bit (BENCHMARKS.md measures how often).
+
+    pip install 'graspmanifold[gpu]'   # mujoco-warp and warp-lang; needs an NVIDIA GPU
+
+A machine without a CUDA device refuses the backend; GRASPMANIFOLD_WARP_DEVICE=cpu runs Warp's
+CPU device instead (slow: for developing and testing this module without a GPU).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..base.errors import BackendUnavailable, InvalidInput, SimulationError
+from .hand import SEGMENTS, segment_of_geoms
+from .posture import CTRL_MATRIX
+from .scene import PENETRATION_LIMIT, Scene
+from .tactile import TactileReading
+
+try:
+    import warp as wp
+
+    wp.config.quiet = True  # no banner
+    wp.config.log_level = wp.LOG_WARNING  # no line per loaded kernel module
+    import mujoco_warp as mjw
+    from mujoco_warp._src.warp_util import mark_batched
+except ImportError as error:  # pragma: no cover - depends on the installation
+    raise ImportError("backend='warp' needs MuJoCo Warp: pip install 'graspmanifold[gpu]' "
+                      f"(mujoco-warp and warp-lang; {error})") from error
+
+#: contacts and constraint rows allocated per world (a grasp has about 10 hand-object contacts)
+CONTACTS_PER_WORLD = 48
+CONSTRAINTS_PER_WORLD = 320
+
+
+@wp.kernel
+def _touch(nacon: wp.array(dtype=int), worldid: wp.array(dtype=int), geom: wp.array(dtype=wp.vec2i),
+           dist: wp.array(dtype=float), efc_address: wp.array2d(dtype=int), efc_force: wp.array2d(dtype=float),
+           segment_of_geom: wp.array(dtype=int), object_geom: wp.array(dtype=int),
+           normal_force: wp.array(dtype=float), segment_forces: wp.array2d(dtype=float),
+           deepest: wp.array(dtype=float)):
+    """Per contact: its normal force; per world: the summed force on each segment and the deepest contact."""
+    c = wp.tid()
+    if c >= nacon[0]:
+        return
+    world = worldid[c]
+    wp.atomic_max(deepest, world, -dist[c])
+    address = efc_address[c, 0]
+    force = float(wp.nan)
+    if address >= 0:
+        force = efc_force[world, address]  # elliptic cones: the first row is the normal force
+    normal_force[c] = force
+    g1, g2 = geom[c][0], geom[c][1]
+    segment = int(-1)
+    if segment_of_geom[g1] >= 0 and object_geom[g2] != 0:
+        segment = segment_of_geom[g1]
+    if segment_of_geom[g2] >= 0 and object_geom[g1] != 0:
+        segment = segment_of_geom[g2]
+    if segment >= 0 and address >= 0 and force >= 0.0:
+        wp.atomic_add(segment_forces, world, segment, force)
+
+
+@wp.kernel
+def _push(xfrc_applied: wp.array2d(dtype=wp.spatial_vector), body: int, forces: wp.array(dtype=wp.vec3)):
+    world = wp.tid()
+    f = forces[world]
+    xfrc_applied[world, body] = wp.spatial_vector(f[0], f[1], f[2], 0.0, 0.0, 0.0)
+
+
+def _device() -> wp.context.Device:
+    wanted = os.environ.get("GRASPMANIFOLD_WARP_DEVICE")
+    if wanted:
+        return wp.get_device(wanted)
+    if not wp.get_cuda_device_count():
+        raise BackendUnavailable("backend='warp' needs an NVIDIA GPU with CUDA, and Warp found none on this machine "
+                           "(use backend='cpu'; GRASPMANIFOLD_WARP_DEVICE=cpu runs Warp's slow CPU device)")
+    return wp.get_device("cuda")
+
+
+class WarpWorlds:
+    """The `worlds.Worlds` of N placed trial scenes, stepped together by MuJoCo Warp (see the module doc)."""
+
+    def __init__(self, scenes: list[Scene]):
+        if not scenes:
+            raise InvalidInput("scenes must hold at least one Scene")
+        if any(scene.table_geom is not None for scene in scenes):
+            raise InvalidInput("backend='warp' does not support table=True (the table is taken away per world)")
+        self.scenes, self.n = scenes, len(scenes)
+        first = scenes[0]
+        mjm = first.model
+        self._object_body, self._finger_qpos = first.object_body, first.finger_qpos
+        self.device = _device()
+        n = self.n
+        with wp.ScopedDevice(self.device):
+            self._m = mjw.put_model(mjm, batch_sizes={"jnt_stiffness": n, "dof_damping": n})
+            self._m.opt.gravity = wp.array(np.tile(mjm.opt.gravity, (n, 1)), dtype=wp.vec3)
+            mark_batched(self._m)
+            self._d = mjw.put_data(mjm, first.data, nworld=n, nconmax=CONTACTS_PER_WORLD,
+                                   njmax=CONSTRAINTS_PER_WORLD)
+            self._d.qpos.assign(np.array([s.data.qpos for s in scenes]))
+            self._d.ctrl.assign(np.array([s.data.ctrl for s in scenes]))
+            self._d.mocap_pos.assign(np.array([s.data.mocap_pos for s in scenes]))
+            self._d.mocap_quat.assign(np.array([s.data.mocap_quat for s in scenes]))
+            self._stiffness = np.tile(mjm.jnt_stiffness, (n, 1))
+            self._damping = np.tile(mjm.dof_damping, (n, 1))
+            self._gravity = np.tile(mjm.opt.gravity, (n, 1))
+            self._push_forces = wp.zeros(n, dtype=wp.vec3)
+            self._segment_of_geom = wp.array(segment_of_geoms(mjm).astype(np.int32), dtype=int)
+            self._object_geom = wp.array((mjm.geom_bodyid == first.object_body).astype(np.int32), dtype=int)
+            self._normal_force = wp.zeros(self._d.naconmax, dtype=float)
+            self._segment_forces = wp.zeros((n, len(SEGMENTS)), dtype=float)
+            self._deepest = wp.zeros(n, dtype=float)
+            mjw.forward(self._m, self._d)
+        self._graph, self._graph_steps = None, 0
+        self._max_penetration = np.zeros(n)
+        self._observe()
+
+    def __repr__(self) -> str:
+        return f"WarpWorlds({self.n} worlds of the {self.scenes[0].object.name} scene on {self.device})"
+
+    # -- reading ------------------------------------------------------------------------------------
+    def _observe(self) -> None:
+        """Read what the trials need of every world after a step (one transfer per array)."""
+        d = self._d
+        with wp.ScopedDevice(self.device):
+            self._segment_forces.zero_()
+            self._deepest.fill_(-1.0)
+            wp.launch(_touch, dim=d.naconmax, inputs=[d.nacon, d.contact.worldid, d.contact.geom, d.contact.dist,
+                                                      d.contact.efc_address, d.efc.force, self._segment_of_geom,
+                                                      self._object_geom],
+                      outputs=[self._normal_force, self._segment_forces, self._deepest])
+        self._qpos = d.qpos.numpy().astype(float)
+        self._qvel = d.qvel.numpy()
+        self._xpos = d.xpos.numpy()[:, self._object_body].astype(float)
+        self._forces = self._segment_forces.numpy().astype(float)
+        self._penetration = np.maximum(self._deepest.numpy().astype(float), 0.0)
+        self._contacts: dict | None = None
+
+    def joints(self, worlds: np.ndarray) -> np.ndarray:
+        return self._qpos[np.ix_(worlds, self._finger_qpos)]
+
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
+        return self._forces[worlds]
+
+    def object_positions(self) -> np.ndarray:
+        return self._xpos.copy()
+
+    def reading(self, world: int) -> tuple[TactileReading, np.ndarray]:
+        if self._contacts is None:
+            d = self._d
+            count = min(int(d.nacon.numpy()[0]), d.naconmax)
+            self._contacts = {"world": d.contact.worldid.numpy()[:count], "geom": d.contact.geom.numpy()[:count],
+                              "force": self._normal_force.numpy()[:count].astype(float),
+                              "frame": d.contact.frame.numpy()[:count].astype(float),
+                              "pos": d.contact.pos.numpy()[:count].astype(float),
+                              "dist": d.contact.dist.numpy()[:count].astype(float),
+                              "xipos": d.xipos.numpy()[:, self._object_body].astype(float)}
+        c = self._contacts
+        rows = c["world"] == world
+        reading = self.scenes[0].sensor.reading(c["geom"][rows], c["force"][rows], c["frame"][rows][:, 0, :],
+                                                c["pos"][rows], c["dist"][rows])
+        return reading, c["xipos"][world].copy()
+
+    def posture(self, world: int) -> np.ndarray:
+        return self._qpos[world, self._finger_qpos].copy()
+
+    def time(self, world: int) -> float:
+        return float(self._d.time.numpy()[world])
+
+    def max_penetration(self, world: int) -> float:
+        return float(self._max_penetration[world])
+
+    # -- acting ---------------------------------------------------------------------------------------
+    def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
+        ctrl = self._d.ctrl.numpy()
+        ctrl[worlds] = targets @ CTRL_MATRIX.T
+        self._d.ctrl.assign(ctrl)
+
+    def release(self, worlds: np.ndarray) -> None:
+        joint = self.scenes[0].model.joint("object_free")
+        self._stiffness[worlds, joint.id] = 0.0
+        self._damping[np.ix_(worlds, np.arange(joint.dofadr[0], joint.dofadr[0] + 6))] = 0.0
+        self._m.jnt_stiffness.assign(self._stiffness)
+        self._m.dof_damping.assign(self._damping)
+
+    def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
+        if len(worlds):
+            self._gravity[worlds] = vectors
+            self._m.opt.gravity.assign(self._gravity)
+
+    def push(self, worlds: np.ndarray, forces: np.ndarray) -> None:
+        if len(worlds):
+            pushes = self._push_forces.numpy()
+            pushes[worlds] = forces
+            self._push_forces.assign(pushes)
+            with wp.ScopedDevice(self.device):
+                wp.launch(_push, dim=self.n, inputs=[self._d.xfrc_applied, self._object_body, self._push_forces])
+
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
+        raise NotImplementedError("the controller's reach (a recall moving the palm, ControllerParams.reach) runs on "
+                                  "the CPU backend only: evaluate(..., backend='cpu')")
+
+    def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:
+        """Step every world (the finished ones too: it costs nothing extra on a GPU); report the
+        faults of `worlds`."""
+        with wp.ScopedDevice(self.device):
+            if self.device.is_cuda:
+                if self._graph is None or self._graph_steps != nstep:
+                    self._warm_up()
+                    with wp.ScopedCapture() as capture:
+                        for _ in range(nstep):
+                            mjw.step(self._m, self._d)
+                    self._graph, self._graph_steps = capture.graph, nstep
+                wp.capture_launch(self._graph)  # a control period's steps in one launch
+            else:
+                for _ in range(nstep):
+                    mjw.step(self._m, self._d)
+        overflow = int(self._d.overflow.numpy()[0]) if hasattr(self._d, "overflow") else 0
+        if overflow:
+            raise SimulationError(f"MuJoCo Warp's buffers overflowed (flags {overflow:#x}): more than "
+                               f"{CONTACTS_PER_WORLD} contacts or {CONSTRAINTS_PER_WORLD} constraint rows in a world")
+        self._observe()
+        self._max_penetration = np.maximum(self._max_penetration, self._penetration)
+        finite = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
+        failed = {}
+        for world in worlds:
+            found = [] if finite[world] else ["non-finite joint positions or velocities"]
+            if self._penetration[world] > PENETRATION_LIMIT:
+                found.append(f"a contact penetrates {self._penetration[world] * 1000:.1f} mm "
+                             f"(limit {PENETRATION_LIMIT * 1000:.0f} mm)")
+            if found:
+                failed[int(world)] = (f"the simulation of the {self.scenes[0].object.name} scene failed at "
+                                      f"t = {self.time(world):.3f} s: {'; '.join(found)}")
+        return failed
+
+    def _warm_up(self) -> None:
+        """Compile every kernel of a step (a graph capture cannot) on a one-world copy of the data."""
+        scene = self.scenes[0]
+        spare = mjw.put_data(scene.model, scene.data, nworld=1, nconmax=CONTACTS_PER_WORLD,
+                             njmax=CONSTRAINTS_PER_WORLD)
+        mjw.step(self._m, spare)
+        wp.synchronize()

@@ -1,0 +1,129 @@
+"""Many grasp scenes stepped together: the physics behind batched trials (`batch_trials.py`).
+
+A `Worlds` object holds N copies of one object's scene, each already placed and posed by the
+trial setup (`Scene` on the host), and offers what a batched trial needs of the physics: read the
+joints, the tactile segment forces and the object's position of every world at once, command
+targets, step chosen worlds by a control period, change a world's gravity, support and push, and
+read one world's full tactile reading when its grasp is judged. `CpuWorlds` steps the scenes' own
+MuJoCo data (every number as a single trial computes it); `warp_worlds.WarpWorlds` steps all of
+them at once on a GPU with MuJoCo Warp.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+from ..base.errors import InvalidInput, SimulationError
+from .hand import SEGMENTS
+from .posture import CTRL_MATRIX, N_FINGER_JOINTS
+from .scene import Scene
+from .tactile import TactileReading
+
+
+class Worlds(Protocol):
+    """The physics of N trial scenes (see the module doc); `worlds` arguments are index arrays."""
+
+    n: int
+    scenes: list[Scene]
+
+    def joints(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 22)
+
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), len(SEGMENTS))
+
+    def object_positions(self) -> np.ndarray: ...  # (n, 3)
+
+    def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None: ...
+
+    def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]: ...  # {world: why its physics failed}
+
+    def release(self, worlds: np.ndarray) -> None: ...  # support off (and table away)
+
+    def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None: ...
+
+    def push(self, worlds: np.ndarray, forces: np.ndarray) -> None: ...  # extra force on the object (N)
+
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None: ...  # palm offsets (m, palm frame)
+
+    def reading(self, world: int) -> tuple[TactileReading, np.ndarray]: ...  # and the object's centre of mass
+
+    def posture(self, world: int) -> np.ndarray: ...
+
+    def time(self, world: int) -> float: ...
+
+    def max_penetration(self, world: int) -> float: ...
+
+
+class CpuWorlds:
+    """Worlds stepped one after the other by CPU MuJoCo, in the scenes' own data: every number is
+    the one a single trial (`trial.run_trial`) computes."""
+
+    def __init__(self, scenes: list[Scene]):
+        if not scenes:
+            raise InvalidInput("scenes must hold at least one Scene")
+        self.scenes = scenes
+        self.n = len(scenes)
+
+    def joints(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]
+                        ).reshape(-1, N_FINGER_JOINTS)
+
+    def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].sensor.segment_forces(self.scenes[w].data) for w in worlds]
+                        ).reshape(-1, len(SEGMENTS))
+
+    def object_positions(self) -> np.ndarray:
+        return np.array([scene.data.xpos[scene.object_body] for scene in self.scenes])
+
+    def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
+        ctrl = targets @ CTRL_MATRIX.T  # wrist rows stay 0: the hand's wrist is held straight
+        for world, row in zip(worlds, ctrl):
+            self.scenes[world].data.ctrl[:] = row
+
+    def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:
+        failed = {}
+        for world in worlds:
+            scene = self.scenes[world]
+            for _ in range(nstep):
+                mujoco.mj_step(scene.model, scene.data)
+            try:
+                scene.check()
+            except SimulationError as error:
+                failed[int(world)] = str(error)
+        return failed
+
+    def release(self, worlds: np.ndarray) -> None:
+        for world in worlds:
+            scene = self.scenes[world]
+            scene.set_object_support(0.0, 0.0)
+            if scene.table_geom is not None:
+                scene.set_table(False)
+
+    def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
+        for world, vector in zip(worlds, vectors):
+            self.scenes[world].model.opt.gravity[:] = vector
+
+    def push(self, worlds: np.ndarray, forces: np.ndarray) -> None:
+        for world, force in zip(worlds, forces):
+            scene = self.scenes[world]
+            scene.data.xfrc_applied[scene.object_body, :3] = force
+
+    def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
+        for world, offset in zip(worlds, offsets):
+            self.scenes[world].shift_hand(offset)
+
+    def reading(self, world: int) -> tuple[TactileReading, np.ndarray]:
+        scene = self.scenes[world]
+        return scene.tactile(), scene.data.xipos[scene.object_body].copy()
+
+    def posture(self, world: int) -> np.ndarray:
+        return self.scenes[world].posture()
+
+    def time(self, world: int) -> float:
+        return self.scenes[world].time
+
+    def max_penetration(self, world: int) -> float:
+        return self.scenes[world].max_penetration
+

@@ -1,0 +1,3 @@
+"""Trials and what is counted over them: grid poses, one trial, N trials at once, statistics, the
+evaluation over a grid, the experience study and the benchmark.
+"""

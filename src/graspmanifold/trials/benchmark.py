@@ -1,0 +1,201 @@
+"""A benchmark where grasp choice matters: objects that ask for different grasp types, placed near the
+palm and out at the fingertips, pooled in one test set, with a selection set disjoint from it.
+
+On the paper's grids every placement asks for a power grasp of a hand-sized object, so no choice of
+finger posture can matter much there (the per-pose oracle over several strategies gains little over
+the best one: `stats.headroom`). This benchmark adds ordinary small and flat things that a hand
+grasps with its fingertips, and places every object both where the palm can wrap it and out where
+only the fingers reach it. The controller is never told which object it grasps.
+
+Objects, each chosen for a reason stated before any method ran on it (`OBJECTS`):
+
+- box, cylinder, sphere: the paper's objects (100 g), hand-sized, asking for a power grasp;
+- marble: a 2 cm ball of 10 g (a marble, a grape, a cherry): too small to wrap, a pinch or a tripod;
+- pen: a 1 cm rod 14 cm long, 10 g (a pen, a chopstick): wrapped against the palm, a tripod at the tips;
+- disc: 5 cm across and 6 mm thick, 15 g (a lid, a coaster, a large coin): flat, a lateral grasp or a pinch;
+- cube: 2.5 cm, 15 g (a die, an eraser): a tripod.
+
+Placements (`PLACEMENTS`), in the grid coordinates of `grid.py` (shift across and along the fingers,
+gap in front of the palm, yaw about the palm normal): `palm`, the object's centre within 1.5 cm of
+the palm's grasp centre, 1 or 2.5 cm in front of the palm, turned by up to 0.4 rad; `fingertips`,
+around the point where the thumb's tip meets the index and middle fingertips (0-3 cm towards the
+thumb, 2.5-5.5 cm further along the fingers, 2.5 or 4 cm in front of the palm), turned likewise. The test grid is a
+lattice; the selection grid lies on the lattice's midpoints, so the two share no value on any axis:
+controls and parameters are chosen on the selection grid, then judged on the test grid. A ball has no
+yaw; it gets more gaps instead, so every object has about as many poses.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from concurrent.futures import Executor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..control.controller import ControllerParams
+from ..base.errors import InvalidInput
+from .evaluation import EvaluationResult, evaluate, trials_key
+from ..manifold.experience import Experience, check_experience
+from ..control.generator import remove_checkpoints
+from .grid import reachable
+from ..sim.objects import GraspObject, get_object, make_object
+from .trial import Noise
+from ..base.validation import check_int
+
+#: where the objects are placed, and which grid: the test lattice or the selection grid between its points
+PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")
+SPLITS: tuple[str, ...] = ("test", "selection")
+
+
+@dataclass(frozen=True)
+class BenchmarkObject:
+    """One object of the benchmark and why it is there."""
+
+    object: GraspObject
+    grasp: str  # the grasp type one would use on it
+    reason: str
+
+
+OBJECTS: dict[str, BenchmarkObject] = {
+    "box": BenchmarkObject(get_object("box"), "power", "the paper's box: hand-sized, wrapped"),
+    "cylinder": BenchmarkObject(get_object("cylinder"), "power", "the paper's cylinder: hand-sized, wrapped"),
+    "sphere": BenchmarkObject(get_object("sphere"), "power", "the paper's sphere: a ball held in the whole hand"),
+    "marble": BenchmarkObject(make_object("sphere", radius=0.01, mass=0.01, name="marble"), "precision",
+                              "a marble or a grape: too small to wrap, pinched or held in a tripod"),
+    "pen": BenchmarkObject(make_object("cylinder", radius=0.005, length=0.14, mass=0.01, name="pen"), "tripod",
+                           "a pen or a chopstick: wrapped against the palm, a tripod at the fingertips"),
+    "disc": BenchmarkObject(make_object("cylinder", radius=0.025, length=0.006, mass=0.015, name="disc"), "lateral",
+                            "a lid or a coaster: flat, pressed between thumb and the side of the index finger"),
+    "cube": BenchmarkObject(make_object("box", size=(0.025, 0.025, 0.025), mass=0.015, name="cube"), "tripod",
+                            "a die or an eraser: held by the tips of thumb, index and middle finger"),
+}
+
+#: grid axes (m, rad) of the test lattice per placement; the selection grid takes the midpoints between its
+#: values. `fingertips` is centred where the designed precision grasps of the small objects hold their
+#: object (`starts.PRECISION_DESIGNS` refined and walked by the generator: 1-2 cm towards the thumb,
+#: about 4 cm along the fingers and 3.5 cm in front of the palm), `palm` on the palm's grasp centre.
+_ACROSS = {"palm": (-0.015, 0.0, 0.015), "fingertips": (0.0, 0.015, 0.03)}
+_ALONG = {"palm": (-0.015, 0.0, 0.015), "fingertips": (0.025, 0.04, 0.055)}
+_GAPS = {"palm": (0.01, 0.025), "fingertips": (0.025, 0.04)}
+_YAWS = (-0.4, 0.0, 0.4)
+#: a ball has no yaw: three times the gaps instead, over the same range
+_BALL_GAPS = {"palm": (0.005, 0.01, 0.015, 0.02, 0.025, 0.03), "fingertips": (0.02, 0.025, 0.03, 0.035, 0.04, 0.045)}
+
+
+def _midpoints(values: tuple[float, ...]) -> list[float]:
+    return [(a + b) / 2 for a, b in zip(values, values[1:])]
+
+
+def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray:
+    """The reachable grid poses (n, 4) of one benchmark object at one placement.
+
+    Args:
+        name: a key of `OBJECTS`.
+        placement: 'palm' or 'fingertips' (`PLACEMENTS`).
+        split: 'test' (the lattice) or 'selection' (its midpoints: no value shared with the test grid).
+
+    Returns:
+        Grid poses: shift across (x) and along (z) the fingers, palm gap (m), yaw (rad).
+    """
+    if name not in OBJECTS:
+        raise InvalidInput(f"unknown benchmark object {name!r}; expected one of {tuple(OBJECTS)}")
+    if placement not in PLACEMENTS:
+        raise InvalidInput(f"placement must be one of {PLACEMENTS}, got {placement!r}")
+    if split not in SPLITS:
+        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
+    obj = OBJECTS[name].object
+    ball = obj.shape == "sphere"
+    gaps = _BALL_GAPS[placement] if ball else _GAPS[placement]
+    axes = [_ACROSS[placement], _ALONG[placement], gaps, (0.0,) if ball else _YAWS]
+    if split == "selection":
+        axes = [_midpoints(a) if len(a) > 1 else list(a) for a in axes]
+        if not ball:  # two gaps have one midpoint: take the gaps a quarter and three quarters of the way instead
+            axes[2] = [gaps[0] + 0.25 * (gaps[1] - gaps[0]), gaps[0] + 0.75 * (gaps[1] - gaps[0])]
+    poses = np.array(list(itertools.product(*axes)), dtype=float)
+    return poses[reachable(obj, poses)]
+
+
+def cells() -> list[tuple[str, str]]:
+    """Every (object, placement) of the benchmark, in a fixed order."""
+    return [(name, placement) for name in OBJECTS for placement in PLACEMENTS]
+
+
+def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
+                  preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
+                  every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
+                  label: str = "", progress: bool | None = None, executor: Executor | None = None
+                  ) -> dict[tuple[str, str], EvaluationResult]:
+    """One controller on every (object, placement) of the benchmark, the object never told to it.
+
+    Args:
+        experience: None (the plain heuristic), a PostureDatabase or a SOM: one for all objects.
+        split: 'test' or 'selection'.
+        params: controller parameters; `preshape`: a constant phase-B posture (see `GraspController`).
+        noise: trial noise (`Noise`), none by default.
+        objects: the benchmark objects to run (default: all of `OBJECTS`).
+        every: keep every k-th pose of each grid (a smaller, CI-sized run).
+        workers: worker processes; `seed`: the trials' seed.
+        store: a directory where each finished (object, placement) is kept as `<label>_<object>_<placement>.npz`
+            and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
+        label: the method's name, for the stored files and `EvaluationResult.method`.
+        progress: show progress bars (None: as `progress.show_progress` says, on by default).
+        executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
+
+    Returns:
+        {(object, placement): EvaluationResult} in `cells()` order.
+    """
+    names = tuple(OBJECTS) if objects is None else tuple(objects)
+    unknown = [name for name in names if name not in OBJECTS]
+    if unknown or not names:
+        raise InvalidInput(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
+    if split not in SPLITS:
+        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
+    every = check_int(every, "every")
+    results = {}
+    for name, placement in cells():
+        if name not in names:
+            continue
+        path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
+        grid = benchmark_grid(name, placement, split)[::every]
+        key = trials_key(OBJECTS[name].object, check_experience(experience), grid, seed, noise, params,
+                         preshape=preshape)
+        if path is not None and path.exists():
+            try:
+                result, meta = EvaluationResult._load_with_metadata(path)
+                if meta.get("key") == key:
+                    results[(name, placement)] = result
+                    continue
+            except ValueError:  # truncated, or not an evaluation
+                pass
+            path.unlink()  # another configuration's (or code's) result under this label: run it again
+        parts = None if path is None else path.with_suffix(".parts")
+        result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
+                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor)
+        result.method, result.grid_name = label or result.method, f"{split}/{placement}"
+        if path is not None:
+            result.save(path, extra={"key": key})
+            remove_checkpoints(parts)
+        results[(name, placement)] = result
+    return results
+
+
+def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hold",
+           rows: list[tuple[str, str]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Success and validity per trial, concatenated over the benchmark's cells.
+
+    Args:
+        results: {(object, placement): EvaluationResult}, as `run_benchmark` returns.
+        measure: 'hold' or 'force_closure'.
+        rows: the cells to pool (default: all of `results`), taken in `cells()` order.
+
+    Returns:
+        (success, valid): two bool arrays over the pooled trials.
+    """
+    keys = [key for key in cells() if key in results and (rows is None or key in rows)]
+    if not keys:
+        raise InvalidInput("results hold none of the cells asked for")
+    return (np.concatenate([results[key].outcomes(measure) for key in keys]),
+            np.concatenate([results[key].valid() for key in keys]))

@@ -1,0 +1,391 @@
+"""Evaluating a grasp controller over a grid of object poses (paper Section 5), with its result type.
+
+`evaluate` runs one trial (`trial.run_trial`) at every pose of a grid (`grid.py`), in parallel
+worker processes and resumably (checkpoint parts), and returns an `EvaluationResult`: the trials
+with their summary (rates with Wilson intervals), saved to and loaded from .npz. A trial whose
+physics failed counts as neither a success nor a failure: summaries report rates over the valid
+trials and the number of invalid ones, and paired comparisons skip a pose invalid for either
+method.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import warnings
+from concurrent.futures import Executor
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .batch_trials import BACKENDS, run_trials
+from ..control.controller import ControllerParams
+from ..base.errors import InvalidInput
+from ..manifold.experience import Experience, check_experience
+from .grid import check_grid
+from ..sim.hand import SEGMENTS
+from ..base.io import library_version, load_npz, save_npz
+from ..control.judge import EPSILON_THRESHOLD
+from ..sim.objects import GraspObject, get_object, object_from_params
+from ..sim.posture import N_FINGER_JOINTS
+from ..base.progress import progress_bar
+from .stats import rate_text, wilson_interval
+from .trial import Noise, Trial
+from ..base.validation import check_int
+from ..base.version import code_fingerprint
+from ..base.workers import parallel_map, workers_for
+
+
+@dataclass
+class EvaluationResult:
+    """Trials of one controller (method) on one object, with their summary.
+
+    Attributes:
+        object: the object (a `GraspObject`; read from a file, `objects.object_from_params` makes it again).
+        method: the controller's experience ('none', 'database', 'som', or a study's label).
+        grid_name: the grid preset's name, or 'custom'.
+        seed: the trials' seed.
+        trials: one `Trial` per grid pose, in grid order.
+        noise: the trial noise.
+        backend: the physics engine the trials ran on (`batch_trials.BACKENDS`).
+    """
+
+    object: GraspObject
+    method: str
+    grid_name: str
+    seed: int
+    trials: list[Trial]
+    noise: Noise = field(default_factory=Noise)
+    backend: str = "cpu"  # the physics engine the trials ran on (batch_trials.BACKENDS)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.object, dict):  # parameters, as a file stores them
+            self.object = object_from_params(self.object)
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return (f"EvaluationResult({s['object']} / {self.method} on the {self.grid_name} grid: "
+                f"{trial_count(s)} trials, hold {s['hold_rate']:.0%}, force closure {s['force_closure_rate']:.0%})")
+
+    def _repr_markdown_(self) -> str:
+        return self.markdown()
+
+    @property
+    def summary(self) -> dict[str, float | int | str]:
+        """Rates (with 95 % Wilson intervals) and means over the valid trials; `trials` counts
+        them, `invalid_trials` the trials whose physics failed (see the module doc)."""
+        valid = [t for t in self.trials if t.valid]
+        n, holds, closures = len(valid), sum(t.hold for t in valid), sum(t.force_closure for t in valid)
+
+        def mean(values: list[float]) -> float:
+            return float(np.mean(values)) if values else float("nan")
+
+        return {
+            "object": self.object.name, "method": self.method, "grid": self.grid_name, "trials": n,
+            "invalid_trials": len(self.trials) - n,
+            "hold_rate": holds / n if n else float("nan"), "hold_interval": list(wilson_interval(int(holds), n)),
+            "force_closure_rate": closures / n if n else float("nan"),
+            "force_closure_interval": list(wilson_interval(int(closures), n)),
+            "epsilon_threshold": EPSILON_THRESHOLD,
+            "mean_margin": mean([t.margin for t in valid]),
+            "mean_epsilon": mean([t.epsilon for t in valid]),
+            "mean_time_to_grasp": mean([t.time_to_grasp for t in valid]),
+            "mean_touching_segments": mean([t.touching.sum() for t in valid]),
+            "max_penetration": max([t.penetration for t in valid], default=0.0),
+        }
+
+    def valid(self) -> np.ndarray:
+        """Which trials' physics worked (bool, grid order)."""
+        return np.array([t.valid for t in self.trials], dtype=bool)
+
+    def outcomes(self, measure: str = "hold") -> np.ndarray:
+        """Success per trial; an invalid trial reads False here, so pair it with `valid()` (or use `rate`).
+
+        Args:
+            measure: 'hold' or 'force_closure'.
+
+        Returns:
+            (n,) bool in grid order.
+        """
+        if measure not in ("hold", "force_closure"):
+            raise InvalidInput(f"measure must be 'hold' or 'force_closure', got {measure!r}")
+        return np.array([t.valid and bool(getattr(t, measure)) for t in self.trials], dtype=bool)
+
+    def rate(self, measure: str = "hold", rows: np.ndarray | None = None) -> float:
+        """The success rate over the valid trials.
+
+        Args:
+            measure: 'hold' or 'force_closure'.
+            rows: a bool mask in grid order to count only some trials.
+
+        Returns:
+            The rate, 0 ... 1 (NaN without a valid trial).
+        """
+        keep = self.valid() if rows is None else self.valid() & np.asarray(rows, dtype=bool)
+        return float(self.outcomes(measure)[keep].mean()) if keep.any() else float("nan")
+
+    def successful_postures(self, require_hold: bool = True) -> np.ndarray:
+        """Final postures of the successful trials: the grasps that may join the experience.
+
+        Args:
+            require_hold: count the trials that held (False: that reached force closure).
+
+        Returns:
+            Postures (m, 22), rad.
+        """
+        keep = [t.posture for t in self.trials if t.valid and (t.hold if require_hold else t.force_closure)]
+        return np.array(keep).reshape(-1, N_FINGER_JOINTS)
+
+    def markdown(self) -> str:
+        """The summary as a one-row Markdown table: trials, hold and force-closure rates with their 95 %
+        Wilson intervals, mean margin (N), mean epsilon, mean time to grasp (s).
+
+        Returns:
+            The table's header, separator and row, each ending in a newline.
+        """
+        s = self.summary
+        n = s["trials"]
+        return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
+                "| mean time to grasp (s) |\n|---|---|---|---|---|---|---|---|\n"
+                f"| {s['object']} | {s['method']} | {trial_count(s)} | {rate_text(round(s['hold_rate'] * n), n)} | "
+                f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_margin']:.2f} | "
+                f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
+        """Write the trials, their winners and the summary to an .npz file, atomically.
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+            extra: more metadata to store.
+
+        Returns:
+            The path written.
+        """
+        t = self.trials
+        arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
+                  "postures": np.array([x.posture for x in t]).reshape(-1, N_FINGER_JOINTS),
+                  "touching": np.array([x.touching for x in t]).reshape(-1, len(SEGMENTS)),
+                  "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
+                  "hold_displacement": np.array([x.hold_displacement for x in t]),
+                  "time_to_grasp": np.array([x.time_to_grasp for x in t]),
+                  "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
+                  "penetration": np.array([x.penetration for x in t]),
+                  "fault": np.array([x.fault for x in t], dtype=str)}
+        if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
+            arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
+        meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
+                "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
+                "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
+        return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> EvaluationResult:
+        """Read a result written by `save`, trials and per-cycle winners included.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The result.
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or not an evaluation; the message names it.
+        """
+        return cls._load_with_metadata(path)[0]
+
+    @classmethod
+    def _load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
+        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
+                                                "margin": (None,), "penetration": (None,), "fault": (None,)})
+        winners: list[np.ndarray | None] = [None] * len(a["epsilon"])
+        if "winners" in a:
+            ends = np.cumsum(np.asarray(a["matches"], dtype=int))
+            if len(ends) and (ends[-1] != len(a["winners"]) or (np.diff(ends, prepend=0) < 0).any()):
+                raise InvalidInput(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
+                                 f"{int(ends[-1])} matches; the file is corrupt")
+            winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
+        trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
+                        float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
+                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i])
+                  for i in range(len(a["epsilon"]))]
+        return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
+                   meta.get("backend", "cpu")), meta
+
+
+def trial_count(summary: dict) -> str:
+    """The valid trials of a summary, and the invalid ones when there are any ("225 (+2 invalid)")."""
+    invalid = summary.get("invalid_trials", 0)
+    return f"{summary['trials']}" + (f" (+{invalid} invalid)" if invalid else "")
+
+
+def method_name(experience: Experience | None) -> str:
+    return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
+
+
+#: trials per checkpoint part of an evaluation at most (the unit of parallel work and of resuming)
+CHECKPOINT_TRIALS = 16
+#: trials the warp backend runs at once by default (worlds on the GPU)
+WARP_BATCH = 16384
+
+
+def _run_chunk(task: tuple[list[int], np.ndarray, int], *, obj: GraspObject, experience: Experience | None,
+               noise: Noise, params: ControllerParams | None, table: bool, preshape: np.ndarray | None,
+               backend: str = "cpu") -> list[Trial]:
+    """The trials of one chunk of grid poses, as one batch; trial i draws from the generator seeded [seed, i]."""
+    indices, poses, seed = task
+    rngs = [np.random.default_rng([seed, index]) for index in indices]
+    return run_trials(obj, experience, poses, rngs, noise, params, table, preshape, backend)
+
+
+def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int = 0,
+               noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
+               preshape: np.ndarray | None = None, backend: str = "cpu") -> str:
+    """A digest of everything a set of trials depends on, the library's code included
+    (`version.code_fingerprint`): stored trials under another key are never mixed in or reused.
+
+    Args:
+        obj: the object.
+        experience: the experience base (None: the heuristic).
+        poses: grid poses (n, 4), m and rad.
+        seed: as `evaluate` takes it.
+        noise: as `evaluate` takes it.
+        params: as `evaluate` takes them.
+        table: as `evaluate` takes it.
+        preshape: as `evaluate` takes it.
+        backend: as `evaluate` takes it.
+
+    Returns:
+        A 20-character hexadecimal key.
+    """
+    digest = hashlib.sha256(json.dumps({"object": obj.params(), "seed": int(seed), "noise": asdict(noise or Noise()),
+                                        "params": asdict(params or ControllerParams()), "table": bool(table),
+                                        "backend": backend, "code": code_fingerprint()},
+                                       sort_keys=True, default=str).encode())
+    digest.update(np.ascontiguousarray(poses, dtype=float).tobytes())
+    if experience is not None:  # what a controller reads of it: its kind and its reference postures
+        digest.update(type(experience).__name__.encode())
+        digest.update(np.ascontiguousarray(experience.references, dtype=float).tobytes())
+    digest.update(b"" if preshape is None else np.ascontiguousarray(preshape, dtype=float).tobytes())
+    return digest.hexdigest()[:20]
+
+
+def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dict[int, list[Trial]]:
+    """Finished chunks from an earlier run with this signature; other or unreadable parts are removed."""
+    found, discarded = {}, []
+    for path in sorted(directory.glob("part_*.npz")):
+        try:
+            part, meta = EvaluationResult._load_with_metadata(path)
+            trials = part.trials
+        except (ValueError, KeyError):  # truncated, or not a part of ours
+            meta, trials = {}, []
+        first = int(meta.get("first", -1))
+        number = next((k for k, chunk in enumerate(chunks) if chunk[0] == first), None)
+        if meta.get("signature") == signature and number is not None and len(trials) == len(chunks[number]):
+            found[number] = trials
+        else:
+            discarded.append(path.name)
+            path.unlink()
+    if discarded:
+        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
+                      f"configuration or could not be read: {', '.join(discarded[:4])}"
+                      f"{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
+    return found
+
+
+def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
+             seed: int = 0, workers: int | None = None, *, noise: Noise | None = None,
+             params: ControllerParams | None = None,
+             table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
+             progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
+             batch_size: int = WARP_BATCH) -> EvaluationResult:
+    """Run the controller with this experience on every grid pose, and judge each grasp.
+
+    The object is held by a spring support with gravity off while the hand closes (or stands on a table
+    with gravity on), then released and judged: the hold test, its margin, and epsilon at the object's
+    friction. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun
+    with the same arguments (and the same library code) picks them up; parts of another configuration are
+    discarded with a warning. The same seed gives the same trials, whatever the number of workers, the
+    executor or interruptions (on one backend).
+
+    Args:
+        obj: the object, or its name.
+        experience: None (the plain tactile controller), a PostureDatabase, a SOM or a PostureSet.
+        grid: a preset name (`GRID_PRESETS`), or poses (n, 4) or one pose (4,): x, z, gap in m, yaw in rad.
+        seed: trial i draws its noise from the generator seeded [seed, i].
+        workers: worker processes (None: `workers.default_workers()`, at most two, but this process alone
+            for up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start).
+        noise: object pose and sensed joint noise (`Noise`).
+        params: controller parameters (`ControllerParams`).
+        table: the object stands on a table with gravity on while the hand closes (grid poses where the
+            open hand would touch the table are left out of presets and refused in a custom grid).
+        preshape: a constant phase-B posture (22,), rad (see `GraspController`).
+        checkpoint_dir: where finished trials are kept until the end.
+        progress: show a progress bar (None: as `progress.show_progress` says, on by default).
+        executor: run the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
+        backend: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
+            `trial.run_trial` bit for bit) in worker processes; 'warp' runs up to `batch_size` trials at
+            once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
+        batch_size: trials at once on the GPU.
+
+    Returns:
+        The result: one `Trial` per pose, in grid order, and its summary.
+
+    Raises:
+        ValueError: an unknown object or grid, a pose no trial can start from (`why_unreachable`), a bad
+            argument.
+    """
+    obj = get_object(obj)
+    experience = check_experience(experience)
+    seed = check_int(seed, "seed", low=0)
+    noise = noise or Noise()
+    if backend not in BACKENDS:
+        raise InvalidInput(f"backend must be one of {BACKENDS}, got {backend!r}")
+    batch_size = check_int(batch_size, "batch_size")
+    grid_name, poses = check_grid(grid, obj, table)
+    workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
+    size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
+    chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
+    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
+    signature = trials_key(obj, experience, poses, seed, noise, params, table, preshape, backend)
+    done: dict[int, list[Trial]] = {}
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
+        done = _load_parts(directory, signature, chunks)
+    method = method_name(experience)
+    pending = [k for k in range(len(chunks)) if k not in done]
+    tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
+    report = progress_bar(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
+
+    def keep(task: int, trials: list[Trial]) -> None:
+        number = pending[task]
+        done[number] = trials
+        if directory is not None:
+            EvaluationResult(obj, method, grid_name, seed, trials, noise, backend).save(
+                directory / f"part_{chunks[number][0]:05d}.npz", extra={"signature": signature,
+                                                                         "first": chunks[number][0]})
+        report.update(len(trials))
+
+    run_chunk = functools.partial(_run_chunk, obj=obj, experience=experience, noise=noise, params=params,
+                                  table=table, preshape=preshape, backend=backend)
+    with report:
+        report.update(sum(len(t) for t in done.values()))
+        if backend == "cpu":
+            parallel_map(run_chunk, tasks, workers, keep, executor)
+        else:  # one GPU batch of many chunks at a time, split back into chunks for the checkpoint
+            for first in range(0, len(tasks), max(1, batch_size // size)):
+                group = tasks[first: first + max(1, batch_size // size)]
+                trials = run_chunk(([i for t in group for i in t[0]], np.concatenate([t[1] for t in group]), seed))
+                for k, task in enumerate(group):
+                    keep(first + k, trials[:len(task[0])])
+                    trials = trials[len(task[0]):]
+    trials = [trial for k in range(len(chunks)) for trial in done[k]]
+    return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend)
+
+
+def summary_json(results: list[EvaluationResult]) -> str:
+    return json.dumps({"library_version": library_version(), "results": [r.summary for r in results]}, indent=2)
+

@@ -1,0 +1,226 @@
+"""Where trials start: the grid of object poses in front of the open hand (paper Section 5).
+
+The grid is given in the palm frame around a nominal wrap placement (object long axis across the
+fingers, centred in front of the palm, see `scene.facing_pose`): shifts across the fingers (x) and
+along them (z), the gap between palm and object, and a yaw of the object's axis about the palm
+normal. Presets (`grid_preset`): 'quick' and 'paper' cover where the open hand can plausibly close
+on the object; 'far' puts the object 3-5 cm out of the palm; 'hard' shifts it up to 3 cm and turns
+it up to 0.8 rad. Every preset is a regular grid less the placements where the object would sit
+inside (or within 1 mm of) the open hand, which no hand could have reached (`reachable`).
+`coverage` says how near an experience base's palm poses come to each grid pose.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import mujoco
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..base.errors import InvalidInput
+from ..sim.hand import SEGMENTS, segment_of_geoms
+from ..sim.objects import GraspObject, get_object
+from ..base.poses import compose, invert, rotate, to_quat
+from ..sim.posture import open_posture
+from ..sim.scene import MAX_GAP, Scene, placed_facing
+
+GRID_COLUMNS = ("x", "z", "gap", "yaw")
+GRID_PRESETS = ("quick", "paper", "far", "hard")
+#: each preset in words (the values of `grid_preset`), for reports
+GRID_DESCRIPTIONS = {
+    "quick": "x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} rad (a sphere: gaps 1-3.1 cm)",
+    "paper": "x and z in 5 steps over ±2 cm, gaps 1, 2 and 3 cm, yaw in 5 steps over ±0.5 rad (a sphere: 9 gaps "
+             "over 1-3.4 cm, no yaw)",
+    "far": "gaps 3, 4 and 5 cm (a sphere: 3-5 cm in 5), x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in {-0.5, 0, 0.5}",
+    "hard": "x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in {-0.8, -0.4, 0, 0.4, 0.8} rad",
+}
+START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
+
+
+def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
+    """Grid poses of a preset: object shift across (x) and along (z) the fingers, palm gap, yaw.
+
+    A regular grid less the poses the open hand cannot reach (`reachable`; `why_unreachable` says why one is
+    refused: a cylinder turned by a positive yaw brings its end into the thumb, so the cylinder's grids keep
+    only yaws <= 0). 'quick': x and z in {-1.5, 0, 1.5} cm, gaps 1 and 2.5 cm, yaw in {-0.5, 0, 0.5} before
+    that (box 37, cylinder 30 poses); 'paper': x and z in 5 steps over +-2 cm, gaps 1-3 cm, 5 yaws over
+    +-0.5 rad (box 263, cylinder 224). A sphere has no yaw, so it gets more gaps instead (quick 36, paper 225
+    poses, all reachable). 'far': gaps 3, 4 and 5 cm, x in {-1.5, 0, 1.5} cm, z in {-2, 0, 2} cm, yaw in
+    {-0.5, 0, 0.5}; 'hard': x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in
+    {-0.8, -0.4, 0, 0.4, 0.8}.
+
+    Args:
+        name: the preset, one of `GRID_PRESETS`.
+        obj: the object, or its name.
+        table: the object stands on a table (poses where the open hand would touch it are left out).
+
+    Returns:
+        The poses (n, 4): x, z, gap in m, yaw in rad.
+
+    Raises:
+        ValueError: an unknown preset, or no pose of it is reachable for this object.
+    """
+    obj = get_object(obj)
+    sphere = obj.shape == "sphere"
+    yaws = {"quick": [-0.5, 0.0, 0.5], "paper": np.linspace(-0.5, 0.5, 5), "far": [-0.5, 0.0, 0.5],
+            "hard": [-0.8, -0.4, 0.0, 0.4, 0.8]}
+    if name not in GRID_PRESETS:
+        raise InvalidInput(f"unknown grid preset {name!r}; expected one of {GRID_PRESETS} or an (n, 4) array")
+    yaw = [0.0] if sphere else yaws[name]
+    if name == "quick":
+        axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015], [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], yaw)
+    elif name == "paper":
+        axes = (np.linspace(-0.02, 0.02, 5), np.linspace(-0.02, 0.02, 5),
+                np.linspace(0.01, 0.034, 9) if sphere else [0.01, 0.02, 0.03], yaw)
+    elif name == "far":
+        axes = ([-0.015, 0.0, 0.015], [-0.02, 0.0, 0.02], [0.03, 0.035, 0.04, 0.045, 0.05] if sphere
+                else [0.03, 0.04, 0.05], yaw)
+    else:
+        axes = (np.linspace(-0.03, 0.03, 5), np.linspace(-0.03, 0.03, 5), [0.01, 0.025], yaw)
+    poses = np.array(list(itertools.product(*axes)), dtype=float)
+    poses = poses[reachable(obj, poses, table)]
+    if not len(poses):
+        raise InvalidInput(f"no pose of the {name!r} grid is reachable for {obj.name}: at every one the object lies "
+                         f"inside (or within {START_CLEARANCE * 1000:.0f} mm of) the open hand{' or the table' if table else ''}; "
+                         "an object this large needs a custom grid with larger gaps (graspmanifold.reachable)")
+    return poses
+
+
+def _nearest_to_hand(scene: Scene, pose: np.ndarray) -> tuple[float, str, str]:
+    """(distance in m, the hand segment, 'object' or 'table') of the pair nearest the open hand at one grid
+    pose (moves the hand there); negative distances are penetration."""
+    model, data = scene.model, scene.data
+    scene.set_hand_pose(*palm_pose_for(scene.object, pose))
+    data.qpos[scene.finger_qpos] = open_posture()
+    mujoco.mj_kinematics(model, data)
+    segments = segment_of_geoms(model)
+    fromto = np.zeros(6)
+    pairs = [(scene.distance_to_object(g), SEGMENTS[segments[g]], "object") for g in np.flatnonzero(segments >= 0)]
+    if scene.table_geom is not None:
+        pairs += [(mujoco.mj_geomDistance(model, data, g, scene.table_geom, 0.05, fromto), SEGMENTS[segments[g]], "table")
+                  for g in np.flatnonzero(segments >= 0)]
+    return min(pairs, key=lambda pair: pair[0])
+
+
+def clearance(scene: Scene, pose: np.ndarray) -> float:
+    """Distance (m) between the open hand and the object of `scene` at one grid pose (moves the hand there)."""
+    return _nearest_to_hand(scene, pose)[0]
+
+
+def why_unreachable(obj: str | GraspObject, pose: object, table: bool = False) -> str | None:
+    """Why no trial can start at a grid pose, or None when one can.
+
+    Args:
+        obj: the object, or its name.
+        pose: one grid pose (x, z, gap, yaw), m and rad.
+        table: the object stands on a table (the open hand must clear it too).
+
+    Returns:
+        None when the open hand is at least `START_CLEARANCE` from the object (and the table), otherwise
+        which segment of the open hand comes too near and by how much, e.g. "the open hand's ffdistal
+        is 3.2 mm inside the object".
+    """
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (4,) or not np.all(np.isfinite(pose)):
+        raise InvalidInput(f"pose must be four finite numbers {GRID_COLUMNS}, got {pose!r}")
+    obj = get_object(obj)
+    distance, segment, what = _nearest_to_hand(Scene(obj, free_object=True, table=table), pose)
+    if distance >= START_CLEARANCE:
+        return None
+    where = f"{-distance * 1000:.1f} mm inside" if distance < 0 else f"{distance * 1000:.1f} mm from"
+    return (f"the open hand's {segment} is {where} the {what if what == 'table' else obj.name} (a trial needs "
+            f"{START_CLEARANCE * 1000:.0f} mm of clearance)")
+
+
+def open_hand_clearance(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
+    """Distance (m) between the open hand and the object (and the table, with one) at each grid pose;
+    negative when inside."""
+    scene = Scene(get_object(obj), free_object=True, table=table)
+    return np.array([clearance(scene, pose) for pose in np.asarray(grid, dtype=float)])
+
+
+def reachable(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> np.ndarray:
+    """Which grid poses leave the open hand clear of the object (and of the table, with one).
+
+    Args:
+        obj: the object, or its name.
+        grid: poses (n, 4): x, z, gap in m, yaw in rad.
+        table: the object stands on a table.
+
+    Returns:
+        (n,) bool: True where a trial can start (at least `START_CLEARANCE` of clearance).
+    """
+    return open_hand_clearance(obj, grid, table) >= START_CLEARANCE
+
+
+def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str, np.ndarray]:
+    if isinstance(grid, str):
+        return grid, grid_preset(grid, obj, table)
+    try:
+        poses = np.asarray(grid, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"grid must be one of {GRID_PRESETS} or an (n, 4) array of numbers {GRID_COLUMNS} "
+                         f"(m, rad), got {grid!r:.80}") from None
+    if poses.shape == (4,):  # one pose
+        poses = poses.reshape(1, 4)
+    if poses.ndim != 2 or poses.shape[1] != 4 or len(poses) == 0:
+        raise InvalidInput(f"grid must be one of {GRID_PRESETS} or a non-empty (n, 4) array of {GRID_COLUMNS}, "
+                         f"got shape {poses.shape}")
+    if not np.all(np.isfinite(poses)):
+        raise InvalidInput("grid poses must be finite")
+    far = np.flatnonzero((np.abs(poses[:, :3]) > MAX_GAP).any(axis=1) | (np.abs(poses[:, 3]) > np.pi))
+    if len(far):  # a pose 5 m away ran as a valid trial that failed
+        raise InvalidInput(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
+                         f"±{MAX_GAP} m and the yaw within ±π rad")
+    inside = np.flatnonzero(~reachable(obj, poses, table))
+    if len(inside):
+        first = inside[0]
+        raise InvalidInput(f"grid rows {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object inside "
+                         f"(or within {START_CLEARANCE * 1000:.0f} mm of) the open hand, where no trial can start (row "
+                         f"{first}, {dict(zip(GRID_COLUMNS, poses[first].round(4).tolist()))}: "
+                         f"{why_unreachable(obj, poses[first], table)}); keep the reachable ones: "
+                         "grid[graspmanifold.reachable(obj, grid)]")
+    return "custom", poses
+
+
+def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Palm pose in the object frame that places the object at a grid pose relative to the palm."""
+    x, z, gap, yaw = grid_pose
+    object_in_palm = invert(*placed_facing(obj, gap))
+    turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
+    _, quat = compose(np.zeros(3), turn, np.zeros(3), object_in_palm[1])
+    return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)
+
+
+
+def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -> np.ndarray:
+    """How near the experience comes to each grid pose, (n, 2): the distance (m) from the object's
+    centre seen from the palm at the grid pose to the nearest experienced one, and the angle (rad)
+    between the object's long axis seen from the palm there and at that nearest experience.
+
+    Seen from the palm, the centre and the long axis (up to its sign) do not change under the
+    object's symmetries (turning a cylinder about its axis, a sphere about anything), so a grasp
+    from the other side of a cylinder counts as the same placement. `hand_poses` (m, 7) are
+    experienced palm poses in the object frame (`PostureSet.hand_poses`).
+    """
+    obj = get_object(obj)
+    poses = np.asarray(hand_poses, dtype=float).reshape(-1, 7)
+    if not len(poses):
+        raise InvalidInput("hand_poses must hold at least one experienced palm pose (m, 7)")
+
+    def seen_from_palm(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        centre, inverse = invert(pos, quat)
+        return centre, rotate(np.array([0.0, 0.0, 1.0]), inverse)
+
+    experienced = [seen_from_palm(p[:3], p[3:]) for p in poses]
+    centres = np.array([c for c, _ in experienced])
+    axes = np.array([a for _, a in experienced])
+    out = np.empty((len(grid), 2))
+    for i, grid_pose in enumerate(np.asarray(grid, dtype=float)):
+        centre, axis = seen_from_palm(*palm_pose_for(obj, grid_pose))
+        distances = np.linalg.norm(centres - centre, axis=1)
+        nearest = int(np.argmin(distances))
+        angle = 0.0 if obj.shape == "sphere" else float(np.arccos(min(1.0, abs(float(axes[nearest] @ axis)))))
+        out[i] = distances[nearest], angle
+    return out

@@ -1,0 +1,206 @@
+"""Statistics for comparing grasp methods: Wilson intervals for rates, McNemar's test for paired
+outcomes, Holm's correction for a family of tests, and the headroom of a benchmark.
+
+Two methods evaluated on the same poses give paired outcomes; what tells them apart is the number
+of poses where exactly one of them succeeds (b: only the first, c: only the second). McNemar's
+exact test asks whether b and c could come from a fair coin (b ~ Binomial(b + c, 1/2)). A family of
+such tests read together is corrected with Holm's step-down method (`holm`). Before methods are
+compared on a benchmark, `headroom` says how much any choice among several strategies could gain
+there: the per-pose oracle (a pose counts as held when any strategy holds it) against the best
+single strategy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import binomtest, norm
+
+from ..base.errors import InvalidInput
+from ..base.validation import check_int
+
+
+def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval (low, high) for a rate of `successes` in `trials` (Wilson 1927).
+
+    Unlike the normal approximation it stays inside [0, 1] and behaves at 0 and n successes.
+    No trials give (0, 1): nothing is known.
+    """
+    k, n = check_int(successes, "successes", low=0), check_int(trials, "trials", low=0)
+    if k > n:
+        raise InvalidInput(f"successes ({k}) must not exceed trials ({n})")
+    if not 0.0 < confidence < 1.0:
+        raise InvalidInput(f"confidence must be in (0, 1), got {confidence!r}")
+    if n == 0:
+        return 0.0, 1.0
+    z = float(norm.ppf(0.5 + confidence / 2))
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@dataclass(frozen=True)
+class PairedComparison:
+    """Method A against method B on the same n poses."""
+
+    n: int
+    both: int  # poses where both succeed
+    only_a: int  # b of McNemar's table
+    only_b: int  # c
+    neither: int
+    p_value: float  # McNemar's exact two-sided test
+
+    @property
+    def difference(self) -> float:
+        """Rate of A minus rate of B."""
+        return (self.only_a - self.only_b) / self.n if self.n else 0.0
+
+    def verdict(self, alpha: float = 0.05) -> str:
+        """'better', 'worse' or 'no difference' (A against B, at level alpha)."""
+        if self.p_value >= alpha or self.only_a == self.only_b:
+            return "no difference"
+        return "better" if self.only_a > self.only_b else "worse"
+
+
+def mcnemar(outcomes_a: object, outcomes_b: object) -> PairedComparison:
+    """McNemar's exact test on paired boolean outcomes (the same poses, in the same order)."""
+    a = np.asarray(outcomes_a)
+    b = np.asarray(outcomes_b)
+    if a.ndim != 1 or a.shape != b.shape:
+        raise InvalidInput(f"outcomes_a and outcomes_b must be 1-D and of one length, got {a.shape} and {b.shape}")
+    if a.dtype != bool or b.dtype != bool:
+        raise InvalidInput("outcomes_a and outcomes_b must be boolean arrays (success per pose)")
+    only_a, only_b = int(np.sum(a & ~b)), int(np.sum(~a & b))
+    discordant = only_a + only_b
+    p = 1.0 if discordant == 0 else float(binomtest(only_a, discordant, 0.5).pvalue)
+    return PairedComparison(len(a), int(np.sum(a & b)), only_a, only_b, int(np.sum(~a & ~b)), min(1.0, p))
+
+
+def rate_text(successes: int, trials: int) -> str:
+    """'72 % [64, 79]': the rate and its 95 % Wilson interval, in percent."""
+    low, high = wilson_interval(successes, trials)
+    if trials == 0:
+        return "n/a"
+    return f"{100 * successes / trials:.0f} % [{100 * low:.0f}, {100 * high:.0f}]"
+
+
+def holm(p_values: object) -> np.ndarray:
+    """Holm's step-down adjusted p-values (Holm 1979), in the order given.
+
+    With the m p-values sorted, p(1) <= ... <= p(m), the adjusted value of p(i) is
+    max over j <= i of min(1, (m - j + 1) p(j)); a test is significant at level alpha after the
+    correction when its adjusted value is below alpha. The family-wise error rate stays at most
+    alpha, whatever the dependence between the tests.
+
+    Args:
+        p_values: the family's p-values, each in [0, 1].
+
+    Returns:
+        The adjusted p-values (m,), float, in the order of `p_values`.
+    """
+    p = np.asarray(p_values, dtype=float)
+    if p.ndim != 1:
+        raise InvalidInput(f"p_values must be a 1-D sequence of p-values, got shape {p.shape}")
+    if not np.all(np.isfinite(p)) or np.any((p < 0) | (p > 1)):
+        raise InvalidInput(f"p_values must lie in [0, 1], got {p.tolist()}")
+    m = len(p)
+    order = np.argsort(p, kind="stable")
+    stepped = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    adjusted = np.empty(m)
+    adjusted[order] = np.maximum.accumulate(stepped)
+    return adjusted
+
+
+#: A benchmark whose pooled headroom is below this cannot show a recall effect (issue 23): any
+#: method that chooses among the strategies could gain at most this much over the best of them.
+MIN_HEADROOM = 0.15
+
+
+@dataclass(frozen=True)
+class Headroom:
+    """How much choosing among strategies per pose could gain on a benchmark (see `headroom`)."""
+
+    n: int  # poses (valid for every strategy)
+    rates: dict[str, float]  # each strategy's success rate
+    best: str  # the best single strategy
+    oracle: int  # poses some strategy succeeds on
+    best_successes: int
+    gain: int  # poses the best strategy fails on and another succeeds on (oracle - best)
+    neither: int  # poses no strategy succeeds on
+
+    @property
+    def oracle_rate(self) -> float:
+        return self.oracle / self.n if self.n else float("nan")
+
+    @property
+    def best_rate(self) -> float:
+        return self.best_successes / self.n if self.n else float("nan")
+
+    @property
+    def headroom(self) -> float:
+        """Oracle rate minus the best strategy's rate."""
+        return self.gain / self.n if self.n else float("nan")
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """95 % Wilson interval of the headroom: it is the share of poses the oracle adds, a rate itself."""
+        return wilson_interval(self.gain, self.n)
+
+    @property
+    def sufficient(self) -> bool:
+        """Headroom of at least MIN_HEADROOM: the benchmark can show a recall effect."""
+        return self.n > 0 and self.headroom >= MIN_HEADROOM
+
+    def text(self) -> str:
+        """'oracle 80 % [74, 85] vs best (none) 62 % [55, 68]: headroom 18 % [14, 24] (n = 200)'."""
+        return (f"oracle {rate_text(self.oracle, self.n)} vs best ({self.best}) "
+                f"{rate_text(self.best_successes, self.n)}: headroom {rate_text(self.gain, self.n)} (n = {self.n})")
+
+
+def headroom(outcomes: Mapping[str, object], valid: Mapping[str, object] | None = None) -> Headroom:
+    """The headroom of a benchmark: the per-pose oracle over several strategies against the best one.
+
+    The oracle counts a pose as a success when any strategy succeeds there; the best strategy is the
+    one with the most successes (the first of them on a tie, in the order given). The difference is
+    the most that any method choosing among these strategies per pose could gain over always using
+    the best of them (part of it may be chance: a pose that two runs of one strategy would split).
+
+    Args:
+        outcomes: strategy name -> success per pose (bool, the same poses in the same order).
+        valid: strategy name -> whether that trial's physics worked (bool per pose); poses invalid for
+            any strategy are left out, as in a paired comparison. None: every trial is valid.
+
+    Returns:
+        The `Headroom` (counts, rates and the best strategy).
+    """
+    if not outcomes:
+        raise InvalidInput("outcomes must name at least one strategy")
+    names = list(outcomes)
+    table = [np.asarray(outcomes[name]) for name in names]
+    for name, column in zip(names, table):
+        if column.ndim != 1 or column.dtype != bool:
+            raise InvalidInput(f"outcomes[{name!r}] must be a 1-D boolean array (success per pose), "
+                             f"got dtype {column.dtype} and shape {column.shape}")
+        if len(column) != len(table[0]):
+            raise InvalidInput(f"outcomes must all cover the same poses: {names[0]!r} has {len(table[0])}, "
+                             f"{name!r} has {len(column)}")
+    keep = np.ones(len(table[0]), dtype=bool)
+    for name, flags in (valid or {}).items():
+        if name not in outcomes:
+            raise InvalidInput(f"valid names strategy {name!r}, which outcomes does not have ({names})")
+        flags = np.asarray(flags)
+        if flags.dtype != bool or flags.shape != keep.shape:
+            raise InvalidInput(f"valid[{name!r}] must be a boolean array of {len(keep)} poses")
+        keep &= flags
+    success = np.column_stack(table)[keep]
+    counts = success.sum(axis=0)
+    best = int(np.argmax(counts))
+    oracle = int(success.any(axis=1).sum())
+    n = int(keep.sum())
+    return Headroom(n=n, rates={name: (int(c) / n if n else float("nan")) for name, c in zip(names, counts)},
+                    best=names[best], oracle=oracle, best_successes=int(counts[best]),
+                    gain=oracle - int(counts[best]), neither=n - oracle)

@@ -1,0 +1,133 @@
+"""Does experience pay? Paired comparisons of grasp methods, experience grown from the controller's
+own grasps, and a plain verdict.
+
+The paper's claim is that recalling experienced grasps from the Partial Contact Posture makes a
+tactile grasp better than the closing heuristic alone. Measured honestly that means: the same
+poses for every method (paired outcomes, McNemar's test), the hold test as the primary measure,
+and the strongest simple control, not the weakest, as the bar.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..control.controller import ControllerParams
+from ..base.errors import InvalidInput
+from ..base.paper_numbers import MAP_SIZE
+from .evaluation import EvaluationResult, evaluate
+from ..sim.objects import GraspObject
+from ..sim.posture import N_FINGER_JOINTS
+from ..manifold.som import SOM
+from .stats import PairedComparison, mcnemar, rate_text
+from .trial import Noise
+
+#: Where the controller gathers its own experience: grid poses perturbed by this much, so the poses
+#: it learns from are never the poses it is tested on.
+TRAINING_NOISE = Noise(position=0.01, yaw=0.2)
+#: The bar of the target: experience must win where the strongest control holds fewer than this.
+HARD_FOR_CONTROL = 0.8
+
+
+def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> PairedComparison:
+    """McNemar's test of method a against method b; both must have run on the same poses. Poses
+    where either trial's physics failed (`Trial.valid`) are left out of the pairs."""
+    grid_a = np.array([t.grid_pose for t in a.trials])
+    grid_b = np.array([t.grid_pose for t in b.trials])
+    if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
+        raise InvalidInput(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
+    both = a.valid() & b.valid()
+    return mcnemar(a.outcomes(measure)[both], b.outcomes(measure)[both])
+
+
+def train_experience_map(postures: np.ndarray, seed: int = 0, shape: tuple[int, int] = MAP_SIZE) -> SOM:
+    """A SOM grasp manifold of the paper's size and schedule on these postures."""
+    return SOM(*shape, postures.shape[1], seed=seed).fit(postures)
+
+
+def grow_experience(obj: GraspObject, postures: np.ndarray, grid: np.ndarray, rounds: int, *, seed: int = 0,
+                    workers: int | None = None, on_round: Callable[[int, SOM | None, np.ndarray], None] | None = None,
+                    progress: bool | None = None) -> tuple[np.ndarray, list[dict]]:
+    """The paper's resumed learning as a loop: grasp, keep what held, retrain, grasp again.
+
+    Each round trains a SOM on the experience so far (none yet: the plain heuristic grasps), lets
+    the controller grasp at the grid poses perturbed by `TRAINING_NOISE` (a fresh draw per round),
+    and adds the final postures of the grasps that held. `on_round(round, som, postures)` is called
+    with each round's map before it grasps (to measure a learning curve). Returns the grown
+    postures (the given ones first) and one record per round.
+    """
+    grown = np.asarray(postures, dtype=float).reshape(-1, N_FINGER_JOINTS)
+    records = []
+    for r in range(rounds):
+        som = train_experience_map(grown, seed) if len(grown) else None
+        if on_round is not None:
+            on_round(r, som, grown)
+        result = evaluate(obj, som, grid, seed=seed + 1000 * (r + 1), workers=workers, noise=TRAINING_NOISE,
+                          progress=progress)
+        held = result.successful_postures()
+        records.append({"round": r, "experience_before": len(grown), "trials": len(result.trials),
+                        "held": len(held), "hold_rate": result.summary["hold_rate"]})
+        grown = np.concatenate([grown, held])
+    return grown, records
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The target, judged: wins where the strongest control is below `HARD_FOR_CONTROL`, and losses."""
+
+    met: bool
+    wins: list[tuple[str, str]]  # (object, grid) where experience beats the strongest control
+    losses: list[tuple[str, str]]  # where it loses significantly
+    text: str
+
+
+def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> Verdict:
+    """Judge the target from comparison rows (`comparison_rows`) of `method` against the strongest control."""
+    mine = [r for r in rows if r["method"] == method]
+    wins = [(r["object"], r["grid"]) for r in mine
+            if r["verdict"] == "better" and r["control_rate"] < HARD_FOR_CONTROL and r["p_value"] < alpha]
+    losses = [(r["object"], r["grid"]) for r in mine if r["verdict"] == "worse"]
+    won_objects = sorted({o for o, _ in wins})
+    met = len(won_objects) >= 2 and not losses
+    strongest = f"the strongest control run ({', '.join(sorted({r['control'] for r in mine})) or 'none'})"
+    if met:
+        text = (f"Target met: experience ({method}) beats {strongest} on the hold test with p < {alpha} "
+                f"on {', '.join(won_objects)} where that control holds below {HARD_FOR_CONTROL:.0%}, and loses "
+                "significantly nowhere.")
+    else:
+        text = (f"Target not met: experience ({method}) beats {strongest} significantly (p < {alpha}, "
+                f"control below {HARD_FOR_CONTROL:.0%}) on {len(won_objects)} of the objects "
+                f"({', '.join(f'{o}/{g}' for o, g in wins) or 'none'}) and loses significantly on "
+                f"{len(losses)} object/grid pairs ({', '.join(f'{o}/{g}' for o, g in losses) or 'none'}).")
+    return Verdict(met, wins, losses, text)
+
+
+def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], methods: tuple[str, ...],
+                    controls: tuple[str, ...], measure: str = "hold") -> list[dict]:
+    """For every (object, grid) and method: the method against the strongest of the controls there."""
+    rows = []
+    for obj, grid in sorted({(o, g) for o, g, _ in results}):
+        present = [c for c in controls if (obj, grid, c) in results]
+        if not present:
+            continue
+        rate = {c: results[(obj, grid, c)].rate(measure) for c in present}
+        strongest = max(present, key=lambda c: (rate[c], -present.index(c)))
+        for method in methods:
+            if (obj, grid, method) not in results:
+                continue
+            mine = results[(obj, grid, method)]
+            paired = compare(mine, results[(obj, grid, strongest)], measure)
+            k, k_control = paired.only_a + paired.both, paired.only_b + paired.both
+            rows.append({"object": obj, "grid": grid, "method": method, "control": strongest, "n": paired.n,
+                         "rate": k / paired.n, "rate_text": rate_text(k, paired.n),
+                         "control_rate": k_control / paired.n, "control_text": rate_text(k_control, paired.n),
+                         "only_method": paired.only_a, "only_control": paired.only_b,
+                         "p_value": paired.p_value, "verdict": paired.verdict()})
+    return rows
+
+
+def closing_rate_params(factor: float) -> ControllerParams:
+    """The plain heuristic closing `factor` times as fast (the speed-matched control)."""
+    return ControllerParams(closing_rate=ControllerParams.closing_rate * factor)

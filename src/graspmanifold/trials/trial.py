@@ -1,0 +1,247 @@
+"""One grasp trial: place the object at a grid pose, let the controller close the hand, judge the grasp.
+
+A trial puts a free object (gravity off) in front of the open hand at one grid pose (`grid.py`),
+runs the controller until it reports the grasp done, and then judges the grasp (`judge.judge_grasp`:
+the hold test in six gravity directions, the disturbance margin, and epsilon for force closure).
+While the hand closes, a stiff spring-damper support keeps the object near its place (as a table or
+a helper's hand would; without it the first touch would push a weightless object away); it is
+released before judging. Optional noise perturbs the true object pose around the grid pose (the
+paper's "vague object position"; a draw that would start inside the open hand is redrawn) and the
+joint angles the controller senses.
+
+A trial whose physics failed (`Scene.check`: a MuJoCo warning, a non-finite state, or a contact
+deeper than `scene.PENETRATION_LIMIT`) is kept but marked invalid with the reason (`Trial.fault`):
+it counts as neither a success nor a failure of the controller. `record_trial` runs one trial and
+keeps its states for pictures and animations.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..control.controller import ControllerParams, GraspController
+from ..base.errors import InvalidInput, QualityError, SimulationError
+from ..manifold.experience import Experience, check_experience
+from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
+from ..sim.hand import SEGMENTS
+from ..control.judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+from ..sim.objects import GraspObject, get_object
+from ..sim.posture import N_FINGER_JOINTS
+
+from ..sim.scene import Scene
+from ..base.validation import check_int
+
+
+#: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
+#: noise of 1e9 rad was accepted)
+MAX_NOISE = {"position": 0.05, "yaw": math.pi, "joints": 0.5}
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Standard deviations of the trial noise: object position (m) and yaw (rad), sensed joints (rad)."""
+
+    position: float = 0.0
+    yaw: float = 0.0
+    joints: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                    or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
+                raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
+
+
+
+@dataclass
+class Trial:
+    """The outcome of one grasp trial."""
+
+    grid_pose: np.ndarray
+    posture: np.ndarray
+    touching: np.ndarray  # (len(SEGMENTS),) bool
+    epsilon: float
+    hold: bool
+    hold_displacement: float
+    time_to_grasp: float
+    matches: int
+    margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
+    penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
+    fault: str = ""  # why the physics of this trial failed; empty when it did not
+    #: the best match of every experience query the controller used (`matches` of them), in order: rows of
+    #: `experience.references` (a SOM's flat node indices); None when not recorded (a file of library 0.1.0)
+    winners: np.ndarray | None = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def __repr__(self) -> str:
+        outcome = f"invalid: {self.fault}" if self.fault else (
+            f"{'held' if self.hold else 'dropped'}, epsilon {self.epsilon:.3f}, margin {self.margin:.1f} N, "
+            f"{self.time_to_grasp:.2f} s")
+        return f"Trial(pose {np.round(self.grid_pose, 3).tolist()}: {outcome})"
+
+    @property
+    def valid(self) -> bool:
+        """The physics of this trial worked: its outcome says something about the controller."""
+        return not self.fault
+
+    @property
+    def force_closure(self) -> bool:
+        return self.valid and self.epsilon > EPSILON_THRESHOLD
+
+
+def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
+                tries: int = 20) -> np.ndarray:
+    """The grid pose plus position and yaw noise, redrawn while it would put the object inside the open hand."""
+    if noise.position == 0.0 and noise.yaw == 0.0:
+        return grid_pose
+    for _ in range(tries):
+        pose = grid_pose + np.array([rng.normal(0, noise.position), rng.normal(0, noise.position), 0.0,
+                                     rng.normal(0, noise.yaw)])
+        if clearance(scene, pose) >= START_CLEARANCE:
+            return pose
+    return grid_pose
+
+
+def trial_scene(obj: GraspObject, grid_pose: np.ndarray, rng: np.random.Generator, noise: Noise,
+                initial: np.ndarray, table: bool) -> Scene:
+    """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
+    support, or on a table with gravity on, and the open hand at rest in `initial`."""
+    scene = Scene(obj, free_object=True, gravity=table, table=table)
+    if not table:
+        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
+    scene.set_hand_pose(*palm_pose_for(obj, true_pose))
+    scene.set_posture(initial)
+    return scene
+
+
+def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
+              rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
+              table: bool = False, preshape: np.ndarray | None = None,
+              observer: Callable[[Scene], None] | None = None) -> Trial:
+    """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
+
+    The object is held by a spring support with gravity off, or (`table=True`) stands on a table
+    with gravity on while the hand closes. `observer(scene)` is called after the start and after
+    every control period, the judging included (`record_trial` keeps the states it sees)."""
+    controller = GraspController(experience, params, preshape=preshape)
+    scene = trial_scene(obj, grid_pose, rng, noise, controller.initial, table)
+    period = controller.params.control_period
+    if observer is not None:
+        observer(scene)
+
+    def cycle() -> None:
+        sensed = scene.posture() + rng.normal(0.0, noise.joints, N_FINGER_JOINTS) if noise.joints else scene.posture()
+        scene.set_target(controller.step(sensed, scene.sensor.segment_forces(scene.data)))
+        if controller.params.reach > 0:  # the arm carries the palm where the recalled grasp wants it
+            scene.shift_hand(controller.palm_offset)
+        scene.run(period)
+        if observer is not None:
+            observer(scene)
+
+    grid_pose = np.asarray(grid_pose, dtype=float)
+    try:
+        while not controller.done:
+            cycle()
+        reading = scene.tactile()
+        posture = scene.posture()
+        judgement = judge_grasp(scene, cycle, period)
+    except (SimulationError, QualityError) as error:
+        return Trial(grid_pose, scene.posture(), np.zeros(len(SEGMENTS), dtype=bool), 0.0, False, np.inf,
+                     float(scene.time), controller.matches, 0.0, scene.max_penetration, str(error),
+                     np.array(controller.winners, dtype=int))
+    return Trial(grid_pose, posture, np.array([reading.touches(s) for s in SEGMENTS]),
+                 judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
+                 controller.matches, judgement.margin, scene.max_penetration, winners=np.array(controller.winners, dtype=int))
+
+
+@dataclass
+class Recording:
+    """A trial with the scene's state every `period` seconds, for pictures and animations."""
+
+    trial: Trial
+    scene: Scene
+    states: np.ndarray  # (k, len(Scene.state()))
+    period: float
+
+    def frames(self, camera: str = "hand", width: int = 320, height: int = 240) -> np.ndarray:
+        """Pictures of every recorded state from a named camera.
+
+        Args:
+            camera: one of `scene.CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels.
+            height: pixels.
+
+        Returns:
+            (k, height, width, 3) uint8.
+        """
+        from ..sim.render import render_states
+
+        return render_states(self.scene, self.states, camera, width, height)
+
+    def save_gif(self, path: str | os.PathLike, camera: str = "hand", width: int = 320, height: int = 240,
+                 speed: float = 1.0) -> Path:
+        """An animated GIF of the trial.
+
+        Args:
+            path: the file, ending in .gif.
+            camera: one of `scene.CAMERAS`, or `render.THUMB_SIDE`.
+            width: pixels.
+            height: pixels.
+            speed: times real time.
+
+        Returns:
+            The path written.
+        """
+        from ..sim.render import save_animation
+
+        return save_animation(self.frames(camera, width, height), path, fps=speed / self.period)
+
+
+def record_trial(obj: str | GraspObject, experience: Experience | None = None,
+                 grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
+                 noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
+                 preshape: np.ndarray | None = None) -> Recording:
+    """Run one trial as `evaluate` would at a grid pose and keep the scene's state along the way.
+
+    `record_trial("box").save_gif("grasp.gif")` animates it; `recording.scene.render()` draws its final state.
+
+    Args:
+        obj: the object, or its name.
+        experience: the experience base (None: the plain tactile controller), as `evaluate` takes it.
+        grid_pose: (x, z, gap, yaw) in m and rad; refused as `evaluate` refuses it (`why_unreachable` says why).
+        seed: the trial's seed (trial 0 of `evaluate` with this seed).
+        every: keep the state every this many control periods.
+        noise: pose and joint noise (`Noise`).
+        params: controller parameters.
+        table: the object stands on a table with gravity on.
+        preshape: a constant phase-B posture (22,), rad.
+
+    Returns:
+        The recording: the trial's outcome, its scene and the kept states.
+    """
+    obj = get_object(obj)
+    check_int(every, "every (control periods)")
+    grid_pose = np.asarray(tuple(grid_pose), dtype=float)
+    if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
+        raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
+    check_grid(grid_pose, obj, table)  # the poses `evaluate` would refuse are refused here too
+    states: list[np.ndarray] = []
+    seen: dict[str, Scene] = {}
+
+    def observe(scene: Scene) -> None:
+        seen["scene"] = scene  # the trial's one scene
+        if not states or round(scene.time / period) % every == 0:
+            states.append(scene.state())
+
+    period = (params or ControllerParams()).control_period
+    trial = run_trial(obj, check_experience(experience), grid_pose, np.random.default_rng([seed, 0]),
+                      noise or Noise(), params, table, preshape, observer=observe)
+    return Recording(trial, seen["scene"], np.array(states), every * period)
+
+
