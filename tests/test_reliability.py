@@ -513,3 +513,18 @@ def test_a_full_disk_ends_in_one_line_naming_the_file_and_what_is_kept(tmp_path,
     with pytest.raises(SystemExit, match=r"cannot write .*\.npz: No space left on device; finished jobs are kept"):
         cli(["generate", "--object", "cylinder", "--n", "2", "--no-verify", "--workers", "1", "--out", str(out)])
     assert not list(tmp_path.rglob("*" + io.TEMPORARY_SUFFIX)) and not out.exists()  # nothing half-written
+
+
+def test_a_checkpoint_key_survives_a_best_match_call_on_the_som(rng):
+    """The evaluation's key once hashed the pickled experience: a SOM's digest changed after one `best_match`
+    (its lazy search cache was pickled with it), so a valid checkpoint was thrown away. The key reads what a
+    controller reads of the experience (its kind and reference postures), never a pickle."""
+    from graspmanifold.trials.evaluation import trials_key
+
+    som = gm.SOM(4, 4, 22, seed=0).fit(rng.uniform(-0.2, 1.2, (60, 22)), epochs=2)
+    poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, 0.0, 0.02, 0.1]])
+    before = trials_key(gm.get_object("cylinder"), som, poses)
+    som.best_match(np.full(22, 0.5), mask=np.arange(22) < 11)
+    assert trials_key(gm.get_object("cylinder"), som, poses) == before
+    assert trials_key(gm.get_object("cylinder"), gm.SOM(4, 4, 22, seed=1).fit(rng.uniform(-0.2, 1.2, (60, 22)),
+                                                                                epochs=2), poses) != before
