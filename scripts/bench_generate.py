@@ -13,13 +13,13 @@ import os
 import time
 from pathlib import Path
 
-from graspmanifold.control.generator import PRESETS, GeneratorParams, generate_postures, verify_postures
+from graspmanifold.control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="paper")
+    parser.add_argument("--preset", choices=sorted(DATASET_PRESETS), default="paper")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="directory to save the sets in (optional)")
     args = parser.parse_args()
@@ -27,7 +27,7 @@ def main() -> None:
     print("| object | postures | wall (s) | postures / s / worker | acceptance | starts | within-start (°) | between starts (°) |")
     print("|---|---|---|---|---|---|---|---|")
     total_n, total_t = 0, 0.0
-    for name, n in PRESETS[args.preset].items():
+    for name, n in DATASET_PRESETS[args.preset].items():
         start = time.perf_counter()
         candidates = generate_postures(name, n, seed=args.seed, workers=args.workers, params=GeneratorParams(verify=False))
         postures = verify_postures(candidates, name, args.workers)  # n candidates walked and verified

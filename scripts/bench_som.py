@@ -26,9 +26,9 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import graspmanifold as gm
+from graspmanifold.base.workers import usable_cores
 from graspmanifold.manifold import kernels
 from graspmanifold.manifold.som import decay_schedule
-from graspmanifold.base.workers import usable_cores
 
 ROWS = COLS = 25
 DIM = 22

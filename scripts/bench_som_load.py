@@ -14,11 +14,11 @@ import multiprocessing
 import statistics
 import time
 
-import graspmanifold as gm
-from graspmanifold.manifold import som as som_module
-from graspmanifold.base import workers
-
 from bench_som import COLS, DIM, ROWS, synthetic_postures
+
+import graspmanifold as gm
+from graspmanifold.base import workers
+from graspmanifold.manifold import som as som_module
 
 
 def busy(stop) -> None:

@@ -23,10 +23,10 @@ import time
 import numpy as np
 
 import graspmanifold as gm
+from graspmanifold.base.workers import parallel_map
 from graspmanifold.trials.grid import check_grid
 from graspmanifold.trials.stats import mcnemar, rate_text
 from graspmanifold.trials.trial import Noise, run_trial
-from graspmanifold.base.workers import parallel_map
 
 FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
           "penetration", "fault")

@@ -30,10 +30,10 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.sim.family import SHAPES
-from graspmanifold.control.generator import PRESETS, remove_checkpoints
 from graspmanifold.base.io import write_text_atomic
+from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
 from graspmanifold.control.starts import nearest_primitive
+from graspmanifold.sim.family import SHAPES
 from graspmanifold.trials.stats import headroom, holm, rate_text
 from graspmanifold.trials.study import compare, train_experience_map
 
@@ -69,7 +69,7 @@ def best_constant_preshape(obj: gm.GraspObject, sets: list[gm.PostureSet], seed:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
+    parser.add_argument("--preset", choices=sorted(DATASET_PRESETS), default="quick")
     parser.add_argument("--size", choices=("s", "m", "l"), default="m", help="size of the family objects")
     parser.add_argument("--own-candidates", type=int, help="candidates for each family object's own experience "
                         "(default: the preset's cylinder size)")
@@ -86,14 +86,14 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     noise = gm.Noise(position=args.position_noise, yaw=args.yaw_noise)
     started = time.perf_counter()
-    paper = {name: posture_set(out, gm.get_object(name), n, args.workers) for name, n in PRESETS[args.preset].items()}
+    paper = {name: posture_set(out, gm.get_object(name), n, args.workers) for name, n in DATASET_PRESETS[args.preset].items()}
     everything = gm.PostureSet.concatenate(list(paper.values()))
     maps = {name: train_experience_map(s.postures) for name, s in paper.items()}
     maps["all"] = train_experience_map(everything.postures)
     lines = [f"# Paper experience on unseen objects ({args.preset} preset, {args.grid} grid, family size "
              f"{args.size})", "",
              f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures; own experience "
-             f"of a family object from {args.own_candidates or PRESETS[args.preset]['cylinder']} candidates. "
+             f"of a family object from {args.own_candidates or DATASET_PRESETS[args.preset]['cylinder']} candidates. "
              f"{args.grid} grid, seed {args.seed}, pose noise {args.position_noise} m / {args.yaw_noise} rad; hold "
              "[95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
              "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
@@ -110,7 +110,7 @@ def main() -> None:
                    "som_nearest": maps[nearest_primitive(obj)]}
         own = None
         if obj.shape == "mesh":
-            own = posture_set(out, obj, args.own_candidates or PRESETS[args.preset]["cylinder"], args.workers)
+            own = posture_set(out, obj, args.own_candidates or DATASET_PRESETS[args.preset]["cylinder"], args.workers)
             if len(own):
                 methods["som_own"] = train_experience_map(own.postures)
         preshape = {}

@@ -19,10 +19,8 @@ import argparse
 import time
 from pathlib import Path
 
-from graspmanifold.trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
-from graspmanifold.sim.family import FAMILY
 from graspmanifold.base.io import load_npz
-from graspmanifold.sim.objects import PAPER_OBJECTS, get_object
+from graspmanifold.base.workers import parallel_map
 from graspmanifold.control.starts import (
     DESIGN_FAMILIES,
     STARTS_FILE,
@@ -31,7 +29,9 @@ from graspmanifold.control.starts import (
     find_starting_postures,
     save_starting_postures,
 )
-from graspmanifold.base.workers import parallel_map
+from graspmanifold.sim.family import FAMILY
+from graspmanifold.sim.objects import PAPER_OBJECTS, get_object
+from graspmanifold.trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
 
 
 def shipped(path: Path) -> dict[tuple[str, str], list[StartingPosture]]:

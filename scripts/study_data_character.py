@@ -20,11 +20,11 @@ import time
 from pathlib import Path
 
 import graspmanifold as gm
-from graspmanifold.manifold.analysis import nearest_neighbour_deg
-from graspmanifold.control.generator import PRESETS, remove_checkpoints
 from graspmanifold.base.io import write_text_atomic
-from graspmanifold.trials.study import train_experience_map
 from graspmanifold.base.paper_numbers import MAX_DISTANCE_DEG, MIN_DISTANCE_DEG
+from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
+from graspmanifold.manifold.analysis import nearest_neighbour_deg
+from graspmanifold.trials.study import train_experience_map
 
 
 def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_every: int, verify: bool, workers: int
@@ -36,7 +36,7 @@ def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_ever
             return gm.PostureSet.load(path)
     parts = out / f"{name}_{label}.parts"
     params = gm.GeneratorParams(mode=mode, record_every=record_every, verify=False)
-    postures = gm.generate_postures(name, PRESETS["paper"][name], seed=0, workers=workers, params=params,
+    postures = gm.generate_postures(name, DATASET_PRESETS["paper"][name], seed=0, workers=workers, params=params,
                                     checkpoint_dir=parts, progress=True)
     if verify:  # the candidates of the paper's number that hold
         postures = gm.verify_postures(postures, name, workers)
@@ -48,7 +48,7 @@ def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_ever
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--modes", nargs="+", default=["settled", "recording"])
-    parser.add_argument("--objects", nargs="+", default=list(PRESETS["paper"]))
+    parser.add_argument("--objects", nargs="+", default=list(DATASET_PRESETS["paper"]))
     parser.add_argument("--record-every", type=int, default=gm.GeneratorParams.record_every,
                         help="physics steps between recorded postures in recording mode")
     parser.add_argument("--no-verify", action="store_true", help="keep every candidate, as the paper did")

@@ -38,10 +38,10 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.control.generator import remove_checkpoints
-from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.base.workers import worker_pool
+from graspmanifold.control.generator import remove_checkpoints
+from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, mcnemar, rate_text
 from graspmanifold.trials.study import train_experience_map
 

@@ -41,11 +41,11 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.trials.evaluation import EvaluationResult, trial_count
-from graspmanifold.control.generator import remove_checkpoints, verify_postures
-from graspmanifold.trials.grid import GRID_COLUMNS, coverage, grid_preset
 from graspmanifold.base.io import atomic_write, write_npz, write_text_atomic
+from graspmanifold.control.generator import remove_checkpoints, verify_postures
 from graspmanifold.control.judge import EPSILON_THRESHOLD
+from graspmanifold.trials.evaluation import EvaluationResult, trial_count
+from graspmanifold.trials.grid import GRID_COLUMNS, coverage, grid_preset
 from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, rate_text
 from graspmanifold.trials.study import (
     TRAINING_NOISE,

@@ -26,10 +26,9 @@ import mujoco
 import numpy as np
 
 import graspmanifold as gm
+from graspmanifold.base.io import write_text_atomic
 from graspmanifold.control.controller import squeezed
 from graspmanifold.control.generator import GeneratorParams
-from graspmanifold.sim.hand import DISTAL_SEGMENTS
-from graspmanifold.base.io import write_text_atomic
 from graspmanifold.control.judge import (
     EPSILON_THRESHOLD,
     HOLD_DIRECTIONS,
@@ -38,6 +37,7 @@ from graspmanifold.control.judge import (
     SUPPORT_STIFFNESS,
     grasp_epsilon,
 )
+from graspmanifold.sim.hand import DISTAL_SEGMENTS
 from graspmanifold.sim.scene import GRAVITY
 from graspmanifold.trials.stats import rate_text
 

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.cli import DEFAULT_WORKERS, build_parser
-from graspmanifold.cli import main as cli
+from graspmanifold.cli import DEFAULT_WORKERS, build_parser, main as cli
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.control.batch_controller import PHASES, BatchController
-from graspmanifold.trials.grid import check_grid, palm_pose_for
 from graspmanifold.sim.posture import pcp_mask, pcp_masks
+from graspmanifold.trials.grid import check_grid, palm_pose_for
 
 
 @pytest.fixture(scope="module")

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.trials import batch_trials
 from graspmanifold.control.batch_controller import BatchController
-from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 from graspmanifold.sim.objects import GraspObject
+from graspmanifold.trials import batch_trials
+from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 
 
 def test_the_test_and_selection_grids_share_no_value_and_hold_enough_poses():

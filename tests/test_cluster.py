@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.cli import main as cli
 from graspmanifold.base.workers import cluster_executor, parallel_map
+from graspmanifold.cli import main as cli
 
 distributed = pytest.importorskip("distributed")
 

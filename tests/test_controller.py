@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.trials.grid import palm_pose_for
 from graspmanifold.sim.hand import PHYSICS_TIMESTEP
+from graspmanifold.trials.grid import palm_pose_for
 
 
 @pytest.fixture(scope="module")
@@ -393,8 +393,8 @@ def test_a_constant_preshape_replaces_phase_b_matching(experience):
 
 
 def test_coverage_sees_placements_up_to_the_objects_symmetry():
-    from graspmanifold.trials.grid import coverage
     from graspmanifold.base.poses import compose
+    from graspmanifold.trials.grid import coverage
 
     grid = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, -0.01, 0.02, 0.3]])
     turn = np.array([np.cos(0.5), 0.0, 0.0, np.sin(0.5)])  # 1 rad about the cylinder's axis

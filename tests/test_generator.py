@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
+from graspmanifold.cli import main as cli
 from graspmanifold.control import generator
 from graspmanifold.manifold.analysis import nearest_neighbour_deg
-from graspmanifold.cli import main as cli
 
 SMALL = gm.GeneratorParams(job_size=6, verify=False)  # every five-fingertip candidate, for exact counts
 

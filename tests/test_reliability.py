@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
+from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.trials.study import compare
 from graspmanifold.trials.trial import run_trial
 
@@ -265,8 +265,8 @@ def test_ctrl_c_stops_at_once_with_one_line_and_no_traceback(tmp_path):
 # -- no work lost at the end -----------------------------------------------------------------------
 
 def test_evaluate_refuses_an_unwritable_output_before_running_any_trial(tmp_path, monkeypatch):
-    from graspmanifold.trials import evaluation
     from graspmanifold.cli import main as cli
+    from graspmanifold.trials import evaluation
 
     calls = []
     monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: calls.append(a))

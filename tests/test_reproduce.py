@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.sim import render
 from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
+from graspmanifold.sim import render
 
 REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 48},
                           grid=((0.0, 0.0, 0.01, 0.0), (0.01, 0.0, 0.02, 0.0)), map_size=(10, 10), epochs=4,
@@ -232,8 +232,8 @@ def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path
 def test_a_second_writer_is_refused_and_only_the_librarys_temporary_files_are_removed(finished, tmp_path):
     """Two runs on one folder used to destroy each other (the second removed the first's temporary file),
     and a forced run removed every hidden *.tmp file under the folder, the user's own included."""
-    from graspmanifold.cli import main as cli
     from graspmanifold.base.io import LOCK_FILE, OutputInUse, output_lock
+    from graspmanifold.cli import main as cli
 
     out = tmp_path / "run"
     shutil.copytree(finished[0], out)

@@ -17,19 +17,18 @@ from dataclasses import replace
 from pathlib import Path
 
 from .base.errors import GraspManifoldError, InvalidInput
-from .base.paper_numbers import MAP_SIZE
-from .sim.family import FAMILY
-from .control.generator import MODES, PRESET_PARAMS
-from .control.generator import PRESETS as DATASET_PRESETS
-from .trials.grid import GRID_PRESETS
 from .base.io import LOCK_FILE, output_lock
+from .base.paper_numbers import MAP_SIZE
+from .base.version import __version__
 from .base.workers import default_workers
+from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
+from .control.starts import DESIGN_FAMILIES
+from .paper.report import FIGURES
+from .sim.family import FAMILY
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
-from .paper.report import FIGURES
 from .sim.scene import Scene, facing_pose
-from .control.starts import DESIGN_FAMILIES
-from .base.version import __version__
+from .trials.grid import GRID_PRESETS
 
 
 def _object(args: argparse.Namespace) -> GraspObject:
@@ -122,9 +121,9 @@ def _generate(args: argparse.Namespace) -> int:
 
 def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
     """`generate` with its output file held."""
-    from .control.generator import PRESETS, generate_postures, remove_checkpoints
+    from .control.generator import DATASET_PRESETS, generate_postures, remove_checkpoints
 
-    n = args.n if args.n is not None else PRESETS[args.preset].get(obj.name, PRESETS[args.preset]["cylinder"])
+    n = args.n if args.n is not None else DATASET_PRESETS[args.preset].get(obj.name, DATASET_PRESETS[args.preset]["cylinder"])
     if n <= 0:
         raise SystemExit(f"error: --n must be positive, got {n}")
     checkpoints = out.with_name(out.name + ".parts")
@@ -173,9 +172,9 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
     """`evaluate` with its output folder held."""
-    from .trials.evaluation import evaluate, summary_json
-    from .control.generator import remove_checkpoints
     from .base.io import write_text_atomic
+    from .control.generator import remove_checkpoints
+    from .trials.evaluation import evaluate, summary_json
     from .trials.trial import Noise
 
     checkpoints = out / "trials.parts"

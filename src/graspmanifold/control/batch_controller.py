@@ -14,11 +14,11 @@ import math
 
 import numpy as np
 
-from .controller import FINGER_OF_JOINT, ControllerParams, GraspController, palm_shift, squeezed
 from ..base.errors import InvalidInput
 from ..manifold.experience import Experience
-from ..sim.hand import FINGERS, SEGMENTS
-from ..sim.posture import N_FINGER_JOINTS, SEGMENT_FINGER, pcp_masks
+from ..sim.hand import FINGERS, N_FINGER_JOINTS, SEGMENTS
+from ..sim.posture import SEGMENT_FINGER, pcp_masks
+from .controller import FINGER_OF_JOINT, ControllerParams, GraspController, palm_shift, squeezed
 
 _JOINT_FINGER = np.array([FINGERS.index(f) for f in FINGER_OF_JOINT])
 #: (5, 22): which joints belong to which finger

@@ -65,7 +65,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..manifold.experience import Experience, check_experience
-from ..sim.hand import PHYSICS_TIMESTEP, FINGER_JOINTS, FINGERS, SEGMENTS, SegmentKinematics, finger_limits, finger_of
+from ..sim.hand import FINGER_JOINTS, FINGERS, PHYSICS_TIMESTEP, SEGMENTS, SegmentKinematics, finger_limits, finger_of
 from ..sim.posture import closed_posture, open_posture, pcp_mask, validate_posture
 
 #: the finger each of the 22 finger joints belongs to (FINGER_JOINTS order)

@@ -45,31 +45,24 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .controller import ControllerParams, squeezed
 from ..base.errors import GenerationError, InvalidInput, SimulationError
-from ..sim.hand import (
-    DISTAL_SEGMENTS,
-    FINGER_JOINTS,
-    FINGERTIP_SITES,
-    SEGMENTS,
-    finger_limits,
-    segment_of_geoms,
-)
 from ..base.io import library_version, load_npz, save_npz
-from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
-from ..sim.objects import GraspObject, get_object
-from ..base.poses import to_quat, to_rotation
-from ..sim.posture import posture_to_ctrl
-from ..manifold.postureset import PostureSet
-from ..base.progress import progress_bar
-from ..sim.scene import Scene
-from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
-from ..base.validation import check_int
 from ..base.paper_numbers import DATASET_SIZES
+from ..base.poses import to_quat, to_rotation
+from ..base.progress import progress_bar
+from ..base.validation import check_int
 from ..base.version import code_fingerprint
 from ..base.workers import parallel_map, workers_for
+from ..manifold.postureset import PostureSet
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, FINGERTIP_SITES, SEGMENTS, finger_limits, segment_of_geoms
+from ..sim.objects import GraspObject, get_object
+from ..sim.posture import posture_to_ctrl
+from ..sim.scene import Scene
+from .controller import ControllerParams, squeezed
+from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
+from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 
-PRESETS: dict[str, dict[str, int]] = {
+DATASET_PRESETS: dict[str, dict[str, int]] = {
     "paper": dict(DATASET_SIZES),
     "quick": {"box": 240, "cylinder": 240, "sphere": 160},
 }

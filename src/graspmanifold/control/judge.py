@@ -21,9 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .quality import epsilon_l1
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
+from .quality import epsilon_l1
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 HOLD_SECONDS = 0.5  # s per gravity direction

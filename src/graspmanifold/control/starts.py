@@ -34,18 +34,10 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
-from ..sim.hand import (
-    DISTAL_SEGMENTS,
-    FINGER_JOINTS,
-    SEGMENTS,
-    asset_path,
-    finger_limits,
-    finger_of,
-    segment_of_geoms,
-)
 from ..base.io import load_npz, save_npz
-from ..sim.objects import GraspObject, get_object
 from ..base.poses import to_quat, to_rotation
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_limits, finger_of, segment_of_geoms
+from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
 

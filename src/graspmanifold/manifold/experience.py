@@ -17,9 +17,10 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.io import fingerprint, load_npz, save_npz
-from .nearest import MaskedNearest
-from .postureset import N_JOINTS, PostureSet
 from ..base.validation import check_data
+from ..sim.hand import N_FINGER_JOINTS
+from .nearest import MaskedNearest
+from .postureset import PostureSet
 
 
 @runtime_checkable
@@ -198,6 +199,6 @@ def check_experience(experience: object) -> Experience | None:
     if not isinstance(experience, Experience):
         raise InvalidInput(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
                          f"got {type(experience).__name__}")
-    if experience.dim != N_JOINTS:
-        raise InvalidInput(f"experience must hold {N_JOINTS}-joint postures, it has dim {experience.dim}")
+    if experience.dim != N_FINGER_JOINTS:
+        raise InvalidInput(f"experience must hold {N_FINGER_JOINTS}-joint postures, it has dim {experience.dim}")
     return experience

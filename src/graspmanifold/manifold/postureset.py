@@ -9,10 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..sim.hand import FINGER_JOINTS, SEGMENTS
 from ..base.io import load_npz, save_npz
-
-N_JOINTS = len(FINGER_JOINTS)
+from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS
 
 
 @dataclass(frozen=True)
@@ -37,7 +35,7 @@ class PostureSet:
         for name in ("epsilon", "hold_displacement"):
             if getattr(self, name) is None:
                 object.__setattr__(self, name, np.full(n, np.nan))
-        expected = {"postures": (n, N_JOINTS), "hand_poses": (n, 7), "start_ids": (n,), "contacts": (n, len(SEGMENTS)),
+        expected = {"postures": (n, N_FINGER_JOINTS), "hand_poses": (n, 7), "start_ids": (n,), "contacts": (n, len(SEGMENTS)),
                     "epsilon": (n,), "hold_displacement": (n,)}
         for name, shape in expected.items():
             value = getattr(self, name)
@@ -143,7 +141,7 @@ class PostureSet:
         Raises:
             ValueError: the file is missing, truncated, corrupt or not a posture set; the message names it.
         """
-        arrays, meta = load_npz(path, "posture_set", {"postures": (None, N_JOINTS), "hand_poses": (None, 7),
+        arrays, meta = load_npz(path, "posture_set", {"postures": (None, N_FINGER_JOINTS), "hand_poses": (None, 7),
                                                       "start_ids": (None,), "contacts": (None, len(SEGMENTS)),
                                                       "epsilon": (None,), "hold_displacement": (None,)})
         if meta.get("joints") != list(FINGER_JOINTS) or meta.get("segments") != list(SEGMENTS):

@@ -46,11 +46,12 @@ from tqdm import tqdm
 
 from ..base.errors import InvalidInput, NotFittedError
 from ..base.io import fingerprint, load_npz, save_npz
-from .kernels import compiled, online_epoch
-from .nearest import MaskedNearest
+from ..base.paper_numbers import RESUME_SCHEDULE, TRAINING_SCHEDULE
 from ..base.progress import progress_bar
 from ..base.validation import check_data, check_int
 from ..base.workers import free_cores
+from .kernels import compiled, online_epoch
+from .nearest import MaskedNearest
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -120,8 +121,8 @@ def online_epoch_reference(flat: np.ndarray, data: np.ndarray, order: np.ndarray
 
 
 #: the paper's schedules: training (Section 4) and resumed learning (Section 5)
-PAPER = SOMSchedule(300, (0.95, 0.05), (6.0, 0.7))
-RESUME = SOMSchedule(10, (0.1, 0.05), (3.0, 0.7))
+PAPER = SOMSchedule(*TRAINING_SCHEDULE)
+RESUME = SOMSchedule(*RESUME_SCHEDULE)
 
 
 class SOM:

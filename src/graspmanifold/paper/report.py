@@ -11,33 +11,29 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..manifold.analysis import (
-    border_measures,
-    border_runs,
-    nearest_neighbour_deg,
-    node_distances,
-    smoothness,
+from ..base.errors import InvalidInput, RenderingUnavailable
+from ..base.io import atomic_write, library_version, write_text_atomic
+from ..base.paper_numbers import (
+    DATASET_SIZES as PAPER_DATASET_SIZES,
+    FIGURE_OBJECT,
+    MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG,
+    MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG,
 )
 from ..control.controller import ControllerParams
-from ..base.errors import InvalidInput, RenderingUnavailable
-from ..trials.evaluation import EvaluationResult, trial_count
-from ..trials.grid import GRID_DESCRIPTIONS
-from ..sim.hand import finger_limits
-from ..base.io import atomic_write, library_version, write_text_atomic
 from ..control.judge import EPSILON_THRESHOLD, HOLD_LIMIT, HOLD_SECONDS, SUPPORT_DAMPING, SUPPORT_STIFFNESS
-from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES
-from ..base.paper_numbers import MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG
-from ..base.paper_numbers import MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG
-from ..sim.objects import DEFAULT_FRICTION
+from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_deg, node_distances, smoothness
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
+from ..sim.hand import finger_limits
+from ..sim.objects import DEFAULT_FRICTION
+from ..trials.evaluation import EvaluationResult, trial_count
+from ..trials.grid import GRID_DESCRIPTIONS
 from ..trials.stats import rate_text
 from ..trials.study import comparison_rows, judge_target
 from .verdicts import judge_claims, verdict_rows
 
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
-FIGURE_OBJECT = "cylinder"  # the paper's Figs. 3 and 5-8 show the cylinder map
 #: the figures that draw the hand (they need offscreen OpenGL), by the paper's figure number
 RENDERED_KINDS = ("fig3", "fig5", "fig7")
 
@@ -90,14 +86,7 @@ class RunData:
 
 
 def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callable]:
-    from .figures import (
-        border_figure,
-        choose_extract,
-        distance_scale,
-        extract_figure,
-        lattice_panels,
-        rates_figure,
-    )
+    from .figures import border_figure, choose_extract, distance_scale, extract_figure, lattice_panels, rates_figure
 
     obj = figure_object(list(run.sets))
     train_hits = {name: run.maps[name].hit_counts(s.postures) for name, s in run.sets.items()}
@@ -402,7 +391,8 @@ def _markdown(run: RunData, summary: dict) -> str:
                       rate_text(w["winners_unsupported"], w["winners"]), f"{w['unsupported_nodes']} of {w['nodes']}"]
                      for n, o in objects.items() if (w := o.get("control_winners"))]),
              "## Resumed learning (Figs. 7, 8)\n\n",
-             "10 epochs with the successful evaluation postures, learning rate 0.1 → 0.05, σ 3 → 0.7.\n\n",
+             f"{RESUME.epochs} epochs with the successful evaluation postures, learning rate "
+             f"{RESUME.learning_rate[0]:g} → {RESUME.learning_rate[1]:g}, σ {RESUME.sigma[0]:g} → {RESUME.sigma[1]:g}.\n\n",
              _table(["object", "distance CV before → after", "max distance (°) before → after",
                      "nodes without training data before → after", "nodes without evaluation data before → after"],
                     [[n, f"{_fmt(o['map']['distance_cv'])} → {_fmt(o['resumed_map']['distance_cv'])}",

@@ -25,27 +25,25 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
-from ..trials.evaluation import EvaluationResult, evaluate
-from ..manifold.experience import PostureDatabase
+from ..base.version import code_fingerprint
 from ..control.generator import (
+    DATASET_PRESETS,
     PRESET_PARAMS,
     GeneratorParams,
     generate_postures,
     remove_checkpoints,
     verify_postures,
 )
-from ..control.generator import PRESETS as DATASET_SIZES
-from ..trials.grid import check_grid
-from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
-from ..sim.objects import get_object
-from ..sim.posture import N_FINGER_JOINTS
+from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
-from .report import RUN_METHODS as METHODS
-from .report import RunData, write_figures, write_report
 from ..manifold.som import PAPER, RESUME, SOM, check_schedule
-from ..base.version import code_fingerprint
-
+from ..sim.hand import N_FINGER_JOINTS
+from ..sim.objects import get_object
+from ..trials.evaluation import EvaluationResult, evaluate
+from ..trials.grid import check_grid
+from .report import RUN_METHODS as METHODS, RunData, write_figures, write_report
 
 #: how the training postures are made from the spring generator's candidates: `paper` keeps every one with
 #: five fingertip contacts, as the paper did (Section 5 describes no verification); `verified`, our extension,
@@ -82,7 +80,7 @@ class ReproduceConfig:
         if not isinstance(self.postures, dict) or not self.postures \
                 or not all(positive_int(v) for v in self.postures.values()):
             raise InvalidInput(f"ReproduceConfig.postures must give a positive number of postures per object "
-                             f"(e.g. {dict(DATASET_SIZES['quick'])}), got {self.postures!r}")
+                             f"(e.g. {dict(DATASET_PRESETS['quick'])}), got {self.postures!r}")
         for name in self.postures:
             if name == "all":
                 raise InvalidInput("ReproduceConfig.postures: 'all' names the map of every object; rename the object")
@@ -110,11 +108,11 @@ class ReproduceConfig:
 #: `quick`: the paper's procedure at small sizes (CI, a first look); `paper`: the paper's procedure and dataset
 #: sizes; `verified`: the same candidates, trained on those that hold
 PRESETS: dict[str, ReproduceConfig] = {
-    **{name: ReproduceConfig(postures=dict(DATASET_SIZES[name]), grid=name, generator=PRESET_PARAMS[name])
+    **{name: ReproduceConfig(postures=dict(DATASET_PRESETS[name]), grid=name, generator=PRESET_PARAMS[name])
        for name in ("quick", "paper")},
     # recorded every 5 physics steps: with verification the closest to the paper's maps, where recording every
     # step leaves the sphere without one grasp that holds (docs/data_character.md)
-    "verified": ReproduceConfig(postures=dict(DATASET_SIZES["paper"]), grid="paper",
+    "verified": ReproduceConfig(postures=dict(DATASET_PRESETS["paper"]), grid="paper",
                                 generator=GeneratorParams(mode="recording", record_every=5, verify=False),
                                 procedure="verified"),
 }

@@ -11,9 +11,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
-from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES
-from ..base.paper_numbers import MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG
-from ..base.paper_numbers import MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG
+from ..base.paper_numbers import (
+    DATASET_SIZES as PAPER_DATASET_SIZES,
+    MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG,
+    MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG,
+)
 from ..trials.stats import wilson_interval
 
 REPRODUCED, PARTLY, NOT_REPRODUCED = "reproduced", "partly", "not reproduced"

@@ -26,6 +26,9 @@ FINGER_JOINTS: tuple[str, ...] = (
 )  # fmt: skip
 """The 22 finger joints in grasp-posture order: finger by finger, proximal to distal."""
 
+N_FINGER_JOINTS = len(FINGER_JOINTS)
+"""The length of a grasp posture: the number of finger joints (22)."""
+
 WRIST_JOINTS: tuple[str, ...] = ("WRJ2", "WRJ1")
 
 HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS

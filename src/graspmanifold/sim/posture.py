@@ -18,13 +18,13 @@ from .hand import (
     FINGER_SEGMENTS,
     JOINT_RANGES,
     JOINT_SEGMENT,
+    N_FINGER_JOINTS,
     SEGMENTS,
     WRIST_JOINTS,
     finger_limits,
     finger_of,
 )
 
-N_FINGER_JOINTS = len(FINGER_JOINTS)
 _LIMITS = finger_limits()
 _JOINT_INDEX = {name: i for i, name in enumerate(FINGER_JOINTS)}
 

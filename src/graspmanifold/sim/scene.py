@@ -16,12 +16,12 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
+from ..base.poses import check_quat, check_vec3, compose, invert
+from ..base.validation import check_int
 from .hand import HAND_JOINTS, hand_spec
 from .objects import GraspObject, get_object
-from ..base.poses import check_quat, check_vec3, compose, invert
 from .posture import posture_to_ctrl, validate_posture
 from .tactile import TactileReading, TactileSensor
-from ..base.validation import check_int
 
 GRAVITY = 9.81
 OBJECT_RGBA = (0.25, 0.45, 0.8, 1.0)

@@ -17,8 +17,8 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput, SimulationError
-from .hand import SEGMENTS
-from .posture import CTRL_MATRIX, N_FINGER_JOINTS
+from .hand import N_FINGER_JOINTS, SEGMENTS
+from .posture import CTRL_MATRIX
 from .scene import Scene
 from .tactile import TactileReading
 

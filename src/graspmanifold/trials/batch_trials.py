@@ -14,25 +14,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..base.errors import InvalidInput, QualityError
 from ..control.batch_controller import BatchController, row_norms
 from ..control.controller import ControllerParams
-from ..base.errors import InvalidInput, QualityError
+from ..control.judge import HOLD_DIRECTIONS, HOLD_LIMIT, HOLD_SECONDS, MARGIN_FORCE, MARGIN_SECONDS, reading_epsilon
 from ..manifold.experience import Experience
-from ..sim.hand import SEGMENTS
-from ..control.judge import (
-    HOLD_DIRECTIONS,
-    HOLD_LIMIT,
-    HOLD_SECONDS,
-    MARGIN_FORCE,
-    MARGIN_SECONDS,
-    reading_epsilon,
-)
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject
-from ..sim.posture import N_FINGER_JOINTS
-
 from ..sim.scene import GRAVITY
-from .trial import Noise, Trial, trial_scene
 from ..sim.worlds import CpuWorlds, Worlds
+from .trial import Noise, Trial, trial_scene
 
 #: the physics engines a batch can run on
 BACKENDS = ("cpu", "warp")

@@ -35,15 +35,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control.controller import ControllerParams
 from ..base.errors import InvalidInput
-from .evaluation import EvaluationResult, evaluate, trials_key
-from ..manifold.experience import Experience, check_experience
-from ..control.generator import remove_checkpoints
-from .grid import reachable
-from ..sim.objects import GraspObject, get_object, make_object
-from .trial import Noise
 from ..base.validation import check_int
+from ..control.controller import ControllerParams
+from ..control.generator import remove_checkpoints
+from ..manifold.experience import Experience, check_experience
+from ..sim.objects import GraspObject, get_object, make_object
+from .evaluation import EvaluationResult, evaluate, trials_key
+from .grid import reachable
+from .trial import Noise
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
 PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")

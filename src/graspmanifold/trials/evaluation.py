@@ -21,22 +21,21 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch_trials import BACKENDS, run_trials
-from ..control.controller import ControllerParams
 from ..base.errors import InvalidInput
-from ..manifold.experience import Experience, check_experience
-from .grid import check_grid
-from ..sim.hand import SEGMENTS
 from ..base.io import library_version, load_npz, save_npz
-from ..control.judge import EPSILON_THRESHOLD
-from ..sim.objects import GraspObject, get_object, object_from_params
-from ..sim.posture import N_FINGER_JOINTS
 from ..base.progress import progress_bar
-from .stats import rate_text, wilson_interval
-from .trial import Noise, Trial
 from ..base.validation import check_int
 from ..base.version import code_fingerprint
 from ..base.workers import parallel_map, workers_for
+from ..control.controller import ControllerParams
+from ..control.judge import EPSILON_THRESHOLD
+from ..manifold.experience import Experience, check_experience
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.objects import GraspObject, get_object, object_from_params
+from .batch_trials import BACKENDS, run_trials
+from .grid import check_grid
+from .stats import rate_text, wilson_interval
+from .trial import Noise, Trial
 
 
 @dataclass

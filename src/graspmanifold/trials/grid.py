@@ -19,9 +19,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
+from ..base.poses import compose, invert, rotate, to_quat
 from ..sim.hand import SEGMENTS, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
-from ..base.poses import compose, invert, rotate, to_quat
 from ..sim.posture import open_posture
 from ..sim.scene import MAX_GAP, Scene, placed_facing
 

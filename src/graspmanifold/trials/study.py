@@ -14,13 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control.controller import ControllerParams
 from ..base.errors import InvalidInput
 from ..base.paper_numbers import MAP_SIZE
-from .evaluation import EvaluationResult, evaluate
-from ..sim.objects import GraspObject
-from ..sim.posture import N_FINGER_JOINTS
+from ..control.controller import ControllerParams
 from ..manifold.som import SOM
+from ..sim.hand import N_FINGER_JOINTS
+from ..sim.objects import GraspObject
+from .evaluation import EvaluationResult, evaluate
 from .stats import PairedComparison, mcnemar, rate_text
 from .trial import Noise
 
@@ -74,7 +74,7 @@ def grow_experience(obj: GraspObject, postures: np.ndarray, grid: np.ndarray, ro
 
 
 @dataclass(frozen=True)
-class Verdict:
+class TargetVerdict:
     """The target, judged: wins where the strongest control is below `HARD_FOR_CONTROL`, and losses."""
 
     met: bool
@@ -83,7 +83,7 @@ class Verdict:
     text: str
 
 
-def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> Verdict:
+def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> TargetVerdict:
     """Judge the target from comparison rows (`comparison_rows`) of `method` against the strongest control."""
     mine = [r for r in rows if r["method"] == method]
     wins = [(r["object"], r["grid"]) for r in mine
@@ -101,7 +101,7 @@ def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> 
                 f"control below {HARD_FOR_CONTROL:.0%}) on {len(won_objects)} of the objects "
                 f"({', '.join(f'{o}/{g}' for o, g in wins) or 'none'}) and loses significantly on "
                 f"{len(losses)} object/grid pairs ({', '.join(f'{o}/{g}' for o, g in losses) or 'none'}).")
-    return Verdict(met, wins, losses, text)
+    return TargetVerdict(met, wins, losses, text)
 
 
 def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], methods: tuple[str, ...],

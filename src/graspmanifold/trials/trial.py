@@ -25,18 +25,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control.controller import ControllerParams, GraspController
 from ..base.errors import InvalidInput, QualityError, SimulationError
-from ..manifold.experience import Experience, check_experience
-from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
-from ..sim.hand import SEGMENTS
-from ..control.judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
-from ..sim.objects import GraspObject, get_object
-from ..sim.posture import N_FINGER_JOINTS
-
-from ..sim.scene import Scene
 from ..base.validation import check_int
-
+from ..control.controller import ControllerParams, GraspController
+from ..control.judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+from ..manifold.experience import Experience, check_experience
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.objects import GraspObject, get_object
+from ..sim.scene import Scene
+from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
 #: noise of 1e9 rad was accepted)
@@ -56,7 +53,6 @@ class Noise:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                     or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
                 raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
-
 
 
 @dataclass
