@@ -43,7 +43,7 @@ import numpy as np
 import graspmanifold as gm
 from graspmanifold.base.io import atomic_write, write_npz, write_text_atomic
 from graspmanifold.control.generator import remove_checkpoints, verify_postures
-from graspmanifold.control.judge import EPSILON_THRESHOLD
+from graspmanifold.control.judge import JUDGING
 from graspmanifold.trials.evaluation import EvaluationResult, trial_count
 from graspmanifold.trials.grid import GRID_COLUMNS, coverage, grid_preset
 from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, rate_text
@@ -345,7 +345,7 @@ def report(study: Study, info: dict) -> str:
                 r = results.get((obj, grid, m))
                 cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), r.summary['trials'])}")
             lines.append(f"| {obj} | {' | '.join(cells)} |")
-        lines += ["", f"Force closure (ε > {EPSILON_THRESHOLD}) / mean margin (N) / mean time to grasp (s):", "",
+        lines += ["", f"Force closure (ε > {JUDGING.epsilon_threshold}) / mean margin (N) / mean time to grasp (s):", "",
                   f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
         for obj in OBJECTS:
             cells = []

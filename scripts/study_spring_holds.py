@@ -29,14 +29,7 @@ import graspmanifold as gm
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.control.controller import squeezed
 from graspmanifold.control.generator import GeneratorParams
-from graspmanifold.control.judge import (
-    EPSILON_THRESHOLD,
-    HOLD_DIRECTIONS,
-    HOLD_LIMIT,
-    SUPPORT_DAMPING,
-    SUPPORT_STIFFNESS,
-    grasp_epsilon,
-)
+from graspmanifold.control.judge import HOLD_DIRECTIONS, JUDGING, grasp_epsilon
 from graspmanifold.sim.hand import DISTAL_SEGMENTS
 from graspmanifold.sim.scene import GRAVITY
 from graspmanifold.trials.stats import rate_text
@@ -48,7 +41,7 @@ PERIOD = 0.02  # s, as the verifier checks
 def replay(scene: gm.Scene, posture: np.ndarray, pose: np.ndarray, params: GeneratorParams) -> dict[str, object]:
     """The verifier's replay of one candidate, with what it saw on the way."""
     mujoco.mj_resetData(scene.model, scene.data)
-    scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
     scene.set_hand_pose(pose[:3], pose[3:])
     scene.set_posture(posture)
     scene.set_target(squeezed(posture, params.squeeze))
@@ -68,7 +61,7 @@ def replay(scene: gm.Scene, posture: np.ndarray, pose: np.ndarray, params: Gener
         scene.set_gravity(GRAVITY * direction)
         for _ in range(round(params.verify_hold_seconds / PERIOD)):
             scene.run(PERIOD)
-            if np.linalg.norm(scene.object_pose()[0] - start) > HOLD_LIMIT:
+            if np.linalg.norm(scene.object_pose()[0] - start) > JUDGING.hold_limit:
                 record["dropped_along"] = name
                 return record
     return record
@@ -90,7 +83,7 @@ def row(name: str, records: list[dict]) -> str:
     """One table row: what the verifier saw of these candidates."""
     n = len(records)
     held = [r for r in records if not r["dropped_along"]]
-    closure = sum(r["epsilon"] > EPSILON_THRESHOLD for r in records)
+    closure = sum(r["epsilon"] > JUDGING.epsilon_threshold for r in records)
     five = sum(r["five_tips"] for r in records)
     drops = Counter(r["dropped_along"] for r in records if r["dropped_along"])
     first_drops = ", ".join(f"{d} {drops[d]}" for d in DIRECTION_NAMES if drops[d])

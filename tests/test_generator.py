@@ -91,17 +91,19 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
 def replay_holds(obj, posture, pose) -> bool:
     """The generator's verification by hand: the hand at its palm pose, the fingers pressing with the
     controller's squeeze on the free object, gravity in six directions."""
+    from dataclasses import replace
+
     from graspmanifold.control.controller import squeezed
-    from graspmanifold.control.judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+    from graspmanifold.control.judge import JUDGING, judge_grasp
 
     scene = gm.Scene(obj, free_object=True)
-    scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+    scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
     scene.set_hand_pose(pose[:3], pose[3:])
     scene.set_posture(posture)
     scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
     scene.run(0.2)
     return judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False,
-                       hold_seconds=gm.GeneratorParams().verify_hold_seconds).hold
+                       rules=replace(JUDGING, hold_seconds=gm.GeneratorParams().verify_hold_seconds)).hold
 
 
 def test_a_stored_experience_posture_is_a_verified_grasp():

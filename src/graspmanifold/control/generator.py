@@ -38,7 +38,7 @@ import shutil
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -59,7 +59,7 @@ from ..sim.objects import GraspObject, get_object
 from ..sim.posture import posture_to_ctrl
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
-from .judge import SUPPORT_DAMPING, SUPPORT_STIFFNESS, Judgement, judge_grasp
+from .judge import JUDGING, Judgement, judge_grasp
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
@@ -148,12 +148,13 @@ class _Verifier:
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         scene = self.scene
         mujoco.mj_resetData(scene.model, scene.data)
-        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
         scene.set_hand_pose(hand_pos, hand_quat)
         scene.set_posture(posture)
         scene.set_target(squeezed(posture, self.params.squeeze))
         scene.run(0.2)  # the fingers press (SimulationError if the physics fails)
-        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD, hold_seconds=self.params.verify_hold_seconds, margin=False)
+        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD, margin=False,
+                           rules=replace(JUDGING, hold_seconds=self.params.verify_hold_seconds))
 
 
 class _SpringRig:

@@ -4,14 +4,14 @@ A grasp is judged once the hand has closed on a free object that a support has k
 spring with gravity off, or a table with gravity on); the support is released first. Three measures, primary first:
 
 - hold: gravity is switched on along +x, -x, +y, -y, +z and -z in turn (`hold_seconds` each)
-  while the hand keeps its grasp; the object must stay within `HOLD_LIMIT` of where it was grasped;
+  while the hand keeps its grasp; the object must stay within `JudgingRules.hold_limit` of where it was grasped;
 - margin: a grasp that holds is then pushed, in the same six directions in turn, by an extra
-  force on the object that ramps from 0 to `MARGIN_FORCE` over `MARGIN_SECONDS` (on top of
+  force on the object that ramps from 0 to `margin_force` over `margin_seconds` (on top of
   gravity along that direction); the margin is the extra force (N) at which the object first
-  leaves the 2 cm bound, `MARGIN_FORCE` when it never does (a censored value), 0 when it did not hold;
+  leaves the 2 cm bound, `margin_force` when it never does (a censored value), 0 when it did not hold;
 - force closure: the Ferrari-Canny epsilon of the L1 grasp wrench space of the contacts at the
   moment of release, with the object's friction (the one the simulation uses), above
-  `EPSILON_THRESHOLD`, the paper's measure.
+  `epsilon_threshold`, the paper's measure.
 """
 
 from __future__ import annotations
@@ -26,15 +26,40 @@ from ..sim.tactile import TactileReading
 from .quality import epsilon_l1
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
-HOLD_SECONDS = 0.5  # s per gravity direction
-HOLD_LIMIT = 0.02  # m
-MARGIN_FORCE = 5.0  # N: the largest extra disturbance tried (about five times a 0.1 kg object's weight)
-MARGIN_SECONDS = 0.3  # s per direction for the ramp
-#: Force closure means epsilon above this: the grasp resists every disturbance wrench of at least 1 %
-#: of its total normal force; smaller values are numerically marginal closure.
-EPSILON_THRESHOLD = 0.01
-SUPPORT_STIFFNESS = 2000.0  # N/m (and N m/rad): the object's support while the hand closes
-SUPPORT_DAMPING = 30.0  # N s/m (and N m s/rad): about critical for 0.1 kg
+
+
+@dataclass(frozen=True)
+class JudgingRules:
+    """How every grasp is judged (see the module doc), in one place: `judge_grasp`, the batched judge of
+    `batch_trials` and the generator's verifier (a shorter `hold_seconds`, no margin) all read it.
+
+    Attributes:
+        hold_seconds: s of gravity per direction in the hold test.
+        hold_limit: m the object may move from where it was grasped and still be held.
+        margin_force: N, the largest extra disturbance tried (about five times a 0.1 kg object's weight).
+        margin_seconds: s per direction of the margin's ramp.
+        epsilon_threshold: force closure means epsilon above this: the grasp resists every disturbance
+            wrench of at least 1 % of its total normal force; smaller values are numerically marginal closure.
+        support_stiffness: N/m (and N m/rad) of the object's support while the hand closes.
+        support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
+    """
+
+    hold_seconds: float = 0.5
+    hold_limit: float = 0.02
+    margin_force: float = 5.0
+    margin_seconds: float = 0.3
+    epsilon_threshold: float = 0.01
+    support_stiffness: float = 2000.0
+    support_damping: float = 30.0
+
+    @staticmethod
+    def cycles(seconds: float, period: float) -> int:
+        """Control cycles of `period` s in `seconds` (at least one)."""
+        return max(1, round(seconds / period))
+
+
+JUDGING = JudgingRules()
+"""The rules every trial is judged by."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +73,7 @@ class Judgement:
 
     @property
     def force_closure(self) -> bool:
-        return self.epsilon > EPSILON_THRESHOLD
+        return self.epsilon > JUDGING.epsilon_threshold
 
 
 def grasp_epsilon(scene: Scene) -> float:
@@ -63,7 +88,7 @@ def reading_epsilon(reading: TactileReading, centre: np.ndarray, friction: float
     return float(epsilon_l1(reading.points, reading.normals, centre, mu=friction))
 
 
-def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, hold_seconds: float = HOLD_SECONDS,
+def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, rules: JudgingRules = JUDGING,
                 margin: bool = True) -> Judgement:
     """Release the support and judge the grasp; `cycle()` advances one control period of `period` s."""
     scene.set_object_support(0.0, 0.0)
@@ -75,24 +100,24 @@ def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, hold_
     worst = 0.0
     for direction in HOLD_DIRECTIONS:
         scene.set_gravity(GRAVITY * direction)
-        for _ in range(max(1, round(hold_seconds / period))):
+        for _ in range(rules.cycles(rules.hold_seconds, period)):
             cycle()
             worst = max(worst, moved())
-    hold = worst <= HOLD_LIMIT
+    hold = worst <= rules.hold_limit
     held_force = 0.0
     if hold and margin:
-        held_force = MARGIN_FORCE
-        steps = max(1, round(MARGIN_SECONDS / period))
+        held_force = rules.margin_force
+        steps = rules.cycles(rules.margin_seconds, period)
         push = scene.data.xfrc_applied[scene.object_body]
         for direction in HOLD_DIRECTIONS:
             scene.set_gravity(GRAVITY * direction)
             for k in range(1, steps + 1):
-                push[:3] = MARGIN_FORCE * k / steps * direction
+                push[:3] = rules.margin_force * k / steps * direction
                 cycle()
-                if moved() > HOLD_LIMIT:
-                    held_force = MARGIN_FORCE * (k - 1) / steps
+                if moved() > rules.hold_limit:
+                    held_force = rules.margin_force * (k - 1) / steps
                     break
-            if held_force < MARGIN_FORCE:
+            if held_force < rules.margin_force:
                 break
         push[:] = 0.0
     scene.set_gravity(False)

@@ -20,7 +20,7 @@ from ..base.paper_numbers import (
     MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG,
 )
 from ..control.controller import ControllerParams
-from ..control.judge import EPSILON_THRESHOLD, HOLD_LIMIT, HOLD_SECONDS, SUPPORT_DAMPING, SUPPORT_STIFFNESS
+from ..control.judge import JUDGING
 from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_deg, node_distances, smoothness
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
@@ -294,10 +294,10 @@ def _choices(run: RunData) -> list[list[str]]:
          f"follow speed {c.follow_speed}x; squeeze {c.squeeze} rad; release {c.release_time} s; stable "
          f"{c.stable_time} s; timeout {c.timeout} s; matches trusted within {c.max_match_distance} rad RMS; "
          "open and closed postures of `posture.open_posture` / `closed_posture`", "described in [15], not given"],
-        ["object support while the hand closes", f"a spring-damper, {SUPPORT_STIFFNESS:g} N/m and {SUPPORT_DAMPING:g} "
+        ["object support while the hand closes", f"a spring-damper, {JUDGING.support_stiffness:g} N/m and {JUDGING.support_damping:g} "
          "N s/m, released before judging", "not described"],
-        ["success", f"hold: gravity along ±x, ±y, ±z for {HOLD_SECONDS} s each, the object within "
-         f"{100 * HOLD_LIMIT:.0f} cm; force closure: ε > {EPSILON_THRESHOLD}", "force closure: ε > 0"],
+        ["success", f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
+         f"{100 * JUDGING.hold_limit:.0f} cm; force closure: ε > {JUDGING.epsilon_threshold}", "force closure: ε > 0"],
         ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
         ["hand", "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
          "a model of the Shadow hand in Vortex, coarse geometry"],
@@ -360,7 +360,7 @@ def _markdown(run: RunData, summary: dict) -> str:
              "## Grasp success per object and method (Fig. 6 data)\n\n",
              "hold (the primary measure): the object stays within 2 cm under gravity along ±x, ±y, ±z; margin: the "
              "extra force it then withstands (N, up to 5); force closure: Ferrari–Canny ε of the L1 grasp wrench "
-             f"space > {EPSILON_THRESHOLD} at the simulated friction. Rates with 95 % Wilson intervals. `som_all` is "
+             f"space > {JUDGING.epsilon_threshold} at the simulated friction. Rates with 95 % Wilson intervals. `som_all` is "
              "one map trained on all three objects.\n\n",
              _table(["object", "method", "trials", "hold", "force closure", "mean margin (N)", "mean ε",
                      "time to grasp (s)"],

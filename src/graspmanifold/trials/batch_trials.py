@@ -17,7 +17,7 @@ import numpy as np
 from ..base.errors import InvalidInput, QualityError
 from ..control.batch_controller import BatchController, row_norms
 from ..control.controller import ControllerParams
-from ..control.judge import HOLD_DIRECTIONS, HOLD_LIMIT, HOLD_SECONDS, MARGIN_FORCE, MARGIN_SECONDS, reading_epsilon
+from ..control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
 from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject
@@ -59,7 +59,8 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
     """Run every world's grasp and judging to the end (see `judge.judge_grasp` for the judging)."""
     n, period = worlds.n, controller.params.control_period
     nstep = max(1, round(period / worlds.scenes[0].model.opt.timestep))
-    hold_cycles, margin_cycles = max(1, round(HOLD_SECONDS / period)), max(1, round(MARGIN_SECONDS / period))
+    hold_cycles = JUDGING.cycles(JUDGING.hold_seconds, period)
+    margin_cycles = JUDGING.cycles(JUDGING.margin_seconds, period)
     stage = np.full(n, _GRASP)
     direction = np.zeros(n, dtype=int)  # which of HOLD_DIRECTIONS the judging is at
     count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
@@ -73,7 +74,7 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
         stage[world] = _FINISHED
         reading, posture, epsilon = grasped.pop(world)
         trials[world] = Trial(poses[world], posture, np.array([reading.touches(s) for s in SEGMENTS]), epsilon,
-                              bool(worst[world] <= HOLD_LIMIT), float(worst[world]),
+                              bool(worst[world] <= JUDGING.hold_limit), float(worst[world]),
                               float(controller.time_to_grasp[world]), int(controller.matches[world]),
                               float(held_force[world]), worlds.max_penetration(world),
                               winners=np.array(controller.winners[world], dtype=int))
@@ -108,10 +109,10 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
         direction[turn] += 1
         count[turn] = 0
         done_holding = turn[direction[turn] == len(HOLD_DIRECTIONS)]
-        held = done_holding[worst[done_holding] <= HOLD_LIMIT]
+        held = done_holding[worst[done_holding] <= JUDGING.hold_limit]
         for world in np.setdiff1d(done_holding, held):
             finish(world)
-        stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, MARGIN_FORCE
+        stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, JUDGING.margin_force
         turn = turn[stage[turn] == _HOLD]
         worlds.set_gravity(turn, GRAVITY * HOLD_DIRECTIONS[direction[turn]])
         # the margin: a push ramping up over margin_cycles periods per direction
@@ -125,7 +126,7 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
             finish(world)
         ramp = ramp[stage[ramp] == _MARGIN]
         worlds.set_gravity(ramp, GRAVITY * HOLD_DIRECTIONS[direction[ramp]])
-        worlds.push(ramp, (MARGIN_FORCE * count[ramp] / margin_cycles)[:, None] * HOLD_DIRECTIONS[direction[ramp]])
+        worlds.push(ramp, (JUDGING.margin_force * count[ramp] / margin_cycles)[:, None] * HOLD_DIRECTIONS[direction[ramp]])
 
         live = np.flatnonzero(stage != _FINISHED)
         if not len(live):
@@ -149,8 +150,8 @@ def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarra
         worst[holding] = np.maximum(worst[holding], moved[holding])
         count[holding] += 1
         ramp = np.flatnonzero(stage == _MARGIN)
-        for world in ramp[moved[ramp] > HOLD_LIMIT]:
-            held_force[world] = MARGIN_FORCE * (count[world] - 1) / margin_cycles
+        for world in ramp[moved[ramp] > JUDGING.hold_limit]:
+            held_force[world] = JUDGING.margin_force * (count[world] - 1) / margin_cycles
             worlds.push(np.array([world]), np.zeros((1, 3)))
             finish(world)
     return trials

@@ -28,7 +28,7 @@ from ..base.validation import check_int
 from ..base.version import code_fingerprint
 from ..base.workers import parallel_map, workers_for
 from ..control.controller import ControllerParams
-from ..control.judge import EPSILON_THRESHOLD
+from ..control.judge import JUDGING
 from ..manifold.experience import Experience, check_experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, get_object, object_from_params
@@ -88,7 +88,7 @@ class EvaluationResult:
             "hold_rate": holds / n if n else float("nan"), "hold_interval": list(wilson_interval(int(holds), n)),
             "force_closure_rate": closures / n if n else float("nan"),
             "force_closure_interval": list(wilson_interval(int(closures), n)),
-            "epsilon_threshold": EPSILON_THRESHOLD,
+            "epsilon_threshold": JUDGING.epsilon_threshold,
             "mean_margin": mean([t.margin for t in valid]),
             "mean_epsilon": mean([t.epsilon for t in valid]),
             "mean_time_to_grasp": mean([t.time_to_grasp for t in valid]),

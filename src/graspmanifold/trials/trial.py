@@ -28,7 +28,7 @@ import numpy as np
 from ..base.errors import InvalidInput, QualityError, SimulationError
 from ..base.validation import check_int
 from ..control.controller import ControllerParams, GraspController
-from ..control.judge import EPSILON_THRESHOLD, SUPPORT_DAMPING, SUPPORT_STIFFNESS, judge_grasp
+from ..control.judge import JUDGING, judge_grasp
 from ..manifold.experience import Experience, check_experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, get_object
@@ -67,7 +67,7 @@ class Trial:
     hold_displacement: float
     time_to_grasp: float
     matches: int
-    margin: float = 0.0  # N of extra disturbance held (judge.MARGIN_FORCE when never dropped)
+    margin: float = 0.0  # N of extra disturbance held (JUDGING.margin_force when never dropped)
     penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
     fault: str = ""  # why the physics of this trial failed; empty when it did not
     #: the best match of every experience query the controller used (`matches` of them), in order: rows of
@@ -87,7 +87,7 @@ class Trial:
 
     @property
     def force_closure(self) -> bool:
-        return self.valid and self.epsilon > EPSILON_THRESHOLD
+        return self.valid and self.epsilon > JUDGING.epsilon_threshold
 
 
 def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.random.Generator,
@@ -109,7 +109,7 @@ def trial_scene(obj: GraspObject, grid_pose: np.ndarray, rng: np.random.Generato
     support, or on a table with gravity on, and the open hand at rest in `initial`."""
     scene = Scene(obj, free_object=True, gravity=table, table=table)
     if not table:
-        scene.set_object_support(SUPPORT_STIFFNESS, SUPPORT_DAMPING)
+        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
     scene.set_hand_pose(*palm_pose_for(obj, true_pose))
     scene.set_posture(initial)

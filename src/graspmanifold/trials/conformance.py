@@ -1,0 +1,130 @@
+"""The contracts that every implementation of the library's two interfaces must meet, as checks one
+can run on a new one (as scikit-learn's `check_estimator`): an experience base (`Experience`: the
+raw database, the SOM, a user's own) and a set of worlds stepped together (`Worlds`: CPU MuJoCo,
+MuJoCo Warp). The test suite runs them over every implementation the library ships.
+
+Each check raises `AssertionError` naming the promise that is broken, and returns None otherwise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..manifold.experience import Experience
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.objects import GraspObject, get_object
+from ..sim.posture import closed_posture, open_posture
+from ..sim.scene import GRAVITY, Scene
+from ..sim.tactile import TactileReading
+from ..sim.worlds import Worlds
+from .trial import Noise, trial_scene
+
+
+def _masked_nearest(references: np.ndarray, x: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    """Eq. 2 by brute force: the masked squared distance of x to every reference."""
+    weights = np.ones(references.shape[1]) if mask is None else np.asarray(mask, dtype=float)
+    return ((np.where(weights > 0, x, 0.0) - references) ** 2 * weights).sum(axis=1)
+
+
+def check_experience_contract(experience: Experience, *, queries: int = 20, seed: int = 0) -> None:
+    """What the controller relies on of an experience base.
+
+    Its references are a finite (k, 22) array; `best_match` gives the row nearest to the query under the
+    masked distance of Eq. 2 (NaN allowed where the mask is 0), with boolean or weighted masks; the
+    batch methods equal their one-query twins; `complete` is the matched reference in full; a query
+    leaves the experience's answers unchanged (no hidden state).
+
+    Args:
+        experience: the implementation to check (fitted, for a SOM).
+        queries: random queries to try.
+        seed: of the queries.
+    """
+    assert isinstance(experience, Experience), f"{type(experience).__name__} lacks a method of the Experience protocol"
+    references = np.asarray(experience.references)
+    assert experience.dim == N_FINGER_JOINTS, f"dim is {experience.dim}, a grasp posture has {N_FINGER_JOINTS} joints"
+    assert references.ndim == 2 and references.shape[1] == experience.dim and len(references), \
+        f"references must be a non-empty (k, {experience.dim}) array, got shape {references.shape}"
+    assert np.all(np.isfinite(references)), "references hold non-finite values"
+    rng = np.random.default_rng(seed)
+    low, high = references.min(axis=0), references.max(axis=0)
+    X = rng.uniform(low, high, (queries, experience.dim))
+    masks = rng.random((queries, experience.dim)) < 0.5
+    masks[:, 0] = True  # never all zero
+    weights = masks * rng.uniform(0.5, 2.0, masks.shape)
+    before = experience.best_match_batch(X, masks)
+    for x, mask, weight in zip(X, masks, weights):
+        for given in (None, mask, weight):
+            index = experience.best_match(x, given)
+            assert isinstance(index, (int, np.integer)) and 0 <= index < len(references), \
+                f"best_match returned {index!r}, not a row of references"
+            distances = _masked_nearest(references, x, given)
+            assert np.isclose(distances[index], distances.min(), rtol=1e-9, atol=1e-12), \
+                f"best_match is not the nearest reference under the {'plain' if given is None else 'masked'} " \
+                f"distance (Eq. 2): {distances[index]:.6g} against {distances.min():.6g}"
+        hidden = np.where(mask, x, np.nan)
+        assert experience.best_match(hidden, mask) == experience.best_match(x, mask), \
+            "best_match reads the query where the mask is 0 (NaN there must be allowed)"
+        np.testing.assert_array_equal(experience.complete(x, mask), references[experience.best_match(x, mask)],
+                                      err_msg="complete is not the matched reference in full")
+    np.testing.assert_array_equal(before, [experience.best_match(x, m) for x, m in zip(X, masks)],
+                                  err_msg="best_match_batch differs from best_match")
+    np.testing.assert_array_equal(experience.best_match_batch(X, masks[0]),
+                                  [experience.best_match(x, masks[0]) for x in X],
+                                  err_msg="best_match_batch with one shared mask differs from best_match")
+    np.testing.assert_array_equal(experience.complete_batch(X, masks), references[before],
+                                  err_msg="complete_batch is not the matched references")
+    np.testing.assert_array_equal(experience.best_match_batch(X, masks), before,
+                                  err_msg="the answers changed after queries: the experience keeps hidden state")
+
+
+def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObject | None = None, *,
+                          atol: float = 1e-6) -> None:
+    """What the batched trials rely on of a set of worlds.
+
+    Two trial scenes are handed to `make`; the same two, built again, are stepped one by one with CPU
+    MuJoCo as the reference. The worlds must report shapes the batched controller reads, step only the
+    worlds asked for, follow the reference within `atol` (rad, m), and let a released object fall
+    under the gravity they are given.
+
+    Args:
+        make: builds the implementation from a list of scenes (e.g. `CpuWorlds`).
+        obj: the object of the scenes (default the cylinder).
+        atol: how closely joints and object positions must follow CPU MuJoCo (float32 GPUs need ~1e-3).
+    """
+    obj = obj or get_object("cylinder")
+    poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.005, 0.0, 0.02, 0.1]])
+
+    def scenes() -> list[Scene]:
+        return [trial_scene(obj, pose, np.random.default_rng(k), Noise(), open_posture(), False)
+                for k, pose in enumerate(poses)]
+
+    worlds, reference = make(scenes()), scenes()
+    everyone, first = np.arange(2), np.array([0])
+    assert worlds.n == 2, f"n is {worlds.n} for 2 scenes"
+    assert worlds.joints(everyone).shape == (2, N_FINGER_JOINTS), "joints must be (worlds, 22)"
+    assert worlds.segment_forces(everyone).shape == (2, len(SEGMENTS)), "segment_forces must be (worlds, segments)"
+    assert worlds.object_positions().shape == (2, 3), "object_positions must be (n, 3)"
+    closing = np.tile(0.5 * (open_posture() + closed_posture()), (2, 1))  # halfway to the closed hand
+    worlds.set_targets(everyone, closing)
+    for scene, target in zip(reference, closing):
+        scene.set_target(target)
+    failed = worlds.step(first, 25)
+    assert failed == {}, f"a healthy step reported failures: {failed}"
+    reference[0].step(25)
+    assert worlds.time(0) > 0 and worlds.time(1) == 0, "step must advance only the worlds asked for"
+    np.testing.assert_allclose(worlds.joints(first)[0], reference[0].data.qpos[reference[0].finger_qpos], atol=atol,
+                               err_msg="joints after stepping differ from CPU MuJoCo")
+    np.testing.assert_allclose(worlds.posture(0), reference[0].posture(), atol=atol, err_msg="posture differs")
+    reading, centre = worlds.reading(0)
+    assert isinstance(reading, TactileReading) and np.asarray(centre).shape == (3,), \
+        "reading must be a TactileReading and the object's centre of mass (3,)"
+    assert np.isfinite(worlds.max_penetration(0)) and worlds.max_penetration(0) >= 0, "max_penetration must be >= 0"
+    start = worlds.object_positions()[1].copy()
+    worlds.release(np.array([1]))
+    worlds.set_gravity(np.array([1]), GRAVITY * np.array([[0.0, 0.0, -1.0]]))
+    worlds.push(np.array([1]), np.zeros((1, 3)))
+    worlds.shift_hands(np.array([1]), np.zeros((1, 3)))
+    worlds.step(np.array([1]), 50)
+    assert worlds.object_positions()[1][2] < start[2] - 1e-3, "a released object did not fall under the gravity given"
