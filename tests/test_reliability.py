@@ -311,19 +311,20 @@ def test_results_of_other_code_are_never_reused(tmp_path, monkeypatch):
     """Checkpoint parts, generator jobs and reproduce stages are keyed by the library's version and code
     (`version.code_fingerprint`): after an upgrade they run again instead of mixing old results in."""
     from graspmanifold.base import version
+    from graspmanifold.base.checkpoints import result_key
     from graspmanifold.paper.reproduce import _Stages
 
     grid = gm.grid_preset("quick", "box")[:2]
     gm.evaluate("box", None, grid, checkpoint_dir=tmp_path / "parts")
     stages = _Stages(tmp_path / "run", log=lambda line: None, total=1)
     output = tmp_path / "run" / "out.txt"
-    stages.run("write", "key", [output], lambda: output.write_text("made"))
-    stages.run("write", "key", [output], lambda: output.write_text("made"))
+    stages.run("write", result_key("config"), [output], lambda: output.write_text("made"))
+    stages.run("write", result_key("config"), [output], lambda: output.write_text("made"))
     assert stages.ran == ["write"] and stages.reused == ["write"]
     monkeypatch.setattr(version, "__version__", "9.9.9")
     with pytest.warns(UserWarning, match="discarded 2 checkpoint part"):
         gm.evaluate("box", None, grid, checkpoint_dir=tmp_path / "parts")
-    stages.run("write", "key", [output], lambda: output.write_text("made"))
+    stages.run("write", result_key("config"), [output], lambda: output.write_text("made"))
     assert stages.ran == ["write", "write"]
     monkeypatch.setattr(version, "_source_digest", lambda: "edited")  # an edited checkout: the same
     assert version.code_fingerprint() == "9.9.9+edited"

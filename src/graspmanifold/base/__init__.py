@@ -1,4 +1,4 @@
 """The basics every layer uses: the version and code fingerprint, the error classes, the paper's
-numbers, argument checks, files (atomic writes, npz with metadata, output locks), progress bars, the
-parallel runner and pose algebra.
+numbers, argument checks, files (atomic writes, npz with metadata, output locks), checkpoints,
+progress bars, the parallel runner and pose algebra.
 """

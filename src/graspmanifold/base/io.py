@@ -96,7 +96,6 @@ TEMPORARY_SUFFIX = ".graspmanifold.tmp"
 LOCK_FILE = ".graspmanifold.lock"
 
 
-
 @contextmanager
 def output_lock(lock: str | os.PathLike, output: str | os.PathLike | None = None) -> Iterator[None]:
     """Hold an output for this process while the block runs: a second writer is refused at once.

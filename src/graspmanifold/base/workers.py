@@ -227,7 +227,6 @@ CLUSTER_PATIENCE = 120.0
 CLUSTER_LOOK_SECONDS = 5.0
 
 
-
 class _PoolBroke(Exception):
     """A local pool lost a worker (killed, or stalled past TASK_TIMEOUT): these tasks did not finish."""
 

@@ -32,7 +32,6 @@ finished jobs.
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import shutil
 import warnings
@@ -45,13 +44,13 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..base.checkpoints import PartStore, result_key
 from ..base.errors import GenerationError, InvalidInput, SimulationError
 from ..base.io import library_version, load_npz, save_npz
 from ..base.paper_numbers import DATASET_SIZES
 from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
 from ..base.validation import check_int
-from ..base.version import code_fingerprint
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, FINGERTIP_SITES, SEGMENTS, finger_limits, segment_of_geoms
@@ -268,7 +267,6 @@ class _Job:
     quota: int  # candidates to find
 
 
-
 def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
              ) -> dict[str, np.ndarray]:
     """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
@@ -391,26 +389,11 @@ def _job_worker(args: tuple) -> tuple[_Job, dict[str, np.ndarray]]:
     return job, _run_job(obj, start, job, seed, params)
 
 
-def _load_jobs(directory: Path, signature: str) -> dict[tuple[int, int], dict[str, np.ndarray]]:
-    """Finished jobs of an earlier run with this signature; parts of another configuration or that
-    cannot be read are removed (with a warning)."""
-    found, discarded = {}, []
-    for path in sorted(directory.glob("job_*.npz")):
-        try:
-            arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
-        except ValueError:
-            meta = {}
-        job = meta.get("job") if isinstance(meta.get("job"), dict) else None
-        if meta.get("signature") == signature and job is not None and path == _job_file(directory, _Job(**job)):
-            found[(job["start_index"], job["chunk"])] = arrays
-        else:
-            discarded.append(path.name)
-            path.unlink()
-    if discarded:
-        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
-                      "configuration (object, seed, n or parameters) or could not be read: "
-                      f"{', '.join(discarded[:4])}{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
-    return found
+def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], dict]:
+    """A stored job's result, with the job it says it is (None when its metadata names none)."""
+    arrays, meta = load_npz(path, "generator_job", {"postures": (None, len(FINGER_JOINTS))})
+    job = meta.get("job")
+    return (_Job(**job) if isinstance(job, dict) and set(job) == set(_Job.__dataclass_fields__) else None, arrays), meta
 
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
@@ -457,13 +440,14 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     starts = starting_postures(obj, params.designs)
     if not starts:
         raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
-    signature = json.dumps({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                            "starts": [s.name for s in starts], "code": code_fingerprint()}, sort_keys=True)
-    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
+    key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
+                      "starts": [s.name for s in starts]})
+    store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None
     saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
-        saved = _load_jobs(directory, signature)
+    if store is not None:  # a job's file must be where its name says (a renamed file is not taken for another job)
+        stored = store.load("job_*.npz", lambda path, part, _: part[0] is not None
+                            and path == _job_file(store.directory, part[0])).values()
+        saved = {(job.start_index, job.chunk): arrays for job, arrays in stored}
     results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
     budget = params.max_candidates_per_posture * n if params.verify else None
     held = lambda s: sum(len(r["postures"]) for r in results[s])  # noqa: E731
@@ -504,9 +488,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
                 job, result = done
                 finished[(job.start_index, job.chunk)] = result
-                if directory is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
-                    save_npz(_job_file(directory, job), "generator_job", result,
-                             {"signature": signature, "job": asdict(job)})
+                if store is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
+                    store.save(_job_file(store.directory, job).name,
+                               lambda path, meta: save_npz(path, "generator_job", result, meta), job=asdict(job))
                 report.update(len(result["postures"]))
 
             report.update(sum(len(r["postures"]) for r in finished.values()))

@@ -131,7 +131,6 @@ def epsilon_l1(points: np.ndarray, normals: np.ndarray, center: np.ndarray, mu: 
         chosen[beyond[np.argsort(-heights[beyond])[:REFINE_WRENCHES]]] = True
 
 
-
 def _hull(wrenches: np.ndarray) -> ConvexHull:
     """The convex hull of a full-rank wrench set; Qhull's precision errors on nearly coplanar edge
     sets (many cone edges) are retried with joggled input ('QJ', perturbations near 1e-11), and a

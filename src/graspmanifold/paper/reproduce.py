@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
-from ..base.version import code_fingerprint
 from ..control.generator import (
     DATASET_PRESETS,
     PRESET_PARAMS,
@@ -132,18 +132,10 @@ def _file_digests(outputs: list[Path], root: Path) -> dict[str, str] | None:
     return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()[:20] for p in files}
 
 
-def _digest(*parts: object) -> str:
-    h = hashlib.sha256()
-    for part in parts:
-        if isinstance(part, Path):
-            h.update(part.read_bytes())
-        else:
-            h.update(json.dumps(part, sort_keys=True, default=str).encode())
-    return h.hexdigest()[:20]
-
-
 class _Stages:
-    """Runs a stage unless its manifest shows the same key and its outputs exist."""
+    """Runs a stage unless its manifest shows the same key (`checkpoints.result_key` of the stage's
+    configuration and input files: another version's or an edited checkout's stage runs again) and its
+    outputs exist unchanged."""
 
     def __init__(self, out: Path, log: Callable[[str], None], total: int):
         self.out, self.log, self.total = out, log, total
@@ -152,7 +144,6 @@ class _Stages:
         self.reused: list[str] = []
 
     def run(self, name: str, key: str, outputs: list[Path], work: Callable[[], dict | None]) -> dict:
-        key = _digest(key, code_fingerprint())  # another version's (or an edited checkout's) stage runs again
         manifest = self.out / "stages" / f"{name}.json"
         if manifest.exists():
             try:
@@ -231,7 +222,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                                          params=config.generator, checkpoint_dir=parts, progress=True)
             postures.save(path)
             remove_checkpoints(parts)
-        stages.run(f"generate_{name}", _digest(name, config.postures[name], config.seed, asdict(config.generator)),
+        stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator)),
                    [path], generate)
     if verified:  # the maps learn the candidates that hold
         candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
@@ -241,7 +232,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                                        executor=executor, progress=True)
                 held.save(path)
                 return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
-            stages.run(f"verify_{name}", _digest(asdict(config.generator), candidates_paths[name]), [path], verify)
+            stages.run(f"verify_{name}", result_key(asdict(config.generator), candidates_paths[name]), [path], verify)
     sets = {name: PostureSet.load(path) for name, path in sets_paths.items()}
     run_record["datasets"] = {name: {"procedure": config.procedure, "candidates": s.metadata.get("candidates", len(s)),
                                      "trained_on": len(s)} for name, s in sets.items()}
@@ -259,7 +250,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                 raise InvalidInput(f"no training postures for the {name} map: the {config.procedure} procedure kept none "
                                  f"of the candidates; ask for more (ReproduceConfig.postures) or use the paper procedure")
             SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
-        stages.run(f"train_{name}", _digest(config.map_size, schedule, config.seed, *inputs), [path], train)
+        stages.run(f"train_{name}", result_key(config.map_size, schedule, config.seed, *inputs), [path], train)
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
 
     # 3. evaluation of every method on every object
@@ -277,7 +268,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
-        stages.run(f"evaluate_{name}_{method}", _digest(poses.tolist(), config.seed, method, *inputs[method]),
+        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, *inputs[method]),
                    [path], run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
@@ -291,12 +282,12 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                 resumed.resume(successes, **RESUME.as_dict())
             resumed.save(path)
             return {"postures": int(len(successes))}
-        stages.run(f"resume_{name}", _digest(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]), [path], resume)
+        stages.run(f"resume_{name}", result_key(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]), [path], resume)
     resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
 
     # 5. figures, 6. report
     run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results)
-    figure_key = _digest(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
+    figure_key = result_key(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
                          *eval_paths.values())
     figure_info = stages.run("figures", figure_key, [out / "figures"],
                              lambda: write_figures(out / "figures", run, log))

@@ -40,7 +40,6 @@ HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get ins
                  "libegl-mesa0 libosmesa6) so that MUJOCO_GL=egl or MUJOCO_GL=osmesa works")
 
 
-
 def choose_offscreen_backend() -> str | None:
     """On a headless Linux machine, before MuJoCo's first import and with MUJOCO_GL unset: set MUJOCO_GL
     (and PyOpenGL's platform) to the offscreen backend whose library is installed, EGL first, then OSMesa,

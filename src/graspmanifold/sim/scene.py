@@ -37,7 +37,6 @@ _WARNINGS = sorted((int(getattr(mujoco.mjtWarning, name)), name.removeprefix("mj
                    for name in dir(mujoco.mjtWarning) if name.startswith("mjWARN_"))
 
 
-
 #: Where an object touching the palm sits in the palm frame (x across the fingers, z along them).
 GRASP_CENTRE_IN_PALM = np.array([0.008, 0.0, 0.075])
 PALM_HALF_THICKNESS = 0.013

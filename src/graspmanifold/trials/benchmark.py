@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.checkpoints import PartStore
 from ..base.errors import InvalidInput
 from ..base.validation import check_int
 from ..control.controller import ControllerParams
@@ -162,21 +163,18 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         grid = benchmark_grid(name, placement, split)[::every]
         key = trials_key(OBJECTS[name].object, check_experience(experience), grid, seed, noise, params,
                          preshape=preshape)
-        if path is not None and path.exists():
-            try:
-                result, meta = EvaluationResult._load_with_metadata(path)
-                if meta.get("key") == key:
-                    results[(name, placement)] = result
-                    continue
-            except ValueError:  # truncated, or not an evaluation
-                pass
-            path.unlink()  # another configuration's (or code's) result under this label: run it again
+        cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
+        if cell is not None:  # a result stored under this label by another configuration (or code) runs again
+            stored = cell.load(path.name)
+            if stored:
+                results[(name, placement)] = stored[path]
+                continue
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
                           params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor)
         result.method, result.grid_name = label or result.method, f"{split}/{placement}"
-        if path is not None:
-            result.save(path, extra={"key": key})
+        if cell is not None:
+            cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
             remove_checkpoints(parts)
         results[(name, placement)] = result
     return results

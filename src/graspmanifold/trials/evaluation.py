@@ -11,21 +11,19 @@ method.
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import os
-import warnings
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..base.checkpoints import PartStore, result_key
 from ..base.errors import InvalidInput
 from ..base.io import library_version, load_npz, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_int
-from ..base.version import code_fingerprint
 from ..base.workers import parallel_map, workers_for
 from ..control.controller import ControllerParams
 from ..control.judge import JUDGING
@@ -194,10 +192,18 @@ class EvaluationResult:
         Raises:
             ValueError: the file is missing, truncated, corrupt or not an evaluation; the message names it.
         """
-        return cls._load_with_metadata(path)[0]
+        return cls.load_with_metadata(path)[0]
 
     @classmethod
-    def _load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
+    def load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
+        """Read a result written by `save`, with the file's metadata (what `save` was given as `extra` among it).
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The result and the metadata.
+        """
         a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
                                                 "margin": (None,), "penetration": (None,), "fault": (None,)})
         winners: list[np.ndarray | None] = [None] * len(a["epsilon"])
@@ -243,8 +249,9 @@ def _run_chunk(task: tuple[list[int], np.ndarray, int], *, obj: GraspObject, exp
 def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int = 0,
                noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
                preshape: np.ndarray | None = None, backend: str = "cpu") -> str:
-    """A digest of everything a set of trials depends on, the library's code included
-    (`version.code_fingerprint`): stored trials under another key are never mixed in or reused.
+    """The `checkpoints.result_key` of a set of trials: everything they depend on, the library's code
+    included; of the experience, what a controller reads of it (its kind and its reference postures),
+    never a pickle. Stored trials under another key are never mixed in or reused.
 
     Args:
         obj: the object.
@@ -260,39 +267,18 @@ def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarra
     Returns:
         A 20-character hexadecimal key.
     """
-    digest = hashlib.sha256(json.dumps({"object": obj.params(), "seed": int(seed), "noise": asdict(noise or Noise()),
-                                        "params": asdict(params or ControllerParams()), "table": bool(table),
-                                        "backend": backend, "code": code_fingerprint()},
-                                       sort_keys=True, default=str).encode())
-    digest.update(np.ascontiguousarray(poses, dtype=float).tobytes())
-    if experience is not None:  # what a controller reads of it: its kind and its reference postures
-        digest.update(type(experience).__name__.encode())
-        digest.update(np.ascontiguousarray(experience.references, dtype=float).tobytes())
-    digest.update(b"" if preshape is None else np.ascontiguousarray(preshape, dtype=float).tobytes())
-    return digest.hexdigest()[:20]
+    return result_key({"object": obj.params(), "seed": int(seed), "noise": asdict(noise or Noise()),
+                       "params": asdict(params or ControllerParams()), "table": bool(table), "backend": backend,
+                       "experience": None if experience is None else type(experience).__name__},
+                      np.asarray(poses, dtype=float),
+                      np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
+                      np.empty(0) if preshape is None else np.asarray(preshape, dtype=float))
 
 
-def _load_parts(directory: Path, signature: str, chunks: list[list[int]]) -> dict[int, list[Trial]]:
-    """Finished chunks from an earlier run with this signature; other or unreadable parts are removed."""
-    found, discarded = {}, []
-    for path in sorted(directory.glob("part_*.npz")):
-        try:
-            part, meta = EvaluationResult._load_with_metadata(path)
-            trials = part.trials
-        except (ValueError, KeyError):  # truncated, or not a part of ours
-            meta, trials = {}, []
-        first = int(meta.get("first", -1))
-        number = next((k for k, chunk in enumerate(chunks) if chunk[0] == first), None)
-        if meta.get("signature") == signature and number is not None and len(trials) == len(chunks[number]):
-            found[number] = trials
-        else:
-            discarded.append(path.name)
-            path.unlink()
-    if discarded:
-        warnings.warn(f"discarded {len(discarded)} checkpoint part(s) in {directory} that belong to another "
-                      f"configuration or could not be read: {', '.join(discarded[:4])}"
-                      f"{' ...' if len(discarded) > 4 else ''}", stacklevel=3)
-    return found
+def _read_part(path: Path) -> tuple[tuple[int, list[Trial]], dict]:
+    """A stored chunk of trials, with the index of its first trial."""
+    part, meta = EvaluationResult.load_with_metadata(path)
+    return (int(meta.get("first", -1)), part.trials), meta
 
 
 def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
@@ -348,12 +334,13 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
-    directory = Path(checkpoint_dir) if checkpoint_dir is not None else None
-    signature = trials_key(obj, experience, poses, seed, noise, params, table, preshape, backend)
+    key = trials_key(obj, experience, poses, seed, noise, params, table, preshape, backend)
+    store = PartStore(checkpoint_dir, key, _read_part) if checkpoint_dir is not None else None
     done: dict[int, list[Trial]] = {}
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
-        done = _load_parts(directory, signature, chunks)
+    if store is not None:  # a part must be one chunk of the chunks planned now, whole
+        firsts = {chunk[0]: k for k, chunk in enumerate(chunks)}
+        fits = lambda _, part, __: part[0] in firsts and len(part[1]) == len(chunks[firsts[part[0]]])  # noqa: E731
+        done = {firsts[first]: trials for first, trials in store.load("part_*.npz", fits).values()}
     method = method_name(experience)
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
@@ -362,10 +349,10 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     def keep(task: int, trials: list[Trial]) -> None:
         number = pending[task]
         done[number] = trials
-        if directory is not None:
-            EvaluationResult(obj, method, grid_name, seed, trials, noise, backend).save(
-                directory / f"part_{chunks[number][0]:05d}.npz", extra={"signature": signature,
-                                                                         "first": chunks[number][0]})
+        if store is not None:
+            part = EvaluationResult(obj, method, grid_name, seed, trials, noise, backend)
+            store.save(f"part_{chunks[number][0]:05d}.npz", lambda path, meta: part.save(path, extra=meta),
+                       first=chunks[number][0])
         report.update(len(trials))
 
     run_chunk = functools.partial(_run_chunk, obj=obj, experience=experience, noise=noise, params=params,

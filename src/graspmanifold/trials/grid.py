@@ -193,7 +193,6 @@ def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, 
     return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)
 
 
-
 def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -> np.ndarray:
     """How near the experience comes to each grid pose, (n, 2): the distance (m) from the object's
     centre seen from the palm at the grid pose to the nearest experienced one, and the angle (rad)
