@@ -26,7 +26,7 @@ import graspmanifold as gm
 from graspmanifold.base.workers import parallel_map
 from graspmanifold.trials.grid import check_grid
 from graspmanifold.trials.stats import mcnemar, rate_text
-from graspmanifold.trials.trial import Noise, run_trial
+from graspmanifold.trials.trial import Noise, TrialSetup, run_trial
 
 FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
           "penetration", "fault")
@@ -34,7 +34,8 @@ FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_t
 
 def _one_by_one(task: tuple[list[int], np.ndarray], *, obj: str) -> list:
     indices, poses = task
-    return [run_trial(gm.get_object(obj), None, pose, np.random.default_rng([0, i])) for i, pose in zip(indices, poses)]
+    setup = TrialSetup(obj)
+    return [run_trial(setup, pose, np.random.default_rng([0, i])) for i, pose in zip(indices, poses)]
 
 
 def one_by_one(obj: str, grid: str, workers: int) -> list:

@@ -105,15 +105,16 @@ TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "
                                                ("som", gm.Noise(), gm.ControllerParams(reach=0.03))])
 def test_batched_trials_are_the_single_trials_bit_for_bit(experience, kind, noise, params):
     from graspmanifold.trials.batch_trials import run_trials
-    from graspmanifold.trials.trial import run_trial
+    from graspmanifold.trials.trial import TrialSetup, run_trial
 
     obj = gm.get_object("cylinder")
     _, poses = check_grid("quick", obj)
     poses = poses[::5]
     rngs = [np.random.default_rng([3, i]) for i in range(len(poses))]
-    batched = run_trials(obj, experience[kind], poses, rngs, noise, params)
+    setup = TrialSetup(obj, experience[kind], noise, params)
+    batched = run_trials(setup, poses, rngs)
     for i, (pose, trial) in enumerate(zip(poses, batched)):
-        single = run_trial(obj, experience[kind], pose, np.random.default_rng([3, i]), noise, params)
+        single = run_trial(setup, pose, np.random.default_rng([3, i]))
         for field in TRIAL_FIELDS:
             assert np.array_equal(getattr(single, field), getattr(trial, field)), (i, field)
     assert any(t.hold for t in batched) and any(t.margin > 0 for t in batched)

@@ -8,7 +8,7 @@ import graspmanifold as gm
 from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
 from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.trials.study import compare
-from graspmanifold.trials.trial import run_trial
+from graspmanifold.trials.trial import TrialSetup, run_trial
 
 # -- simulation faults -----------------------------------------------------------------------------
 
@@ -38,10 +38,10 @@ def test_a_healthy_grasp_has_no_faults_and_shallow_contacts():
 def test_a_trial_whose_physics_failed_is_invalid_not_a_result(tmp_path):
     feather = gm.make_object("cylinder", radius=0.03, length=0.16, mass=1e-6, name="feather")
     pose = np.array([0.0, 0.0, 0.01, 0.0])
-    trial = run_trial(feather, None, pose, np.random.default_rng(0))
+    trial = run_trial(TrialSetup(feather), pose, np.random.default_rng(0))
     assert not trial.valid and "penetrates" in trial.fault and trial.penetration > PENETRATION_LIMIT
     assert not trial.force_closure and not trial.hold
-    healthy = run_trial(gm.get_object("cylinder"), None, pose, np.random.default_rng(0))
+    healthy = run_trial(TrialSetup("cylinder"), pose, np.random.default_rng(0))
     assert healthy.valid and healthy.penetration < PENETRATION_LIMIT and healthy.hold
 
     result = EvaluationResult(feather.params(), "none", "custom", 0, [trial, healthy])
@@ -520,12 +520,11 @@ def test_a_checkpoint_key_survives_a_best_match_call_on_the_som(rng):
     """The evaluation's key once hashed the pickled experience: a SOM's digest changed after one `best_match`
     (its lazy search cache was pickled with it), so a valid checkpoint was thrown away. The key reads what a
     controller reads of the experience (its kind and reference postures), never a pickle."""
-    from graspmanifold.trials.evaluation import trials_key
 
     som = gm.SOM(4, 4, 22, seed=0).fit(rng.uniform(-0.2, 1.2, (60, 22)), epochs=2)
     poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, 0.0, 0.02, 0.1]])
-    before = trials_key(gm.get_object("cylinder"), som, poses)
+    before = TrialSetup("cylinder", som).key(poses, 0)
     som.best_match(np.full(22, 0.5), mask=np.arange(22) < 11)
-    assert trials_key(gm.get_object("cylinder"), som, poses) == before
-    assert trials_key(gm.get_object("cylinder"), gm.SOM(4, 4, 22, seed=1).fit(rng.uniform(-0.2, 1.2, (60, 22)),
-                                                                                epochs=2), poses) != before
+    assert TrialSetup("cylinder", som).key(poses, 0) == before
+    other = gm.SOM(4, 4, 22, seed=1).fit(rng.uniform(-0.2, 1.2, (60, 22)), epochs=2)
+    assert TrialSetup("cylinder", other).key(poses, 0) != before

@@ -49,7 +49,7 @@ from .sim.scene import Scene, facing_pose
 from .manifold.som import SOM, SOMSchedule
 from .control.starts import StartingPosture, starting_postures
 from .sim.tactile import TactileReading, TactileSensor
-from .trials.trial import Noise, Recording, record_trial
+from .trials.trial import Noise, Recording, TrialSetup, record_trial
 from .base.progress import show_progress
 from .base.version import __version__
 
@@ -79,7 +79,7 @@ __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "record_trial", "clip_posture",
+    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
     "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",

@@ -58,7 +58,7 @@ from ..sim.objects import GraspObject, get_object
 from ..sim.posture import posture_to_ctrl
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
-from .judge import JUDGING, Judgement, judge_grasp
+from .judge import JUDGING, Judgement, hold_on_support, judge_grasp, supported_scene
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
@@ -141,13 +141,13 @@ class _Verifier:
     PERIOD = 0.02  # s between checks of the object's displacement
 
     def __init__(self, obj: GraspObject, params: GeneratorParams):
-        self.scene = Scene(obj, free_object=True)
+        self.scene = supported_scene(obj)
         self.params = params
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         scene = self.scene
         mujoco.mj_resetData(scene.model, scene.data)
-        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
+        hold_on_support(scene)
         scene.set_hand_pose(hand_pos, hand_quat)
         scene.set_posture(posture)
         scene.set_target(squeezed(posture, self.params.squeeze))

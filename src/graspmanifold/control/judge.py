@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..sim.objects import GraspObject
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
 from .quality import epsilon_l1
@@ -74,6 +75,33 @@ class Judgement:
     @property
     def force_closure(self) -> bool:
         return self.epsilon > JUDGING.epsilon_threshold
+
+
+def supported_scene(obj: GraspObject, table: bool = False) -> Scene:
+    """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
+    spring-damper of `JUDGING` with gravity off, or a table with gravity on. Trials and the generator's
+    verifier start from it (`hold_on_support` sets the spring again after a reset).
+
+    Args:
+        obj: the object.
+        table: a table with gravity on instead of the spring.
+
+    Returns:
+        The scene.
+    """
+    scene = Scene(obj, free_object=True, gravity=table, table=table)
+    hold_on_support(scene)
+    return scene
+
+
+def hold_on_support(scene: Scene) -> None:
+    """Put a scene's free object back on the spring support (nothing to do on a table).
+
+    Args:
+        scene: a scene made by `supported_scene`.
+    """
+    if scene.table_geom is None:
+        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
 
 
 def grasp_epsilon(scene: Scene) -> float:

@@ -263,8 +263,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                           "som": maps[name], "som_all": maps["all"]}[method]
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
-                              checkpoint_dir=parts, progress=True)
-            result.method = method
+                              checkpoint_dir=parts, progress=True, method=method)
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name

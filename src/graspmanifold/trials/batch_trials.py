@@ -14,44 +14,34 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..base.errors import InvalidInput, QualityError
+from ..base.errors import QualityError
 from ..control.batch_controller import BatchController, row_norms
-from ..control.controller import ControllerParams
 from ..control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
-from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
-from ..sim.objects import GraspObject
 from ..sim.scene import GRAVITY
 from ..sim.worlds import CpuWorlds, Worlds
-from .trial import Noise, Trial, trial_scene
-
-#: the physics engines a batch can run on
-BACKENDS = ("cpu", "warp")
+from .trial import Noise, Trial, TrialSetup, trial_scene
 
 _GRASP, _HOLD, _MARGIN, _FINISHED = range(4)
 
 
-def make_worlds(obj: GraspObject, poses: np.ndarray, rngs: Sequence[np.random.Generator], noise: Noise,
-                initial: np.ndarray, table: bool, backend: str) -> Worlds:
-    """The trial scenes of these grid poses (placed as `run_trial` places them) on a backend."""
-    if backend not in BACKENDS:
-        raise InvalidInput(f"backend must be one of {BACKENDS}, got {backend!r}")
-    scenes = [trial_scene(obj, pose, rng, noise, initial, table) for pose, rng in zip(poses, rngs)]
-    if backend == "cpu":
+def make_worlds(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
+                initial: np.ndarray) -> Worlds:
+    """The trial scenes of these grid poses (placed as `run_trial` places them) on the set-up's backend."""
+    scenes = [trial_scene(setup, pose, rng, initial) for pose, rng in zip(poses, rngs)]
+    if setup.backend == "cpu":
         return CpuWorlds(scenes)
     from ..sim.warp_worlds import WarpWorlds
 
     return WarpWorlds(scenes)
 
 
-def run_trials(obj: GraspObject, experience: Experience | None, poses: np.ndarray,
-               rngs: Sequence[np.random.Generator], noise: Noise = Noise(), params: ControllerParams | None = None,
-               table: bool = False, preshape: np.ndarray | None = None, backend: str = "cpu") -> list[Trial]:
-    """One trial per grid pose, as `run_trial(obj, experience, pose, rng, ...)` runs it, all at once."""
+def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator]) -> list[Trial]:
+    """One trial per grid pose, as `run_trial(setup, pose, rng)` runs it, all at once."""
     poses = np.asarray(poses, dtype=float)
-    controller = BatchController(len(poses), experience, params, preshape=preshape)
-    worlds = make_worlds(obj, poses, rngs, noise, controller.initial, table, backend)
-    return _judged_trials(worlds, controller, poses, rngs, noise, obj.friction)
+    controller = BatchController(len(poses), setup.experience, setup.params, preshape=setup.preshape)
+    worlds = make_worlds(setup, poses, rngs, controller.initial)
+    return _judged_trials(worlds, controller, poses, rngs, setup.noise, setup.object.friction)
 
 
 def _judged_trials(worlds: Worlds, controller: BatchController, poses: np.ndarray,

@@ -40,11 +40,11 @@ from ..base.errors import InvalidInput
 from ..base.validation import check_int
 from ..control.controller import ControllerParams
 from ..control.generator import remove_checkpoints
-from ..manifold.experience import Experience, check_experience
+from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
-from .evaluation import EvaluationResult, evaluate, trials_key
+from .evaluation import EvaluationResult, evaluate
 from .grid import reachable
-from .trial import Noise
+from .trial import Noise, TrialSetup
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
 PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")
@@ -161,8 +161,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
             continue
         path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
         grid = benchmark_grid(name, placement, split)[::every]
-        key = trials_key(OBJECTS[name].object, check_experience(experience), grid, seed, noise, params,
-                         preshape=preshape)
+        key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape).key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
             stored = cell.load(path.name)
@@ -171,8 +170,9 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                 continue
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
-                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor)
-        result.method, result.grid_name = label or result.method, f"{split}/{placement}"
+                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor,
+                          method=label or "")
+        result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
             remove_checkpoints(parts)

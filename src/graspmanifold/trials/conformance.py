@@ -19,7 +19,7 @@ from ..sim.posture import closed_posture, open_posture
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
 from ..sim.worlds import Worlds
-from .trial import Noise, trial_scene
+from .trial import TrialSetup, trial_scene
 
 
 def _masked_nearest(references: np.ndarray, x: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
@@ -97,7 +97,7 @@ def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObjec
     poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.005, 0.0, 0.02, 0.1]])
 
     def scenes() -> list[Scene]:
-        return [trial_scene(obj, pose, np.random.default_rng(k), Noise(), open_posture(), False)
+        return [trial_scene(TrialSetup(obj), pose, np.random.default_rng(k), open_posture())
                 for k, pose in enumerate(poses)]
 
     worlds, reference = make(scenes()), scenes()

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.checkpoints import PartStore, result_key
+from ..base.checkpoints import PartStore
 from ..base.errors import InvalidInput
 from ..base.io import library_version, load_npz, save_npz
 from ..base.progress import progress_bar
@@ -27,13 +27,13 @@ from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
 from ..control.controller import ControllerParams
 from ..control.judge import JUDGING
-from ..manifold.experience import Experience, check_experience
+from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
-from ..sim.objects import GraspObject, get_object, object_from_params
-from .batch_trials import BACKENDS, run_trials
+from ..sim.objects import GraspObject, object_from_params
+from .batch_trials import run_trials
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
-from .trial import Noise, Trial
+from .trial import Noise, Trial, TrialSetup
 
 
 @dataclass
@@ -47,7 +47,7 @@ class EvaluationResult:
         seed: the trials' seed.
         trials: one `Trial` per grid pose, in grid order.
         noise: the trial noise.
-        backend: the physics engine the trials ran on (`batch_trials.BACKENDS`).
+        backend: the physics engine the trials ran on (`trial.BACKENDS`).
     """
 
     object: GraspObject
@@ -56,7 +56,7 @@ class EvaluationResult:
     seed: int
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
-    backend: str = "cpu"  # the physics engine the trials ran on (batch_trials.BACKENDS)
+    backend: str = "cpu"  # the physics engine the trials ran on (trial.BACKENDS)
 
     def __post_init__(self) -> None:
         if isinstance(self.object, dict):  # parameters, as a file stores them
@@ -227,52 +227,16 @@ def trial_count(summary: dict) -> str:
     return f"{summary['trials']}" + (f" (+{invalid} invalid)" if invalid else "")
 
 
-def method_name(experience: Experience | None) -> str:
-    return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
-
-
 #: trials per checkpoint part of an evaluation at most (the unit of parallel work and of resuming)
 CHECKPOINT_TRIALS = 16
 #: trials the warp backend runs at once by default (worlds on the GPU)
 WARP_BATCH = 16384
 
 
-def _run_chunk(task: tuple[list[int], np.ndarray, int], *, obj: GraspObject, experience: Experience | None,
-               noise: Noise, params: ControllerParams | None, table: bool, preshape: np.ndarray | None,
-               backend: str = "cpu") -> list[Trial]:
+def _run_chunk(task: tuple[list[int], np.ndarray, int], setup: TrialSetup) -> list[Trial]:
     """The trials of one chunk of grid poses, as one batch; trial i draws from the generator seeded [seed, i]."""
     indices, poses, seed = task
-    rngs = [np.random.default_rng([seed, index]) for index in indices]
-    return run_trials(obj, experience, poses, rngs, noise, params, table, preshape, backend)
-
-
-def trials_key(obj: GraspObject, experience: Experience | None, poses: np.ndarray, seed: int = 0,
-               noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
-               preshape: np.ndarray | None = None, backend: str = "cpu") -> str:
-    """The `checkpoints.result_key` of a set of trials: everything they depend on, the library's code
-    included; of the experience, what a controller reads of it (its kind and its reference postures),
-    never a pickle. Stored trials under another key are never mixed in or reused.
-
-    Args:
-        obj: the object.
-        experience: the experience base (None: the heuristic).
-        poses: grid poses (n, 4), m and rad.
-        seed: as `evaluate` takes it.
-        noise: as `evaluate` takes it.
-        params: as `evaluate` takes them.
-        table: as `evaluate` takes it.
-        preshape: as `evaluate` takes it.
-        backend: as `evaluate` takes it.
-
-    Returns:
-        A 20-character hexadecimal key.
-    """
-    return result_key({"object": obj.params(), "seed": int(seed), "noise": asdict(noise or Noise()),
-                       "params": asdict(params or ControllerParams()), "table": bool(table), "backend": backend,
-                       "experience": None if experience is None else type(experience).__name__},
-                      np.asarray(poses, dtype=float),
-                      np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
-                      np.empty(0) if preshape is None else np.asarray(preshape, dtype=float))
+    return run_trials(setup, poses, [np.random.default_rng([seed, index]) for index in indices])
 
 
 def _read_part(path: Path) -> tuple[tuple[int, list[Trial]], dict]:
@@ -286,7 +250,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
-             batch_size: int = WARP_BATCH) -> EvaluationResult:
+             batch_size: int = WARP_BATCH, method: str = "") -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -315,6 +279,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             `trial.run_trial` bit for bit) in worker processes; 'warp' runs up to `batch_size` trials at
             once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
         batch_size: trials at once on the GPU.
+        method: the method's label in the result (empty: 'none', 'database' or 'som', from the experience).
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -323,25 +288,22 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         ValueError: an unknown object or grid, a pose no trial can start from (`why_unreachable`), a bad
             argument.
     """
-    obj = get_object(obj)
-    experience = check_experience(experience)
+    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
+                       method)
+    obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
-    noise = noise or Noise()
-    if backend not in BACKENDS:
-        raise InvalidInput(f"backend must be one of {BACKENDS}, got {backend!r}")
     batch_size = check_int(batch_size, "batch_size")
     grid_name, poses = check_grid(grid, obj, table)
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
-    key = trials_key(obj, experience, poses, seed, noise, params, table, preshape, backend)
-    store = PartStore(checkpoint_dir, key, _read_part) if checkpoint_dir is not None else None
+    store = PartStore(checkpoint_dir, setup.key(poses, seed), _read_part) if checkpoint_dir is not None else None
     done: dict[int, list[Trial]] = {}
     if store is not None:  # a part must be one chunk of the chunks planned now, whole
         firsts = {chunk[0]: k for k, chunk in enumerate(chunks)}
         fits = lambda _, part, __: part[0] in firsts and len(part[1]) == len(chunks[firsts[part[0]]])  # noqa: E731
         done = {firsts[first]: trials for first, trials in store.load("part_*.npz", fits).values()}
-    method = method_name(experience)
+    method = setup.method
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
     report = progress_bar(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
@@ -355,8 +317,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
                        first=chunks[number][0])
         report.update(len(trials))
 
-    run_chunk = functools.partial(_run_chunk, obj=obj, experience=experience, noise=noise, params=params,
-                                  table=table, preshape=preshape, backend=backend)
+    run_chunk = functools.partial(_run_chunk, setup=setup)
     with report:
         report.update(sum(len(t) for t in done.values()))
         if backend == "cpu":

@@ -17,6 +17,7 @@ keeps its states for pictures and animations.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Callable, Iterable
@@ -25,10 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput, QualityError, SimulationError
 from ..base.validation import check_int
 from ..control.controller import ControllerParams, GraspController
-from ..control.judge import JUDGING, judge_grasp
+from ..control.judge import JUDGING, judge_grasp, supported_scene
 from ..manifold.experience import Experience, check_experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, get_object
@@ -53,6 +55,87 @@ class Noise:
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                     or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
                 raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
+
+
+#: the physics engines trials run on: CPU MuJoCo, or MuJoCo Warp on an NVIDIA GPU (`warp_worlds.py`)
+BACKENDS = ("cpu", "warp")
+
+
+def method_name(experience: Experience | None) -> str:
+    """The default label of a method: 'none' (the plain tactile controller), 'database' or 'som'.
+
+    Args:
+        experience: the experience base.
+
+    Returns:
+        The label.
+    """
+    return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
+
+
+@dataclass(frozen=True, eq=False)
+class TrialSetup:
+    """Everything a trial depends on besides its grid pose and its random stream, in one frozen value:
+    what `evaluate`, the batched trials, `record_trial` and the checkpoint key share.
+
+    Attributes:
+        object: the object (a name is looked up).
+        experience: the experience base (None: the plain tactile controller; a PostureSet becomes its database).
+        noise: pose and joint noise.
+        params: the controller's parameters.
+        table: the object stands on a table with gravity on (False: a spring support with gravity off).
+        preshape: a constant phase-B posture (22,), rad, or None.
+        backend: the physics engine (`BACKENDS`).
+        method: the method's label in results and reports (empty: `method_name` of the experience).
+    """
+
+    object: GraspObject
+    experience: Experience | None = None
+    noise: Noise = Noise()
+    params: ControllerParams = field(default_factory=ControllerParams)
+    table: bool = False
+    preshape: np.ndarray | None = None
+    backend: str = "cpu"
+    method: str = ""
+
+    def __post_init__(self) -> None:
+        set_field = functools.partial(object.__setattr__, self)
+        set_field("object", get_object(self.object))
+        set_field("experience", check_experience(self.experience))
+        set_field("params", self.params or ControllerParams())
+        set_field("noise", self.noise or Noise())
+        if not isinstance(self.noise, Noise) or not isinstance(self.params, ControllerParams):
+            raise InvalidInput(f"noise must be a Noise and params ControllerParams, got {type(self.noise).__name__} "
+                               f"and {type(self.params).__name__}")
+        if self.backend not in BACKENDS:
+            raise InvalidInput(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        if not isinstance(self.method, str):
+            raise InvalidInput(f"method must be a label (a string), got {self.method!r}")
+        set_field("method", self.method or method_name(self.experience))
+        set_field("table", bool(self.table))
+
+    def key(self, poses: np.ndarray, seed: int) -> str:
+        """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
+        controller reads of it (its kind and its reference postures), never a pickle; not the label.
+
+        Args:
+            poses: grid poses (n, 4), m and rad.
+            seed: the trials' seed.
+
+        Returns:
+            A 20-character hexadecimal key.
+        """
+        experience = self.experience
+        return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
+                           "params": asdict(self.params), "table": self.table, "backend": self.backend,
+                           "experience": None if experience is None else type(experience).__name__},
+                          np.asarray(poses, dtype=float),
+                          np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
+                          np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
+
+    def controller(self) -> GraspController:
+        """A fresh controller of this set-up."""
+        return GraspController(self.experience, self.params, preshape=self.preshape)
 
 
 @dataclass
@@ -103,30 +186,26 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
     return grid_pose
 
 
-def trial_scene(obj: GraspObject, grid_pose: np.ndarray, rng: np.random.Generator, noise: Noise,
-                initial: np.ndarray, table: bool) -> Scene:
+def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
-    support, or on a table with gravity on, and the open hand at rest in `initial`."""
-    scene = Scene(obj, free_object=True, gravity=table, table=table)
-    if not table:
-        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
-    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), noise, rng)
-    scene.set_hand_pose(*palm_pose_for(obj, true_pose))
+    support (`judge.supported_scene`), and the open hand at rest in `initial`."""
+    scene = supported_scene(setup.object, setup.table)
+    true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
+    scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
     scene.set_posture(initial)
     return scene
 
 
-def run_trial(obj: GraspObject, experience: Experience | None, grid_pose: np.ndarray,
-              rng: np.random.Generator, noise: Noise = Noise(), params: ControllerParams | None = None,
-              table: bool = False, preshape: np.ndarray | None = None,
+def run_trial(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator,
               observer: Callable[[Scene], None] | None = None) -> Trial:
     """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
 
-    The object is held by a spring support with gravity off, or (`table=True`) stands on a table
+    The object is held by a spring support with gravity off, or (`setup.table`) stands on a table
     with gravity on while the hand closes. `observer(scene)` is called after the start and after
     every control period, the judging included (`record_trial` keeps the states it sees)."""
-    controller = GraspController(experience, params, preshape=preshape)
-    scene = trial_scene(obj, grid_pose, rng, noise, controller.initial, table)
+    controller = setup.controller()
+    noise = setup.noise
+    scene = trial_scene(setup, grid_pose, rng, controller.initial)
     period = controller.params.control_period
     if observer is not None:
         observer(scene)
@@ -235,9 +314,9 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
-    period = (params or ControllerParams()).control_period
-    trial = run_trial(obj, check_experience(experience), grid_pose, np.random.default_rng([seed, 0]),
-                      noise or Noise(), params, table, preshape, observer=observe)
+    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape)
+    period = setup.params.control_period
+    trial = run_trial(setup, grid_pose, np.random.default_rng([seed, 0]), observer=observe)
     return Recording(trial, seen["scene"], np.array(states), every * period)
 
 
