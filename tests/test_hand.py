@@ -126,3 +126,18 @@ def test_neighbouring_segments_never_collide(rng):
 def test_hand_segments_are_the_tactile_segments():
     assert set(gm.DISTAL_SEGMENTS) <= set(gm.SEGMENTS)
     assert len(set(itertools.chain(*gm.FINGER_SEGMENTS.values()))) == 16
+
+
+def test_the_hand_model_describes_the_hand_in_one_object():
+    """The open and closed postures are the MJCF's keyframes, the J1/J2 coupling is its fixed tendons."""
+    hand = gm.SHADOW_HAND
+    assert hand.finger_joints == gm.FINGER_JOINTS and hand.segments == gm.SEGMENTS
+    np.testing.assert_array_equal(hand.keyframe_posture("open"), gm.open_posture())
+    np.testing.assert_array_equal(hand.keyframe_posture("closed"), gm.closed_posture())
+    coupling = hand.coupling()
+    ff0 = coupling[gm.ACTUATORS.index("A_FFJ0")]
+    assert ff0[gm.FINGER_JOINTS.index("FFJ1")] == ff0[gm.FINGER_JOINTS.index("FFJ2")] == 1 and ff0.sum() == 2
+    assert not coupling[:2].any()  # the wrist drives no finger joint
+    assert (coupling.sum(axis=0) == 1).all()  # every finger joint is driven by one actuator
+    with pytest.raises(gm.InvalidInput, match="no keyframe 'grip'"):
+        hand.keyframe_posture("grip")

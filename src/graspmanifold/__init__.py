@@ -25,7 +25,9 @@ from .sim.hand import (
     FINGER_SEGMENTS,
     FINGERS,
     FINGERTIP_SITES,
+    HandModel,
     HAND_JOINTS,
+    SHADOW_HAND,
     JOINT_RANGES,
     SEGMENTS,
     finger_limits,
@@ -77,7 +79,7 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
-    "HAND_JOINTS", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
+    "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",

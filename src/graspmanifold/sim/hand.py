@@ -8,11 +8,15 @@ table against the compiled model.
 
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import mujoco
 import numpy as np
+
+from ..base.errors import InvalidInput
 
 FINGERS: tuple[str, ...] = ("ff", "mf", "rf", "lf", "th")
 """The five fingers: first, middle, ring, little finger and thumb."""
@@ -108,14 +112,103 @@ def asset_path(name: str) -> Path:
     raise FileNotFoundError(f"asset {name!r} is neither in the installed package nor in {checkout.parent}")
 
 
+@dataclass(frozen=True, eq=False)
+class HandModel:
+    """A hand model as the library sees it, in one object: which of its joints make the paper's 22-joint
+    posture and in what order, its segments (for the Partial Contact Posture and touch), its fingertip
+    sites and actuators; the J1/J2 coupling and the open and closed postures are read from its MJCF (the
+    actuators' joints or fixed tendons, the keyframes `open` and `closed`). `SHADOW_HAND`, our MJCF, is
+    the default, and the module's tables (`FINGER_JOINTS`, `SEGMENTS`, ...) are its.
+
+    Attributes:
+        name: what the model is called.
+        mjcf: the asset file of the hand alone, hanging on the mocap body `mount`.
+        finger_joints: the model's joints in posture order (22).
+        wrist_joints: the model's wrist joints (2).
+        segments: every body that can touch an object, in a fixed order.
+        joint_segment: the segment each finger joint moves.
+        fingertip_sites: one site per finger.
+        actuators: the position actuators, in the model's order.
+        mount: the mocap body the hand hangs on.
+        palm: the palm's body.
+    """
+
+    name: str
+    mjcf: str
+    finger_joints: tuple[str, ...]
+    wrist_joints: tuple[str, ...]
+    segments: tuple[str, ...]
+    joint_segment: dict[str, str]
+    fingertip_sites: tuple[str, ...]
+    actuators: tuple[str, ...]
+    mount: str = "hand_mount"
+    palm: str = "palm"
+
+    def spec(self) -> mujoco.MjSpec:
+        """A fresh, editable MjSpec of the hand (Scene adds the object to it).
+
+        Returns:
+            The spec.
+        """
+        return mujoco.MjSpec.from_file(str(asset_path(self.mjcf)))
+
+    @functools.cached_property
+    def model(self) -> mujoco.MjModel:
+        """The compiled hand alone (compiled once; do not change it, `spec().compile()` gives a fresh one)."""
+        return self.spec().compile()
+
+    def keyframe_posture(self, key: str) -> np.ndarray:
+        """A posture stored in the MJCF as a keyframe.
+
+        Args:
+            key: the keyframe's name (`open`, `closed`).
+
+        Returns:
+            Its finger joint angles in posture order (22,), rad.
+        """
+        model = self.model
+        try:
+            qpos = model.key(key).qpos
+        except KeyError:
+            raise InvalidInput(f"the hand model {self.name!r} has no keyframe {key!r}") from None
+        return np.array([qpos[model.joint(name).qposadr[0]] for name in self.finger_joints])
+
+    def coupling(self) -> np.ndarray:
+        """How a posture drives the actuators: a (actuators, 22) matrix with a 1 where an actuator's
+        joint, or a joint of its fixed tendon (J1 + J2 of a finger), is a posture joint; wrist rows are 0.
+
+        Returns:
+            The matrix.
+        """
+        model, index = self.model, {name: i for i, name in enumerate(self.finger_joints)}
+        matrix = np.zeros((len(self.actuators), len(self.finger_joints)))
+        for row, name in enumerate(self.actuators):
+            actuator = model.actuator(name)
+            target = int(actuator.trnid[0])
+            if actuator.trntype[0] == mujoco.mjtTrn.mjTRN_JOINT:
+                joints = [model.joint(target).name]
+            else:  # a fixed tendon: the joints it sums
+                first, count = model.tendon_adr[target], model.tendon_num[target]
+                joints = [model.joint(model.wrap_objid[w]).name for w in range(first, first + count)]
+            for joint in joints:
+                if joint in index:
+                    matrix[row, index[joint]] = 1.0
+        return matrix
+
+
+SHADOW_HAND = HandModel("shadow_hand", HAND_MODEL_FILE, FINGER_JOINTS, WRIST_JOINTS, SEGMENTS, JOINT_SEGMENT,
+                        FINGERTIP_SITES, ACTUATORS)
+"""Our MJCF of the Shadow Dexterous Hand, written from the published kinematics: the default hand."""
+
+
 def hand_spec() -> mujoco.MjSpec:
-    """A fresh, editable MjSpec of the hand (Scene adds the object to it)."""
-    return mujoco.MjSpec.from_file(str(asset_path(HAND_MODEL_FILE)))
+    """A fresh, editable MjSpec of the default hand (Scene adds the object to it)."""
+    return SHADOW_HAND.spec()
 
 
 def load_hand() -> mujoco.MjModel:
     """The compiled hand alone, mounted at the world origin on its mocap body `hand_mount`."""
-    return hand_spec().compile()
+    return SHADOW_HAND.spec().compile()
 
 
 def finger_of(name: str) -> str | None:

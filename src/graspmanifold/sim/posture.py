@@ -13,13 +13,13 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from .hand import (
-    ACTUATORS,
     FINGER_JOINTS,
     FINGER_SEGMENTS,
     JOINT_RANGES,
     JOINT_SEGMENT,
     N_FINGER_JOINTS,
     SEGMENTS,
+    SHADOW_HAND,
     WRIST_JOINTS,
     finger_limits,
     finger_of,
@@ -115,20 +115,8 @@ def dict_to_posture(joints: Mapping[str, float]) -> np.ndarray:
     return validate_posture([joints[j] for j in FINGER_JOINTS], name="joints")
 
 
-def _ctrl_matrix() -> np.ndarray:
-    """(20, 22) matrix mapping a posture to actuator targets (wrist rows stay zero)."""
-    matrix = np.zeros((len(ACTUATORS), N_FINGER_JOINTS))
-    for row, actuator in enumerate(ACTUATORS):
-        joint = actuator[2:]
-        if joint in WRIST_JOINTS:
-            continue
-        coupled = (joint[:2] + "J2", joint[:2] + "J1") if joint.endswith("J0") else (joint,)
-        matrix[row, [_JOINT_INDEX[j] for j in coupled]] = 1.0
-    return matrix
-
-
 #: actuator targets = CTRL_MATRIX @ posture, with the wrist angles in the first two rows.
-CTRL_MATRIX = _ctrl_matrix()
+CTRL_MATRIX = SHADOW_HAND.coupling()
 
 
 def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> np.ndarray:
@@ -201,20 +189,28 @@ def pcp_masks(touching: np.ndarray) -> np.ndarray:
     return _JOINT_DEPTH <= reach
 
 
+_OPEN, _CLOSED = SHADOW_HAND.keyframe_posture("open"), SHADOW_HAND.keyframe_posture("closed")
+
+
 def open_posture() -> np.ndarray:
-    """The controller's initial posture (phase A): fingers straight, thumb opposed but low.
+    """The controller's initial posture (phase A): fingers straight, thumb opposed but low (the hand
+    model's keyframe `open`).
 
     The thumb is turned in front of the palm (THJ4) and swung towards the wrist (THJ5), so it is
     ready to close against the fingers yet stays clear of an object held 1 cm in front of the palm.
     Starting with the thumb in the palm plane instead makes it sweep into the object and land on top.
+
+    Returns:
+        The posture (22,), rad.
     """
-    return dict_to_posture({**dict.fromkeys(FINGER_JOINTS, 0.0), "THJ5": -0.5, "THJ4": 1.2})
+    return _OPEN.copy()
 
 
 def closed_posture() -> np.ndarray:
-    """The generic closing target: every finger fully flexed, the thumb opposed and flexed."""
-    return dict_to_posture({
-        **{f"{f}J{j}": 1.5708 for f in ("FF", "MF", "RF", "LF") for j in (3, 2, 1)},
-        "FFJ4": 0.0, "MFJ4": 0.0, "RFJ4": 0.0, "LFJ4": 0.0, "LFJ5": 0.3,
-        "THJ5": 0.8, "THJ4": 1.2, "THJ3": 0.2, "THJ2": 0.5, "THJ1": 1.2,
-    })
+    """The generic closing target: every finger fully flexed, the thumb opposed and flexed (the hand
+    model's keyframe `closed`).
+
+    Returns:
+        The posture (22,), rad.
+    """
+    return _CLOSED.copy()
