@@ -7,21 +7,16 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.io import atomic_write, library_version, write_text_atomic
-from ..base.paper_numbers import (
-    DATASET_SIZES as PAPER_DATASET_SIZES,
-    FIGURE_OBJECT,
-    MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG,
-    MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG,
-)
+from ..base.io import atomic_write, write_text_atomic
+from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.controller import ControllerParams
 from ..control.judge import JUDGING
-from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_deg, node_distances, smoothness
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
 from ..sim.hand import finger_limits
@@ -29,8 +24,9 @@ from ..sim.objects import DEFAULT_FRICTION
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
 from ..trials.stats import rate_text
-from ..trials.study import comparison_rows, judge_target
-from .verdicts import judge_claims, verdict_rows
+
+if TYPE_CHECKING:
+    from .summary import RunSummary
 
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
@@ -177,84 +173,17 @@ def _table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(lines) + "\n\n"
 
 
-def _mean_ratio(numerator: np.ndarray, denominator: np.ndarray) -> float:
-    """mean(numerator) / mean(denominator); NaN when either is empty or the denominator's mean is 0
-    (a map collapsed onto identical training data has no distances to compare)."""
-    if not len(numerator) or not len(denominator) or denominator.mean() == 0:
-        return float("nan")
-    return float(numerator.mean() / denominator.mean())
+def write_report(out: Path, run: RunData, summary: RunSummary) -> None:
+    """Write a run's summary (summary.json) and report (report.md).
 
-
-def _on_unsupported(som: SOM, hits: np.ndarray, postures: np.ndarray) -> list[int]:
-    """[k, n]: of n postures, k best-match a node that no training posture supports."""
-    if not len(postures):
-        return [0, 0]
-    winners = som.best_match_batch(postures)
-    return [int(np.sum(hits.ravel()[winners] == 0)), int(len(postures))]
-
-
-def _control_winners(result: EvaluationResult, hits: np.ndarray) -> dict | None:
-    """The SOM controller's per-cycle best-match winners (`Trial.winners`) against the map's training
-    support `hits`: over the valid trials that matched at all, how many had mostly (over half) winners
-    without training data, and over all winners, how many lack it; None when the trials did not record them."""
-    if any(t.winners is None for t in result.trials):
-        return None
-    unsupported = hits.ravel() == 0
-    trials = [t.winners for t in result.trials if t.valid and len(t.winners)]
-    events = np.concatenate([np.zeros(0, dtype=int), *trials])
-    return {"trials": len(trials), "mainly_unsupported": int(sum(unsupported[w].mean() > 0.5 for w in trials)),
-            "winners": int(len(events)), "winners_unsupported": int(unsupported[events].sum()),
-            "unsupported_nodes": int(unsupported.sum()), "nodes": int(len(unsupported))}
-
-
-def write_report(out: Path, run: RunData, figure_info: dict) -> dict:
-    """Write report.md and summary.json: every number from this run, beside the paper's."""
-    objects = list(run.sets)
-    summary: dict = {"library_version": library_version(), "procedure": run.config.get("procedure", "paper"),
-                     "objects": {}, "evaluation": [], "figures": figure_info}
-    for name in objects:
-        postures = run.sets[name]
-        successes = run.results[(name, "som")].successful_postures()
-        before = smoothness(run.maps[name], postures.postures, successes if len(successes) else None)
-        after = smoothness(run.resumed[name], postures.postures, successes if len(successes) else None)
-        hits = run.maps[name].hit_counts(postures.postures)
-        distance = node_distances(run.maps[name])
-        summary["objects"][name] = {
-            "dataset_size": len(postures), "paper_dataset_size": PAPER_DATASET_SIZES.get(name),
-            "candidates": postures.metadata.get("candidates", len(postures)),
-            "acceptance_ratio": postures.metadata.get("acceptance_ratio"),
-            "clusters": postures.cluster_separation(), "starting_postures": len(postures.start_names),
-            "nearest_neighbour_deg": nearest_neighbour_deg(postures.postures),
-            "map": before, "resumed_map": after,
-            "paper_min_distance_deg": PAPER_MIN_DISTANCE_DEG.get(name),
-            "paper_max_distance_deg": PAPER_MAX_DISTANCE_DEG.get(name),
-            "border_distance_ratio": _mean_ratio(distance[hits == 0], distance[hits > 0]),
-            "successful_som_postures": int(len(successes)),
-            "evaluation_on_unsupported_nodes": before.get("evaluation_on_unsupported_nodes"),
-            "supported_nodes": int(np.sum(hits > 0)),
-            # Fig. 6 as the paper's caption counts: the force-closure grasps of the SOM controller, and how
-            # many of them best-match a node without training data
-            "force_closure_on_unsupported": _on_unsupported(run.maps[name], hits,
-                                                            run.results[(name, "som")].successful_postures(False)),
-            # "more often winners" while the controller runs: its per-cycle best matches
-            "control_winners": _control_winners(run.results[(name, "som")], hits),
-            "low_data": bool(len(postures) < run.maps[name].n_nodes),  # fewer postures than nodes: verdicts void
-        }
-    obj = figure_object(objects)
-    summary["figure_object"] = obj
-    obj_hits = run.maps[obj].hit_counts(run.sets[obj].postures)
-    summary["fig5"] = {"object": obj, "runs": border_measures(run.maps[obj], obj_hits,
-                                                              border_runs(run.maps[obj], obj_hits))}
-    for result in run.results.values():
-        summary["evaluation"].append(result.summary)
-    keyed = {(o, run.results[(o, m)].grid_name, m): r for (o, m), r in run.results.items()}
-    rows = comparison_rows(keyed, ("database", "som", "som_all"), ("none",))
-    summary["comparisons"] = rows
-    summary["verdict"] = judge_target(rows).text
-    summary["claims"] = verdict_rows(judge_claims(summary))
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
-    write_text_atomic(out / "report.md", _markdown(run, summary))
-    return summary
+    Args:
+        out: the run's folder.
+        run: what the run produced.
+        summary: its summary (`summary.summarize`).
+    """
+    data = summary.to_json()
+    write_text_atomic(out / "summary.json", json.dumps(data, indent=1, default=float) + "\n")
+    write_text_atomic(out / "report.md", _markdown(run, data))
 
 
 def _fmt(value: object, digits: int = 3) -> str:

@@ -44,6 +44,7 @@ from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
 from .report import RUN_METHODS as METHODS, RunData, write_figures, write_report
+from .summary import summarize
 
 #: how the training postures are made from the spring generator's candidates: `paper` keeps every one with
 #: five fingertip contacts, as the paper did (Section 5 describes no verification); `verified`, our extension,
@@ -290,10 +291,11 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                          *eval_paths.values())
     figure_info = stages.run("figures", figure_key, [out / "figures"],
                              lambda: write_figures(out / "figures", run, log))
-    summary = write_report(out, run, figure_info)
+    summary = summarize(run, figure_info)
+    write_report(out, run, summary)
     log(f"reproduce: {len(stages.ran)} stages ran, {len(stages.reused)} reused, "
         f"{time.perf_counter() - started:.1f} s; report in {out / 'report.md'}")
-    return summary
+    return summary.to_json()
 
 
 def _grid(config: ReproduceConfig) -> str | np.ndarray:
