@@ -126,7 +126,7 @@ def test_gravity_switch_drops_a_free_object():
 
 
 def test_installed_package_works_from_another_directory(tmp_path):
-    code = "import graspmanifold as g; g.load_hand(); g.Scene('cylinder'); print(g.hand.asset_path('shadow_hand.xml'))"
+    code = "import graspmanifold as g; g.load_hand(); g.Scene('cylinder'); print(g.sim.hand.asset_path('shadow_hand.xml'))"
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True, check=True)
     asset = Path(out.stdout.strip())
