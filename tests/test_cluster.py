@@ -43,7 +43,10 @@ def test_the_cli_takes_a_scheduler_address(cluster, tmp_path):
     assert len(gm.PostureSet.load(out)) == 4
 
 
-def test_bad_executors_are_refused():
+def test_bad_executors_are_refused(monkeypatch):
+    from graspmanifold.base import workers
+
+    monkeypatch.setattr(workers, "CONNECT_SECONDS", 1)  # nothing listens there: no need to wait 10 s
     with pytest.raises(TypeError, match="concurrent.futures.Executor"):
         parallel_map(abs, [1, 2], executor="dask://local")
     with pytest.raises(ValueError, match="executor address"):

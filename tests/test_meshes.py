@@ -180,12 +180,12 @@ def test_the_family_holds_every_shape_in_three_sizes_and_the_paper_objects_as_me
 # -- the pipeline ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("shape", sorted(SHAPES))
-def test_every_family_shape_generates_300_postures_trains_a_map_and_evaluates(shape):
-    """Public API end to end on the small size: 300 postures (unverified candidates, to keep the test
+def test_every_family_shape_generates_postures_trains_a_map_and_evaluates(shape):
+    """Public API end to end on the small size: 100 postures (unverified candidates, to keep the test
     short), a 10 x 10 map, the quick grid with that map; physics healthy on every trial."""
     name = f"{shape}_s"
-    postures = gm.generate_postures(name, 300, seed=0, workers=2, params=gm.GeneratorParams(verify=False))
-    assert len(postures) == 300 and postures.metadata["object"]["mesh_digest"]
+    postures = gm.generate_postures(name, 100, seed=0, workers=2, params=gm.GeneratorParams(verify=False))
+    assert len(postures) == 100 and postures.metadata["object"]["mesh_digest"]
     som = gm.SOM(10, 10, 22, seed=0, epochs=10).fit(postures)
     result = gm.evaluate(name, som, "quick", seed=0, workers=2)
     assert len(result.trials) >= 20 and result.summary["invalid_trials"] == 0
