@@ -74,10 +74,9 @@ class RunData:
         maps = {p.stem: SOM.load(p) for p in sorted((out / "maps").glob("*.npz")) if not p.stem.endswith("_resumed")}
         resumed = {p.stem[: -len("_resumed")]: SOM.load(p) for p in sorted((out / "maps").glob("*_resumed.npz"))}
         results = {}
-        for p in sorted((out / "evaluation").glob("*.npz")):
-            name, method = next((p.stem[: -len(m) - 1], m) for m in sorted(RUN_METHODS, key=len, reverse=True)
-                                if p.stem.endswith(f"_{m}"))
-            results[(name, method)] = EvaluationResult.load(p)
+        for path in sorted((out / "evaluation").glob("*.npz")):  # each result names its object and method
+            result = EvaluationResult.load(path)
+            results[(result.object.name, result.method)] = result
         return cls(config, sets, maps, resumed, results)
 
 
