@@ -97,6 +97,10 @@ def test_no_module_imports_the_package_init():
             assert not absolute, f"{path.name} imports the package by its absolute name"
 
 
+def _private(part: str) -> bool:
+    return part.startswith("_") and not (part.startswith("__") and part.endswith("__"))  # not __future__
+
+
 def _private_imports() -> tuple[list[str], list[str]]:
     """Private names imported from another module of the package; private modules of dependencies imported."""
     crossing, reaching = [], []
@@ -106,11 +110,11 @@ def _private_imports() -> tuple[list[str], list[str]]:
                 if node.level >= 1:
                     crossing += [f"{name_of(path)}: {a.name} from {node.module}" for a in node.names
                                  if a.name.startswith("_") and not a.name.startswith("__")]
-                elif any(part.startswith("_") for part in (node.module or "").split(".")):
+                elif any(_private(part) for part in (node.module or "").split(".")):
                     reaching.append(f"{name_of(path)}: from {node.module}")
             elif isinstance(node, ast.Import):
                 reaching += [f"{name_of(path)}: import {a.name}" for a in node.names
-                             if any(part.startswith("_") for part in a.name.split("."))]
+                             if any(_private(part) for part in a.name.split("."))]
     return crossing, reaching
 
 
@@ -121,8 +125,6 @@ def test_no_module_imports_a_private_name_of_another():
     assert not crossing, f"private names imported from another module: {crossing}"
 
 
-@pytest.mark.xfail(strict=True, reason="sim.warp_worlds batches gravity per world with mujoco_warp._src.warp_util."
-                   "mark_batched: no public way found in mujoco-warp 4.0, and no GPU here to test another (issue 27)")
 def test_no_module_imports_a_private_module_of_a_dependency():
     _, reaching = _private_imports()
     assert not reaching, f"private modules of dependencies imported: {reaching}"

@@ -32,7 +32,6 @@ try:
     wp.config.quiet = True  # no banner
     wp.config.log_level = wp.LOG_WARNING  # no line per loaded kernel module
     import mujoco_warp as mjw
-    from mujoco_warp._src.warp_util import mark_batched
 except ImportError as error:  # pragma: no cover - depends on the installation
     raise ImportError("backend='warp' needs MuJoCo Warp: pip install 'graspmanifold[gpu]' "
                       f"(mujoco-warp and warp-lang; {error})") from error
@@ -102,8 +101,8 @@ class WarpWorlds:
         n = self.n
         with wp.ScopedDevice(self.device):
             self._m = mjw.put_model(mjm, batch_sizes={"jnt_stiffness": n, "dof_damping": n})
+            # one gravity per world: MuJoCo Warp's kernels read a model array at worldid modulo its leading size
             self._m.opt.gravity = wp.array(np.tile(mjm.opt.gravity, (n, 1)), dtype=wp.vec3)
-            mark_batched(self._m)
             self._d = mjw.put_data(mjm, first.data, nworld=n, nconmax=CONTACTS_PER_WORLD,
                                    njmax=CONSTRAINTS_PER_WORLD)
             self._d.qpos.assign(np.array([s.data.qpos for s in scenes]))

@@ -37,7 +37,8 @@ class Worlds(Protocol):
 
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None: ...
 
-    def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]: ...  # {world: why its physics failed}
+    # advance `worlds` by nstep timesteps (others may advance too); {world: why its physics failed}
+    def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]: ...
 
     def release(self, worlds: np.ndarray) -> None: ...  # support off (and table away)
 
