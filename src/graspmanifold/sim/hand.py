@@ -1,9 +1,10 @@
 """The Shadow Dexterous Hand: names, joint ranges and the MJCF model shipped with the library.
 
-Everything that other modules need to know about the hand's structure lives here as plain
-tables: the joint order of a grasp posture, which segment each joint moves (for the Partial
-Contact Posture), the actuators and their J1+J2 coupling. `tests/test_hand.py` checks each
-table against the compiled model.
+Everything that other modules need to know about a hand model lives in one object, a `HandModel`:
+the joint order of a grasp posture, which segment each joint moves (for the Partial Contact
+Posture), the actuators; the J1+J2 coupling and the open and closed postures are read from its MJCF.
+`SHADOW_HAND` is ours and the default; the module's tables (`FINGER_JOINTS`, `SEGMENTS`, ...) are its.
+`tests/test_hand.py` checks each table against the compiled model.
 """
 
 from __future__ import annotations
@@ -20,86 +21,6 @@ from ..base.errors import InvalidInput
 
 FINGERS: tuple[str, ...] = ("ff", "mf", "rf", "lf", "th")
 """The five fingers: first, middle, ring, little finger and thumb."""
-
-FINGER_JOINTS: tuple[str, ...] = (
-    "FFJ4", "FFJ3", "FFJ2", "FFJ1",
-    "MFJ4", "MFJ3", "MFJ2", "MFJ1",
-    "RFJ4", "RFJ3", "RFJ2", "RFJ1",
-    "LFJ5", "LFJ4", "LFJ3", "LFJ2", "LFJ1",
-    "THJ5", "THJ4", "THJ3", "THJ2", "THJ1",
-)  # fmt: skip
-"""The 22 finger joints in grasp-posture order: finger by finger, proximal to distal."""
-
-N_FINGER_JOINTS = len(FINGER_JOINTS)
-"""The length of a grasp posture: the number of finger joints (22)."""
-
-WRIST_JOINTS: tuple[str, ...] = ("WRJ2", "WRJ1")
-
-HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS
-"""All 24 hinge joints, wrist first, in the model's order."""
-
-_KNUCKLE = (-0.349066, 0.349066)
-_PROXIMAL = (-0.261799, 1.5708)
-_DISTAL = (0.0, 1.5708)
-JOINT_RANGES: dict[str, tuple[float, float]] = {
-    "WRJ2": (-0.523599, 0.174533),
-    "WRJ1": (-0.698132, 0.488692),
-    **{f"{f}J4": _KNUCKLE for f in ("FF", "MF", "RF", "LF")},
-    **{f"{f}J3": _PROXIMAL for f in ("FF", "MF", "RF", "LF")},
-    **{f"{f}J{j}": _DISTAL for f in ("FF", "MF", "RF", "LF") for j in (2, 1)},
-    "LFJ5": (0.0, 0.785398),
-    "THJ5": (-1.0472, 1.0472),
-    "THJ4": (0.0, 1.22173),
-    "THJ3": (-0.20944, 0.20944),
-    "THJ2": (-0.698132, 0.698132),
-    "THJ1": (-0.261799, 1.5708),
-}
-"""Joint ranges (radians) from the kinematics sheet, by joint name."""
-
-FINGER_SEGMENTS: dict[str, tuple[str, ...]] = {
-    "ff": ("ffproximal", "ffmiddle", "ffdistal"),
-    "mf": ("mfproximal", "mfmiddle", "mfdistal"),
-    "rf": ("rfproximal", "rfmiddle", "rfdistal"),
-    "lf": ("lfmetacarpal", "lfproximal", "lfmiddle", "lfdistal"),
-    "th": ("thproximal", "thmiddle", "thdistal"),
-}
-"""The segments of each finger that carry collision geometry, palm side first."""
-
-SEGMENTS: tuple[str, ...] = ("forearm", "wrist", "palm") + tuple(
-    s for f in FINGERS for s in FINGER_SEGMENTS[f]
-)
-"""Every hand body that can touch an object (a tactile "segment"), in a fixed order."""
-
-DISTAL_SEGMENTS: tuple[str, ...] = tuple(FINGER_SEGMENTS[f][-1] for f in FINGERS)
-"""The fingertip segments, one per finger in FINGERS order."""
-FINGERTIP_SITES: tuple[str, ...] = tuple(f"{f}tip" for f in FINGERS)
-"""The fingertip sites of the model (the springs of the posture generator pull there)."""
-
-#: The segment S_{i,j} that joint j of finger i moves: the first body with geometry at or
-#: beyond the joint (knuckle, thbase and thhub carry no geometry of their own).
-JOINT_SEGMENT: dict[str, str] = {
-    **{f"{F}J{j}": f"{F.lower()}{seg}" for F in ("FF", "MF", "RF", "LF")
-       for j, seg in ((4, "proximal"), (3, "proximal"), (2, "middle"), (1, "distal"))},
-    "LFJ5": "lfmetacarpal",
-    "THJ5": "thproximal", "THJ4": "thproximal",
-    "THJ3": "thmiddle", "THJ2": "thmiddle",
-    "THJ1": "thdistal",
-}  # fmt: skip
-
-ACTUATORS: tuple[str, ...] = (
-    "A_WRJ2", "A_WRJ1",
-    "A_FFJ4", "A_FFJ3", "A_FFJ0",
-    "A_MFJ4", "A_MFJ3", "A_MFJ0",
-    "A_RFJ4", "A_RFJ3", "A_RFJ0",
-    "A_LFJ5", "A_LFJ4", "A_LFJ3", "A_LFJ0",
-    "A_THJ5", "A_THJ4", "A_THJ3", "A_THJ2", "A_THJ1",
-)  # fmt: skip
-"""The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger."""
-
-HAND_MODEL_FILE = "shadow_hand.xml"
-#: s, the physics step of the model (its <option timestep>): a control period is a whole number of them
-PHYSICS_TIMESTEP = 0.002
-
 
 def asset_path(name: str) -> Path:
     """Path of a file shipped in the library's assets (wheel install or source checkout)."""
@@ -125,10 +46,13 @@ class HandModel:
         mjcf: the asset file of the hand alone, hanging on the mocap body `mount`.
         finger_joints: the model's joints in posture order (22).
         wrist_joints: the model's wrist joints (2).
-        segments: every body that can touch an object, in a fixed order.
+        joint_ranges: each joint's range, rad.
+        finger_segments: the bodies of each finger (FINGERS) that can touch an object, palm side first.
+        base_segments: the other bodies that can touch an object (forearm, wrist, palm).
         joint_segment: the segment each finger joint moves.
         fingertip_sites: one site per finger.
         actuators: the position actuators, in the model's order.
+        timestep: s, the physics step of the model (its <option timestep>).
         mount: the mocap body the hand hangs on.
         palm: the palm's body.
     """
@@ -137,12 +61,20 @@ class HandModel:
     mjcf: str
     finger_joints: tuple[str, ...]
     wrist_joints: tuple[str, ...]
-    segments: tuple[str, ...]
+    joint_ranges: dict[str, tuple[float, float]]
+    finger_segments: dict[str, tuple[str, ...]]
+    base_segments: tuple[str, ...]
     joint_segment: dict[str, str]
     fingertip_sites: tuple[str, ...]
     actuators: tuple[str, ...]
+    timestep: float
     mount: str = "hand_mount"
     palm: str = "palm"
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Every body that can touch an object (a tactile "segment"): the base segments, then each finger's."""
+        return self.base_segments + tuple(s for f in FINGERS for s in self.finger_segments[f])
 
     def spec(self) -> mujoco.MjSpec:
         """A fresh, editable MjSpec of the hand (Scene adds the object to it).
@@ -196,9 +128,104 @@ class HandModel:
         return matrix
 
 
-SHADOW_HAND = HandModel("shadow_hand", HAND_MODEL_FILE, FINGER_JOINTS, WRIST_JOINTS, SEGMENTS, JOINT_SEGMENT,
-                        FINGERTIP_SITES, ACTUATORS)
-"""Our MJCF of the Shadow Dexterous Hand, written from the published kinematics: the default hand."""
+_KNUCKLE = (-0.349066, 0.349066)
+_PROXIMAL = (-0.261799, 1.5708)
+_DISTAL = (0.0, 1.5708)
+
+SHADOW_HAND = HandModel(
+    name="shadow_hand",
+    mjcf="shadow_hand.xml",
+    finger_joints=(
+        "FFJ4", "FFJ3", "FFJ2", "FFJ1",
+        "MFJ4", "MFJ3", "MFJ2", "MFJ1",
+        "RFJ4", "RFJ3", "RFJ2", "RFJ1",
+        "LFJ5", "LFJ4", "LFJ3", "LFJ2", "LFJ1",
+        "THJ5", "THJ4", "THJ3", "THJ2", "THJ1",
+    ),
+    wrist_joints=("WRJ2", "WRJ1"),
+    joint_ranges={  # from the kinematics sheet
+        "WRJ2": (-0.523599, 0.174533),
+        "WRJ1": (-0.698132, 0.488692),
+        **{f"{f}J4": _KNUCKLE for f in ("FF", "MF", "RF", "LF")},
+        **{f"{f}J3": _PROXIMAL for f in ("FF", "MF", "RF", "LF")},
+        **{f"{f}J{j}": _DISTAL for f in ("FF", "MF", "RF", "LF") for j in (2, 1)},
+        "LFJ5": (0.0, 0.785398),
+        "THJ5": (-1.0472, 1.0472),
+        "THJ4": (0.0, 1.22173),
+        "THJ3": (-0.20944, 0.20944),
+        "THJ2": (-0.698132, 0.698132),
+        "THJ1": (-0.261799, 1.5708),
+    },
+    finger_segments={
+        "ff": ("ffproximal", "ffmiddle", "ffdistal"),
+        "mf": ("mfproximal", "mfmiddle", "mfdistal"),
+        "rf": ("rfproximal", "rfmiddle", "rfdistal"),
+        "lf": ("lfmetacarpal", "lfproximal", "lfmiddle", "lfdistal"),
+        "th": ("thproximal", "thmiddle", "thdistal"),
+    },
+    base_segments=("forearm", "wrist", "palm"),
+    # the segment S_{i,j} that joint j of finger i moves: the first body with geometry at or beyond the
+    # joint (knuckle, thbase and thhub carry no geometry of their own)
+    joint_segment={
+        **{f"{F}J{j}": f"{F.lower()}{seg}" for F in ("FF", "MF", "RF", "LF")
+           for j, seg in ((4, "proximal"), (3, "proximal"), (2, "middle"), (1, "distal"))},
+        "LFJ5": "lfmetacarpal",
+        "THJ5": "thproximal", "THJ4": "thproximal",
+        "THJ3": "thmiddle", "THJ2": "thmiddle",
+        "THJ1": "thdistal",
+    },
+    fingertip_sites=tuple(f"{f}tip" for f in FINGERS),
+    actuators=(
+        "A_WRJ2", "A_WRJ1",
+        "A_FFJ4", "A_FFJ3", "A_FFJ0",
+        "A_MFJ4", "A_MFJ3", "A_MFJ0",
+        "A_RFJ4", "A_RFJ3", "A_RFJ0",
+        "A_LFJ5", "A_LFJ4", "A_LFJ3", "A_LFJ0",
+        "A_THJ5", "A_THJ4", "A_THJ3", "A_THJ2", "A_THJ1",
+    ),
+    timestep=0.002,
+)  # fmt: skip
+"""Our MJCF of the Shadow Dexterous Hand, written from the published kinematics: the default hand. The
+tables below are its."""
+
+FINGER_JOINTS: tuple[str, ...] = SHADOW_HAND.finger_joints
+"""The 22 finger joints in grasp-posture order: finger by finger, proximal to distal."""
+
+N_FINGER_JOINTS = len(FINGER_JOINTS)
+"""The length of a grasp posture: the number of finger joints (22)."""
+
+WRIST_JOINTS: tuple[str, ...] = SHADOW_HAND.wrist_joints
+"""The two wrist joints."""
+
+HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS
+"""All 24 hinge joints, wrist first, in the model's order."""
+
+JOINT_RANGES: dict[str, tuple[float, float]] = SHADOW_HAND.joint_ranges
+"""Joint ranges (radians) from the kinematics sheet, by joint name."""
+
+FINGER_SEGMENTS: dict[str, tuple[str, ...]] = SHADOW_HAND.finger_segments
+"""The segments of each finger that carry collision geometry, palm side first."""
+
+SEGMENTS: tuple[str, ...] = SHADOW_HAND.segments
+"""Every hand body that can touch an object (a tactile "segment"), in a fixed order."""
+
+DISTAL_SEGMENTS: tuple[str, ...] = tuple(FINGER_SEGMENTS[f][-1] for f in FINGERS)
+"""The fingertip segments, one per finger in FINGERS order."""
+
+FINGERTIP_SITES: tuple[str, ...] = SHADOW_HAND.fingertip_sites
+"""The fingertip sites of the model (the springs of the posture generator pull there)."""
+
+JOINT_SEGMENT: dict[str, str] = SHADOW_HAND.joint_segment
+"""The segment S_{i,j} that joint j of finger i moves (the PCP of Eq. 1)."""
+
+ACTUATORS: tuple[str, ...] = SHADOW_HAND.actuators
+"""The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger."""
+
+HAND_MODEL_FILE = SHADOW_HAND.mjcf
+"""The asset file of our hand model."""
+
+PHYSICS_TIMESTEP = SHADOW_HAND.timestep
+"""s, the physics step of the model (its <option timestep>): a control period is a whole number of them."""
 
 
 def hand_spec() -> mujoco.MjSpec:
