@@ -10,7 +10,8 @@ Posture), the actuators; the J1+J2 coupling and the open and closed postures are
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
@@ -55,6 +56,11 @@ class HandModel:
         timestep: s, the physics step of the model (its <option timestep>).
         mount: the mocap body the hand hangs on.
         palm: the palm's body.
+        loader: builds the hand's MjSpec (None: read `mjcf` from the library's assets).
+        postures: the open and closed postures (22 values in posture order, the paper's sense, rad) for a
+            model whose MJCF has no such keyframes; clipped to the model's joint ranges.
+        flipped: the finger joints that turn the other way than the paper's (flexion negative): a posture
+            angle a is the model's -a there (`to_model`, `from_model`).
     """
 
     name: str
@@ -70,6 +76,35 @@ class HandModel:
     timestep: float
     mount: str = "hand_mount"
     palm: str = "palm"
+    loader: Callable[[], mujoco.MjSpec] | None = None
+    postures: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    flipped: tuple[str, ...] = ()
+
+    @functools.cached_property
+    def _signs(self) -> np.ndarray:
+        return np.array([-1.0 if joint in self.flipped else 1.0 for joint in self.finger_joints])
+
+    def to_model(self, posture: np.ndarray) -> np.ndarray:
+        """A posture in the paper's sense as this model's finger joint angles.
+
+        Args:
+            posture: (..., 22), rad.
+
+        Returns:
+            The model's angles (..., 22), rad, in `finger_joints` order.
+        """
+        return np.asarray(posture, dtype=float) * self._signs
+
+    def from_model(self, angles: np.ndarray) -> np.ndarray:
+        """This model's finger joint angles as a posture in the paper's sense.
+
+        Args:
+            angles: (..., 22), rad, in `finger_joints` order.
+
+        Returns:
+            The posture (..., 22), rad.
+        """
+        return np.asarray(angles, dtype=float) * self._signs
 
     @property
     def segments(self) -> tuple[str, ...]:
@@ -82,7 +117,7 @@ class HandModel:
         Returns:
             The spec.
         """
-        return mujoco.MjSpec.from_file(str(asset_path(self.mjcf)))
+        return self.loader() if self.loader is not None else mujoco.MjSpec.from_file(str(asset_path(self.mjcf)))
 
     @functools.cached_property
     def model(self) -> mujoco.MjModel:
@@ -90,7 +125,8 @@ class HandModel:
         return self.spec().compile()
 
     def keyframe_posture(self, key: str) -> np.ndarray:
-        """A posture stored in the MJCF as a keyframe.
+        """A posture stored in the MJCF as a keyframe (or, for a model without it, in `postures`), in the
+        paper's sense.
 
         Args:
             key: the keyframe's name (`open`, `closed`).
@@ -102,8 +138,31 @@ class HandModel:
         try:
             qpos = model.key(key).qpos
         except KeyError:
-            raise InvalidInput(f"the hand model {self.name!r} has no keyframe {key!r}") from None
-        return np.array([qpos[model.joint(name).qposadr[0]] for name in self.finger_joints])
+            if key not in self.postures:
+                raise InvalidInput(f"the hand model {self.name!r} has no keyframe {key!r}") from None
+            ranges = np.array([model.joint(name).range for name in self.finger_joints])
+            return self.from_model(np.clip(self.to_model(self.postures[key]), ranges[:, 0], ranges[:, 1]))
+        return self.from_model(np.array([qpos[model.joint(name).qposadr[0]] for name in self.finger_joints]))
+
+    def missing(self) -> list[str]:
+        """What this description names that its MJCF lacks (an incomplete or foreign model).
+
+        Returns:
+            One entry per missing joint, body, site or actuator ('joint FFJ4', ...); empty when complete.
+        """
+        model = self.model
+        wanted = ([("joint", j) for j in self.wrist_joints + self.finger_joints]
+                  + [("body", b) for b in (self.mount, self.palm, *self.segments)]
+                  + [("site", s) for s in self.fingertip_sites] + [("actuator", a) for a in self.actuators])
+        found = {"joint": model.joint, "body": model.body, "site": model.site, "actuator": model.actuator}
+        absent = []
+        for kind, name in wanted:
+            try:
+                found[kind](name)
+            except KeyError:
+                absent.append(f"{kind} {name}")
+        absent += [f"joint {j} (no segment for it)" for j in self.finger_joints if j not in self.joint_segment]
+        return absent
 
     def coupling(self) -> np.ndarray:
         """How a posture drives the actuators: a (actuators, 22) matrix with a 1 where an actuator's

@@ -1,0 +1,70 @@
+"""Every hand model the library knows loads behind the one interface, and its 22 finger joints are the paper's."""
+
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+import pytest
+
+from graspmanifold import InvalidInput
+from graspmanifold.sim.hand import FINGERS, SHADOW_HAND, finger_of
+from graspmanifold.sim.hand_models import HAND_MODELS, check_hand_model, hand_model
+
+
+def available(name: str):
+    try:
+        return hand_model(name)
+    except ImportError as error:  # the optional model's package ('graspmanifold[hands]') is not installed
+        pytest.skip(str(error))
+
+
+def fingertips(hand, posture: np.ndarray) -> np.ndarray:
+    """The fingertip sites (5, 3) in the palm frame, m, for a posture in the paper's sense."""
+    model, data = hand.model, mujoco.MjData(hand.model)
+    for joint, angle in zip(hand.finger_joints, hand.to_model(posture)):
+        data.qpos[model.joint(joint).qposadr[0]] = angle
+    mujoco.mj_kinematics(model, data)
+    palm = model.body(hand.palm).id
+    sites = np.array([data.site_xpos[model.site(name).id] for name in hand.fingertip_sites])
+    return (sites - data.xpos[palm]) @ data.xmat[palm].reshape(3, 3)
+
+
+@pytest.mark.parametrize("name", HAND_MODELS)
+def test_every_hand_model_loads_and_its_fingertips_lie_in_a_hand_sized_box(name):
+    hand = available(name)
+    assert len(hand.finger_joints) == 22 and len(hand.segments) == len(SHADOW_HAND.segments)
+    for key in ("open", "closed"):
+        tips = fingertips(hand, hand.keyframe_posture(key))
+        assert np.all(np.isfinite(tips)) and np.all(np.linalg.norm(tips, axis=1) < 0.25), (key, tips)
+    open_, closed = fingertips(hand, hand.keyframe_posture("open")), fingertips(hand, hand.keyframe_posture("closed"))
+    assert np.all(np.linalg.norm(closed[:4], axis=1) < np.linalg.norm(open_[:4], axis=1))  # closing curls the fingers
+    coupling = hand.coupling()
+    assert coupling.shape == (len(hand.actuators), 22) and (coupling.sum(axis=0) <= 1).all()
+
+
+@pytest.mark.parametrize("name", [n for n in HAND_MODELS if n != "ours"])
+def test_the_finger_joints_map_in_the_papers_order_and_sense(name):
+    """A small turn of each mapped joint moves its fingertip the way ours does (the map's order and signs), and
+    the four fingers' tips of the closed hand lie where ours do."""
+    hand = available(name)
+    base = 0.5 * (SHADOW_HAND.keyframe_posture("open") + SHADOW_HAND.keyframe_posture("closed"))
+    for index, joint in enumerate(SHADOW_HAND.finger_joints):
+        finger = FINGERS.index(finger_of(joint))
+        turn = np.zeros(22)
+        turn[index] = 0.1
+        ours = fingertips(SHADOW_HAND, base + turn)[finger] - fingertips(SHADOW_HAND, base)[finger]
+        theirs = fingertips(hand, base + turn)[finger] - fingertips(hand, base)[finger]
+        assert ours @ theirs / (np.linalg.norm(ours) * np.linalg.norm(theirs)) > 0.9, joint
+    closed = SHADOW_HAND.keyframe_posture("closed")
+    np.testing.assert_allclose(fingertips(hand, closed)[:4], fingertips(SHADOW_HAND, closed)[:4], atol=0.005)
+
+
+def test_unknown_and_incomplete_models_are_refused_naming_what_is_missing():
+    with pytest.raises(InvalidInput, match="hand must be one of"):
+        hand_model("allegro")
+    broken = replace(SHADOW_HAND, finger_joints=("FFJ9",) + SHADOW_HAND.finger_joints[1:],
+                     fingertip_sites=SHADOW_HAND.fingertip_sites[:4] + ("thumbtip",))
+    with pytest.raises(InvalidInput, match="lacks what its description names: joint FFJ9, site thumbtip"):
+        check_hand_model(broken)
+    with pytest.raises(InvalidInput, match="22 finger joints"):
+        check_hand_model(replace(SHADOW_HAND, finger_joints=SHADOW_HAND.finger_joints[:21]))
