@@ -144,6 +144,20 @@ class HandModel:
             return self.from_model(np.clip(self.to_model(self.postures[key]), ranges[:, 0], ranges[:, 1]))
         return self.from_model(np.array([qpos[model.joint(name).qposadr[0]] for name in self.finger_joints]))
 
+    @functools.cached_property
+    def ctrl_matrix(self) -> np.ndarray:
+        """(actuators, 22): actuator targets = ctrl_matrix @ posture, for a posture in the paper's sense
+        (`coupling` with the flipped joints' columns negated); the wrist rows are 0."""
+        return self.coupling() * self._signs
+
+    @functools.cached_property
+    def wrist_rows(self) -> np.ndarray:
+        """The rows of `actuators` that drive the wrist joints, in `wrist_joints` order."""
+        model = self.model
+        driven = {model.joint(int(model.actuator(name).trnid[0])).name: row for row, name in enumerate(self.actuators)
+                  if model.actuator(name).trntype[0] == mujoco.mjtTrn.mjTRN_JOINT}
+        return np.array([driven[joint] for joint in self.wrist_joints])
+
     def missing(self) -> list[str]:
         """What this description names that its MJCF lacks (an incomplete or foreign model).
 
@@ -308,10 +322,10 @@ def finger_limits() -> np.ndarray:
     return np.array([JOINT_RANGES[j] for j in FINGER_JOINTS], dtype=float)
 
 
-def segment_of_geoms(model: mujoco.MjModel) -> np.ndarray:
+def segment_of_geoms(model: mujoco.MjModel, hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """For every geom of a model holding the hand, the index in SEGMENTS of the segment (body) it
     belongs to, -1 for geoms that are not the hand's (the object, a table)."""
-    index = {name: i for i, name in enumerate(SEGMENTS)}
+    index = {name: i for i, name in enumerate(hand.segments)}
     return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) for g in range(model.ngeom)], dtype=int)
 
 

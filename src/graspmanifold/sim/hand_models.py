@@ -43,7 +43,7 @@ def _gymnasium_assets() -> Path:
 
 def _gymnasium_spec() -> mujoco.MjSpec:
     """Gymnasium-Robotics' hand alone (its shared defaults, meshes and robot), hung on a mocap body
-    `hand_mount` whose frame is the hand's own mount frame."""
+    `hand_mount` whose frame is the hand's own mount frame, with the library's physics options."""
     root = _gymnasium_assets()
     xml = f"""<mujoco model="gymnasium_robotics_shadow_hand">
   <compiler angle="radian" meshdir="{root.parent / 'stls' / 'hand'}" texturedir="{root.parent / 'textures'}"/>
@@ -52,6 +52,9 @@ def _gymnasium_spec() -> mujoco.MjSpec:
   <worldbody><body name="hand_mount" mocap="true"><include file="{root / 'robot.xml'}"/></body></worldbody>
 </mujoco>"""
     spec = mujoco.MjSpec.from_string(xml)
+    ours = SHADOW_HAND.spec().option  # the library's physics, whatever the hand: the same step, integrator and cones
+    spec.option.timestep, spec.option.integrator = ours.timestep, ours.integrator
+    spec.option.cone, spec.option.impratio = ours.cone, ours.impratio
     mount = spec.body("robot0:hand mount")  # placed in its environments' world: bring it to our mount's frame
     mount.pos = [0.0, 0.0, 0.0]
     mount.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT

@@ -15,12 +15,11 @@ from ..base.errors import InvalidInput
 from .hand import (
     FINGER_JOINTS,
     FINGER_SEGMENTS,
-    JOINT_RANGES,
     JOINT_SEGMENT,
     N_FINGER_JOINTS,
     SEGMENTS,
     SHADOW_HAND,
-    WRIST_JOINTS,
+    HandModel,
     finger_limits,
     finger_of,
 )
@@ -116,30 +115,33 @@ def dict_to_posture(joints: Mapping[str, float]) -> np.ndarray:
 
 
 #: actuator targets = CTRL_MATRIX @ posture, with the wrist angles in the first two rows.
-CTRL_MATRIX = SHADOW_HAND.coupling()
+CTRL_MATRIX = SHADOW_HAND.ctrl_matrix
 
 
-def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> np.ndarray:
+def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0),
+                    hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """Actuator targets for a finger posture and wrist angles.
 
-    J1 and J2 of FF, MF, RF and LF become one target J0 = J1 + J2, as on the real hand.
+    J1 and J2 of FF, MF, RF and LF become one target J0 = J1 + J2, as on the real hand (our model; another
+    model's actuators as its MJCF couples them, `HandModel.ctrl_matrix`).
 
     Args:
         posture: 22 finger joint angles, rad.
         wrist: (WRJ2, WRJ1), rad.
+        hand: the hand model.
 
     Returns:
-        The targets (20,) in `ACTUATORS` order, rad.
+        The targets in the hand's `actuators` order (20,), rad.
     """
-    ctrl = CTRL_MATRIX @ validate_posture(posture)
+    ctrl = hand.ctrl_matrix @ validate_posture(posture)
     wrist = np.asarray(tuple(wrist), dtype=float)
     if wrist.shape != (2,) or not np.all(np.isfinite(wrist)):
         raise InvalidInput(f"wrist must be two finite angles (WRJ2, WRJ1), got {wrist!r}")
-    for name, angle in zip(WRIST_JOINTS, wrist):
-        low, high = JOINT_RANGES[name]
+    for name, angle in zip(hand.wrist_joints, wrist):
+        low, high = hand.joint_ranges[name]
         if not low - 1e-9 <= angle <= high + 1e-9:
             raise InvalidInput(f"wrist angle {name} = {angle:.4g} rad is outside its range [{low:.4g}, {high:.4g}]")
-    ctrl[:2] = wrist
+    ctrl[hand.wrist_rows] = wrist
     return ctrl
 
 

@@ -18,7 +18,8 @@ import numpy as np
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, invert
 from ..base.validation import check_int
-from .hand import HAND_JOINTS, hand_spec
+from .hand import HandModel
+from .hand_models import hand_model
 from .objects import GraspObject, get_object
 from .posture import posture_to_ctrl, validate_posture
 from .tactile import TactileReading, TactileSensor
@@ -110,9 +111,9 @@ def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObjec
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", **contact)
 
 
-def _add_cameras(spec: mujoco.MjSpec) -> None:
+def _add_cameras(spec: mujoco.MjSpec, palm: str) -> None:
     for name, (parent, pos) in CAMERAS.items():
-        body = spec.worldbody if parent == "world" else spec.body(parent)
+        body = spec.worldbody if parent == "world" else spec.body(palm if parent == "palm" else parent)
         body.add_camera(name=name, pos=list(pos), mode=mujoco.mjtCamLight.mjCAMLIGHT_TARGETBODY,
                         targetbody="object", fovy=40.0)
 
@@ -136,7 +137,7 @@ class Scene:
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
-                 gravity: bool = False, table: bool = False):
+                 gravity: bool = False, table: bool = False, hand: str | HandModel = "ours"):
         """The hand and one object in a new MuJoCo model.
 
         Args:
@@ -144,34 +145,38 @@ class Scene:
             free_object: the object hangs on a free joint (False: welded to the world).
             gravity: gravity on from the start.
             table: a table top under the object.
+            hand: the hand model, or its name (`hand_models.HAND_MODELS`); postures stay the paper's 22
+                joint angles in the paper's sense whatever the model's names and signs.
         """
         self.object = get_object(obj)
         self.free_object = free_object
-        spec = hand_spec()
+        self.hand = hand_model(hand) if isinstance(hand, str) else hand
+        spec = self.hand.spec()
         spec.modelname = f"graspmanifold_{self.object.name}"
         body = spec.worldbody.add_body(name="object")
         if free_object:
             body.add_freejoint(name="object_free")
         _add_object_geoms(spec, body, self.object)
-        spec.add_exclude(bodyname1="object", bodyname2="forearm")
+        spec.add_exclude(bodyname1="object", bodyname2=self.hand.base_segments[0])
         if table:  # a table top under the object, which stands on it along its z axis
             top = -float(self.object.half_extents[2])
             spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.25, 0.25, 0.01],
                                     pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
                                     solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
-        _add_cameras(spec)
+        _add_cameras(spec, self.hand.palm)
         self.spec = spec
         self.model = spec.compile()
         self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
         self.data = mujoco.MjData(self.model)
-        self.sensor = TactileSensor(self.model)
+        self.sensor = TactileSensor(self.model, hand=self.hand)
         # addresses other modules use to read and write the hand's state directly
-        joint_ids = [self.model.joint(name).id for name in HAND_JOINTS]
+        joint_ids = [self.model.joint(name).id for name in self.hand.wrist_joints + self.hand.finger_joints]
         self.hand_qpos = self.model.jnt_qposadr[joint_ids]
         self.hand_dofs = self.model.jnt_dofadr[joint_ids]
         self.finger_qpos = self.hand_qpos[2:]
-        self.mount_id = int(self.model.body("hand_mount").mocapid[0])
-        self.palm_id = self.model.body("palm").id
+        self.actuator_ids = np.array([self.model.actuator(name).id for name in self.hand.actuators])
+        self.mount_id = int(self.model.body(self.hand.mount).mocapid[0])
+        self.palm_id = self.model.body(self.hand.palm).id
         self.object_body = self.model.body("object").id
         self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
         self._fromto = np.zeros(6)  # mj_geomDistance's output buffer, reused by distance_to_object
@@ -367,8 +372,8 @@ class Scene:
                    for g in self.object_geoms)
 
     def posture(self) -> np.ndarray:
-        """The current 22 finger joint angles (radians, FINGER_JOINTS order)."""
-        return self.data.qpos[self.finger_qpos].copy()
+        """The current 22 finger joint angles (radians, FINGER_JOINTS order, the paper's sense)."""
+        return self.hand.from_model(self.data.qpos[self.finger_qpos])
 
     def set_posture(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
         """Put the hand in a posture at rest and make the actuators hold it.
@@ -378,11 +383,11 @@ class Scene:
             wrist: (WRJ2, WRJ1), rad.
         """
         posture = validate_posture(posture, check_limits=True)
-        ctrl = posture_to_ctrl(posture, wrist)
-        self.data.qpos[self.finger_qpos] = posture
-        self.data.qpos[self.hand_qpos[:2]] = ctrl[:2]
+        ctrl = posture_to_ctrl(posture, wrist, self.hand)
+        self.data.qpos[self.finger_qpos] = self.hand.to_model(posture)
+        self.data.qpos[self.hand_qpos[:2]] = ctrl[self.hand.wrist_rows]
         self.data.qvel[self.hand_dofs] = 0.0
-        self.data.ctrl[:] = ctrl
+        self.data.ctrl[self.actuator_ids] = ctrl
         self.forward()
 
     def set_target(self, posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0)) -> None:
@@ -392,7 +397,8 @@ class Scene:
             posture: 22 finger joint angles, rad.
             wrist: (WRJ2, WRJ1), rad.
         """
-        self.data.ctrl[:] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True), wrist)
+        self.data.ctrl[self.actuator_ids] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True),
+                                                            wrist, self.hand)
 
     # -- pictures --------------------------------------------------------------------------------
     def state(self) -> np.ndarray:

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput
-from .hand import SEGMENTS, segment_of_geoms
+from .hand import SEGMENTS, SHADOW_HAND, HandModel, segment_of_geoms
 
 _SEGMENT_INDEX = {s: i for i, s in enumerate(SEGMENTS)}
 
@@ -79,13 +79,15 @@ def _geom_pairs(data: mujoco.MjData) -> np.ndarray:
 class TactileSensor:
     """Reads TactileReadings from a model holding the hand and a body named `object`."""
 
-    def __init__(self, model: mujoco.MjModel, object_body: str = "object", min_force: float = 0.0):
+    def __init__(self, model: mujoco.MjModel, object_body: str = "object", min_force: float = 0.0,
+                 hand: HandModel = SHADOW_HAND):
         """A sensor of the hand-object contacts of a model.
 
         Args:
             model: the scene's model.
             object_body: the object's body name.
             min_force: contacts with less normal force than this are not felt, N.
+            hand: the hand model in the scene (its segments are read as the paper's `SEGMENTS`).
         """
         try:
             object_id = model.body(object_body).id
@@ -93,7 +95,7 @@ class TactileSensor:
             raise InvalidInput(f"the model has no body named {object_body!r}") from None
         self.model = model
         self.min_force = float(min_force)
-        self._segment_of_geom = segment_of_geoms(model)
+        self._segment_of_geom = segment_of_geoms(model, hand)
         self._is_object_geom = model.geom_bodyid == object_id
         self._wrench = np.zeros(6)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC

@@ -21,7 +21,7 @@ import os
 import numpy as np
 
 from ..base.errors import BackendUnavailable, InvalidInput, SimulationError
-from .hand import SEGMENTS, segment_of_geoms
+from .hand import SEGMENTS, SHADOW_HAND, segment_of_geoms
 from .posture import CTRL_MATRIX
 from .scene import PENETRATION_LIMIT, Scene
 from .tactile import TactileReading
@@ -93,6 +93,8 @@ class WarpWorlds:
             raise InvalidInput("scenes must hold at least one Scene")
         if any(scene.table_geom is not None for scene in scenes):
             raise InvalidInput("backend='warp' does not support table=True (the table is taken away per world)")
+        if any(scene.hand is not SHADOW_HAND for scene in scenes):
+            raise InvalidInput(f"backend='warp' runs our hand model only, not {scenes[0].hand.name!r}: use backend='cpu'")
         self.scenes, self.n = scenes, len(scenes)
         first = scenes[0]
         mjm = first.model

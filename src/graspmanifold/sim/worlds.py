@@ -18,7 +18,6 @@ import numpy as np
 
 from ..base.errors import InvalidInput, SimulationError
 from .hand import N_FINGER_JOINTS, SEGMENTS
-from .posture import CTRL_MATRIX
 from .scene import Scene
 from .tactile import TactileReading
 
@@ -66,10 +65,13 @@ class CpuWorlds:
             raise InvalidInput("scenes must hold at least one Scene")
         self.scenes = scenes
         self.n = len(scenes)
+        self.hand = scenes[0].hand
+        if any(scene.hand is not self.hand for scene in scenes):
+            raise InvalidInput("the scenes of one set of worlds must hold one hand model")
 
     def joints(self, worlds: np.ndarray) -> np.ndarray:
-        return np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]
-                        ).reshape(-1, N_FINGER_JOINTS)
+        return self.hand.from_model(np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]
+                                             ).reshape(-1, N_FINGER_JOINTS))
 
     def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
         return np.array([self.scenes[w].sensor.segment_forces(self.scenes[w].data) for w in worlds]
@@ -79,9 +81,9 @@ class CpuWorlds:
         return np.array([scene.data.xpos[scene.object_body] for scene in self.scenes])
 
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
-        ctrl = targets @ CTRL_MATRIX.T  # wrist rows stay 0: the hand's wrist is held straight
+        ctrl = targets @ self.hand.ctrl_matrix.T  # wrist rows stay 0: the hand's wrist is held straight
         for world, row in zip(worlds, ctrl):
-            self.scenes[world].data.ctrl[:] = row
+            self.scenes[world].data.ctrl[self.scenes[world].actuator_ids] = row
 
     def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:
         failed = {}
