@@ -205,11 +205,11 @@ def test_interrupted_run_resumes_without_redoing_finished_jobs(tmp_path, monkeyp
     calls = []
     real_run = generator._run_job
 
-    def counting_run(obj, start, job, seed, params):
+    def counting_run(obj, start, job, seed, params, hand):
         calls.append(job)
         if len(calls) == 4:
             raise KeyboardInterrupt  # the run is killed half-way
-        return real_run(obj, start, job, seed, params)
+        return real_run(obj, start, job, seed, params, hand)
 
     monkeypatch.setattr(generator, "_run_job", counting_run)
     with pytest.raises(KeyboardInterrupt):

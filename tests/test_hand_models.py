@@ -89,3 +89,19 @@ def test_a_scripted_grasp_on_every_model_is_felt_in_the_papers_segments_and_judg
     assert set(reading.segments) <= set(gm.SEGMENTS) and {"ffdistal", "thmiddle"} <= set(reading.segments)
     judgement = judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False)
     assert scene.healthy() and judgement.epsilon > 0.01 and np.isfinite(judgement.displacement)
+
+
+def test_the_generator_and_the_evaluation_run_on_another_hand_and_its_experience_stays_with_it():
+    import graspmanifold as gm
+
+    available("gymnasium-robotics")
+    postures = gm.generate_postures("cylinder", 6, seed=0, workers=1, hand="gymnasium-robotics",
+                                    params=gm.GeneratorParams(job_size=3, verify=False))
+    assert len(postures) == 6 and postures.metadata["hand"] == "gymnasium-robotics"
+    grid = gm.grid_preset("quick", "cylinder")[:2]
+    result = gm.evaluate("cylinder", postures, grid, workers=1, hand="gymnasium-robotics")
+    assert len(result.trials) == 2 and all(t.valid for t in result.trials)
+    with pytest.raises(InvalidInput, match="postures of the 'gymnasium-robotics' hand; these trials run the 'ours'"):
+        gm.evaluate("cylinder", postures, grid, workers=1)
+    with pytest.raises(InvalidInput, match="backend='warp' runs our hand model only"):
+        gm.evaluate("cylinder", None, grid, backend="warp", hand="gymnasium-robotics")

@@ -25,6 +25,7 @@ from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
 from .sim.family import FAMILY
+from .sim.hand_models import HAND_MODELS
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import Scene, facing_pose
@@ -46,8 +47,8 @@ def _object(args: argparse.Namespace) -> GraspObject:
         raise SystemExit(f"error: --object: {error}") from None
 
 
-def _closed_scene(obj: GraspObject, seconds: float, clearance: float) -> Scene:
-    scene = Scene(obj)
+def _closed_scene(obj: GraspObject, seconds: float, clearance: float, hand: str = "ours") -> Scene:
+    scene = Scene(obj, hand=hand)
     scene.set_hand_pose(*facing_pose(obj, clearance=clearance))
     scene.set_posture(open_posture())
     scene.set_target(closed_posture())
@@ -59,8 +60,8 @@ def _demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     obj = _object(args)
     try:
-        scene = _closed_scene(obj, args.seconds, args.clearance)
-    except ValueError as error:
+        scene = _closed_scene(obj, args.seconds, args.clearance, args.hand)
+    except (ValueError, ImportError) as error:
         raise SystemExit(f"error: {error}") from None
     wall = time.perf_counter() - start
     reading = scene.tactile()
@@ -77,7 +78,7 @@ def _view(args: argparse.Namespace) -> int:
     import mujoco.viewer  # imported here: it needs a display
 
     obj = _object(args)
-    scene = Scene(obj)
+    scene = Scene(obj, hand=args.hand)
     scene.set_hand_pose(*facing_pose(obj, clearance=args.clearance))
     scene.set_posture(open_posture())
     if args.close:
@@ -132,8 +133,11 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
-    postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params,
-                                 checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
+    try:
+        postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params, hand=args.hand,
+                                     checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
+    except ImportError as error:
+        raise SystemExit(f"error: --hand: {error}") from None
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = (f"verified: {postures.metadata['verified_ratio']:.0%} of {postures.metadata['candidates']} candidates "
@@ -143,8 +147,8 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
     return 0
 
 
-def _load_experience(kind: str, postures: list[str], som_path: str | None, seed: int):
-    """The experience base the evaluate command asks for: none, a database or a SOM."""
+def _load_experience(kind: str, postures: list[str], som_path: str | None, seed: int, hand: str = "ours"):
+    """The experience base the evaluate command asks for: none, a database or a SOM (of `hand`'s postures)."""
     from .manifold.experience import PostureDatabase
     from .manifold.postureset import PostureSet
     from .manifold.som import SOM
@@ -155,7 +159,12 @@ def _load_experience(kind: str, postures: list[str], som_path: str | None, seed:
         return SOM.load(som_path)
     if not postures:
         raise SystemExit(f"error: --experience {kind} needs --postures FILE.npz (or --som MAP.npz)")
-    data = PostureSet.concatenate([PostureSet.load(p) for p in postures]).postures
+    sets = [PostureSet.load(p) for p in postures]
+    foreign = [f"{p} ({s.metadata.get('hand', 'ours')})" for p, s in zip(postures, sets)
+               if s.metadata.get("hand", "ours") != hand]
+    if foreign:
+        raise SystemExit(f"error: --postures of another hand than --hand {hand}: {', '.join(foreign)}")
+    data = PostureSet.concatenate(sets).postures
     if kind == "database":
         return PostureDatabase(data)
     print(f"training a {MAP_SIZE[0]}x{MAP_SIZE[1]} SOM on {len(data)} postures (paper schedule) ...", file=sys.stderr)
@@ -185,11 +194,11 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
         remove_checkpoints(checkpoints)
     try:
         noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
-        experience = _load_experience(args.experience, args.postures or [], args.som, args.seed)
+        experience = _load_experience(args.experience, args.postures or [], args.som, args.seed, args.hand)
         start = time.perf_counter()
         result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
                           noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
-                          executor=_executor(args), backend=args.backend)
+                          executor=_executor(args), backend=args.backend, hand=args.hand)
     except (FileNotFoundError, ImportError) as error:
         raise SystemExit(f"error: {error}") from None
     result.save(out / "trials.npz")
@@ -257,6 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
                          "(.stl, .obj, .ply, ...: a watertight solid)")
         sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
+        sub.add_argument("--hand", choices=HAND_MODELS, default="ours", help="the hand model: ours, or "
+                         "Gymnasium-Robotics' Shadow Hand (pip install 'graspmanifold[hands]')")
 
     def workers(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")

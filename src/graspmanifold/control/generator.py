@@ -53,9 +53,9 @@ from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
-from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, FINGERTIP_SITES, SEGMENTS, finger_limits, segment_of_geoms
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, finger_limits, segment_of_geoms
+from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
-from ..sim.posture import posture_to_ctrl
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
 from .judge import JUDGING, Judgement, hold_on_support, judge_grasp, supported_scene
@@ -140,8 +140,8 @@ class _Verifier:
 
     PERIOD = 0.02  # s between checks of the object's displacement
 
-    def __init__(self, obj: GraspObject, params: GeneratorParams):
-        self.scene = supported_scene(obj)
+    def __init__(self, obj: GraspObject, params: GeneratorParams, hand: str = "ours"):
+        self.scene = supported_scene(obj, hand=hand)
         self.params = params
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
@@ -164,20 +164,22 @@ class _SpringRig:
     must touch for a candidate are the contact segments (the five distal ones for the paper's kind).
     """
 
-    def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS):
-        self.scene = Scene(obj)
+    def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS,
+                 hand: str = "ours"):
+        self.scene = Scene(obj, hand=hand)
         self.params = params
-        model = self.scene.model
-        fingers = slice(2, None)  # actuators after the two wrist servos
+        model, hand = self.scene.model, self.scene.hand
+        fingers = np.delete(self.scene.actuator_ids, hand.wrist_rows)  # every servo but the wrist's
         model.actuator_gainprm[fingers, 0] *= params.servo_stiffness_scale
         model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
-        tips = [FINGERTIP_SITES[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
+        tips = [hand.fingertip_sites[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
         self.tip_sites = [model.site(s).id for s in tips]
         self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
-        self.side_geoms = [model.geom(c).id for c in contacts if c not in DISTAL_SEGMENTS]
-        segment_of = segment_of_geoms(model)
+        segment_of = segment_of_geoms(model, hand)
         self.segment_geoms = [[int(g) for g in np.flatnonzero(segment_of == i)] for i in range(len(SEGMENTS))]
-        self.contact_geoms = [model.geom(c).id for c in contacts]
+        geom_of = {c: self.segment_geoms[SEGMENTS.index(c)][0] for c in contacts}  # a finger segment has one
+        self.side_geoms = [geom_of[c] for c in contacts if c not in DISTAL_SEGMENTS]
+        self.contact_geoms = [geom_of[c] for c in contacts]
         self.finger_dofs = self.scene.hand_dofs[2:]
         self.limits = finger_limits()
         self._torque = np.zeros(3)
@@ -239,7 +241,7 @@ class _SpringRig:
             return None
         clipped = np.clip(posture, self.limits[:, 0], self.limits[:, 1])
         saved = data.qpos.copy()
-        data.qpos[scene.finger_qpos] = clipped  # judge exactly what is stored
+        data.qpos[scene.finger_qpos] = scene.hand.to_model(clipped)  # judge exactly what is stored
         mujoco.mj_kinematics(model, data)
         gap = scene.distance_to_object
         try:
@@ -267,15 +269,15 @@ class _Job:
     quota: int  # candidates to find
 
 
-def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams
-             ) -> dict[str, np.ndarray]:
+def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams,
+             hand: str = "ours") -> dict[str, np.ndarray]:
     """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
     after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
-    rig = _SpringRig(obj, params, start.contacts)
-    verifier = _Verifier(obj, params) if params.verify else None
+    rig = _SpringRig(obj, params, start.contacts, hand)
+    verifier = _Verifier(obj, params, hand) if params.verify else None
     rig.reset_to(start)
-    rig.scene.data.ctrl[:] = posture_to_ctrl(start.posture)
+    rig.scene.set_target(start.posture)
     base = to_rotation(start.hand_quat)
     offset, turn = np.zeros(3), np.zeros(3)
     postures, poses, contacts, epsilons, displacements = [], [], [], [], []
@@ -385,8 +387,8 @@ def _job_file(directory: Path, job: _Job) -> Path:
 
 
 def _job_worker(args: tuple) -> tuple[_Job, dict[str, np.ndarray]]:
-    obj, start, job, seed, params = args
-    return job, _run_job(obj, start, job, seed, params)
+    obj, start, job, seed, params, hand = args
+    return job, _run_job(obj, start, job, seed, params, hand)
 
 
 def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], dict]:
@@ -398,7 +400,8 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool | None = None, executor: Executor | None = None) -> PostureSet:
+                      progress: bool | None = None, executor: Executor | None = None, hand: str = "ours"
+                      ) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
     Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
@@ -422,6 +425,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         progress: show a progress bar of the postures found (None: as `progress.show_progress` says, on by
             default).
         executor: run the jobs there instead of in `workers` local processes.
+        hand: the hand model's name (`hand_models.HAND_MODELS`); the postures record it (`metadata["hand"]`).
 
     Returns:
         A `PostureSet` of n postures; its metadata says how many candidates were drawn and how many
@@ -440,8 +444,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     starts = starting_postures(obj, params.designs)
     if not starts:
         raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
+    hand = hand_model(hand).name  # refused here when unknown or not installed, before any job
     key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                      "starts": [s.name for s in starts]})
+                      "starts": [s.name for s in starts], "hand": hand})
     store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None
     saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     if store is not None:  # a job's file must be where its name says (a renamed file is not taken for another job)
@@ -480,7 +485,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
                 return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
 
-            pending = ((obj, starts[job.start_index], job, seed, params)
+            pending = ((obj, starts[job.start_index], job, seed, params, hand)
                        for job in jobs() if (job.start_index, job.chunk) not in saved)
             finished = {key: result for key, result in saved.items() if any(
                 key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
@@ -539,7 +544,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                   "candidates_by_start": {starts[s].name: drawn(s) for s in present},
                   "kept_by_start": {starts[s].name: kept[s] for s in present},
                   "grasp_types": {starts[s].name: starts[s].grasp_type for s in range(len(starts))},
-                  "library_version": library_version(),
+                  "library_version": library_version(), "hand": hand,
                   "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
                                                  "posture": s.posture.tolist(), "contacts": list(s.contacts),
                                                  "grasp_type": s.grasp_type} for s in starts}},
@@ -549,8 +554,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 
 def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
     """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
-    obj, params, postures, poses = task
-    verifier = _Verifier(obj, params)
+    obj, params, postures, poses, hand = task
+    verifier = _Verifier(obj, params, hand)
     rows = []
     for posture, pose in zip(postures, poses):
         try:
@@ -588,7 +593,8 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     params = params or GeneratorParams()
     workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
-    tasks = [(obj, params, postures.postures[c], postures.hand_poses[c]) for c in chunks if len(c)]
+    hand = postures.metadata.get("hand", "ours")
+    tasks = [(obj, params, postures.postures[c], postures.hand_poses[c], hand) for c in chunks if len(c)]
     with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:
         rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers, lambda _, r: report.update(len(r)), executor)
                               or [np.zeros((0, 3))])

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..sim.hand import HandModel
 from ..sim.objects import GraspObject
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
@@ -77,7 +78,7 @@ class Judgement:
         return self.epsilon > JUDGING.epsilon_threshold
 
 
-def supported_scene(obj: GraspObject, table: bool = False) -> Scene:
+def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = "ours") -> Scene:
     """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
     spring-damper of `JUDGING` with gravity off, or a table with gravity on. Trials and the generator's
     verifier start from it (`hold_on_support` sets the spring again after a reset).
@@ -85,11 +86,12 @@ def supported_scene(obj: GraspObject, table: bool = False) -> Scene:
     Args:
         obj: the object.
         table: a table with gravity on instead of the spring.
+        hand: the hand model, or its name.
 
     Returns:
         The scene.
     """
-    scene = Scene(obj, free_object=True, gravity=table, table=table)
+    scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand)
     hold_on_support(scene)
     return scene
 

@@ -206,7 +206,7 @@ _PROXIMAL = (-0.261799, 1.5708)
 _DISTAL = (0.0, 1.5708)
 
 SHADOW_HAND = HandModel(
-    name="shadow_hand",
+    name="ours",
     mjcf="shadow_hand.xml",
     finger_joints=(
         "FFJ4", "FFJ3", "FFJ2", "FFJ1",
@@ -324,9 +324,12 @@ def finger_limits() -> np.ndarray:
 
 def segment_of_geoms(model: mujoco.MjModel, hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """For every geom of a model holding the hand, the index in SEGMENTS of the segment (body) it
-    belongs to, -1 for geoms that are not the hand's (the object, a table)."""
+    belongs to, -1 for geoms that are not the hand's (the object, a table) or that never collide (a
+    model's visual meshes)."""
     index = {name: i for i, name in enumerate(hand.segments)}
-    return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) for g in range(model.ngeom)], dtype=int)
+    collides = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    return np.array([index.get(model.body(model.geom_bodyid[g]).name, -1) if collides[g] else -1
+                     for g in range(model.ngeom)], dtype=int)
 
 
 class SegmentKinematics:

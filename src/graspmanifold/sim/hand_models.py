@@ -109,7 +109,7 @@ def hand_model(name: str = "ours") -> HandModel:
     """
     if name not in HAND_MODELS:
         raise InvalidInput(f"hand must be one of {HAND_MODELS}, got {name!r}")
-    hand = SHADOW_HAND if name == "ours" else _gymnasium_robotics()
+    hand = SHADOW_HAND if name == SHADOW_HAND.name else _gymnasium_robotics()
     check_hand_model(hand)
     return hand
 

@@ -93,7 +93,7 @@ class WarpWorlds:
             raise InvalidInput("scenes must hold at least one Scene")
         if any(scene.table_geom is not None for scene in scenes):
             raise InvalidInput("backend='warp' does not support table=True (the table is taken away per world)")
-        if any(scene.hand is not SHADOW_HAND for scene in scenes):
+        if any(scene.hand.name != SHADOW_HAND.name for scene in scenes):
             raise InvalidInput(f"backend='warp' runs our hand model only, not {scenes[0].hand.name!r}: use backend='cpu'")
         self.scenes, self.n = scenes, len(scenes)
         first = scenes[0]

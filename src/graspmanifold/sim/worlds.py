@@ -66,7 +66,7 @@ class CpuWorlds:
         self.scenes = scenes
         self.n = len(scenes)
         self.hand = scenes[0].hand
-        if any(scene.hand is not self.hand for scene in scenes):
+        if any(scene.hand.name != self.hand.name for scene in scenes):
             raise InvalidInput("the scenes of one set of worlds must hold one hand model")
 
     def joints(self, worlds: np.ndarray) -> np.ndarray:

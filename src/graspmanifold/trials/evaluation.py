@@ -28,7 +28,7 @@ from ..base.workers import parallel_map, workers_for
 from ..control.controller import ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.experience import Experience
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.objects import GraspObject, object_from_params
 from .batch_trials import run_trials
 from .grid import check_grid
@@ -250,7 +250,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
-             batch_size: int = WARP_BATCH, method: str = "") -> EvaluationResult:
+             batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours") -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -280,6 +280,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
         batch_size: trials at once on the GPU.
         method: the method's label in the result (empty: 'none', 'database' or 'som', from the experience).
+        hand: the hand model, or its name (`hand_models.HAND_MODELS`).
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -289,7 +290,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             argument.
     """
     setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method)
+                       method, hand)
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size = check_int(batch_size, "batch_size")

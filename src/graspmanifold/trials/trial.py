@@ -32,7 +32,9 @@ from ..base.validation import check_int
 from ..control.controller import ControllerParams, GraspController
 from ..control.judge import JUDGING, judge_grasp, supported_scene
 from ..manifold.experience import Experience, check_experience
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..manifold.postureset import PostureSet
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
+from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
@@ -87,6 +89,8 @@ class TrialSetup:
         preshape: a constant phase-B posture (22,), rad, or None.
         backend: the physics engine (`BACKENDS`).
         method: the method's label in results and reports (empty: `method_name` of the experience).
+        hand: the hand model, or its name (`hand_models.HAND_MODELS`); experience from another hand's
+            postures is refused.
     """
 
     object: GraspObject
@@ -97,10 +101,17 @@ class TrialSetup:
     preshape: np.ndarray | None = None
     backend: str = "cpu"
     method: str = ""
+    hand: HandModel = SHADOW_HAND
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
         set_field("object", get_object(self.object))
+        set_field("hand", hand_model(self.hand) if isinstance(self.hand, str) else self.hand)
+        if isinstance(self.experience, PostureSet) and self.experience.metadata.get("hand", "ours") != self.hand.name:
+            raise InvalidInput(f"the experience holds postures of the {self.experience.metadata.get('hand', 'ours')!r} "
+                               f"hand; these trials run the {self.hand.name!r} hand")
+        if self.backend == "warp" and self.hand.name != SHADOW_HAND.name:
+            raise InvalidInput(f"backend='warp' runs our hand model only, not {self.hand.name!r}: use backend='cpu'")
         set_field("experience", check_experience(self.experience))
         set_field("params", self.params or ControllerParams())
         set_field("noise", self.noise or Noise())
@@ -128,7 +139,8 @@ class TrialSetup:
         experience = self.experience
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
                            "params": asdict(self.params), "table": self.table, "backend": self.backend,
-                           "experience": None if experience is None else type(experience).__name__},
+                           "experience": None if experience is None else type(experience).__name__,
+                           "hand": self.hand.name},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
                           np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
@@ -189,7 +201,7 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
     support (`judge.supported_scene`), and the open hand at rest in `initial`."""
-    scene = supported_scene(setup.object, setup.table)
+    scene = supported_scene(setup.object, setup.table, setup.hand)
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
     scene.set_posture(initial)
@@ -281,7 +293,7 @@ class Recording:
 def record_trial(obj: str | GraspObject, experience: Experience | None = None,
                  grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
                  noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
-                 preshape: np.ndarray | None = None) -> Recording:
+                 preshape: np.ndarray | None = None, hand: str | HandModel = "ours") -> Recording:
     """Run one trial as `evaluate` would at a grid pose and keep the scene's state along the way.
 
     `record_trial("box").save_gif("grasp.gif")` animates it; `recording.scene.render()` draws its final state.
@@ -296,6 +308,7 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         params: controller parameters.
         table: the object stands on a table with gravity on.
         preshape: a constant phase-B posture (22,), rad.
+        hand: the hand model, or its name.
 
     Returns:
         The recording: the trial's outcome, its scene and the kept states.
@@ -314,7 +327,7 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
-    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape)
+    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, hand=hand)
     period = setup.params.control_period
     trial = run_trial(setup, grid_pose, np.random.default_rng([seed, 0]), observer=observe)
     return Recording(trial, seen["scene"], np.array(states), every * period)
