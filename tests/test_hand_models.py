@@ -105,3 +105,22 @@ def test_the_generator_and_the_evaluation_run_on_another_hand_and_its_experience
         gm.evaluate("cylinder", postures, grid, workers=1)
     with pytest.raises(InvalidInput, match="backend='warp' runs our hand model only"):
         gm.evaluate("cylinder", None, grid, backend="warp", hand="gymnasium-robotics")
+
+
+def test_a_reproduction_runs_on_another_hand(tmp_path):
+    import json
+
+    import graspmanifold as gm
+    from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
+
+    with pytest.raises(InvalidInput, match="ReproduceConfig.hand must be one of"):
+        ReproduceConfig(postures={"cylinder": 4}, hand="allegro")
+    available("gymnasium-robotics")
+    config = ReproduceConfig(postures={"cylinder": 24}, grid=((0.0, 0.0, 0.01, 0.0), (0.0, 0.01, 0.02, 0.2)),
+                             map_size=(4, 4), epochs=3, image_size=32, generator=gm.GeneratorParams(verify=False),
+                             hand="gymnasium-robotics")
+    summary = reproduce(tmp_path / "run", config, workers=1, log=lambda line: None)
+    assert [r["method"] for r in summary["evaluation"]] == ["none", "database", "som", "som_all"]
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["config"]["hand"] == "gymnasium-robotics"
+    assert gm.PostureSet.load(tmp_path / "run" / "postures" / "cylinder.npz").metadata["hand"] == "gymnasium-robotics"
+    assert "Gymnasium-Robotics' Shadow Hand" in (tmp_path / "run" / "report.md").read_text()

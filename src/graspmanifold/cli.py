@@ -242,6 +242,7 @@ def _reproduce(args: argparse.Namespace) -> int:
     if args.objects:
         sizes = config.postures
         config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
+    config = replace(config, hand=args.hand)
     reproduce(args.out, config, workers=args.workers, force=args.force,
               log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
     print(f"report: {Path(args.out) / 'report.md'}")
@@ -281,6 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--objects", nargs="+", metavar="NAME",
                            help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
                            "bottle_m); an object outside the paper gets the cylinder's preset size")
+    reproduce.add_argument("--hand", choices=HAND_MODELS, default="ours", help="the hand model the postures are "
+                           "generated and the trials run on (gymnasium-robotics: pip install 'graspmanifold[hands]')")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")

@@ -28,6 +28,11 @@ from ..trials.stats import rate_text
 if TYPE_CHECKING:
     from .summary import RunSummary
 
+#: how the report names each hand model (`ReproduceConfig.hand`)
+HANDS = {"ours": "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
+         "gymnasium-robotics": "Gymnasium-Robotics' Shadow Hand (its MJCF, mapped onto the paper's joints; the "
+                               "pictures draw the postures on our model)"}
+
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
 #: the figures that draw the hand (they need offscreen OpenGL), by the paper's figure number
@@ -227,7 +232,7 @@ def _choices(run: RunData) -> list[list[str]]:
         ["success", f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
          f"{100 * JUDGING.hold_limit:.0f} cm; force closure: ε > {JUDGING.epsilon_threshold}", "force closure: ε > 0"],
         ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
-        ["hand", "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
+        ["hand", HANDS.get(run.config.get("hand", "ours"), run.config.get("hand", "ours")),
          "a model of the Shadow hand in Vortex, coarse geometry"],
     ]
 

@@ -40,6 +40,7 @@ from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import PAPER, RESUME, SOM, check_schedule
 from ..sim.hand import N_FINGER_JOINTS
+from ..sim.hand_models import HAND_MODELS
 from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
@@ -56,7 +57,8 @@ PROCEDURES: tuple[str, ...] = ("paper", "verified")
 class ReproduceConfig:
     """Everything a run depends on. `postures` names the objects (paper objects or family members,
     `graspmanifold.sim.family.FAMILY`) and the candidates to generate for each; `procedure` says which of
-    them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold)."""
+    them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
+    the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`)."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -68,8 +70,11 @@ class ReproduceConfig:
     image_size: int = 120
     generator: GeneratorParams = field(default_factory=lambda: GeneratorParams(verify=False))
     procedure: str = "paper"
+    hand: str = "ours"
 
     def __post_init__(self) -> None:
+        if self.hand not in HAND_MODELS:
+            raise InvalidInput(f"ReproduceConfig.hand must be one of {HAND_MODELS}, got {self.hand!r}")
         if self.procedure not in PROCEDURES:
             raise InvalidInput(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
         if self.procedure == "verified" and self.generator.verify:
@@ -177,6 +182,8 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             if not force:
                 raise InvalidInput(f"{run_file} is unreadable ({error}); pass --force to start the run again") from None
             previous = None
+        if isinstance(previous, dict):
+            previous.setdefault("hand", "ours")  # a run.json written before the choice of hand
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise InvalidInput(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
@@ -219,12 +226,12 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
         def generate(name=name, path=path):
             parts = path.with_name(path.name + ".parts")
             postures = generate_postures(name, config.postures[name], seed=config.seed, workers=workers,
-                                         executor=executor,
+                                         executor=executor, hand=config.hand,
                                          params=config.generator, checkpoint_dir=parts, progress=True)
             postures.save(path)
             remove_checkpoints(parts)
-        stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator)),
-                   [path], generate)
+        stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator),
+                                                  config.hand), [path], generate)
     if verified:  # the maps learn the candidates that hold
         candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
         for name, path in sets_paths.items():
@@ -264,12 +271,12 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                           "som": maps[name], "som_all": maps["all"]}[method]
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
-                              checkpoint_dir=parts, progress=True, method=method)
+                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand)
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
-        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, *inputs[method]),
-                   [path], run_evaluation)
+        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, config.hand,
+                                                           *inputs[method]), [path], run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
     # 4. resumed learning with the SOM's successful evaluation postures
