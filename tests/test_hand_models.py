@@ -124,3 +124,23 @@ def test_a_reproduction_runs_on_another_hand(tmp_path):
     assert json.loads((tmp_path / "run" / "run.json").read_text())["config"]["hand"] == "gymnasium-robotics"
     assert gm.PostureSet.load(tmp_path / "run" / "postures" / "cylinder.npz").metadata["hand"] == "gymnasium-robotics"
     assert "Gymnasium-Robotics' Shadow Hand" in (tmp_path / "run" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("obj", ["cylinder", "sphere"])
+def test_touch_sensors_and_contact_forces_give_the_same_pcp_mask(obj):
+    """Two ways to feel: the model's own touch sensors summed per segment, and the contact forces per segment."""
+    import graspmanifold as gm
+    from graspmanifold.control.judge import hold_on_support
+
+    with pytest.raises(InvalidInput, match="has no touch sensors"):
+        gm.Scene(obj).touch()
+    scene = gm.Scene(obj, free_object=True, hand=available("gymnasium-robotics-touch"))
+    hold_on_support(scene)
+    scene.set_hand_pose(*gm.facing_pose(obj, clearance=0.01))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    scene.run(1.0)
+    felt = [gm.SEGMENTS[i] for i in np.flatnonzero(scene.touch() > 0)]
+    touching = list(scene.tactile().segments)
+    assert len(touching) >= 5 and sorted(felt) == sorted(touching)
+    np.testing.assert_array_equal(gm.pcp_mask(felt), gm.pcp_mask(touching))

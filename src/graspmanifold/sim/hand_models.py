@@ -3,7 +3,8 @@ and the community's, loaded from where their users already have them (no third-p
 into this repository).
 
 - `"ours"`: our MJCF, written from the published kinematics (`hand.SHADOW_HAND`).
-- `"gymnasium-robotics"`: the Shadow Hand of Gymnasium-Robotics (MIT code, Apache-2.0 assets), read from the
+- `"gymnasium-robotics"` (and `"gymnasium-robotics-touch"`, its variant with 92 touch sensors on palm and
+  phalanges, which `Scene.touch` reads per segment): the Shadow Hand of Gymnasium-Robotics (MIT code, Apache-2.0 assets), read from the
   installed package (`pip install 'graspmanifold[hands]'`): `robot0:WRJ1, WRJ0, FFJ3 ... FFJ0, ...,
   THJ4 ... THJ0`, 20 position actuators; J0 follows J1 through a stiff fixed tendon instead of a summed
   actuator, so its J1 actuator drives the paper's J2 and the paper's J1 follows. Four of its joints turn
@@ -28,8 +29,8 @@ import numpy as np
 from ..base.errors import InvalidInput
 from .hand import FINGERS, SHADOW_HAND, HandModel
 
-#: the names `hand_model` knows
-HAND_MODELS = ("ours", "gymnasium-robotics")
+#: the names `hand_model` knows; `gymnasium-robotics-touch` is the same hand with its 92 touch sensors
+HAND_MODELS = ("ours", "gymnasium-robotics", "gymnasium-robotics-touch")
 
 
 def _gymnasium_assets() -> Path:
@@ -41,15 +42,18 @@ def _gymnasium_assets() -> Path:
     return Path(list(spec.submodule_search_locations)[0]) / "envs" / "assets" / "hand"
 
 
-def _gymnasium_spec() -> mujoco.MjSpec:
-    """Gymnasium-Robotics' hand alone (its shared defaults, meshes and robot), hung on a mocap body
-    `hand_mount` whose frame is the hand's own mount frame, with the library's physics options."""
+def _gymnasium_spec(touch: bool = False) -> mujoco.MjSpec:
+    """Gymnasium-Robotics' hand alone (its shared defaults, meshes and robot; with `touch`, its variant with 92
+    touch sensors on palm and phalanges), hung on a mocap body `hand_mount` whose frame is the hand's own mount
+    frame, with the library's physics options."""
     root = _gymnasium_assets()
+    robot, sensors = ("robot_touch_sensors_92.xml", "shared_touch_sensors_92.xml") if touch else ("robot.xml", None)
     xml = f"""<mujoco model="gymnasium_robotics_shadow_hand">
   <compiler angle="radian" meshdir="{root.parent / 'stls' / 'hand'}" texturedir="{root.parent / 'textures'}"/>
   <include file="{root / 'shared.xml'}"/>
+  {f'<include file="{root / sensors}"/>' if sensors else ''}
   <asset><include file="{root / 'shared_asset.xml'}"/></asset>
-  <worldbody><body name="hand_mount" mocap="true"><include file="{root / 'robot.xml'}"/></body></worldbody>
+  <worldbody><body name="hand_mount" mocap="true"><include file="{root / robot}"/></body></worldbody>
 </mujoco>"""
     spec = mujoco.MjSpec.from_string(xml)
     ours = SHADOW_HAND.spec().option  # the library's physics, whatever the hand: the same step, integrator and cones
@@ -62,7 +66,7 @@ def _gymnasium_spec() -> mujoco.MjSpec:
     return spec
 
 
-def _gymnasium_robotics() -> HandModel:
+def _gymnasium_robotics(touch: bool = False) -> HandModel:
     """The description of Gymnasium-Robotics' hand: its names for the paper's joints and segments."""
     ours_to_theirs = {}
     for finger in ("FF", "MF", "RF"):  # J4 (spread) ... J1 (tip) are their J3 ... J0
@@ -76,18 +80,19 @@ def _gymnasium_robotics() -> HandModel:
         f"robot0:A_{finger}J{j}" for finger, joints in (("FF", (3, 2, 1)), ("MF", (3, 2, 1)), ("RF", (3, 2, 1)),
                                                          ("LF", (4, 3, 2, 1)), ("TH", (4, 3, 2, 1, 0)))
         for j in joints)
-    spec = _gymnasium_spec()
-    model = spec.compile()
+    loader = functools.partial(_gymnasium_spec, touch=True) if touch else _gymnasium_spec
+    model = loader().compile()
     ranges = {name: tuple(float(v) for v in model.joint(name).range) for name in ("robot0:WRJ1", "robot0:WRJ0",
                                                                                   *finger_joints)}
     return HandModel(
-        name="gymnasium-robotics", mjcf=str(_gymnasium_assets() / "robot.xml"), finger_joints=finger_joints,
+        name="gymnasium-robotics-touch" if touch else "gymnasium-robotics", mjcf=str(_gymnasium_assets() / "robot.xml"),
+        finger_joints=finger_joints,
         wrist_joints=("robot0:WRJ1", "robot0:WRJ0"), joint_ranges=ranges,
         finger_segments={f: tuple(theirs[s] for s in SHADOW_HAND.finger_segments[f]) for f in FINGERS},
         base_segments=tuple(theirs[s] for s in SHADOW_HAND.base_segments),
         joint_segment={ours_to_theirs[j]: segment[j] for j in SHADOW_HAND.finger_joints},
         fingertip_sites=tuple(f"robot0:S_{f}tip" for f in FINGERS), actuators=actuators,
-        timestep=float(model.opt.timestep), mount="hand_mount", palm="robot0:palm", loader=_gymnasium_spec,
+        timestep=float(model.opt.timestep), mount="hand_mount", palm="robot0:palm", loader=loader,
         postures={key: tuple(SHADOW_HAND.keyframe_posture(key)) for key in ("open", "closed")},
         # measured (tests/test_hand_models.py): a small turn of each of these moves the fingertip against ours
         flipped=("robot0:FFJ3", "robot0:MFJ3", "robot0:THJ1", "robot0:THJ0"))
@@ -109,7 +114,7 @@ def hand_model(name: str = "ours") -> HandModel:
     """
     if name not in HAND_MODELS:
         raise InvalidInput(f"hand must be one of {HAND_MODELS}, got {name!r}")
-    hand = SHADOW_HAND if name == SHADOW_HAND.name else _gymnasium_robotics()
+    hand = SHADOW_HAND if name == SHADOW_HAND.name else _gymnasium_robotics(touch=name.endswith("-touch"))
     check_hand_model(hand)
     return hand
 

@@ -175,6 +175,13 @@ class Scene:
         self.hand_dofs = self.model.jnt_dofadr[joint_ids]
         self.finger_qpos = self.hand_qpos[2:]
         self.actuator_ids = np.array([self.model.actuator(name).id for name in self.hand.actuators])
+        # the model's own touch sensors (a site each), by the segment their site sits on
+        segment_of_body = {self.model.body(name).id: i for i, name in enumerate(self.hand.segments)}
+        touch = [(int(self.model.sensor_adr[k]), segment_of_body[int(self.model.site_bodyid[self.model.sensor_objid[k]])])
+                 for k in range(self.model.nsensor) if self.model.sensor_type[k] == mujoco.mjtSensor.mjSENS_TOUCH
+                 and int(self.model.site_bodyid[self.model.sensor_objid[k]]) in segment_of_body]
+        self._touch_adr = np.array([adr for adr, _ in touch], dtype=int)
+        self._touch_segment = np.array([segment for _, segment in touch], dtype=int)
         self.mount_id = int(self.model.body(self.hand.mount).mocapid[0])
         self.palm_id = self.model.body(self.hand.palm).id
         self.object_body = self.model.body("object").id
@@ -370,6 +377,21 @@ class Scene:
         """
         return min(mujoco.mj_geomDistance(self.model, self.data, geom, g, cutoff, self._fromto)
                    for g in self.object_geoms)
+
+    def touch(self) -> np.ndarray:
+        """What the hand model's own touch sensors feel (a model with them, e.g. `gymnasium-robotics-touch`):
+        the sum of each segment's sensors, the second way to feel besides the contact forces (`tactile`).
+
+        Returns:
+            Forces (len(SEGMENTS),), N, in `SEGMENTS` order.
+
+        Raises:
+            InvalidInput: the hand model has no touch sensors.
+        """
+        if not len(self._touch_adr):
+            raise InvalidInput(f"the {self.hand.name!r} hand model has no touch sensors (e.g. gymnasium-robotics-touch)")
+        return np.bincount(self._touch_segment, weights=self.data.sensordata[self._touch_adr],
+                           minlength=len(self.hand.segments))
 
     def posture(self) -> np.ndarray:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order, the paper's sense)."""
