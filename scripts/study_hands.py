@@ -59,11 +59,15 @@ def evaluation(out: Path, hand: str, obj: str, method: str, postures: gm.Posture
     return result
 
 
+def our_finger_servo() -> tuple[float, float]:
+    """Our finger servos' gain (N m/rad) and force limit (N m)."""
+    actuator = gm.SHADOW_HAND.model.actuator("A_FFJ3")
+    return float(actuator.gainprm[0]), float(actuator.forcerange[1])
+
+
 def with_our_servos(hand: gm.HandModel) -> gm.HandModel:
-    """The model with our finger servos (kp 2 N m/rad, force limit 1 N m) in place of its own."""
-    ours = gm.SHADOW_HAND.model
-    finger = next(i for i in range(ours.nu) if ours.actuator(i).name == "A_FFJ3")
-    gain, limit = float(ours.actuator_gainprm[finger, 0]), float(ours.actuator_forcerange[finger, 1])
+    """The model with our finger servos in place of its own."""
+    gain, limit = our_finger_servo()
 
     def spec():
         spec = hand.spec()
@@ -79,10 +83,9 @@ def with_our_servos(hand: gm.HandModel) -> gm.HandModel:
 def servo_rows(hand_name: str) -> list[str]:
     """The heuristic on the quick grid with the model's own finger servos and with ours (this process: the
     changed model is not registered by name), beside our hand."""
-    hand = gm.sim.hand_models.hand_model(hand_name)
+    hand, (gain, limit) = gm.sim.hand_models.hand_model(hand_name), our_finger_servo()
     lines = ["", f"Why the hands differ, one cause tried: {hand_name} with our finger servos (kp "
-             f"{float(gm.SHADOW_HAND.model.actuator_gainprm[2, 0]):g} N m/rad, force limit "
-             f"{float(gm.SHADOW_HAND.model.actuator_forcerange[2, 1]):g} N m) instead of its own; the plain "
+             f"{gain:g} N m/rad, force limit {limit:g} N m) instead of its own; the plain "
              "controller on the quick grid, seed 0:", "",
              "| object | its servos | our servos | p (McNemar) | our hand |", "|---|---|---|---|---|"]
     for obj in OBJECTS:

@@ -93,6 +93,11 @@ class _Run:
     figure: str  # the object of the figures that show one map
     fig5: dict | None
 
+    @property
+    def figure_summary(self) -> dict | None:
+        """The summary of the figure object, None when the run did not include it."""
+        return self.objects.get(self.figure)
+
 
 def _dataset_sizes(run: _Run) -> Verdict | None:
     """Section 5: the experience holds the paper's number of postures."""
@@ -194,10 +199,9 @@ def _fig5_interpolation(run: _Run) -> Verdict | None:
 
 def _fig6_matches(run: _Run) -> Verdict | None:
     """Fig. 6: the evaluation grasps match mainly inter-cluster nodes."""
-    objects, figure = run.objects, run.figure
-    if figure not in objects:
+    objects, figure, o = run.objects, run.figure, run.figure_summary
+    if o is None:
         return None
-    o = objects[figure]
     k, n = o.get("force_closure_on_unsupported", [0, 0])
     mainly = n > 0 and wilson_interval(k, n)[0] > MAINLY
     return Verdict(
@@ -213,10 +217,9 @@ def _fig6_matches(run: _Run) -> Verdict | None:
 
 def _fig6_winners(run: _Run) -> Verdict | None:
     """Section 5, Fig. 6: while the controller runs, inter-cluster nodes win more often."""
-    objects, figure = run.objects, run.figure
-    if figure not in objects or objects[figure].get("control_winners") is None:
+    figure, o = run.figure, run.figure_summary
+    if o is None or o.get("control_winners") is None:
         return None
-    o = objects[figure]
     winners = o["control_winners"]
     trials, mostly = winners["trials"], winners["mainly_unsupported"]
     more_often = trials > 0 and wilson_interval(mostly, trials)[0] > MAINLY
@@ -234,10 +237,9 @@ def _fig6_winners(run: _Run) -> Verdict | None:
 
 def _fig7_smooth(run: _Run) -> Verdict | None:
     """Fig. 7: after resumed learning the map is very smooth."""
-    objects, figure = run.objects, run.figure
-    if figure not in objects:
+    figure, o = run.figure, run.figure_summary
+    if o is None:
         return None
-    o = objects[figure]
     resumed = o["resumed_map"]
     return Verdict(
         "after resumed learning the map is very smooth (Fig. 7)", "very smooth",
@@ -250,10 +252,9 @@ def _fig7_smooth(run: _Run) -> Verdict | None:
 
 def _fig8a_homogeneous(run: _Run) -> Verdict | None:
     """Fig. 8a: resumed learning homogenises the inter-node distances."""
-    objects, figure = run.objects, run.figure
-    if figure not in objects:
+    objects, figure, o = run.objects, run.figure, run.figure_summary
+    if o is None:
         return None
-    o = objects[figure]
     resumed = o["resumed_map"]
     return Verdict(
         "resumed learning homogenises the inter-node distances (Fig. 8a)", "very homogeneous",
