@@ -1,5 +1,7 @@
 """Every hand model the library knows loads behind the one interface, and its 22 finger joints are the paper's."""
 
+import os
+import re
 from dataclasses import replace
 
 import mujoco
@@ -8,10 +10,12 @@ import pytest
 
 from graspmanifold import InvalidInput
 from graspmanifold.sim.hand import FINGERS, SHADOW_HAND, finger_of
-from graspmanifold.sim.hand_models import HAND_MODELS, check_hand_model, hand_model
+from graspmanifold.sim.hand_models import HAND_MODELS, check_hand_model, hand_model, joint_agreement, mjcf_hand
 
 
 def available(name: str):
+    if name == "menagerie" and "MENAGERIE_ROOT" not in os.environ:
+        pytest.skip("Menagerie's hand is read from a checkout: set MENAGERIE_ROOT")
     try:
         return hand_model(name)
     except ImportError as error:  # the optional model's package ('graspmanifold[hands]') is not installed
@@ -59,9 +63,89 @@ def test_the_finger_joints_map_in_the_papers_order_and_sense(name):
     np.testing.assert_allclose(fingertips(hand, closed)[:4], fingertips(SHADOW_HAND, closed)[:4], atol=0.005)
 
 
-def test_unknown_and_incomplete_models_are_refused_naming_what_is_missing():
-    with pytest.raises(InvalidInput, match="hand must be one of"):
+def gymnasium_file(folder) -> str:
+    """Gymnasium-Robotics' hand written out as one MJCF file, as a user would have it."""
+    from graspmanifold.sim.hand_models import _gymnasium_assets
+
+    root = _gymnasium_assets()
+    path = folder / "gymnasium_hand.xml"
+    path.write_text(f"""<mujoco model="a user's hand">
+  <compiler angle="radian" meshdir="{root.parent / 'stls' / 'hand'}" texturedir="{root.parent / 'textures'}"/>
+  <include file="{root / 'shared.xml'}"/>
+  <asset><include file="{root / 'shared_asset.xml'}"/></asset>
+  <worldbody><include file="{root / 'robot.xml'}"/></worldbody>
+</mujoco>""")
+    return str(path)
+
+
+def ours_renamed(folder, prefix: str = "rh_", edit=lambda spec: None, written=lambda xml: xml) -> str:
+    """Our hand written out with Menagerie's names (rh_FFJ4 ..., rh_ffproximal ...) and without fingertip sites."""
+    spec = SHADOW_HAND.spec()
+    for site in [s for s in spec.sites if s.name.endswith("tip")]:
+        spec.delete(site)
+    names = {e.name for kind in (spec.bodies, spec.joints, spec.geoms, spec.actuators, spec.tendons, spec.sites)
+             for e in kind if e.name and e.name != "world"}
+    xml = re.sub(r'"([^"]+)"', lambda m: f'"{prefix}{m[1]}"' if m[1] in names else m[0], spec.to_xml())
+    spec = mujoco.MjSpec.from_string(xml)
+    edit(spec)
+    path = folder / f"{prefix or 'plain_'}hand.xml"
+    path.write_text(written(spec.to_xml()))
+    return str(path)
+
+
+def test_a_hand_from_an_mjcf_file_is_described_by_measurement(tmp_path):
+    """A model given by path: its names read (any prefix, counted from 1 or from 0), its joints' senses measured,
+    fingertip sites added where it has none; the Gymnasium hand from a file is described as the named one."""
+    named = available("gymnasium-robotics")
+    from_file = hand_model(gymnasium_file(tmp_path))
+    assert from_file.name == str(tmp_path / "gymnasium_hand.xml") and from_file.mount == "robot0:hand mount"
+    assert (from_file.finger_joints, from_file.flipped, from_file.actuators, from_file.fingertip_sites) == (
+        named.finger_joints, named.flipped, named.actuators, named.fingertip_sites)
+    assert named.flipped == ("robot0:FFJ3", "robot0:MFJ3", "robot0:THJ1", "robot0:THJ0")
+    assert np.all(joint_agreement(from_file) > 0.99)
+
+    renamed = mjcf_hand(ours_renamed(tmp_path), name="renamed")
+    assert renamed.finger_joints == tuple(f"rh_{j}" for j in SHADOW_HAND.finger_joints) and renamed.flipped == ()
+    assert renamed.segments == tuple(f"rh_{s}" for s in SHADOW_HAND.segments) and renamed.mount == "rh_hand_mount"
+    np.testing.assert_allclose(joint_agreement(renamed), 1.0, atol=1e-9)
+    np.testing.assert_allclose(fingertips(renamed, SHADOW_HAND.keyframe_posture("closed")),
+                               fingertips(SHADOW_HAND, SHADOW_HAND.keyframe_posture("closed")), atol=1e-6)
+    np.testing.assert_array_equal(renamed.coupling(), SHADOW_HAND.coupling())
+    scene = __import__("graspmanifold").Scene("cylinder", hand=renamed)  # and it runs
+    scene.set_posture(SHADOW_HAND.keyframe_posture("closed"))
+    np.testing.assert_allclose(scene.posture(), SHADOW_HAND.keyframe_posture("closed"), atol=1e-9)
+
+
+def turned_joint(spec):
+    spec.joint("rh_FFJ3").axis = [0.0, 1.0, 0.0]
+
+
+def floor(spec):
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1, 1, 0.1])
+
+
+def missing_mesh(xml):
+    return xml.replace("</mujoco>", '  <asset><mesh name="gone" file="no_such_mesh.stl"/></asset>\n</mujoco>')
+
+
+@pytest.mark.parametrize("edit, written, message", [
+    (turned_joint, None, r"do not move as the paper's do .*rh_FFJ3 \(0\.\d\d\)"),
+    (floor, None, "must hold the hand alone under its world .* geoms \\['floor'\\]"),
+    (None, missing_mesh, "does not compile: .*no_such_mesh.stl"),
+    (None, lambda xml: xml.replace('"rh_THJ1"', '"lh_THJ1"'),
+     r"must name its joints as Shadow does .* prefixes \['lh_', 'rh_'\]"),
+])
+def test_a_file_that_is_not_a_right_shadow_hand_is_refused_saying_why(tmp_path, edit, written, message):
+    path = ours_renamed(tmp_path, "rh_", edit or (lambda spec: None), written or (lambda xml: xml))
+    with pytest.raises(InvalidInput, match=message):
+        mjcf_hand(path)
+
+
+def test_unknown_and_incomplete_models_are_refused_naming_what_is_missing(tmp_path):
+    with pytest.raises(InvalidInput, match="hand must be one of .* or the path of an MJCF file"):
         hand_model("allegro")
+    with pytest.raises(InvalidInput, match="no MJCF file at"):
+        hand_model(str(tmp_path / "absent.xml"))
     broken = replace(SHADOW_HAND, finger_joints=("FFJ9",) + SHADOW_HAND.finger_joints[1:],
                      fingertip_sites=SHADOW_HAND.fingertip_sites[:4] + ("thumbtip",))
     with pytest.raises(InvalidInput, match="lacks what its description names: joint FFJ9, site thumbtip"):
@@ -144,3 +228,18 @@ def test_touch_sensors_and_contact_forces_give_the_same_pcp_mask(obj):
     touching = list(scene.tactile().segments)
     assert len(touching) >= 5 and sorted(felt) == sorted(touching)
     np.testing.assert_array_equal(gm.pcp_mask(felt), gm.pcp_mask(touching))
+
+
+def test_pictures_draw_the_postures_on_the_hand_they_belong_to():
+    """Another hand's postures are drawn on that hand, seen as ours is: the palm turned as ours."""
+    import graspmanifold as gm
+    from graspmanifold.sim.render import render_postures
+
+    available("gymnasium-robotics")
+    postures = np.array([gm.open_posture(), gm.closed_posture()])
+    theirs, ours = render_postures(postures, 64, hand="gymnasium-robotics"), render_postures(postures, 64)
+    covered = (theirs < 250).any(axis=3).mean(axis=(1, 2))  # the hand's share of the white picture
+    assert np.all(covered > 0.05) and np.abs(theirs[0].astype(int) - theirs[1]).mean() > 5
+    assert np.abs(theirs.astype(int) - ours).mean() > 5  # their grey hand, not our model
+    # seen alike: the hand covers about the same part of the picture as ours does
+    np.testing.assert_allclose(covered, (ours < 250).any(axis=3).mean(axis=(1, 2)), atol=0.1)

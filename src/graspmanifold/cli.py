@@ -26,6 +26,9 @@ from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
 from .sim.family import FAMILY
 from .sim.hand_models import HAND_MODELS
+
+HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]'; "
+             "menagerie: MENAGERIE_ROOT set to a Menagerie checkout) or the path of a Shadow Hand's MJCF file")
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import Scene, facing_pose
@@ -267,8 +270,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
                          "(.stl, .obj, .ply, ...: a watertight solid)")
         sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
-        sub.add_argument("--hand", choices=HAND_MODELS, default="ours", help="the hand model: ours, or "
-                         "Gymnasium-Robotics' Shadow Hand (pip install 'graspmanifold[hands]')")
+        sub.add_argument("--hand", default="ours", help=HAND_HELP)
 
     def workers(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
@@ -282,8 +284,8 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--objects", nargs="+", metavar="NAME",
                            help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
                            "bottle_m); an object outside the paper gets the cylinder's preset size")
-    reproduce.add_argument("--hand", choices=HAND_MODELS, default="ours", help="the hand model the postures are "
-                           "generated and the trials run on (gymnasium-robotics: pip install 'graspmanifold[hands]')")
+    reproduce.add_argument("--hand", default="ours", help=f"{HAND_HELP}: the postures are generated and the trials "
+                           "run on it")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")

@@ -19,7 +19,6 @@ from ..control.controller import ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
-from ..sim.hand import finger_limits
 from ..sim.objects import DEFAULT_FRICTION
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
@@ -30,8 +29,11 @@ if TYPE_CHECKING:
 
 #: how the report names each hand model (`ReproduceConfig.hand`)
 HANDS = {"ours": "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
-         "gymnasium-robotics": "Gymnasium-Robotics' Shadow Hand (its MJCF, mapped onto the paper's joints; the "
-                               "pictures draw the postures on our model)"}
+         "gymnasium-robotics": "Gymnasium-Robotics' Shadow Hand (its MJCF, mapped onto the paper's joints)",
+         "gymnasium-robotics-touch": "Gymnasium-Robotics' Shadow Hand with its 92 touch sensors (its MJCF, mapped "
+                                     "onto the paper's joints)",
+         "menagerie": "MuJoCo Menagerie's right Shadow Hand (its MJCF from MENAGERIE_ROOT, mapped onto the paper's "
+                      "joints)"}
 
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
@@ -132,12 +134,12 @@ def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
     except RenderingUnavailable as error:
         return None, str(error)
     obj = figure_object(list(run.sets))
-    training, scene = run.sets[obj], Scene(obj)
+    training, scene = run.sets[obj], Scene(obj, hand=run.config.get("hand", "ours"))
     for geom in scene.spec.geoms:
         if np.allclose(geom.rgba, OBJECT_RGBA):
             geom.rgba = [0.6, 0.75, 1.0, 0.2]
     nearest = cKDTree(training.postures)
-    low, high = finger_limits().T
+    low, high = scene.hand.limits().T
 
     def render(postures: np.ndarray) -> np.ndarray:
         states = []
@@ -232,7 +234,7 @@ def _choices(run: RunData) -> list[list[str]]:
         ["success", f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
          f"{100 * JUDGING.hold_limit:.0f} cm; force closure: ε > {JUDGING.epsilon_threshold}", "force closure: ε > 0"],
         ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
-        ["hand", HANDS.get(run.config.get("hand", "ours"), run.config.get("hand", "ours")),
+        ["hand", HANDS.get(run.config.get("hand", "ours"), f"the Shadow Hand of the MJCF file {run.config.get('hand')}"),
          "a model of the Shadow hand in Vortex, coarse geometry"],
     ]
 

@@ -40,7 +40,7 @@ from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import PAPER, RESUME, SOM, check_schedule
 from ..sim.hand import N_FINGER_JOINTS
-from ..sim.hand_models import HAND_MODELS
+from ..sim.hand_models import hand_name
 from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
@@ -58,7 +58,7 @@ class ReproduceConfig:
     """Everything a run depends on. `postures` names the objects (paper objects or family members,
     `graspmanifold.sim.family.FAMILY`) and the candidates to generate for each; `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
-    the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`)."""
+    the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file)."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -73,8 +73,7 @@ class ReproduceConfig:
     hand: str = "ours"
 
     def __post_init__(self) -> None:
-        if self.hand not in HAND_MODELS:
-            raise InvalidInput(f"ReproduceConfig.hand must be one of {HAND_MODELS}, got {self.hand!r}")
+        object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
         if self.procedure not in PROCEDURES:
             raise InvalidInput(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
         if self.procedure == "verified" and self.generator.verify:

@@ -106,6 +106,15 @@ class HandModel:
         """
         return np.asarray(angles, dtype=float) * self._signs
 
+    def limits(self) -> np.ndarray:
+        """The finger joints' ranges in the paper's sense.
+
+        Returns:
+            (22, 2) array of [lower, upper], rad, in posture order.
+        """
+        ranges = self.to_model(np.array([self.joint_ranges[j] for j in self.finger_joints]).T).T
+        return np.sort(ranges, axis=1)
+
     @property
     def segments(self) -> tuple[str, ...]:
         """Every body that can touch an object (a tactile "segment"): the base segments, then each finger's."""

@@ -137,10 +137,24 @@ def _draw(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.nd
     raise RenderingUnavailable(f"no offscreen OpenGL context ({'; '.join(errors)}); to enable, {HOW_TO_ENABLE}")
 
 
-def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None) -> np.ndarray:
-    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background."""
+def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None,
+                    hand: str = "ours") -> np.ndarray:
+    """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background.
+
+    Args:
+        postures: (n, 22) finger joint angles in the paper's sense, rad.
+        size: pixels, the side of each image.
+        backends: OpenGL backends to try (default: MUJOCO_GL's, then each of `BACKENDS`).
+        hand: the hand model drawn: a name or an MJCF path (`hand_models.hand_model`).
+
+    Returns:
+        The images.
+    """
+    from .hand_models import hand_name  # MuJoCo is imported after MUJOCO_GL is chosen
+
     postures = np.asarray(postures, dtype=float).reshape(-1, 22)
-    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size))}, backends)
+    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size)),
+                  "hand": np.array(hand_name(hand))}, backends)
 
 
 def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
@@ -157,8 +171,8 @@ def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width:
         raise InvalidInput(f"states must be finite with shape (k, {len(scene.state())}) (Scene.state()), "
                          f"got {states.shape}")
     return _draw({"kind": np.array("scene"), "xml": np.array(scene.spec.to_xml()), "states": states,
-                      "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height))},
-                     backends)
+                  "camera": np.array(camera), "width": np.array(int(width)), "height": np.array(int(height)),
+                  "palm": np.array(scene.hand.palm)}, backends)
 
 
 def png_bytes(image: np.ndarray) -> bytes:
@@ -191,12 +205,12 @@ def save_animation(frames: np.ndarray, path: str | os.PathLike, fps: float = 25.
     return path
 
 
-def _thumb_side_camera(model, data, distance: float = 1.0):
+def _thumb_side_camera(model, data, distance: float = 1.0, palm: str = "palm"):
     """A free camera on the palm's thumb side, level with the fingers: finger flexion shows
-    (`distance` scales how far back it stands)."""
+    (`distance` scales how far back it stands; `palm` is the hand's palm body)."""
     import mujoco
 
-    palm = model.body("palm").id
+    palm = model.body(palm).id
     rotation = data.xmat[palm].reshape(3, 3)
     lookat = data.xpos[palm] + rotation @ np.array([0.0, -0.02, 0.085])
     eye = lookat + rotation @ np.array([0.2, -0.12, 0.05])
@@ -209,28 +223,31 @@ def _thumb_side_camera(model, data, distance: float = 1.0):
     return camera
 
 
-def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
+def _draw_postures(postures: np.ndarray, size: int, hand: str) -> np.ndarray:
     import mujoco
 
-    from .hand import load_hand
+    from .hand_models import hand_model
     from .posture import posture_to_ctrl
 
-    model = load_hand()
-    for name in ("forearm", "wrist"):  # the palm and fingers are the subject
-        model.geom_rgba[model.geom(name).id, 3] = 0.0
+    hand = hand_model(hand)
+    model = hand.spec().compile()
+    hidden = [model.body(name).id for name in hand.base_segments[:2]]  # forearm and wrist: the palm and fingers
+    model.geom_rgba[np.isin(model.geom_bodyid, hidden), 3] = 0.0  # are the subject
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, size)
     model.vis.global_.offheight = max(model.vis.global_.offheight, size)
     data = mujoco.MjData(model)
     renderer = mujoco.Renderer(model, size, size)
-    finger_qpos = model.jnt_qposadr[2:]
-    mujoco.mj_forward(model, data)
-    camera = _thumb_side_camera(model, data)
+    finger_qpos = np.array([model.joint(name).qposadr[0] for name in hand.finger_joints])
+    actuators = np.array([model.actuator(name).id for name in hand.actuators])
+    _turn_palm_as_ours(model, data, hand)
+    camera = _thumb_side_camera(model, data, palm=hand.palm)
     images = np.empty((len(postures), size, size, 3), dtype=np.uint8)
     for i, posture in enumerate(postures):
-        data.qpos[finger_qpos] = posture
-        data.ctrl[:] = posture_to_ctrl(posture)
+        data.qpos[finger_qpos] = hand.to_model(posture)
+        data.ctrl[actuators] = posture_to_ctrl(posture, hand=hand)
         mujoco.mj_kinematics(model, data)
         renderer.update_scene(data, camera)
+        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False  # a model's own sky (Gymnasium-Robotics')
         image = renderer.render()
         image[image.max(axis=2) < 6] = 255  # a white background instead of the empty black scene
         images[i] = image
@@ -238,7 +255,25 @@ def _draw_postures(postures: np.ndarray, size: int) -> np.ndarray:
     return images
 
 
-def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: int) -> np.ndarray:
+def _turn_palm_as_ours(model, data, hand) -> None:
+    """Turn the hand's mount so that its palm faces the world as ours does on an unturned mount (a free camera
+    keeps the world's z up: every hand is then seen alike)."""
+    import mujoco
+
+    from .hand import SHADOW_HAND
+
+    ours = mujoco.MjData(SHADOW_HAND.model)
+    mujoco.mj_kinematics(SHADOW_HAND.model, ours)
+    mujoco.mj_kinematics(model, data)
+    mount, palm = model.body(hand.mount), model.body(hand.palm).id
+    turn = ours.xmat[SHADOW_HAND.model.body(SHADOW_HAND.palm).id].reshape(3, 3) @ data.xmat[palm].reshape(3, 3).T
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, (turn @ data.xmat[mount.id].reshape(3, 3)).ravel())
+    data.mocap_quat[mount.mocapid[0]] = quat
+    mujoco.mj_forward(model, data)
+
+
+def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: int, palm: str) -> np.ndarray:
     import mujoco
 
     model = mujoco.MjModel.from_xml_string(xml)
@@ -251,7 +286,9 @@ def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: i
         data.qpos[:] = state[: model.nq]
         data.mocap_pos[0], data.mocap_quat[0] = state[model.nq: model.nq + 3], state[model.nq + 3:]
         mujoco.mj_forward(model, data)
-        renderer.update_scene(data, _thumb_side_camera(model, data, 1.4) if camera == THUMB_SIDE else camera)
+        renderer.update_scene(data, _thumb_side_camera(model, data, 1.4, palm) if camera == THUMB_SIDE else camera)
+        if camera == THUMB_SIDE:
+            renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
         image = renderer.render()
         if camera == THUMB_SIDE:
             image[image.max(axis=2) < 6] = 255  # white around the hand, as in the posture pictures
@@ -263,8 +300,9 @@ def _draw_scene(xml: str, states: np.ndarray, camera: str, width: int, height: i
 def _draw_job(job: Mapping[str, np.ndarray]) -> np.ndarray:
     """The images of one drawing job (`render_postures` / `render_states` make them)."""
     if str(job["kind"]) == "postures":
-        return _draw_postures(job["postures"], int(job["size"]))
-    return _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]), int(job["height"]))
+        return _draw_postures(job["postures"], int(job["size"]), str(job["hand"]))
+    return _draw_scene(str(job["xml"]), job["states"], str(job["camera"]), int(job["width"]), int(job["height"]),
+                       str(job["palm"]))
 
 
 def _serve() -> None:

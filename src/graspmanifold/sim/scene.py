@@ -145,12 +145,12 @@ class Scene:
             free_object: the object hangs on a free joint (False: welded to the world).
             gravity: gravity on from the start.
             table: a table top under the object.
-            hand: the hand model, or its name (`hand_models.HAND_MODELS`); postures stay the paper's 22
+            hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); postures stay the paper's 22
                 joint angles in the paper's sense whatever the model's names and signs.
         """
         self.object = get_object(obj)
         self.free_object = free_object
-        self.hand = hand_model(hand) if isinstance(hand, str) else hand
+        self.hand = hand if isinstance(hand, HandModel) else hand_model(hand)
         spec = self.hand.spec()
         spec.modelname = f"graspmanifold_{self.object.name}"
         body = spec.worldbody.add_body(name="object")

@@ -280,7 +280,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
         batch_size: trials at once on the GPU.
         method: the method's label in the result (empty: 'none', 'database' or 'som', from the experience).
-        hand: the hand model, or its name (`hand_models.HAND_MODELS`).
+        hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`).
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.

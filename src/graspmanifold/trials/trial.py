@@ -89,7 +89,7 @@ class TrialSetup:
         preshape: a constant phase-B posture (22,), rad, or None.
         backend: the physics engine (`BACKENDS`).
         method: the method's label in results and reports (empty: `method_name` of the experience).
-        hand: the hand model, or its name (`hand_models.HAND_MODELS`); experience from another hand's
+        hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); experience from another hand's
             postures is refused.
     """
 
@@ -106,7 +106,7 @@ class TrialSetup:
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
         set_field("object", get_object(self.object))
-        set_field("hand", hand_model(self.hand) if isinstance(self.hand, str) else self.hand)
+        set_field("hand", self.hand if isinstance(self.hand, HandModel) else hand_model(self.hand))
         if isinstance(self.experience, PostureSet) and self.experience.metadata.get("hand", "ours") != self.hand.name:
             raise InvalidInput(f"the experience holds postures of the {self.experience.metadata.get('hand', 'ours')!r} "
                                f"hand; these trials run the {self.hand.name!r} hand")
