@@ -1,62 +1,54 @@
-"""The library on the community's Shadow Hand beside ours: the cross-model table (issue 28).
+"""The library on the community's Shadow Hands beside ours: the cross-model table (issue 28).
 
-    python scripts/study_hands.py [--grid paper] [--hands ours gymnasium-robotics] [--workers 2]
+    python scripts/study_hands.py [--presets paper verified] [--hands ours gymnasium-robotics] [--workers 2]
+                                  [--servos]
 
-For each hand model and each of the paper's objects: the spring generator's candidates (the paper's
-procedure, the quick preset's dataset sizes) and the share of them that hold when replayed (`verify_postures`);
-a map trained on them with the paper's schedule; the plain tactile controller and the SOM controller on the grid,
-trial by trial on the same poses and seeds. Hold rates carry 95 % Wilson intervals; the SOM is compared with the
-heuristic on each hand, and the hands with each other under each controller, by McNemar's exact test, with
-Holm's correction over the whole family. Results are kept in --out (a rerun reuses finished files) and the
-table is written to docs/hands.md.
+For each hand model: `graspmanifold reproduce` with each preset (`paper`: the paper's procedure and dataset
+sizes, every candidate trained on; `verified`: the same candidates, the maps trained on those that hold when
+replayed) on the paper grid, with the same seeds, so that the trials of every hand start from the same poses and
+noise draws. From each run: the generator's candidates and the share that hold (`verified`), and the hold rate of
+the heuristic controller (no experience), of the raw database and of the SOM, with 95 % Wilson intervals; the SOM
+is compared with the heuristic on each hand and the hands with each other under each controller by McNemar's
+exact test, with Holm's correction over the whole family. A finished run in --out is read, not recomputed
+(delete it to run it again); the table is written to docs/hands.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import graspmanifold as gm
-from graspmanifold.base.paper_numbers import MAP_SIZE
-from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
+from graspmanifold.paper.reproduce import PRESETS, reproduce
 from graspmanifold.trials.evaluation import EvaluationResult
-from graspmanifold.trials.grid import GRID_PRESETS
 from graspmanifold.trials.stats import holm, mcnemar, rate_text
 
 OBJECTS = ("box", "cylinder", "sphere")
+METHODS = {"none": "heuristic", "database": "database", "som": "SOM"}
 
 
-def experience(out: Path, hand: str, obj: str, workers: int) -> gm.PostureSet:
-    path = out / f"{hand}_{obj}_postures.npz"
-    if path.exists():
-        return gm.PostureSet.load(path)
-    postures = gm.generate_postures(obj, DATASET_PRESETS["quick"][obj], seed=0, workers=workers, hand=hand,
-                                    params=gm.GeneratorParams(verify=False))
-    postures.save(path)
-    return postures
+def label(hand: str) -> str:
+    """A hand's name in file names and tables (an MJCF path: its file name)."""
+    return Path(hand).stem if hand.endswith(".xml") else hand
 
 
-def verified_share(out: Path, postures: gm.PostureSet, obj: str, workers: int) -> tuple[int, int]:
-    path = out / f"{postures.metadata['hand']}_{obj}_held.npz"
-    held = gm.PostureSet.load(path) if path.exists() else gm.verify_postures(postures, obj, workers=workers)
-    if not path.exists():
-        held.save(path)
-    return len(held), len(postures)
+def finished_run(out: Path, hand: str, preset: str, workers: int) -> Path:
+    run = out / f"{label(hand)}_{preset}"
+    if not (run / "summary.json").exists():
+        reproduce(run, replace(PRESETS[preset], hand=hand), workers=workers)
+    return run
 
 
-def evaluation(out: Path, hand: str, obj: str, method: str, postures: gm.PostureSet, grid: str,
-               workers: int) -> EvaluationResult:
-    path = out / f"{hand}_{obj}_{method}_{grid}.npz"
-    if path.exists():
-        return EvaluationResult.load(path)
-    som = None if method == "none" else gm.SOM(*MAP_SIZE, seed=0).fit(postures.postures)
-    parts = out / f"{path.stem}.parts"
-    result = gm.evaluate(obj, som, grid, seed=0, workers=workers, hand=hand, method=method, checkpoint_dir=parts)
-    result.save(path)
-    remove_checkpoints(parts)
-    return result
+def held(result: EvaluationResult) -> str:
+    return rate_text(int(result.outcomes()[result.valid()].sum()), int(result.valid().sum()))
+
+
+def paired(a: EvaluationResult, b: EvaluationResult):
+    valid = a.valid() & b.valid()
+    return mcnemar(a.outcomes()[valid], b.outcomes()[valid])
 
 
 def our_finger_servo() -> tuple[float, float]:
@@ -102,8 +94,9 @@ def servo_rows(hand_name: str) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--grid", default="paper", choices=GRID_PRESETS)
-    parser.add_argument("--hands", nargs="+", default=["ours", "gymnasium-robotics"])
+    parser.add_argument("--presets", nargs="+", default=["paper", "verified"], choices=list(PRESETS))
+    parser.add_argument("--hands", nargs="+", default=["ours", "gymnasium-robotics"],
+                        help="hand names or MJCF paths (the first is the one the others are compared with)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study-hands")
     parser.add_argument("--doc", default="docs/hands.md")
@@ -112,51 +105,53 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    results, shares = {}, {}
-    for hand in args.hands:
+    runs = {(hand, preset): finished_run(out, hand, preset, args.workers) for preset in args.presets
+            for hand in args.hands}
+    results = {(hand, preset, obj, method): EvaluationResult.load(run / "evaluation" / f"{obj}_{method}.npz")
+               for (hand, preset), run in runs.items() for obj in OBJECTS for method in METHODS}
+    comparisons = []  # (preset, what, object, PairedComparison)
+    for preset in args.presets:
         for obj in OBJECTS:
-            postures = experience(out, hand, obj, args.workers)
-            shares[(hand, obj)] = verified_share(out, postures, obj, args.workers)
-            for method in ("none", "som"):
-                results[(hand, obj, method)] = evaluation(out, hand, obj, method, postures, args.grid, args.workers)
-    comparisons = []  # (what, object, PairedComparison)
-    for obj in OBJECTS:
-        for hand in args.hands:
-            a, b = results[(hand, obj, "som")], results[(hand, obj, "none")]
-            valid = a.valid() & b.valid()
-            comparisons.append((f"{hand}: SOM vs heuristic", obj, mcnemar(a.outcomes()[valid], b.outcomes()[valid])))
-        for method in ("none", "som"):
+            for hand in args.hands:
+                comparisons.append((preset, f"{label(hand)}: SOM vs heuristic", obj,
+                                    paired(results[(hand, preset, obj, "som")], results[(hand, preset, obj, "none")])))
             first, *others = args.hands
-            for other in others:
-                a, b = results[(other, obj, method)], results[(first, obj, method)]
-                valid = a.valid() & b.valid()
-                comparisons.append((f"{method}: {other} vs {first}", obj,
-                                    mcnemar(a.outcomes()[valid], b.outcomes()[valid])))
-    adjusted = holm([c.p_value for _, _, c in comparisons])
-    lines = ["# The library on another Shadow Hand model (issue 28)", "",
-             f"`python scripts/study_hands.py --grid {args.grid} --hands {' '.join(args.hands)} --workers {args.workers}"
-             f"{' --servos' if args.servos else ''}` (SECONDS s for what this run computed; the project's 2-core "
-             "machine).",
-             "", "Experience: the spring generator's candidates (the paper's procedure) at the quick preset's sizes; "
-             "verified share: of those candidates, how many hold when replayed with the controller's squeeze. "
-             f"Trials: the {args.grid} grid, seed 0, the same poses and noise draws on every hand; hold rates over "
-             "the valid trials with 95 % Wilson intervals.", "",
-             "| hand | object | candidates (acceptance) | verified share | heuristic hold | SOM hold | invalid |",
-             "|---|---|---|---|---|---|---|"]
-    for hand in args.hands:
-        for obj in OBJECTS:
-            postures_meta = gm.PostureSet.load(out / f"{hand}_{obj}_postures.npz").metadata
-            held, total = shares[(hand, obj)]
-            none, som = results[(hand, obj, "none")], results[(hand, obj, "som")]
-            lines.append(f"| {hand} | {obj} | {total} ({postures_meta['acceptance_ratio']:.1%}) | {rate_text(held, total)} | "
-                         f"{rate_text(int(none.outcomes()[none.valid()].sum()), int(none.valid().sum()))} | "
-                         f"{rate_text(int(som.outcomes()[som.valid()].sum()), int(som.valid().sum()))} | "
-                         f"{int((~none.valid()).sum())} / {int((~som.valid()).sum())} |")
+            for method in ("none", "som"):
+                for other in others:
+                    comparisons.append((preset, f"{METHODS[method]}: {label(other)} vs {label(first)}", obj,
+                                        paired(results[(other, preset, obj, method)],
+                                               results[(first, preset, obj, method)])))
+    adjusted = holm([c.p_value for *_, c in comparisons])
+    lines = ["# The library on other Shadow Hand models (issue 28)", "",
+             f"`python scripts/study_hands.py --presets {' '.join(args.presets)} --hands {' '.join(args.hands)} "
+             f"--workers {args.workers}{' --servos' if args.servos else ''}`: each row is a "
+             "`graspmanifold reproduce --preset PRESET --hand HAND` run (the paper's dataset sizes, 25 x 25 maps, the "
+             "paper grid, seed 0: the same poses and noise draws on every hand); SECONDS s for what this call computed "
+             "(runs read from --out not counted); the project's 2-core machine.", "",
+             "Candidates: the spring generator's postures (the paper's procedure) and their acceptance; trained on: "
+             "every candidate (`paper`) or those that hold when replayed with the controller's squeeze (`verified`, "
+             "with the share). Hold rates over the valid trials with 95 % Wilson intervals.", "",
+             "| preset | hand | object | candidates (acceptance) | trained on | heuristic hold | database hold | "
+             "SOM hold | invalid trials |", "|---|---|---|---|---|---|---|---|---|"]
+    for preset in args.presets:
+        for hand in args.hands:
+            summary = json.loads((runs[(hand, preset)] / "summary.json").read_text())
+            for obj in OBJECTS:
+                facts = summary["objects"][obj]
+                trained = (rate_text(facts["dataset_size"], facts["candidates"]) if preset == "verified"
+                           else str(facts["dataset_size"]))
+                rows = [results[(hand, preset, obj, m)] for m in METHODS]
+                lines.append(f"| {preset} | {label(hand)} | {obj} | {facts['candidates']} "
+                             f"({facts['acceptance_ratio']:.1%}) | {trained} | "
+                             + " | ".join(held(r) for r in rows)
+                             + f" | {' / '.join(str(int((~r.valid()).sum())) for r in rows)} |")
     lines += ["", "Paired comparisons (McNemar's exact test on the poses valid for both; Holm over all "
-              f"{len(comparisons)}):", "", "| comparison | object | n | only first holds | only second holds | p | Holm p |",
-              "|---|---|---|---|---|---|---|"]
-    for (what, obj, c), p_holm in zip(comparisons, adjusted):
-        lines.append(f"| {what} | {obj} | {c.n} | {c.only_a} | {c.only_b} | {c.p_value:.3g} | {p_holm:.3g} |")
+              f"{len(comparisons)}):", "",
+              "| preset | comparison | object | n | only first holds | only second holds | p | Holm p |",
+              "|---|---|---|---|---|---|---|---|"]
+    for (preset, what, obj, c), p_holm in zip(comparisons, adjusted):
+        lines.append(f"| {preset} | {what} | {obj} | {c.n} | {c.only_a} | {c.only_b} | {c.p_value:.3g} | "
+                     f"{p_holm:.3g} |")
     if args.servos:
         for hand in args.hands[1:]:
             lines += servo_rows(hand)

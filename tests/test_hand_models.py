@@ -3,6 +3,7 @@
 import os
 import re
 from dataclasses import replace
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -243,3 +244,21 @@ def test_pictures_draw_the_postures_on_the_hand_they_belong_to():
     assert np.abs(theirs.astype(int) - ours).mean() > 5  # their grey hand, not our model
     # seen alike: the hand covers about the same part of the picture as ours does
     np.testing.assert_allclose(covered, (ours < 250).any(axis=3).mean(axis=(1, 2)), atol=0.1)
+
+
+def test_menagerie_is_read_from_the_checkout_menagerie_root_names(tmp_path, monkeypatch):
+    """`hand="menagerie"` reads $MENAGERIE_ROOT/shadow_hand/right_hand.xml (here a stand-in with Menagerie's names
+    written from our model: no third-party file in the tests) and says what is missing when it is not there."""
+    from graspmanifold.sim.hand_models import _described
+
+    monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))
+    _described.cache_clear()
+    try:
+        with pytest.raises(InvalidInput, match="no MJCF file at .*shadow_hand/right_hand.xml"):
+            hand_model("menagerie")
+        (tmp_path / "shadow_hand").mkdir()
+        (tmp_path / "shadow_hand" / "right_hand.xml").write_text(Path(ours_renamed(tmp_path)).read_text())
+        hand = hand_model("menagerie")
+        assert hand.name == "menagerie" and hand.finger_joints[0] == "rh_FFJ4" and hand.palm == "rh_palm"
+    finally:
+        _described.cache_clear()

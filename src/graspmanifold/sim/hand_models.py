@@ -84,12 +84,22 @@ def _gymnasium_robotics(touch: bool = False) -> HandModel:
 
 
 def _menagerie_file() -> Path:
-    """Menagerie's right hand in the checkout `MENAGERIE_ROOT` names."""
+    """Menagerie's right hand: in the checkout `MENAGERIE_ROOT` names, or fetched by the `mujoco-menagerie`
+    package where it is installed (it downloads the model once into its cache)."""
     root = os.environ.get("MENAGERIE_ROOT")
-    if not root:
-        raise InvalidInput("hand 'menagerie' is read from a checkout of MuJoCo Menagerie: set MENAGERIE_ROOT to it, "
-                           "or pass the path of its shadow_hand/right_hand.xml as the hand")
-    return Path(root) / "shadow_hand" / "right_hand.xml"
+    if root:
+        return Path(root) / "shadow_hand" / "right_hand.xml"
+    if importlib.util.find_spec("mujoco_menagerie") is None:
+        raise InvalidInput("hand 'menagerie' needs MuJoCo Menagerie: set MENAGERIE_ROOT to a checkout of it, or "
+                           "pip install mujoco-menagerie (it downloads the hand once), or pass the path of its "
+                           "shadow_hand/right_hand.xml as the hand")
+    import mujoco_menagerie
+
+    try:
+        return Path(mujoco_menagerie.get("shadow_hand").xml("right_hand"))
+    except Exception as error:  # noqa: BLE001 - its download failed: say so, with the way round it
+        raise InvalidInput(f"hand 'menagerie': mujoco-menagerie could not fetch the hand ({error}); set "
+                           "MENAGERIE_ROOT to a checkout of MuJoCo Menagerie instead") from None
 
 
 def _file_spec(path: Path) -> mujoco.MjSpec:
