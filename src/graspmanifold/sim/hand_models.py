@@ -102,9 +102,20 @@ def _menagerie_file() -> Path:
                            "MENAGERIE_ROOT to a checkout of MuJoCo Menagerie instead") from None
 
 
-def _file_spec(path: Path) -> mujoco.MjSpec:
-    """A hand's MJCF file as an editable spec, its root body made the mocap mount (Scene moves the hand by moving
-    it), with the library's physics options."""
+def hand_file_spec(path: str | Path) -> mujoco.MjSpec:
+    """A hand's MJCF file as the library reads it: an editable spec, its root body made the mocap mount (Scene
+    moves the hand by moving it), its mesh and texture folders made absolute, with the library's physics options.
+
+    Args:
+        path: the MJCF file of the hand alone.
+
+    Returns:
+        The spec (`describe_shadow_hand` takes a function that makes one).
+
+    Raises:
+        InvalidInput: an unreadable file, more than the hand in its world, or a root body with joints.
+    """
+    path = Path(path)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except Exception as error:  # MuJoCo's parser says what is wrong; keep its words
@@ -150,7 +161,7 @@ def mjcf_hand(path: str | Path, name: str | None = None) -> HandModel:
     path = Path(path).expanduser().resolve()
     if not path.is_file():
         raise InvalidInput(f"hand: no MJCF file at {path}")
-    return describe_shadow_hand(functools.partial(_file_spec, path), name or str(path), str(path))
+    return describe_shadow_hand(functools.partial(hand_file_spec, path), name or str(path), str(path))
 
 
 def describe_shadow_hand(loader: Callable[[], mujoco.MjSpec], name: str, mjcf: str,
