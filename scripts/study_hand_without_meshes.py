@@ -17,17 +17,14 @@ from __future__ import annotations
 
 import argparse
 import functools
-import sys
 from pathlib import Path
 
 import mujoco
+from study_hands import with_our_servos  # the hands study's servo swap (this script's folder is on the path)
 
 import graspmanifold as gm
 from graspmanifold.sim.hand_models import check_hand_model, describe_shadow_hand, hand_file_spec, joint_agreement
 from graspmanifold.trials.stats import mcnemar, rate_text
-
-sys.path.insert(0, str(Path(__file__).parent))
-from study_hands import with_our_servos  # noqa: E402 - the same servo swap as the hands study
 
 
 def without_meshes(file_spec) -> mujoco.MjSpec:
