@@ -1,7 +1,7 @@
 """The library on the community's Shadow Hands beside ours: the cross-model table (issue 28).
 
     python scripts/study_hands.py [--presets paper verified] [--hands ours gymnasium-robotics] [--workers 2]
-                                  [--servos]
+                                  [--why]
 
 For each hand model: `graspmanifold reproduce` with each preset (`paper`: the paper's procedure and dataset
 sizes, every candidate trained on; `verified`: the same candidates, the maps trained on those that hold when
@@ -18,11 +18,16 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
+import mujoco
+import numpy as np
+
 import graspmanifold as gm
 from graspmanifold.paper.reproduce import PRESETS, reproduce
+from graspmanifold.sim.hand_models import hand_model, joint_agreement
 from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.trials.stats import holm, mcnemar, rate_text
 
@@ -72,23 +77,72 @@ def with_our_servos(hand: gm.HandModel) -> gm.HandModel:
     return replace(hand, loader=spec)
 
 
-def servo_rows(hand_name: str) -> list[str]:
-    """The heuristic on the quick grid with the model's own finger servos and with ours (this process: the
-    changed model is not registered by name), beside our hand."""
-    hand, (gain, limit) = gm.sim.hand_models.hand_model(hand_name), our_finger_servo()
-    lines = ["", f"Why the hands differ, one cause tried: {hand_name} with our finger servos (kp "
-             f"{gain:g} N m/rad, force limit {limit:g} N m) instead of its own; the plain "
-             "controller on the quick grid, seed 0:", "",
-             "| object | its servos | our servos | p (McNemar) | our hand |", "|---|---|---|---|---|"]
+def with_our_contacts(hand: gm.HandModel) -> gm.HandModel:
+    """The model with our contact parameters on every colliding geom of the hand (condim, solref, solimp); the
+    friction is the object's on every model already (`Scene`)."""
+    ours = gm.SHADOW_HAND.model.geom("ffdistal")
+
+    def spec():
+        spec = hand.spec()
+        for geom in spec.geoms:
+            if geom.contype or geom.conaffinity:
+                geom.condim, geom.solref, geom.solimp = int(ours.condim[0]), list(ours.solref), list(ours.solimp)
+        return spec
+
+    return replace(hand, loader=spec)
+
+
+def hand_facts(hand: gm.HandModel) -> list[str]:
+    """What a model's physics is made of, measured from its compiled MJCF: one table row."""
+    model = hand.model
+    wrist = set(hand.wrist_rows)
+    servos = [model.actuator(a).id for row, a in enumerate(hand.actuators) if row not in wrist]
+    dofs = model.jnt_dofadr[[model.joint(j).id for j in hand.finger_joints]]
+    bodies = {model.body(b).id for b in hand.segments}
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] in bodies
+             and (model.geom_contype[g] or model.geom_conaffinity[g])]
+    kinds = Counter(mujoco.mjtGeom(int(model.geom_type[g])).name.removeprefix("mjGEOM_").lower() for g in geoms)
+    ours = dict(zip(gm.SHADOW_HAND.finger_joints, gm.SHADOW_HAND.limits()))
+    narrower = [paper for paper, limits in zip(gm.SHADOW_HAND.finger_joints, hand.limits())
+                if not np.allclose(limits, ours[paper], atol=1e-3)]
+
+    def values(array, digits=4):
+        return ", ".join(f"{v:.{digits}g}" for v in np.unique(np.round(array, 6)))
+
+    return [label(hand.name), values(model.actuator_gainprm[servos, 0]), values(model.actuator_forcerange[servos, 1]),
+            f"{values(model.dof_damping[dofs])} / {values(model.dof_armature[dofs])} / "
+            f"{values(model.dof_frictionloss[dofs])}",
+            ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())), values(model.geom_condim[geoms]),
+            "; ".join(values(model.geom_solref[geoms][:, i]) for i in range(2)),
+            "; ".join(values(model.geom_solimp[geoms][:, i]) for i in range(3)),
+            f"{sum(model.body_mass[b] for b in bodies):.2f}", f"{joint_agreement(hand).min():.3f}",
+            ", ".join(narrower) or "none"]
+
+
+def facts_rows(hands: list[gm.HandModel]) -> list[str]:
+    lines = ["", "What the models are made of (from their compiled MJCF; finger servos, finger joints, the colliding "
+             "geoms of the segments):", "",
+             "| hand | servo kp (N m/rad) | servo force limit (N m) | joint damping / armature / friction loss | "
+             "colliding geoms | condim | solref (time; damping ratio) | solimp (d0; dwidth; width) | segment mass (kg) "
+             "| joint agreement (min cosine) | finger joint ranges unlike ours |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    return lines + ["| " + " | ".join(hand_facts(hand)) + " |" for hand in hands]
+
+
+def ablation_rows(hand: gm.HandModel, grid: str = "quick") -> list[str]:
+    """The heuristic on a grid with the model's own physics, with our finger servos, and with our servos and our
+    contact parameters, beside our hand (in this process: the changed models are not registered by name)."""
+    gain, limit = our_finger_servo()
+    lines = ["", f"Why {label(hand.name)} holds less, causes tried one after the other: our finger servos (kp {gain:g} "
+             f"N m/rad, force limit {limit:g} N m), then also our contact parameters; the plain controller on the "
+             f"{grid} grid, seed 0, the same poses (McNemar: each column against the one before):", "",
+             "| object | its own physics | our servos | p | our servos and contacts | p | our hand |",
+             "|---|---|---|---|---|---|---|"]
     for obj in OBJECTS:
-        grid = gm.grid_preset("quick", obj)
-        own, swapped, ours = (gm.evaluate(obj, None, grid, workers=1, hand=h)
-                              for h in (hand, with_our_servos(hand), gm.SHADOW_HAND))
-        both = own.valid() & swapped.valid()
-        lines.append(f"| {obj} | {rate_text(int(own.outcomes()[own.valid()].sum()), int(own.valid().sum()))} | "
-                     f"{rate_text(int(swapped.outcomes()[swapped.valid()].sum()), int(swapped.valid().sum()))} | "
-                     f"{mcnemar(swapped.outcomes()[both], own.outcomes()[both]).p_value:.3g} | "
-                     f"{rate_text(int(ours.outcomes()[ours.valid()].sum()), int(ours.valid().sum()))} |")
+        poses = gm.grid_preset(grid, obj)
+        own, servos, contacts, ours = (gm.evaluate(obj, None, poses, workers=1, hand=h, progress=False) for h in (
+            hand, with_our_servos(hand), with_our_contacts(with_our_servos(hand)), gm.SHADOW_HAND))
+        lines.append(f"| {obj} | {held(own)} | {held(servos)} | {paired(servos, own).p_value:.3g} | {held(contacts)} | "
+                     f"{paired(contacts, servos).p_value:.3g} | {held(ours)} |")
     return lines
 
 
@@ -100,7 +154,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study-hands")
     parser.add_argument("--doc", default="docs/hands.md")
-    parser.add_argument("--servos", action="store_true", help="also run the other hands with our finger servos")
+    parser.add_argument("--why", action="store_true", help="also the models' physics side by side, and the other "
+                        "hands with our servos and contact parameters on the quick grid")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -124,7 +179,7 @@ def main() -> None:
     adjusted = holm([c.p_value for *_, c in comparisons])
     lines = ["# The library on other Shadow Hand models (issue 28)", "",
              f"`python scripts/study_hands.py --presets {' '.join(args.presets)} --hands {' '.join(args.hands)} "
-             f"--workers {args.workers}{' --servos' if args.servos else ''}`: each row is a "
+             f"--workers {args.workers}{' --why' if args.why else ''}`: each row is a "
              "`graspmanifold reproduce --preset PRESET --hand HAND` run (the paper's dataset sizes, 25 x 25 maps, the "
              "paper grid, seed 0: the same poses and noise draws on every hand); SECONDS s for what this call computed "
              "(runs read from --out not counted); the project's 2-core machine.", "",
@@ -152,9 +207,11 @@ def main() -> None:
     for (preset, what, obj, c), p_holm in zip(comparisons, adjusted):
         lines.append(f"| {preset} | {what} | {obj} | {c.n} | {c.only_a} | {c.only_b} | {c.p_value:.3g} | "
                      f"{p_holm:.3g} |")
-    if args.servos:
-        for hand in args.hands[1:]:
-            lines += servo_rows(hand)
+    if args.why:
+        hands = [hand_model(hand) for hand in args.hands]
+        lines += facts_rows(hands)
+        for hand in hands[1:]:
+            lines += ablation_rows(hand)
     text = "\n".join(lines).replace("SECONDS", f"{time.perf_counter() - started:.0f}")
     Path(args.doc).write_text(text + "\n")
     print(text)
