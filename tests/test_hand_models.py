@@ -262,3 +262,12 @@ def test_menagerie_is_read_from_the_checkout_menagerie_root_names(tmp_path, monk
         assert hand.name == "menagerie" and hand.finger_joints[0] == "rh_FFJ4" and hand.palm == "rh_palm"
     finally:
         _described.cache_clear()
+
+
+def test_the_command_takes_a_hand_by_name_or_path(tmp_path, capsys):
+    from graspmanifold.cli import main
+
+    assert main(["demo", "--object", "cylinder", "--seconds", "0.5", "--hand", ours_renamed(tmp_path)]) == 0
+    assert "ffdistal" in capsys.readouterr().out  # touch read in the paper's segments, whatever the model's names
+    with pytest.raises(SystemExit, match=r"error: hand must be one of \('ours', 'gymnasium-robotics'"):
+        main(["demo", "--hand", "allegro"])
