@@ -44,12 +44,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("mjcf")
     parser.add_argument("--grid", default="quick")
+    parser.add_argument("--doc", help="also write the tables to this Markdown file")
     args = parser.parse_args()
     path = Path(args.mjcf).resolve()
     hand = describe_shadow_hand(functools.partial(without_meshes, functools.partial(hand_file_spec, path)),
                                 f"{path.name} without meshes", str(path))
     check_hand_model(hand)
-    print("\n".join(facts_rows([gm.SHADOW_HAND, hand]) + ablation_rows(hand, args.grid)))
+    text = "\n".join([f"# {path.name} without its meshes, beside ours (issue 28)", "",
+                      f"`python scripts/study_hand_without_meshes.py {path.parent.name}/{path.name} --grid {args.grid}`: "
+                      "its MJCF text alone, the visual meshes dropped and each colliding distal mesh replaced by our "
+                      "capsule; everything else is the model's own. A diagnostic of its kinematics and actuators, not "
+                      "the model with its meshes."]
+                     + facts_rows([gm.SHADOW_HAND, hand]) + ablation_rows(hand, args.grid))
+    if args.doc:
+        Path(args.doc).write_text(text + "\n")
+    print(text)
 
 
 if __name__ == "__main__":
