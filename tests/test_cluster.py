@@ -43,7 +43,7 @@ def test_the_cli_takes_a_scheduler_address(cluster, tmp_path):
     assert len(gm.PostureSet.load(out)) == 4
 
 
-def test_bad_executors_are_refused(monkeypatch):
+def test_bad_executors_are_refused(monkeypatch, tmp_path):
     from graspmanifold.base import workers
 
     monkeypatch.setattr(workers, "CONNECT_SECONDS", 1)  # nothing listens there: no need to wait 10 s
@@ -52,7 +52,8 @@ def test_bad_executors_are_refused(monkeypatch):
     with pytest.raises(ValueError, match="executor address"):
         cluster_executor("")
     with pytest.raises(SystemExit, match="--executor"):
-        cli(["generate", "--object", "cylinder", "--n", "4", "--out", "x.npz", "--executor", "dask://tcp://127.0.0.1:1"])
+        cli(["generate", "--object", "cylinder", "--n", "4", "--out", str(tmp_path / "x.npz"), "--executor",
+             "dask://tcp://127.0.0.1:1"])
 
 
 def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_disks(cluster, tmp_path, monkeypatch):
