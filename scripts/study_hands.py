@@ -1,7 +1,7 @@
 """The library on the community's Shadow Hands beside ours: the cross-model table (issue 28).
 
     python scripts/study_hands.py [--presets paper verified] [--hands ours gymnasium-robotics] [--workers 2]
-                                  [--why]
+                                  [--why [--why-grid paper]]
 
 For each hand model: `graspmanifold reproduce` with each preset (`paper`: the paper's procedure and dataset
 sizes, every candidate trained on; `verified`: the same candidates, the maps trained on those that hold when
@@ -92,6 +92,47 @@ def with_our_contacts(hand: gm.HandModel) -> gm.HandModel:
     return replace(hand, loader=spec)
 
 
+def with_our_coupling(hand: gm.HandModel) -> gm.HandModel:
+    """The model with our J1/J2 coupling on the four fingers: whatever ties a finger's J1 to its J2 (a tendon over
+    both) goes; one servo drives the tendon J1 + J2, and a soft tendon (ours: 0.2 N m/rad) pulls J1 towards J2,
+    so that J1 keeps closing when the middle phalanx is stopped, as on the real hand."""
+    ours = gm.SHADOW_HAND.model
+    balance = float(ours.tendon_stiffness[ours.tendon("FFJ12_balance").id])
+    compiled = hand.model
+    pairs = {finger: (hand.finger_joints[gm.SHADOW_HAND.finger_joints.index(f"{finger}J2")],
+                      hand.finger_joints[gm.SHADOW_HAND.finger_joints.index(f"{finger}J1")])
+             for finger in ("FF", "MF", "RF", "LF")}
+    finger_of_pair = {frozenset(pair): finger for finger, pair in pairs.items()}
+
+    def joints_of(tendon: int) -> frozenset[str]:
+        first = compiled.tendon_adr[tendon]
+        return frozenset(compiled.joint(compiled.wrap_objid[w]).name
+                         for w in range(first, first + compiled.tendon_num[tendon]))
+
+    ties = {compiled.tendon(t).name: finger_of_pair[joints_of(t)] for t in range(compiled.ntendon)
+            if joints_of(t) in finger_of_pair}  # what ties J1 to J2 now, by finger
+    sign = dict(zip(hand.finger_joints, hand.to_model(np.ones(len(hand.finger_joints)))))
+
+    def spec():
+        spec = hand.spec()
+        for name in ties:
+            spec.delete(spec.tendon(name))
+        for finger, (j2, j1) in pairs.items():
+            total = spec.add_tendon(name=f"{finger}_J1J2_sum")
+            total.wrap_joint(j2, sign[j2])
+            total.wrap_joint(j1, sign[j1])
+            spring = spec.add_tendon(name=f"{finger}_J1J2_balance", stiffness=[balance, 0, 0])
+            spring.wrap_joint(j2, sign[j2])
+            spring.wrap_joint(j1, -sign[j1])
+            for actuator in spec.actuators:  # the servo of J2 (or of the old sum) drives the sum
+                if actuator.target == j2 or ties.get(actuator.target) == finger:
+                    actuator.trntype, actuator.target = mujoco.mjtTrn.mjTRN_TENDON, total.name
+                    actuator.ctrlrange = [0.0, np.pi]
+        return spec
+
+    return replace(hand, loader=spec)
+
+
 def hand_facts(hand: gm.HandModel) -> list[str]:
     """What a model's physics is made of, measured from its compiled MJCF: one table row."""
     model = hand.model
@@ -129,20 +170,33 @@ def facts_rows(hands: list[gm.HandModel]) -> list[str]:
 
 
 def ablation_rows(hand: gm.HandModel, grid: str = "quick") -> list[str]:
-    """The heuristic on a grid with the model's own physics, with our finger servos, and with our servos and our
-    contact parameters, beside our hand (in this process: the changed models are not registered by name)."""
+    """The heuristic on a grid with the model's own physics, then with our finger servos, then also our contact
+    parameters, then also our J1/J2 coupling, beside our hand (in this process: the changed models are not
+    registered by name)."""
     gain, limit = our_finger_servo()
+    steps = [hand]
+    for change in (with_our_servos, with_our_contacts, with_our_coupling):
+        steps.append(change(steps[-1]))
     lines = ["", f"Why {label(hand.name)} holds less, causes tried one after the other: our finger servos (kp {gain:g} "
-             f"N m/rad, force limit {limit:g} N m), then also our contact parameters; the plain controller on the "
-             f"{grid} grid, seed 0, the same poses (McNemar: each column against the one before):", "",
-             "| object | its own physics | our servos | p | our servos and contacts | p | our hand |",
-             "|---|---|---|---|---|---|---|"]
+             f"N m/rad, force limit {limit:g} N m), then also our contact parameters, then also our J1/J2 coupling "
+             f"(one servo on J1 + J2, a soft tendon between them); the plain controller on the {grid} grid, seed 0, "
+             "the same poses (McNemar: each column against the one before; p, then Holm's over the table's "
+             f"{3 * (len(steps) - 1)} tests):", "",
+             "| object | its own physics | our servos | p | and contacts | p | and coupling | p | our hand |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    rates, tests = {}, []
     for obj in OBJECTS:
         poses = gm.grid_preset(grid, obj)
-        own, servos, contacts, ours = (gm.evaluate(obj, None, poses, workers=1, hand=h, progress=False) for h in (
-            hand, with_our_servos(hand), with_our_contacts(with_our_servos(hand)), gm.SHADOW_HAND))
-        lines.append(f"| {obj} | {held(own)} | {held(servos)} | {paired(servos, own).p_value:.3g} | {held(contacts)} | "
-                     f"{paired(contacts, servos).p_value:.3g} | {held(ours)} |")
+        runs = [gm.evaluate(obj, None, poses, workers=1, hand=h, progress=False) for h in steps + [gm.SHADOW_HAND]]
+        rates[obj] = [held(run) for run in runs]
+        tests += [paired(after, before).p_value for before, after in zip(runs[:-2], runs[1:-1])]
+    adjusted = iter(zip(tests, holm(tests)))
+    for obj in OBJECTS:
+        cells = [rates[obj][0]]
+        for rate in rates[obj][1:-1]:
+            raw, corrected = next(adjusted)
+            cells += [rate, f"{raw:.2g} ({corrected:.2g})"]
+        lines.append(f"| {obj} | {' | '.join(cells)} | {rates[obj][-1]} |")
     return lines
 
 
@@ -155,7 +209,9 @@ def main() -> None:
     parser.add_argument("--out", default="study-hands")
     parser.add_argument("--doc", default="docs/hands.md")
     parser.add_argument("--why", action="store_true", help="also the models' physics side by side, and the other "
-                        "hands with our servos and contact parameters on the quick grid")
+                        "hands with our servos, contact parameters and coupling, one after the other")
+    parser.add_argument("--why-grid", default="paper", help="the grid of the --why ablation (one worker: the changed "
+                        "models are not registered by name)")
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -179,7 +235,7 @@ def main() -> None:
     adjusted = holm([c.p_value for *_, c in comparisons])
     lines = ["# The library on other Shadow Hand models (issue 28)", "",
              f"`python scripts/study_hands.py --presets {' '.join(args.presets)} --hands {' '.join(args.hands)} "
-             f"--workers {args.workers}{' --why' if args.why else ''}`: each row is a "
+             f"--workers {args.workers}{f' --why --why-grid {args.why_grid}' if args.why else ''}`: each row is a "
              "`graspmanifold reproduce --preset PRESET --hand HAND` run (the paper's dataset sizes, 25 x 25 maps, the "
              "paper grid, seed 0: the same poses and noise draws on every hand); SECONDS s for what this call computed "
              "(runs read from --out not counted); the project's 2-core machine.", "",
@@ -211,7 +267,7 @@ def main() -> None:
         hands = [hand_model(hand) for hand in args.hands]
         lines += facts_rows(hands)
         for hand in hands[1:]:
-            lines += ablation_rows(hand)
+            lines += ablation_rows(hand, args.why_grid)
     text = "\n".join(lines).replace("SECONDS", f"{time.perf_counter() - started:.0f}")
     Path(args.doc).write_text(text + "\n")
     print(text)
