@@ -66,9 +66,7 @@ def _gymnasium_spec(touch: bool = False) -> mujoco.MjSpec:
   <worldbody><body name="hand_mount" mocap="true"><include file="{root / robot}"/></body></worldbody>
 </mujoco>"""
     spec = mujoco.MjSpec.from_string(xml)
-    ours = SHADOW_HAND.spec().option  # the library's physics, whatever the hand: the same step, integrator and cones
-    spec.option.timestep, spec.option.integrator = ours.timestep, ours.integrator
-    spec.option.cone, spec.option.impratio = ours.cone, ours.impratio
+    _with_our_physics(spec)
     mount = spec.body("robot0:hand mount")  # placed in its environments' world: bring it to our mount's frame
     mount.pos = [0.0, 0.0, 0.0]
     mount.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
