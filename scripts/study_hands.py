@@ -92,6 +92,22 @@ def with_our_contacts(hand: gm.HandModel) -> gm.HandModel:
     return replace(hand, loader=spec)
 
 
+def with_our_joints(hand: gm.HandModel) -> gm.HandModel:
+    """The model with our finger joints' damping, armature and friction loss."""
+    ours = gm.SHADOW_HAND.model.joint("FFJ3")
+    finger_joints = set(hand.finger_joints)
+
+    def spec():
+        spec = hand.spec()
+        for joint in spec.joints:
+            if joint.name in finger_joints:
+                joint.damping, joint.armature = [float(ours.damping[0])] * len(joint.damping), float(ours.armature[0])
+                joint.frictionloss = float(ours.frictionloss[0])
+        return spec
+
+    return replace(hand, loader=spec)
+
+
 def with_our_coupling(hand: gm.HandModel) -> gm.HandModel:
     """The model with our J1/J2 coupling on the four fingers: whatever ties a finger's J1 to its J2 (a tendon over
     both) goes; one servo drives the tendon J1 + J2, and a soft tendon (ours: 0.2 N m/rad) pulls J1 towards J2,
@@ -171,19 +187,20 @@ def facts_rows(hands: list[gm.HandModel]) -> list[str]:
 
 def ablation_rows(hand: gm.HandModel, grid: str = "quick") -> list[str]:
     """The heuristic on a grid with the model's own physics, then with our finger servos, then also our contact
-    parameters, then also our J1/J2 coupling, beside our hand (in this process: the changed models are not
-    registered by name)."""
+    parameters, our J1/J2 coupling and our joint dynamics, beside our hand (in this process: the changed models are
+    not registered by name)."""
     gain, limit = our_finger_servo()
     steps = [hand]
-    for change in (with_our_servos, with_our_contacts, with_our_coupling):
+    for change in (with_our_servos, with_our_contacts, with_our_coupling, with_our_joints):
         steps.append(change(steps[-1]))
     lines = ["", f"Why {label(hand.name)} holds less, causes tried one after the other: our finger servos (kp {gain:g} "
              f"N m/rad, force limit {limit:g} N m), then also our contact parameters, then also our J1/J2 coupling "
-             f"(one servo on J1 + J2, a soft tendon between them); the plain controller on the {grid} grid, seed 0, "
+             "(one servo on J1 + J2, a soft tendon between them), then also our finger joints' damping, armature and "
+             f"friction loss; the plain controller on the {grid} grid, seed 0, "
              "the same poses (McNemar: each column against the one before; p, then Holm's over the table's "
              f"{3 * (len(steps) - 1)} tests):", "",
-             "| object | its own physics | our servos | p | and contacts | p | and coupling | p | our hand |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| object | its own physics | our servos | p | and contacts | p | and coupling | p | and joints | p | our hand |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     rates, tests = {}, []
     for obj in OBJECTS:
         poses = gm.grid_preset(grid, obj)
