@@ -26,13 +26,13 @@ from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
 from .sim.family import FAMILY
 from .sim.hand_models import HAND_MODELS
-
-HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]'; "
-             "menagerie: MENAGERIE_ROOT set to a Menagerie checkout) or the path of a Shadow Hand's MJCF file")
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import Scene, facing_pose
 from .trials.grid import GRID_PRESETS
+
+HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]'; "
+             "menagerie: MENAGERIE_ROOT set to a Menagerie checkout) or the path of a Shadow Hand's MJCF file")
 
 
 def _object(args: argparse.Namespace) -> GraspObject:

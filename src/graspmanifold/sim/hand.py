@@ -327,8 +327,8 @@ def finger_of(name: str) -> str | None:
 
 
 def finger_limits() -> np.ndarray:
-    """(22, 2) array of [lower, upper] joint limits in posture order (radians)."""
-    return np.array([JOINT_RANGES[j] for j in FINGER_JOINTS], dtype=float)
+    """(22, 2) array of [lower, upper] joint limits in posture order (radians): ours (`HandModel.limits`)."""
+    return SHADOW_HAND.limits()
 
 
 def segment_of_geoms(model: mujoco.MjModel, hand: HandModel = SHADOW_HAND) -> np.ndarray:

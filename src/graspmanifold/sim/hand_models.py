@@ -177,13 +177,14 @@ def describe_shadow_hand(loader: Callable[[], mujoco.MjSpec], name: str, mjcf: s
     A distal phalanx without a fingertip site gets one at its far end.
 
     Args:
-        loader: builds the hand's MjSpec, the hand hanging from a mocap body.
+        loader: builds the hand's MjSpec, the hand hanging from a mocap body, with the library's physics options
+            (`hand_file_spec` reads a file so).
         name: what the model is called.
         mjcf: where its MJCF is (for the record).
         mount: the mocap body (default: the root body of the hand).
 
     Returns:
-        The description, with the library's physics options.
+        The description.
 
     Raises:
         InvalidInput: joint names of no or of several hands, or a model whose joints or palm differ from
