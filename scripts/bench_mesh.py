@@ -18,6 +18,7 @@ import time
 import trimesh
 
 import graspmanifold as gm
+from graspmanifold.control.controller import BLEND  # the controller BENCHMARKS.md's mesh rows ran
 from graspmanifold.trials.stats import mcnemar, rate_text
 
 
@@ -56,7 +57,7 @@ def main() -> None:
     print("| method | primitive | mesh | only primitive | only mesh | McNemar p |\n|---|---|---|---|---|---|")
     for method in ("none", "database"):
         results = {label: gm.evaluate(obj, None if method == "none" else sets[label], args.grid, seed=args.seed,
-                                      workers=args.workers) for label, obj in objects.items()}
+                                      workers=args.workers, params=BLEND) for label, obj in objects.items()}
         held = {label: r.outcomes("hold") for label, r in results.items()}
         test = mcnemar(held["primitive"], held["mesh"])
         print(f"| {method} (hold) | {rate_text(held['primitive'].sum(), len(held['primitive']))} | "

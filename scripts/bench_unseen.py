@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 import graspmanifold as gm
+from graspmanifold.control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
 from graspmanifold.control.starts import nearest_primitive
@@ -62,7 +63,7 @@ def best_constant_preshape(obj: gm.GraspObject, sets: list[gm.PostureSet], seed:
                            noise: gm.Noise) -> np.ndarray:
     """Of the sets' starting-posture cluster means, the one whose constant preshape holds most on the quick grid."""
     candidates = [s.postures[s.start_ids == i].mean(axis=0) for s in sets if len(s) for i in np.unique(s.start_ids)]
-    rates = [gm.evaluate(obj, None, "quick", seed=seed, workers=workers, noise=noise, preshape=c).rate()
+    rates = [gm.evaluate(obj, None, "quick", seed=seed, workers=workers, noise=noise, preshape=c, params=BLEND).rate()
              for c in candidates]
     return candidates[int(np.argmax(rates))]
 
@@ -119,7 +120,7 @@ def main() -> None:
             methods["none_preshape"] = None
             preshape["none_preshape"] = best_constant_preshape(obj, sources, args.seed, args.workers, noise)
         results = {m: gm.evaluate(obj, e, args.grid, seed=args.seed, workers=args.workers, noise=noise,
-                                  preshape=preshape.get(m)) for m, e in methods.items()}
+                                  preshape=preshape.get(m), params=BLEND) for m, e in methods.items()}
         for method, result in results.items():
             s, n = result.summary, result.summary["trials"]
             c = compare(result, results["none"])

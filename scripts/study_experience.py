@@ -21,6 +21,9 @@ never told which object it grasps. The study, in the order a careful reviewer wo
 5. Test: the methods on the test grid, paired (McNemar) against the shared preshape, with Holm's
    correction over each family of comparisons; rates with Wilson intervals; the target judged.
 
+Every method runs the blend controller (`controller.BLEND`, the library's controller when this study was
+run; `params` default to it), the paper's reading of phase C is not in it yet.
+
 Every finished evaluation is kept in --out, so an interrupted study resumes. Writes `--out/study.json`
 and the markdown report `--doc` (with `--quick`: a CI-sized run of two objects and an eighth of the
 poses into `study-quick/`). The first study, on the paper's grids, is
@@ -33,6 +36,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +44,7 @@ import numpy as np
 import graspmanifold as gm
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.base.workers import worker_pool
+from graspmanifold.control.controller import BLEND
 from graspmanifold.control.generator import remove_checkpoints
 from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, mcnemar, rate_text
@@ -52,10 +57,10 @@ JITTER = gm.Noise(position=0.001, yaw=0.02)
 QUICK_OBJECTS = ("box", "marble")
 #: the SOM controller's variants, one of which the selection grid picks: the paper's controller, the recall
 #: restarting the closure, and that with the palm moved by up to 3 cm (ControllerParams.reach)
-SOM_VARIANTS = {"som_paper": gm.ControllerParams(), "som_restart": gm.ControllerParams(restart_closure=True),
-                "som_reach": gm.ControllerParams(restart_closure=True, reach=0.03)}
-SOM_DESCRIPTIONS = {"som_paper": "the paper's controller", "som_restart": "ControllerParams(restart_closure=True)",
-                    "som_reach": "ControllerParams(restart_closure=True, reach=0.03)"}
+SOM_VARIANTS = {"som_paper": BLEND, "som_restart": replace(BLEND, restart_closure=True),
+                "som_reach": replace(BLEND, restart_closure=True, reach=0.03)}
+SOM_DESCRIPTIONS = {"som_paper": "the blend (BLEND)", "som_restart": "replace(BLEND, restart_closure=True)",
+                    "som_reach": "replace(BLEND, restart_closure=True, reach=0.03)"}
 
 
 class Study:
@@ -78,7 +83,7 @@ class Study:
         stored = self.out / "evaluation"
         self.reused += sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in cells() if o in self.objects)
         self.evaluations += sum(o in self.objects for o, _ in cells())
-        results = run_benchmark(experience, split=split, params=params, preshape=preshape, noise=noise,
+        results = run_benchmark(experience, split=split, params=params or BLEND, preshape=preshape, noise=noise,
                                 objects=self.objects, every=every, workers=self.args.workers,
                                 store=self.out / "evaluation", label=method, executor=self.executor)
         self.results[(split, method)] = results

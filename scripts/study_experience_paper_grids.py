@@ -42,6 +42,7 @@ import numpy as np
 
 import graspmanifold as gm
 from graspmanifold.base.io import atomic_write, write_npz, write_text_atomic
+from graspmanifold.control.controller import BLEND
 from graspmanifold.control.generator import remove_checkpoints, verify_postures
 from graspmanifold.control.judge import JUDGING
 from graspmanifold.trials.evaluation import EvaluationResult, trial_count
@@ -60,9 +61,9 @@ from graspmanifold.trials.study import (
 OBJECTS = ("box", "cylinder", "sphere")
 CONTROLS = ("none", "none_fast", "none_preshape")
 METHODS = ("som", "som_preshaped", "database")
-ABLATIONS = {"som_no_preshape": gm.ControllerParams(experience_preshape=False),
-             "som_no_steering": gm.ControllerParams(experience_steering=False),
-             "som_trust_every_match": gm.ControllerParams(max_match_distance=float("inf"))}
+ABLATIONS = {"som_no_preshape": replace(BLEND, experience_preshape=False),
+             "som_no_steering": replace(BLEND, experience_steering=False),
+             "som_trust_every_match": replace(BLEND, max_match_distance=float("inf"))}
 PAPER_NOISE = gm.Noise(position=0.01, yaw=0.2)
 
 
@@ -94,7 +95,7 @@ class Study:
             start = time.perf_counter()
             parts = path.with_suffix(".parts")
             result = gm.evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
-                                 params=params, preshape=preshape, checkpoint_dir=parts)
+                                 params=params or BLEND, preshape=preshape, checkpoint_dir=parts)
             result.method, result.grid_name = method, grid_name
             result.save(path)
             remove_checkpoints(parts)

@@ -29,7 +29,7 @@ import graspmanifold as gm
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.control.controller import squeezed
 from graspmanifold.control.generator import GeneratorParams
-from graspmanifold.control.judge import HOLD_DIRECTIONS, JUDGING, grasp_epsilon
+from graspmanifold.control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
 from graspmanifold.sim.hand import DISTAL_SEGMENTS
 from graspmanifold.sim.scene import GRAVITY
 from graspmanifold.trials.stats import rate_text
@@ -51,7 +51,7 @@ def replay(scene: gm.Scene, posture: np.ndarray, pose: np.ndarray, params: Gener
     weights = reading.forces / max(reading.forces.sum(), 1e-12)
     record = {"segments": len(reading.segments), "five_tips": set(DISTAL_SEGMENTS) <= set(reading.segments),
               "thumb": any(s.startswith("th") for s in reading.segments),
-              "epsilon": grasp_epsilon(scene),
+              "epsilon": reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body].copy(), scene.object.friction),
               "axial_normal": float(weights @ np.abs(reading.normals[:, 2])) if len(weights) else np.nan,
               "contact_height": float(weights @ (reading.points[:, 2] / half_length)) if len(weights) else np.nan,
               "squeeze_force": float(reading.forces.sum()), "dropped_along": ""}

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.control.batch_controller import BatchController
+from graspmanifold.control.controller import BatchController
 from graspmanifold.sim.objects import GraspObject
-from graspmanifold.trials import batch_trials
+from graspmanifold.trials import trial
 from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 
 
@@ -40,7 +40,7 @@ def test_the_controller_is_never_told_the_object(monkeypatch):
     an experience, parameters and postures, then joint angles and segment forces every cycle."""
     for cls in (gm.GraspController, BatchController):
         names = set(inspect.signature(cls.__init__).parameters) - {"self"}
-        assert names <= {"n", "experience", "params", "initial_posture", "preshape"}, (cls, names)
+        assert names <= {"n", "experience", "params", "initial_posture", "preshape", "hand"}, (cls, names)
     seen = []
 
     class Spy(BatchController):
@@ -52,7 +52,7 @@ def test_the_controller_is_never_told_the_object(monkeypatch):
             seen.extend([joints, segment_forces])
             return super().step(joints, segment_forces)
 
-    monkeypatch.setattr(batch_trials, "BatchController", Spy)
+    monkeypatch.setattr(trial, "BatchController", Spy)
     database = gm.PostureDatabase(np.tile(gm.closed_posture() * 0.5, (3, 1)))
     results = run_benchmark(database, objects=("marble",), every=27)
     assert sum(len(r.trials) for r in results.values()) >= 2 and seen

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
+from graspmanifold.control.controller import BLEND, BatchController
 from graspmanifold.manifold.experience import check_experience
 from graspmanifold.sim.worlds import CpuWorlds
-from graspmanifold.trials.conformance import check_experience_contract, check_worlds_contract
+from graspmanifold.trials.conformance import check_controller_contract, check_experience_contract, check_worlds_contract
 
 
 @pytest.mark.parametrize("kind", ["database", "som", "posture_set"])
@@ -53,3 +54,68 @@ def test_warp_worlds_meet_the_contract():
         check_worlds_contract(WarpWorlds, atol=2e-3)
     except gm.BackendUnavailable as error:
         pytest.skip(str(error))
+
+
+def _example(heading: str) -> dict:
+    """Run the code block under a heading of the API reference page (docs/site/api.md); its names."""
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "site" / "api.md").read_text()
+    code = re.search(rf"### {re.escape(heading)}\n.*?```python\n(.*?)```", page, re.S).group(1)
+    names: dict = {}
+    exec(code, names)  # noqa: S102 - the library's own documented example
+    return names
+
+
+@pytest.mark.parametrize("kind", ["none", "database", "som"])
+@pytest.mark.parametrize("params", [gm.ControllerParams(), BLEND], ids=["target", "blend"])
+def test_our_controller_meets_the_contract(kind, params, rng):
+    postures = np.array([s.posture for s in gm.starting_postures("cylinder")])
+    experience = {"none": None, "database": gm.PostureDatabase(postures),
+                  "som": gm.SOM(3, 3, 22, seed=0).fit(postures, epochs=3, progress=False)}[kind]
+    check_controller_contract(lambda n, hand: BatchController(n, experience, params, hand=hand))
+
+
+def test_the_contract_catches_a_controller_that_ignores_touch_or_returns_nan():
+    class Blind(BatchController):  # closes as the heuristic does, whatever it feels
+        def step(self, joints, segment_forces):
+            return super().step(joints, np.zeros_like(segment_forces))
+
+    class Broken(BatchController):
+        def step(self, joints, segment_forces):
+            targets = super().step(joints, segment_forces)
+            targets[:, 3] = np.nan
+            return targets
+
+    with pytest.raises(AssertionError, match="ignores touch"):
+        check_controller_contract(lambda n, hand: Blind(n, hand=hand))
+    with pytest.raises(AssertionError, match="non-finite targets"):
+        check_controller_contract(lambda n, hand: Broken(n, hand=hand))
+
+
+def test_a_users_own_controller_runs_through_evaluate_on_our_poses_and_is_compared_with_ours():
+    """The API reference's example: a 20-line controller of one's own meets the
+    contract, runs through `evaluate` on the poses ours runs on, and `study.compare` pairs the two."""
+    names = _example("A controller of one's own")
+    mine, ours = names["mine"], names["ours"]
+    check_controller_contract(names["CloseUntilTouch"])
+    assert mine.method == "close_until_touch" and len(mine.trials) == len(ours.trials) == 8
+    assert np.array_equal([t.grid_pose for t in mine.trials], [t.grid_pose for t in ours.trials])
+    paired = gm.study.compare(mine, ours)
+    assert paired.n == 8 and paired.both + paired.only_a + paired.only_b + paired.neither == 8
+    assert all(t.matches == 0 and t.valid for t in mine.trials)
+    with pytest.raises(ValueError, match="method label"):
+        gm.evaluate("cylinder", None, ours.trials[0].grid_pose, controller=names["CloseUntilTouch"])
+    with pytest.raises(ValueError, match="brings its own experience"):
+        gm.evaluate("cylinder", gm.PostureDatabase(np.zeros((2, 22))), ours.trials[0].grid_pose,
+                    controller=names["CloseUntilTouch"], method="x")
+
+
+def test_a_users_own_experience_meets_the_contract_and_is_recalled_in_a_trial():
+    """The API reference's example of an experience base of one's own."""
+    names = _example("An experience base of one's own")
+    check_experience_contract(names["mine"])
+    result = names["result"]
+    assert result.method == "one_by_one" and len(result.trials) == 4
+    assert sum(t.matches for t in result.trials) > 0

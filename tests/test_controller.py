@@ -1,9 +1,12 @@
 """The four-phase grasp controller and the evaluation over a grid."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 import graspmanifold as gm
+from graspmanifold.control.controller import BLEND
 from graspmanifold.sim.hand import PHYSICS_TIMESTEP
 from graspmanifold.trials.grid import palm_pose_for
 
@@ -15,12 +18,12 @@ def experience():
     return {"database": gm.PostureDatabase(postures), "som": gm.SOM(6, 6, 22, seed=0).fit(postures, epochs=20)}
 
 
-def run_until_touch(obj_pose, experience, cycles=40):
+def run_until_touch(obj_pose, experience, cycles=40, params=None):
     """Targets the controller sends, cycle by cycle, until anything touches the object."""
     obj = gm.get_object("cylinder")
     scene = gm.Scene(obj, free_object=True)
     scene.set_object_support(2000.0, 30.0)
-    controller = gm.GraspController(experience)
+    controller = gm.GraspController(experience, params)
     scene.set_hand_pose(*palm_pose_for(obj, obj_pose))
     scene.set_posture(controller.initial)
     targets = []
@@ -35,10 +38,11 @@ def run_until_touch(obj_pose, experience, cycles=40):
 
 
 @pytest.mark.parametrize("kind", ["none", "database", "som"])
-def test_actions_do_not_depend_on_the_object_until_it_is_touched(experience, kind):
+@pytest.mark.parametrize("params", [gm.ControllerParams(), BLEND], ids=["target", "blend"])
+def test_actions_do_not_depend_on_the_object_until_it_is_touched(experience, kind, params):
     exp = None if kind == "none" else experience[kind]
-    near = run_until_touch(np.array([0.0, 0.0, 0.01, 0.0]), exp)
-    far = run_until_touch(np.array([0.0, 0.0, 0.3, 0.0]), exp)  # 30 cm away: never touched
+    near = run_until_touch(np.array([0.0, 0.0, 0.01, 0.0]), exp, params=params)
+    far = run_until_touch(np.array([0.0, 0.0, 0.3, 0.0]), exp, params=params)  # 30 cm away: never touched
     assert len(near) >= 10 and len(far) == 40
     np.testing.assert_array_equal(np.array(near), np.array(far[: len(near)]))
 
@@ -120,8 +124,8 @@ def test_phase_b_target_changes_with_the_hand_posture_while_it_closes(experience
 
 
 def test_a_free_finger_never_waits_at_a_reset_closure(experience):
-    """After the first contact a free finger keeps closing every cycle, even when it cannot move."""
-    params = gm.ControllerParams(preshape_time=0.0)
+    """The blend: after the first contact a free finger keeps closing every cycle, even when it cannot move."""
+    params = replace(BLEND, preshape_time=0.0)
     controller = gm.GraspController(experience["database"], params)
     forces = np.zeros(len(gm.SEGMENTS))
     for _ in range(10):  # phase B
@@ -136,7 +140,7 @@ def test_a_free_finger_never_waits_at_a_reset_closure(experience):
 
 
 def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience):
-    params = gm.ControllerParams(preshape_time=0.0)
+    params = replace(BLEND, preshape_time=0.0)
     controller = gm.GraspController(experience["som"], params)
     forces = np.zeros(len(gm.SEGMENTS))
     held = gm.open_posture()
@@ -159,6 +163,7 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
                                           ("closing_rate", -1.0), ("timeout", float("nan")),
                                           ("squeeze", -0.1), ("steered_fingers", ("ff", "toe")),
                                           ("max_match_distance", 0.0), ("restart_closure", 1),
+                                          ("recall", "memory"), ("recall_tolerance", 0.0),
                                           # not a whole number of 2 ms physics steps: the clocks would drift apart
                                           # (0.0005 once ran 24.8 s of physics for 6.2 s of controller time)
                                           ("control_period", 0.0005), ("control_period", 0.003),
@@ -167,7 +172,10 @@ def test_bad_controller_params_raise(field, value):
     with pytest.raises(ValueError, match=field):
         gm.ControllerParams(**{field: value})
     with pytest.raises(ValueError, match="restart_closure needs steered_joints='all'"):
-        gm.ControllerParams(restart_closure=True, steered_joints="spread")
+        gm.ControllerParams(recall="base", restart_closure=True, steered_joints="spread")
+    for extension in ({"restart_closure": True}, {"reach": 0.02}):  # the recall is already the fingers' target
+        with pytest.raises(ValueError, match="works with recall='base'"):
+            gm.ControllerParams(**extension)
 
 
 def test_the_physics_timestep_is_the_models():
@@ -192,21 +200,21 @@ def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the
     forces = np.zeros(len(gm.SEGMENTS))
     forces[index_tip] = 1.0
     for reach, speed in ((0.05, 0.1), (0.01, 0.1)):
-        params = gm.ControllerParams(reach=reach, reach_speed=speed, max_match_distance=np.inf)
+        params = gm.ControllerParams(recall="base", reach=reach, reach_speed=speed, max_match_distance=np.inf)
         controller = gm.GraspController(gm.PostureDatabase(recalled[None]), params)
         offsets, reaching = [], []
         for _ in range(60):
             controller.step(sensed, forces)
             offsets.append(controller.palm_offset.copy())
-            reaching.append(controller._reaching)
-            if controller._reaching:  # while the palm is on its way nothing is held
-                assert not controller._held
+            reaching.append(controller.reaching)
+            if controller.reaching:  # while the palm is on its way nothing is held
+                assert not controller.holding
         assert sum(reaching) >= 3 and not reaching[-1]
         steps = np.linalg.norm(np.diff(np.array(offsets), axis=0), axis=1)
         assert steps.max() <= speed * params.control_period + 1e-12
         goal = expected if np.linalg.norm(expected) <= reach else expected * reach / np.linalg.norm(expected)
         np.testing.assert_allclose(offsets[-1], goal, atol=1e-12)
-        assert "ff" in controller._held  # once arrived, the touching finger holds again
+        assert "ff" in controller.holding  # once arrived, the touching finger holds again
     with pytest.raises(ValueError, match="reach"):
         gm.ControllerParams(reach=-0.01)
     assert np.all(gm.GraspController(None).palm_offset == 0)
@@ -219,7 +227,7 @@ def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():
     experience = gm.PostureDatabase(recalled[None])
     trust = dict(max_match_distance=np.inf)
     forces = np.zeros(len(gm.SEGMENTS))
-    controllers = {restart: gm.GraspController(experience, gm.ControllerParams(restart_closure=restart,
+    controllers = {restart: gm.GraspController(experience, gm.ControllerParams(recall="base", restart_closure=restart,
                                                                                experience_preshape=False, **trust))
                    for restart in (False, True)}
     targets = {}
@@ -233,7 +241,7 @@ def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():
     far = np.linalg.norm(targets[False][thumb] - recalled[thumb])
     near = np.linalg.norm(targets[True][thumb] - recalled[thumb])
     assert near < 0.5 * far, (near, far)
-    assert controllers[True]._recalled and not controllers[False]._recalled
+    assert controllers[True].batch._recalled[0] and not controllers[False].batch._recalled[0]
 
 
 def test_switches_turn_experience_off(experience):
@@ -422,3 +430,83 @@ def test_one_reachability_rule_for_evaluate_and_record_trial_and_it_says_why():
     assert len(one.trials) == 1 and one.trials[0].valid
     with pytest.raises(ValueError, match="pose must be four finite numbers"):
         gm.why_unreachable("cylinder", (0.0, 0.0))
+
+
+def test_the_papers_reading_takes_every_free_finger_to_its_recall_before_it_closes_beyond_it():
+    """recall='target' (the default) with a one-posture experience, in a real MuJoCo scene where nothing
+    touches: every finger's target moves straight to its part of the recalled posture, and closes on
+    towards the closed hand only once the finger's sensed joints are within `recall_tolerance` of it."""
+    from graspmanifold.control.controller import FINGER_JOINT_MASKS
+
+    recalled = gm.open_posture() + 0.4 * (gm.closed_posture() - gm.open_posture())
+    params = gm.ControllerParams()
+    assert params.recall == "target" and params.max_match_distance == np.inf  # the paper trusts every match
+    obj = gm.get_object("cylinder")
+    scene = gm.Scene(obj, free_object=True)
+    scene.set_object_support(2000.0, 30.0)
+    controller = gm.GraspController(gm.PostureDatabase(recalled[None]), params)
+    scene.set_hand_pose(*palm_pose_for(obj, np.array([0.0, 0.0, 0.3, 0.0])))  # 30 cm away: nothing touches
+    scene.set_posture(controller.initial)
+    joints, targets = [], []
+    while not controller.done:
+        joints.append(scene.posture())
+        reading = scene.tactile()
+        assert not reading.segments
+        targets.append(controller.step(joints[-1], reading.segment_forces))
+        scene.set_target(targets[-1])
+        scene.run(params.control_period)
+    closed = gm.closed_posture()
+    for finger, of in zip(gm.FINGERS, FINGER_JOINT_MASKS):
+        at = [np.array_equal(t[of], recalled[of]) for t in targets]
+        first = at.index(True)  # the target arrives at the recall ...
+        leave = next(k for k in range(first, len(at)) if not at[k])  # ... and later leaves it
+        way = [np.linalg.norm(t[of] - recalled[of]) for t in targets[: first + 1]]
+        assert np.all(np.diff(way) <= 1e-12), finger  # straight there, never away
+        assert np.abs(joints[leave][of] - recalled[of]).max() <= params.recall_tolerance, finger
+        beyond = [np.linalg.norm(t[of] - closed[of]) for t in targets[leave - 1:]]
+        assert np.all(np.diff(beyond) <= 1e-12) and beyond[-1] < 1e-9, finger  # then on to the closed hand
+    assert controller.matches == len(targets) - round(params.preshape_time / params.control_period)
+
+
+def test_a_recall_of_the_closed_hand_closes_as_the_plain_heuristic():
+    """The paper's reading with the closed hand as its only recall: the fingers go to the closed hand at
+    the heuristic's joint speed, so the trials are the plain heuristic's (real trials, three poses)."""
+    from graspmanifold.trials.trial import TrialSetup, run_trial
+
+    closed = gm.PostureDatabase(gm.closed_posture()[None])
+    obj = gm.get_object("cylinder")
+    for pose in gm.grid_preset("quick", obj)[::10]:
+        plain = run_trial(TrialSetup(obj), pose, np.random.default_rng(0))
+        recalled = run_trial(TrialSetup(obj, closed), pose, np.random.default_rng(0))
+        assert recalled.matches > 0 and plain.matches == 0
+        assert recalled.hold == plain.hold and np.array_equal(recalled.touching, plain.touching)
+        assert recalled.time_to_grasp == pytest.approx(plain.time_to_grasp)
+        np.testing.assert_allclose(recalled.posture, plain.posture, atol=1e-6)
+
+
+def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
+    """`BLEND` is the controller every result before the paper's reading came from: its trials, their
+    postures, epsilons and per-cycle winners equal those that commit computed (tests/data/blend_trials.npz,
+    written there by the script below run on it)."""
+    from pathlib import Path
+
+    from graspmanifold.trials.grid import check_grid
+
+    golden = np.load(Path(__file__).parent / "data" / "blend_trials.npz")
+    starts = np.array([s.posture for s in gm.starting_postures("cylinder")])
+    rng = np.random.default_rng(0)
+    limits = gm.finger_limits()
+    postures = np.clip(np.repeat(starts, 10, axis=0) + rng.normal(0, 0.05, (10 * len(starts), 22)),
+                       limits[:, 0], limits[:, 1])
+    database, som = gm.PostureDatabase(postures), gm.SOM(4, 4, 22, seed=0).fit(postures, epochs=5, progress=False)
+    poses = check_grid("quick", gm.get_object("cylinder"))[1][::4]
+    run = dict(seed=3, workers=1, progress=False)
+    results = {"database": gm.evaluate("cylinder", database, poses, params=BLEND, **run),
+               "som_noise": gm.evaluate("cylinder", som, poses, noise=gm.Noise(0.004, 0.08, 0.01), params=BLEND, **run),
+               "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, restart_closure=True), **run)}
+    for name, result in results.items():
+        for field in ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches",
+                      "margin", "penetration"):
+            assert np.array_equal(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"]), \
+                (name, field)
+        assert np.array_equal(np.concatenate([t.winners for t in result.trials]), golden[f"{name}/winners"]), name

@@ -94,7 +94,7 @@ def replay_holds(obj, posture, pose) -> bool:
     from dataclasses import replace
 
     from graspmanifold.control.controller import squeezed
-    from graspmanifold.control.judge import JUDGING, judge_grasp
+    from graspmanifold.control.judge import JUDGING, judge_scene
 
     scene = gm.Scene(obj, free_object=True)
     scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
@@ -102,8 +102,7 @@ def replay_holds(obj, posture, pose) -> bool:
     scene.set_posture(posture)
     scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
     scene.run(0.2)
-    return judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False,
-                       rules=replace(JUDGING, hold_seconds=gm.GeneratorParams().verify_hold_seconds)).hold
+    return judge_scene(scene, replace(JUDGING, hold_seconds=gm.GeneratorParams().verify_hold_seconds, margin=False)).hold
 
 
 def test_a_stored_experience_posture_is_a_verified_grasp():

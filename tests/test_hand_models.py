@@ -160,7 +160,7 @@ def test_a_scripted_grasp_on_every_model_is_felt_in_the_papers_segments_and_judg
     """The scene adapts the model: postures in, postures out in the paper's sense, touch in the paper's
     segments, one hold test and force-closure measure for every model."""
     import graspmanifold as gm
-    from graspmanifold.control.judge import hold_on_support, judge_grasp
+    from graspmanifold.control.judge import JUDGING, hold_on_support, judge_scene
 
     hand = available(name)
     scene = gm.Scene("cylinder", free_object=True, hand=hand)
@@ -172,7 +172,7 @@ def test_a_scripted_grasp_on_every_model_is_felt_in_the_papers_segments_and_judg
     scene.run(1.0)
     reading = scene.tactile()
     assert set(reading.segments) <= set(gm.SEGMENTS) and {"ffdistal", "thmiddle"} <= set(reading.segments)
-    judgement = judge_grasp(scene, lambda: scene.run(0.02), 0.02, margin=False)
+    judgement = judge_scene(scene, replace(JUDGING, margin=False))
     assert scene.healthy() and judgement.epsilon > 0.01 and np.isfinite(judgement.displacement)
 
 
@@ -192,6 +192,40 @@ def test_the_generator_and_the_evaluation_run_on_another_hand_and_its_experience
         gm.evaluate("cylinder", None, grid, backend="warp", hand="gymnasium-robotics")
 
 
+def test_a_controller_on_another_hand_drives_that_hand_and_never_commands_a_joint_outside_its_ranges():
+    """The controller takes the trial's hand: its open posture, and its ranges for every target, also when the
+    experience recalls our hand's postures beyond them (real trials on the Gymnasium-Robotics hand)."""
+    import graspmanifold as gm
+    from graspmanifold.control.controller import BatchController
+    from graspmanifold.trials.trial import TrialSetup, run_trials
+
+    hand = available("gymnasium-robotics")
+    low, high = hand.limits().T
+    ours = SHADOW_HAND.limits()
+    narrower = (ours[:, 0] < low - 1e-6) | (ours[:, 1] > high + 1e-6)
+    assert narrower.any()  # e.g. its proximal joints cannot hyperextend
+    beyond = np.where(narrower, ours[:, 0], gm.closed_posture())  # recalls outside its ranges
+    experience = gm.PostureDatabase(np.array([beyond, 0.5 * (gm.open_posture() + beyond)]))
+    seen = []
+
+    class Watched(BatchController):
+        def step(self, joints, segment_forces):
+            seen.append(super().step(joints, segment_forces))
+            return seen[-1]
+
+    for params in (gm.ControllerParams(), gm.ControllerParams(recall="base", max_match_distance=np.inf)):
+        controller = BatchController(2, experience, params, hand=hand)
+        np.testing.assert_array_equal(controller.initial, hand.keyframe_posture("open"))
+        np.testing.assert_array_equal(controller.closed, hand.keyframe_posture("closed"))
+        setup = TrialSetup("cylinder", hand=hand, method="watched",
+                           controller=lambda n, hand, params=params: Watched(n, experience, params, hand=hand))
+        trials = run_trials(setup, gm.grid_preset("quick", "cylinder")[:2], [np.random.default_rng(k) for k in range(2)])
+        assert all(t.valid for t in trials) and sum(t.matches for t in trials) > 0
+    targets = np.concatenate(seen)
+    assert np.all((targets >= low - 1e-12) & (targets <= high + 1e-12))
+    assert np.isclose(targets[:, narrower], np.where(narrower, low, high)[narrower]).any()  # it met the ranges
+
+
 def test_a_reproduction_runs_on_another_hand(tmp_path):
     import json
 
@@ -205,7 +239,8 @@ def test_a_reproduction_runs_on_another_hand(tmp_path):
                              map_size=(4, 4), epochs=3, image_size=32, generator=gm.GeneratorParams(verify=False),
                              hand="gymnasium-robotics")
     summary = reproduce(tmp_path / "run", config, workers=1, log=lambda line: None)
-    assert [r["method"] for r in summary["evaluation"]] == ["none", "database", "som", "som_all"]
+    assert [r["method"] for r in summary["evaluation"]] == ["none", "database", "som", "som_all", "database_blend",
+                                                            "som_blend"]
     assert json.loads((tmp_path / "run" / "run.json").read_text())["config"]["hand"] == "gymnasium-robotics"
     assert gm.PostureSet.load(tmp_path / "run" / "postures" / "cylinder.npz").metadata["hand"] == "gymnasium-robotics"
     assert "Gymnasium-Robotics' Shadow Hand" in (tmp_path / "run" / "report.md").read_text()

@@ -214,11 +214,11 @@ def test_a_reproduction_runs_from_a_config_that_names_family_objects(tmp_path):
     config = ReproduceConfig(postures={"capsule_s": 40}, grid=((0.0, 0.0, 0.01, 0.0), (0.0, 0.01, 0.02, 0.2)),
                              map_size=(4, 4), epochs=5, image_size=32, generator=gm.GeneratorParams(verify=False))
     summary = reproduce(tmp_path / "run", config, workers=1, log=lambda line: None)
-    assert [(r["object"], r["method"]) for r in summary["evaluation"]] == [
-        ("capsule_s", m) for m in ("none", "database", "som", "som_all")]
+    methods = ("none", "database", "som", "som_all", "database_blend", "som_blend")
+    assert [(r["object"], r["method"]) for r in summary["evaluation"]] == [("capsule_s", m) for m in methods]
     assert {"fig4_capsule_s", "fig6_capsule_s_evaluation", "fig8_capsule_s_resumed"} <= set(summary["figures"]["figures"])
     run = RunData.load(tmp_path / "run")
-    assert set(run.results) == {("capsule_s", m) for m in ("none", "database", "som", "som_all")}
+    assert set(run.results) == {("capsule_s", m) for m in methods}
     figure_from_run(tmp_path / "run", "fig6_capsule_s_evaluation", tmp_path / "again")
     assert (tmp_path / "again" / "fig6_capsule_s_evaluation.png").stat().st_size > 0
     with pytest.raises(ValueError, match="unknown object"):

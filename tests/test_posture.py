@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.sim.posture import CTRL_MATRIX
 
 
 def idx(*joints):
@@ -60,7 +59,7 @@ def test_ctrl_couples_j1_and_j2(rng):
         assert ctrl[names.index(f"A_{finger}J0")] == pytest.approx(p[j2] + p[j1])
     for joint in ("FFJ4", "FFJ3", "LFJ5", "THJ5", "THJ1"):
         assert ctrl[names.index(f"A_{joint}")] == p[idx(joint)[0]]
-    assert CTRL_MATRIX.sum() == 22  # every joint drives exactly one actuator
+    assert gm.SHADOW_HAND.ctrl_matrix.sum() == 22  # every joint drives exactly one actuator
     with pytest.raises(ValueError, match="wrist"):
         gm.posture_to_ctrl(p, wrist=(0.0,))
 

@@ -40,7 +40,7 @@ def hand_pixels(image):
 
 def test_every_promised_file_is_there(finished):
     out, summary, ran = finished
-    assert len(ran) == 23
+    assert len(ran) == 29  # 3 x (generate, train, resume), train_all, 3 x 6 evaluations, figures
     sizes = {}
     for name, size in REDUCED.postures.items():
         postures = gm.PostureSet.load(out / "postures" / f"{name}.npz")
@@ -49,7 +49,7 @@ def test_every_promised_file_is_there(finished):
         distal = [gm.SEGMENTS.index(segment) for segment in gm.DISTAL_SEGMENTS]
         assert postures.contacts[:, distal].all()  # each with its five fingertips on the object
         assert gm.SOM.load(out / "maps" / f"{name}_resumed.npz").rows == 10
-        for method in ("none", "database", "som", "som_all"):
+        for method in ("none", "database", "som", "som_all", "database_blend", "som_blend"):
             assert len(gm.EvaluationResult.load(out / "evaluation" / f"{name}_{method}.npz").trials) == 2
     assert gm.SOM.load(out / "maps" / "all.npz").history[0]["samples"] == sum(sizes.values())
     for figure in FIGURES:
@@ -60,8 +60,9 @@ def test_every_promised_file_is_there(finished):
                  "McNemar", "Target"):
         assert text in report
     saved = json.loads((out / "summary.json").read_text())
-    assert saved["objects"]["cylinder"]["dataset_size"] == sizes["cylinder"] and len(saved["evaluation"]) == 12
-    assert saved["verdict"].startswith("Target") and len(saved["comparisons"]) == 9
+    assert saved["objects"]["cylinder"]["dataset_size"] == sizes["cylinder"] and len(saved["evaluation"]) == 18
+    assert saved["verdict"].startswith("Target") and len(saved["comparisons"]) == 15  # 3 objects x 5 methods
+    assert {r["method"] for r in saved["comparisons"]} == {"database", "som", "som_all", "database_blend", "som_blend"}
     assert saved["figures"]["rendered"]
     cylinder = saved["objects"]["cylinder"]
     assert cylinder["map"]["distance_max_deg"] > cylinder["map"]["distance_min_deg"] > 0
@@ -221,7 +222,7 @@ def test_kills_and_tampered_outputs_end_in_a_clean_runs_bytes(finished, tmp_path
     _, ran, lines = run(out)
     assert {"train_box", "evaluate_box_som", "figures", "train_all"} <= set(ran)
     assert any("outputs are missing or changed" in line for line in lines)
-    assert data_files(out) == data_files(clean) and len(data_files(out)) == 3 + 7 + 12
+    assert data_files(out) == data_files(clean) and len(data_files(out)) == 3 + 7 + 18
     for name in data_files(clean):
         assert (out / name).read_bytes() == (clean / name).read_bytes(), name
     assert (out / "summary.json").read_bytes() == (clean / "summary.json").read_bytes()
@@ -280,7 +281,7 @@ def test_a_run_is_the_same_run_twice_whatever_the_workers_and_its_figures_regene
     first, second = finished[0], tmp_path / "second"
     run(second, workers=2)
     assert (first / "summary.json").read_bytes() == (second / "summary.json").read_bytes()
-    assert data_files(first) == data_files(second) and len(data_files(first)) == 3 + 7 + 12
+    assert data_files(first) == data_files(second) and len(data_files(first)) == 3 + 7 + 18
     for name in data_files(first):
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
     redrawn = tmp_path / "redrawn"

@@ -119,8 +119,8 @@ def _private_imports() -> tuple[list[str], list[str]]:
 
 
 def test_no_module_imports_a_private_name_of_another():
-    """A module's `_names` are its own: what two modules share is public (the controllers' twins share
-    `controller.FLEXION`, `FINGER_OF_JOINT`, `squeezed` and the `ClosingPlan`)."""
+    """A module's `_names` are its own: what two modules share is public (the judge and the controller share
+    `controller.row_norms`)."""
     crossing, _ = _private_imports()
     assert not crossing, f"private names imported from another module: {crossing}"
 

@@ -40,6 +40,7 @@ from .sim.posture import (
     dict_to_posture,
     open_posture,
     pcp_mask,
+    pcp_masks,
     posture_to_ctrl,
     posture_to_dict,
     validate_posture,
@@ -84,6 +85,6 @@ __all__ = [
     "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
     "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
-    "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "posture_to_ctrl",
+    "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "pcp_masks", "posture_to_ctrl",
     "posture_to_dict", "show_progress", "validate_posture", "within_limits", "__version__",
 ]

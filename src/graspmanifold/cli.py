@@ -21,6 +21,7 @@ from .base.io import LOCK_FILE, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
+from .control.controller import CONTROLLERS
 from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
@@ -50,12 +51,15 @@ def _object(args: argparse.Namespace) -> GraspObject:
         raise SystemExit(f"error: --object: {error}") from None
 
 
-def _closed_scene(obj: GraspObject, seconds: float, clearance: float, hand: str = "ours") -> Scene:
+def _hand_on(obj: GraspObject, clearance: float, hand: str, close: bool = True, seconds: float | None = None) -> Scene:
+    """The open hand `clearance` in front of the object, commanded to its closed posture, `seconds` run."""
     scene = Scene(obj, hand=hand)
     scene.set_hand_pose(*facing_pose(obj, clearance=clearance))
-    scene.set_posture(open_posture())
-    scene.set_target(closed_posture())
-    scene.run(seconds)
+    scene.set_posture(open_posture(scene.hand))
+    if close:
+        scene.set_target(closed_posture(scene.hand))
+    if seconds is not None:
+        scene.run(seconds)
     return scene
 
 
@@ -63,7 +67,7 @@ def _demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     obj = _object(args)
     try:
-        scene = _closed_scene(obj, args.seconds, args.clearance, args.hand)
+        scene = _hand_on(obj, args.clearance, args.hand, seconds=args.seconds)
     except (ValueError, ImportError) as error:
         raise SystemExit(f"error: {error}") from None
     wall = time.perf_counter() - start
@@ -80,12 +84,7 @@ def _demo(args: argparse.Namespace) -> int:
 def _view(args: argparse.Namespace) -> int:
     import mujoco.viewer  # imported here: it needs a display
 
-    obj = _object(args)
-    scene = Scene(obj, hand=args.hand)
-    scene.set_hand_pose(*facing_pose(obj, clearance=args.clearance))
-    scene.set_posture(open_posture())
-    if args.close:
-        scene.set_target(closed_posture())
+    scene = _hand_on(_object(args), args.clearance, args.hand, args.close)
     mujoco.viewer.launch(scene.model, scene.data)
     return 0
 
@@ -201,7 +200,8 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
         start = time.perf_counter()
         result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
                           noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
-                          executor=_executor(args), backend=args.backend, hand=args.hand)
+                          executor=_executor(args), backend=args.backend, hand=args.hand,
+                          params=CONTROLLERS[args.controller])
     except (FileNotFoundError, ImportError) as error:
         raise SystemExit(f"error: {error}") from None
     result.save(out / "trials.npz")
@@ -245,12 +245,15 @@ def _reproduce(args: argparse.Namespace) -> int:
     if args.objects:
         sizes = config.postures
         config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
-    config = replace(config, hand=args.hand)
+    config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller])
     reproduce(args.out, config, workers=args.workers, force=args.force,
               log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
+
+CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
+                   "closing heuristic's base (our earlier variant)")
 
 #: one default for every command that runs workers: the machine's cores, at most two
 DEFAULT_WORKERS = default_workers()
@@ -286,6 +289,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "bottle_m); an object outside the paper gets the cylinder's preset size")
     reproduce.add_argument("--hand", default="ours", help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
+    reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
@@ -330,6 +334,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
                           help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
                                "(pip install 'graspmanifold[gpu]')")
+    evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

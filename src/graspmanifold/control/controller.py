@@ -1,260 +1,564 @@
-"""The four-phase tactile grasp controller (paper Section 2, Fig. 2).
+"""The four-phase tactile grasp controller (paper Section 2, Fig. 2), one array program over N worlds.
 
-The controller runs an action-perception loop at a fixed rate. Each cycle it receives the 22 joint
-angles and the normal force on each tactile segment (what a tactile skin reports), and returns the
-22 joint targets. It never sees the object: not its shape, not its pose, not the contact points.
+Each control cycle the controller receives, for every world, the 22 joint angles and the normal force
+on each tactile segment (what a tactile skin reports), and returns the 22 joint targets. It never
+sees the object. `BatchController` is the one implementation (the trials run it); `GraspController`
+is the same controller for one world, driven one posture at a time.
 
-    A  preshape: actuate the initial open posture;
-    B  close until the first contact, influenced by experience: every cycle the whole current
-       posture is matched against the experience base, and the match becomes the fingers' base;
-    C  once anything touches: every cycle form the Partial Contact Posture (the joints the contacts
-       make reliable, Eq. 1), find the best-matching experienced posture with the masked search
-       (Eq. 2 / Eq. 4) and make it the base of the free fingers;
-    D  embedded in B and C: the generic closing heuristic. Every free finger has a closure c that
-       grows at `closing_rate` per second from the moment B starts and is never reset or held
-       back; its goal is its base posture closed by c towards the closed hand,
-       goal = base + c (closed - base). Without experience the base is the open hand, so the goal is
-       the plain heuristic's open + c (closed - open). The finger's target follows the goal at
-       most `follow_speed` times the heuristic's joint speed, so a new match moves it smoothly
-       and it meets the object on its way instead of jumping past it. A touching finger holds
-       where it touched and squeezes gently (`squeeze` on its flexion joints); if it loses the
-       contact it closes on from where it held. The grasp ends when the set of touching fingers
-       has been stable for `stable_time` and every finger touches or is fully closed, or at the
-       timeout.
+    A  preshape: actuate the open posture;
+    B  close until the first contact, "in an already experience-influenced process": nothing touches
+       yet, so every cycle the whole sensed posture is matched against the experience;
+    C  once anything touches: every cycle the Partial Contact Posture (Eq. 1) is matched with the
+       masked search (Eq. 2 / Eq. 4);
+    D  embedded in B and C, the generic closing heuristic: a free finger's closure c grows at
+       `closing_rate` per second, its goal is goal = base + c (closed - base), and its target follows
+       the goal at most `follow_speed` times the heuristic's joint speed; without experience the base
+       is the open hand and c grows from the start of B (the plain heuristic). A touching finger holds
+       where it touched and squeezes (`squeeze`, flexion joints); one that loses its contact for
+       `release_time` closes on from where it held. The grasp ends when the touching fingers have
+       not changed for `stable_time` and every finger touches or is fully closed, or at `timeout`.
 
-Closing from the matched posture towards the closed hand (not along the global open-to-closed
-synergy from it) keeps the closing in the direction the experienced grasp already faces: a matched
-thumb that is rotated under the palm closes to the closed thumb, not further under the palm.
+What a best match does is `ControllerParams.recall`:
 
-Every part of the experience mechanism can be switched off for ablations (`ControllerParams`):
-phase B's preshape (`experience_preshape`), phase C's steering (`experience_steering`; off, the
-free fingers keep the last phase-B match), which fingers experience steers (`steered_fingers`),
-which of their joints (`steered_joints`: all, or only the spread joints, leaving flexion to the
-closing heuristic so that experience chooses where a finger closes and touch decides how far), and
-match confidence (`max_match_distance`: a best match farther from the sensed joints than this RMS
-distance over the matched joints is ignored and the base stays as it was). The default of 0.2 rad
-(about 11 degrees per matched joint) trusts a recall only when the experience holds a grasp that
-agrees with what the hand senses: in phase B the open hand is farther than that from every
-experienced grasp, so experience takes over only once the closing hand comes near one. It was
-chosen from 0.1, 0.2 and no limit on the paper grid (`docs/experience_study_paper_grids.md` reports the
-ablation with no limit).
+- `"target"`, the paper's reading ("the resulting posture then acts as the target posture for the
+  current control cycle", Section 2): each steered free finger moves to its part of the recalled
+  posture at the heuristic's joint speed, and only once it is there (its joints within
+  `recall_tolerance`, or at rest short of it without a contact) does phase D close it on, from the
+  recall, its closure from 0. Where the paper leaves a detail open we chose the plainest reading: phase
+  B matches the whole posture; a finger goes to each recalled posture once (one it reached, or touched
+  the object on its way to, does not call it back, so two alternating matches cannot hold it between
+  them); a finger that loses its contact closes on from where it held; every match is trusted. A
+  `reproduce` report lists these under "Our choices".
+- `"base"`, our earlier blend (`BLEND`): the recall is the heuristic's base, goal = match + c (closed -
+  match), with c grown since phase B began, so at the first contact the recall only shifts a goal far
+  towards the closed hand. Two extensions work with it: `restart_closure` (the first trusted match
+  after a contact restarts the free fingers' closure at 0) and `reach` (that match also moves the palm,
+  by the arm, by the mean difference between where the touching segments are and where the recalled
+  grasp puts them, `hand.SegmentKinematics`, at most `reach` at `reach_speed`, every finger following the
+  recall meanwhile; `palm_offset` is where the palm is, palm frame).
 
-Beyond the paper, `restart_closure` gives the recalled grasp real weight: the first trusted match
-after the first contact (the contacts select the grasp type) restarts the closure of every free
-steered finger at 0, so the finger first moves onto the recalled posture and only then closes on
-from it; without it a finger's closure has already grown while the hand closed, and the recall
-only shifts a goal that lies most of the way to the closed hand.
-
-A further extension, also off by default, lets a recall move the palm (`reach`, in m): at that first
-trusted match after a contact, the touching segments' places now (from the hand's own kinematics,
-`hand.SegmentKinematics`) are compared with where the recalled grasp would put them; the palm moves
-by their mean difference, at most `reach` and at `reach_speed`, so that the object comes to lie where
-the recalled grasp held it, while every finger (the touching ones too) goes to the recalled posture
-from a restarted closure. Once the palm has arrived, touching fingers hold and squeeze as before. The
-palm moves by the arm (the trial moves the hand's mount), not by the wrist joints: the experience's
-grasps all have the wrist straight. The offset of the palm from its start, in the palm frame, is
-`GraspController.palm_offset`.
+Ablations switch parts off (`experience_preshape`, `experience_steering`, `steered_fingers`,
+`steered_joints`, `max_match_distance`: see `ControllerParams`). The controller drives the hand it is
+given (`HandModel`): its open and closed postures, its ranges, its kinematics. Any object with the
+members of `Controller` can stand in for it in the trials (`conformance.check_controller_contract`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from ..base.errors import InvalidInput
 from ..manifold.experience import Experience, check_experience
-from ..sim.hand import FINGER_JOINTS, FINGERS, PHYSICS_TIMESTEP, SEGMENTS, SegmentKinematics, finger_limits, finger_of
-from ..sim.posture import closed_posture, open_posture, pcp_mask, validate_posture
+from ..sim.hand import (
+    FINGER_JOINTS,
+    FINGERS,
+    N_FINGER_JOINTS,
+    PHYSICS_TIMESTEP,
+    SEGMENTS,
+    SHADOW_HAND,
+    HandModel,
+    SegmentKinematics,
+    finger_of,
+)
+from ..sim.posture import SEGMENT_FINGER, pcp_masks, validate_posture
 
-#: the finger each of the 22 finger joints belongs to (FINGER_JOINTS order)
-FINGER_OF_JOINT = np.array([finger_of(j) for j in FINGER_JOINTS])
-_JOINTS_OF = {f: FINGER_OF_JOINT == f for f in FINGERS}
+#: the index into FINGERS of each finger joint's finger: `per_finger[:, JOINT_FINGER]` spreads (n, 5) over (n, 22)
+JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
+#: (5, 22): which joints belong to which finger (FINGERS order)
+FINGER_JOINT_MASKS = JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
 #: joints that flex a finger around an object (the squeeze acts on these)
 FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
-
-
 #: which joints of a steered finger take the matched posture: all, or only the spread joints (finger
 #: abduction, little-finger cupping, thumb rotation, abduction and roll); flexion is then left to the
 #: closing heuristic, which stops at the contact
-STEERED_JOINTS = {"all": np.ones(len(FINGER_JOINTS), dtype=bool), "spread": ~FLEXION}
+STEERED_JOINTS = {"all": np.ones(N_FINGER_JOINTS, dtype=bool), "spread": ~FLEXION}
+#: what a best match does (see the module doc): the free fingers' target, or the closing heuristic's base
+RECALLS: tuple[str, ...] = ("target", "base")
+#: the grasp phase of each world, as `GraspController.phase` names it
+PHASES: tuple[str, ...] = ("A", "B", "C", "done")
+#: rad/s: a finger on its way to a recalled posture whose joints move slower than this has stopped short of it
+REST_SPEED = 0.1
 
 
 @dataclass(frozen=True)
 class ControllerParams:
-    """Timing, gains and switches of the controller (s, rad, rad/s)."""
+    """Timing, gains and switches of the controller (s, rad, rad/s); the defaults are the paper's reading
+    (`recall="target"`, every match trusted), `BLEND` our earlier variant."""
 
     control_period: float = 0.02  # 50 Hz
     preshape_time: float = 0.3  # phase A
     closing_rate: float = 0.8  # closure per second of a free finger (1 = fully closed)
-    follow_speed: float = 2.0  # a free finger's target moves at most this many times the heuristic's speed
+    follow_speed: float = 2.0  # a closing finger's target moves at most this many times the heuristic's speed
     squeeze: float = 0.15  # rad beyond the touching posture, on the flexion joints
     release_time: float = 0.1  # a holding finger that lost its contact this long closes on
     stable_time: float = 0.3  # the touching set must stay unchanged this long to finish
     timeout: float = 3.0  # s after the start
     experience_preshape: bool = True  # phase B: match the whole posture every cycle
     experience_steering: bool = True  # phase C: match the Partial Contact Posture every cycle
-    steered_fingers: tuple[str, ...] = FINGERS  # fingers whose base the experience sets
-    steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger
-    max_match_distance: float = 0.2  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
-    restart_closure: bool = False  # the first trusted match after a contact restarts the free fingers' closure
-    reach: float = 0.0  # m: that match may also move the palm by up to this much (0: the palm stays)
+    steered_fingers: tuple[str, ...] = FINGERS  # fingers whose recall the experience sets
+    steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger (flexion: D's)
+    max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
+    recall: str = "target"  # what a best match does: 'target' (the paper's) or 'base' (the blend), see the module doc
+    recall_tolerance: float = 0.05  # rad: 'target' takes a finger on once every joint is this close to its recall
+    restart_closure: bool = False  # 'base': the first trusted match after a contact restarts the free fingers' closure
+    reach: float = 0.0  # m, 'base': that match may also move the palm by up to this much (0: the palm stays)
     reach_speed: float = 0.1  # m/s, how fast the palm moves then
 
     def __post_init__(self) -> None:
-        for name in ("control_period", "closing_rate", "follow_speed", "timeout", "reach_speed"):
+        for name in ("control_period", "closing_rate", "follow_speed", "timeout", "reach_speed", "recall_tolerance"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
         steps = self.control_period / PHYSICS_TIMESTEP
         if isinstance(self.control_period, bool) or round(steps) < 1 or abs(steps - round(steps)) > 1e-6:
             raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
-                             f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
-                             "make the controller's clock run apart from the physics")
+                               f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
+                               "make the controller's clock run apart from the physics")
         for name in ("preshape_time", "squeeze", "release_time", "stable_time", "reach"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
         if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
             raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
-                             f"got {self.max_match_distance!r}")
+                               f"got {self.max_match_distance!r}")
         if self.steered_joints not in STEERED_JOINTS:
             raise InvalidInput(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
-                             f"got {self.steered_joints!r}")
+                               f"got {self.steered_joints!r}")
+        if self.recall not in RECALLS:
+            raise InvalidInput(f"ControllerParams.recall must be one of {RECALLS}, got {self.recall!r}")
         if not isinstance(self.restart_closure, bool):
             raise InvalidInput(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
         for name in ("restart_closure", "reach"):
+            if getattr(self, name) and self.recall != "base":
+                raise InvalidInput(f"ControllerParams.{name} works with recall='base' (the blend) only: with "
+                                   "recall='target' the recalled posture is already the fingers' target")
             if getattr(self, name) and self.steered_joints != "all":
                 raise InvalidInput(f"ControllerParams.{name} needs steered_joints='all': with only the spread joints "
-                                 "recalled, a restarted closure would open the fingers' flexion again")
+                                   "recalled, a restarted closure would open the fingers' flexion again")
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
             raise InvalidInput(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
 
-def squeezed(posture: np.ndarray, amount: float) -> np.ndarray:
+BLEND = ControllerParams(recall="base", max_match_distance=0.2)
+"""Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
+within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/experience_study_paper_grids.md)."""
+
+CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND}
+"""The controllers by name (`graspmanifold reproduce --controller NAME`): the paper's reading, and the blend."""
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What a trial drives, N worlds at once: `BatchController`, or a user's own (for `evaluate(controller=...)`,
+    the benchmark and the study; the API reference shows one in 20 lines). The trials also read `matches`
+    ((N,) best-match queries), `winners` (per world, the rows recalled) and `moves_palm` with `palm_offset`
+    ((N, 3), m: where the arm carries each palm) where a controller has them.
+
+    Attributes:
+        n: worlds.
+        control_period: s between two `step` calls (a whole number of physics steps).
+        initial: the posture (22,), rad, the hand starts a grasp in.
+        done: (N,) bool: which worlds' grasps are finished (the trial then judges them).
+    """
+
+    n: int
+    control_period: float
+    initial: np.ndarray
+    done: np.ndarray
+
+    def reset(self) -> None:
+        """Start a new grasp in every world."""
+
+    def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
+        """One cycle: sensed joints (N, 22), rad, and segment forces (N, len(SEGMENTS)), N -> targets (N, 22), rad."""
+
+
+ControllerFactory = Callable[[int, HandModel], Controller]  # `factory(n, hand)`: what `evaluate(controller=...)` takes
+
+
+def squeezed(posture: np.ndarray, amount: float, hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """The posture with its flexion joints pushed further towards the closed hand: the target that
-    makes fingers touching an object press on it. Both controllers and the generator's verifier squeeze
+    makes fingers touching an object press on it. The controller and the generator's verifier squeeze
     with it.
 
     Args:
         posture: finger postures (..., 22), rad (one, or one per row).
         amount: how far to push each flexion joint (`FLEXION`), rad.
+        hand: the hand model whose closed posture and ranges apply (default ours).
 
     Returns:
-        The squeezed postures (..., 22), rad, clipped to the joint ranges.
+        The squeezed postures (..., 22), rad, clipped to the hand's joint ranges.
     """
-    closed = closed_posture()
+    return _pressed(posture, amount, hand.keyframe_posture("closed"), hand.limits())
+
+
+def _pressed(posture: np.ndarray, amount: float, closed: np.ndarray, limits: np.ndarray) -> np.ndarray:
     target = posture + amount * np.sign(closed - posture) * FLEXION
-    limits = finger_limits()
     return np.clip(target, limits[:, 0], limits[:, 1])
 
 
 def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.ndarray, touching: np.ndarray,
                reach: float) -> np.ndarray:
-    """How far the palm should move so that the object comes to lie where a recalled grasp holds it.
-
-    Args:
-        kinematics: the hand's segment kinematics.
-        joints: the sensed joint angles (22,), radians.
-        recalled: the recalled grasp posture (22,), radians.
-        touching: indices into SEGMENTS of the finger segments that touch the object.
-        reach: the longest shift allowed (m).
-
-    Returns:
-        The shift (3,) in m, palm frame: the mean difference between where the touching segments are now
-        and where the recalled posture puts them, shortened to at most `reach`.
-    """
+    """How far (3,), m, palm frame, the palm should move so that the object lies where a recalled grasp
+    (22,), rad, holds it: the mean difference between where the touching segments (indices into SEGMENTS)
+    are now, at the sensed joints (22,), rad, and where the recall puts them, at most `reach` m long."""
     now, then = kinematics.positions(joints), kinematics.positions(recalled)
     shift = np.mean(now[touching] - then[touching], axis=0)
     length = float(np.linalg.norm(shift))
     return shift if length <= reach else shift * (reach / length)
 
 
-@dataclass(frozen=True)
-class ClosingPlan:
-    """What a controller derives once from its parameters and open posture: the contract that
-    `GraspController` and its array twin `BatchController` share.
+def row_norms(rows: np.ndarray) -> np.ndarray:
+    """Euclidean norm (m,) of every row of (m, k), rounded exactly as `np.linalg.norm` of that row alone."""
+    return np.sqrt((rows[:, None, :] @ rows[:, :, None])[:, 0, 0])
+
+
+def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """RMS of every row over its masked columns, as `np.mean` of that row's masked entries alone sums them."""
+    rms = np.empty(len(differences))
+    patterns, which = np.unique(masks, axis=0, return_inverse=True)
+    for k, pattern in enumerate(patterns):
+        rows = which.ravel() == k
+        rms[rows] = np.sqrt(np.mean(differences[rows][:, pattern] ** 2, axis=1))
+    return rms
+
+
+def _per_finger(values: np.ndarray, masks: np.ndarray, reduce: Callable = np.all) -> np.ndarray:
+    """(n, 5): `reduce` of each row's columns of each finger (`masks`: (5, columns), FINGERS order)."""
+    return np.column_stack([reduce(values[:, mask], axis=1) for mask in masks])
+
+
+def _bounded_step(current: np.ndarray, goal: np.ndarray, limit: float | np.ndarray) -> np.ndarray:
+    """Each row moved from `current` towards `goal` by at most `limit` (Euclidean; one, or one per row),
+    landing on the goal exactly when it is within reach."""
+    move = goal - current
+    distance = row_norms(move)
+    scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
+    return current + move * scale[:, None]  # move * 1.0 is move, bit for bit
+
+
+class BatchController:
+    """The tactile grasp controller for N worlds (see the module doc); call `step` once per control
+    period with every world's readings. The worlds share the clock; a world that is done keeps its target.
 
     Attributes:
-        closed: the closed hand (22,), rad: where the closing heuristic drives each finger.
-        limits: the finger joints' ranges (22, 2), rad.
-        speed: each finger's joint speed (5,), rad/s, FINGERS order: the open-to-closed synergy at `closing_rate`.
-        steered: which of the 22 joints take a recalled posture (`steered_fingers`, `steered_joints`).
-        kinematics: the segment kinematics for the palm's reach (None when `reach` is 0).
+        closed, limits, speed: the hand's closed posture (22,) and ranges (22, 2), rad, and each finger's
+            joint speed (5,), rad/s: the open-to-closed synergy at `closing_rate`.
+        time: s since the grasp started; phase: (N,) index into `PHASES`; done: (N,) bool; time_to_grasp:
+            (N,) s (NaN while not done); matches: (N,) best-match queries used; winners: per world, the best
+            match of every query used (rows of `experience.references`), in order; palm_offset: (N, 3), m,
+            palm frame: how far each palm has moved (`reach`).
     """
 
-    closed: np.ndarray
-    limits: np.ndarray
-    speed: np.ndarray
-    steered: np.ndarray
-    kinematics: SegmentKinematics | None
-
-
-def closing_plan(params: ControllerParams, initial: np.ndarray) -> ClosingPlan:
-    """The `ClosingPlan` of a controller.
-
-    Args:
-        params: the controller's parameters.
-        initial: the open posture it starts from (22,), rad.
-
-    Returns:
-        The plan.
-    """
-    closed = closed_posture()
-    speed = np.array([params.closing_rate * float(np.linalg.norm((closed - initial)[_JOINTS_OF[f]])) for f in FINGERS])
-    steered = np.isin(FINGER_OF_JOINT, params.steered_fingers) & STEERED_JOINTS[params.steered_joints]
-    return ClosingPlan(closed, finger_limits(), speed, steered, SegmentKinematics() if params.reach > 0 else None)
-
-
-class GraspController:
-    """Tactile grasp controller; call `step` once per control period."""
-
-    def __init__(self, experience: Experience | None = None, params: ControllerParams | None = None,
-                 initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None):
-        """A controller ready for its first grasp.
+    def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
+                 initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,
+                 hand: HandModel = SHADOW_HAND):
+        """A controller ready for the first grasp in every world.
 
         Args:
-            experience: None (the plain tactile controller), a PostureDatabase, a SOM or a PostureSet.
+            n: worlds.
+            experience: None (the plain tactile controller), a PostureDatabase, a SOM, a PostureSet or any `Experience`.
             params: timing, gains and switches (`ControllerParams`).
-            initial_posture: the open hand it starts from (22,), rad (default `open_posture()`).
-            preshape: a fixed base posture for phase B, rad (a constant preshape) instead of matching the
-                experience there; phase C still steers with the experience, if any.
+            initial_posture: the open hand it starts from (22,), rad (default the hand's keyframe `open`).
+            preshape: a fixed phase-B posture, rad, instead of matching the experience there (phase C still
+                recalls); with recall='target' the hand goes to it and closes on from it, with 'base' it is the base.
+            hand: the hand model it drives (its closed posture, joint ranges and kinematics).
         """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
+        if not isinstance(hand, HandModel):
+            raise InvalidInput(f"hand must be a HandModel (hand_models.hand_model(name) makes one), got {hand!r}")
+        self.n = int(n)
         self.experience = check_experience(experience)
         self.params = params or ControllerParams()
-        self.initial = validate_posture(open_posture() if initial_posture is None else initial_posture,
-                                        name="initial_posture", check_limits=True)
-        self.preshape = None if preshape is None else validate_posture(preshape, name="preshape", check_limits=True)
-        self.plan = closing_plan(self.params, self.initial)
+        self.hand = hand
+        self.initial = validate_posture(hand.keyframe_posture("open") if initial_posture is None else initial_posture,
+                                        name="initial_posture", check_limits=True, hand=hand)
+        self.preshape = None if preshape is None else validate_posture(preshape, name="preshape", check_limits=True,
+                                                                       hand=hand)
+        self.closed, self.limits = hand.keyframe_posture("closed"), hand.limits()
+        self.speed = self.params.closing_rate * np.array([np.linalg.norm((self.closed - self.initial)[of])
+                                                          for of in FINGER_JOINT_MASKS])
+        self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
+        self._steered = self._steered_finger[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
+        self._kinematics = SegmentKinematics(hand) if self.params.reach > 0 else None
+        self._targeting = self.params.recall == "target"
+        #: the recall keys one world's fingers can have (a row of the references, or the preshape)
+        self._rows = 1 + (0 if self.experience is None else len(self.experience.references))
         self.reset()
 
+    @property
+    def control_period(self) -> float:
+        """s between two `step` calls (`params.control_period`)."""
+        return self.params.control_period
+
+    @property
+    def moves_palm(self) -> bool:
+        """Whether the trials must carry each palm to `palm_offset` (`reach` > 0)."""
+        return self.params.reach > 0
+
     def reset(self) -> None:
-        """Start a new grasp."""
+        """Start a new grasp in every world."""
+        n, fingers = self.n, len(FINGERS)
         self.time = 0.0
-        self.phase = "A"
-        self.done = False
-        self.time_to_grasp: float | None = None
-        self.matches = 0  # best-match queries used
-        self.winners: list[int] = []  # the best match (a row of experience.references) of every query used, in order
-        self._closure = dict.fromkeys(FINGERS, 0.0)
-        self._held: dict[str, np.ndarray] = {}
-        self._lost: dict[str, np.ndarray] = {}  # fingers that lost their contact: the posture they held
-        self._last_touch = dict.fromkeys(FINGERS, -np.inf)
-        self._base = self.initial.copy()
-        self._target = self.initial.copy()
-        self._touching: frozenset[str] = frozenset()
-        self._stable_since = 0.0
-        self._recalled = False  # a trusted match after a contact has restarted the closure (restart_closure)
-        self.palm_offset = np.zeros(3)  # m, palm frame: how far the palm has moved from its start (reach)
-        self._palm_goal = np.zeros(3)
-        self._reaching = False  # the palm is on its way to the recalled grasp's place
+        self.phase = np.zeros(n, dtype=np.int8)
+        self.done = np.zeros(n, dtype=bool)
+        self.time_to_grasp = np.full(n, np.nan)
+        self.matches = np.zeros(n, dtype=int)
+        self.winners: list[list[int]] = [[] for _ in range(n)]
+        self._closure = np.zeros((n, fingers))
+        self._held = np.zeros((n, fingers), dtype=bool)
+        self._held_posture = np.zeros((n, N_FINGER_JOINTS))
+        self._lost = np.zeros((n, fingers), dtype=bool)
+        self._lost_posture = np.zeros((n, N_FINGER_JOINTS))
+        self._last_touch = np.full((n, fingers), -np.inf)
+        self._base = np.tile(self.initial, (n, 1))  # where a closing finger closes from
+        self._target = np.tile(self.initial, (n, 1))
+        self._touching = np.zeros((n, fingers), dtype=bool)
+        self._stable_since = np.zeros(n)
+        self._recalled = np.zeros(n, dtype=bool)
+        self.palm_offset = np.zeros((n, 3))
+        self._palm_goal = np.zeros((n, 3))
+        self._reaching = np.zeros(n, dtype=bool)
+        # recall='target': the fingers on their way to a recalled posture, which one, and where it is
+        self._approaching = np.zeros((n, fingers), dtype=bool)
+        self._heading = np.zeros((n, fingers), dtype=np.int64)  # its key: a reference row + 1, 0 for the preshape
+        self._recall = np.tile(self.initial, (n, 1))
+        self._visited = np.zeros(0, dtype=np.int64)  # (world, finger, key) of every recall a finger is done with
+        self._previous = np.full((n, N_FINGER_JOINTS), np.nan)  # the joints sensed one cycle before
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
-        return (f"GraspController(experience {experience}, phase {self.phase}, {self.matches} matches"
-                f"{', done' if self.done else ''})")
+        return (f"BatchController({self.n} worlds, experience {experience}, recall {self.params.recall}, "
+                f"{int(self.done.sum())} done)")
+
+    def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
+        """One control cycle of every world.
+
+        Args:
+            joints: the sensed joint angles (N, 22), rad.
+            segment_forces: the normal force on each segment (N, len(SEGMENTS)), N, in `SEGMENTS` order.
+
+        Returns:
+            The joint targets (N, 22), rad.
+        """
+        joints = np.asarray(joints, dtype=float)
+        forces = np.asarray(segment_forces, dtype=float)
+        if joints.shape != (self.n, N_FINGER_JOINTS) or not np.all(np.isfinite(joints)):
+            raise InvalidInput(f"joints must be ({self.n}, {N_FINGER_JOINTS}) finite angles, got shape {joints.shape}")
+        if forces.shape != (self.n, len(SEGMENTS)) or not np.all(np.isfinite(forces)):
+            raise InvalidInput(f"segment_forces must be ({self.n}, {len(SEGMENTS)}) finite forces in SEGMENTS order, "
+                               f"got shape {forces.shape}")
+        p, dt = self.params, self.params.control_period
+        self.time += dt
+        touching_segments = forces > 0.0
+        any_touch = touching_segments.any(axis=1)
+        touching = _per_finger(touching_segments, SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None], np.any)
+        waiting = ~self.done & (self.time <= p.preshape_time) & ~any_touch  # phase A
+        self._target[waiting] = self.initial
+        act = ~self.done & ~waiting
+        if not act.any():
+            self._previous = joints.copy()
+            return self._target.copy()
+
+        self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
+        self._match(act, joints, touching_segments, any_touch)
+        # D: a touching finger holds where it first touched; one that lost its contact closes on from there
+        touched = act[:, None] & touching & ~self._reaching[:, None]  # while the palm moves, fingers follow the recall
+        self._last_touch[touched] = self.time
+        newly_held = touched & ~self._held
+        self._held = self._held | newly_held
+        self._held_posture = np.where(newly_held[:, JOINT_FINGER], joints, self._held_posture)
+        self._lost &= ~touched
+        released = act[:, None] & self._held & (self.time - self._last_touch > p.release_time)
+        self._lost_posture = np.where(released[:, JOINT_FINGER], self._held_posture, self._lost_posture)
+        self._lost |= released
+        self._held &= ~released
+        self._closure[released] = 0.0
+        if self._targeting:
+            self._done_with(newly_held)  # touched on its way: that recall is done with
+            self._arrive(act, joints)
+
+        target = self._target.copy()
+        pressed = _pressed(self._held_posture, p.squeeze, self.closed, self.limits)
+        for finger, of in enumerate(FINGER_JOINT_MASKS):
+            held = act & self._held[:, finger]
+            target[np.ix_(held, of)] = pressed[np.ix_(held, of)]
+            free = act & ~self._held[:, finger]
+            if not free.any():
+                continue
+            going = self._approaching[free, finger]  # 'target': on the way to its recall; the others close
+            closure = self._closure[free, finger]
+            closure = np.where(going, closure, np.minimum(1.0, closure + p.closing_rate * dt))
+            self._closure[free, finger] = closure
+            base = np.where(self._lost[free, finger][:, None], self._lost_posture[np.ix_(free, of)],
+                            self._base[np.ix_(free, of)])
+            goal = np.where(going[:, None], self._recall[np.ix_(free, of)],
+                            base + closure[:, None] * (self.closed[of] - base))
+            target[np.ix_(free, of)] = _bounded_step(self._target[np.ix_(free, of)], goal,
+                                                     np.where(going, 1.0, p.follow_speed) * self.speed[finger] * dt)
+        self._target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
+        moving = np.flatnonzero(act & self._reaching)  # palms on their way to the recalled grasps' places
+        if len(moving):
+            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self._palm_goal[moving],
+                                                     p.reach_speed * dt)
+            self._reaching[moving] = np.any(self.palm_offset[moving] != self._palm_goal[moving], axis=1)
+
+        changed = act & np.any(touching != self._touching, axis=1)
+        self._touching[changed] = touching[changed]
+        self._stable_since[changed] = self.time
+        closed = self._closure >= 1.0
+        if self._targeting:  # a finger whose recall was the closed hand is fully closed once there
+            closed = ~self._approaching & (closed | _per_finger(self._target == self.closed, FINGER_JOINT_MASKS))
+        settled = np.all(touching | closed, axis=1)
+        finished = act & ((touching.any(axis=1) & settled & ~self._reaching
+                           & (self.time - self._stable_since >= p.stable_time))
+                          | (self.time >= p.timeout))
+        self.done |= finished
+        self.phase[finished] = PHASES.index("done")
+        self.time_to_grasp[finished] = self.time
+        self._previous = joints.copy()
+        return self._target.copy()
+
+    def _match(self, act: np.ndarray, joints: np.ndarray, touching_segments: np.ndarray,
+               any_touch: np.ndarray) -> None:
+        """Phase B / C of every acting world: the best-matching experienced posture becomes the steered
+        free fingers' recall ('target') or the closing heuristic's base ('base')."""
+        p = self.params
+        if self.preshape is not None:
+            shaping = act & ~any_touch
+            if self._targeting:
+                self._recall_for(np.flatnonzero(shaping), np.zeros(shaping.sum(), dtype=np.int64), self.preshape)
+            else:
+                self._base[shaping] = self.preshape
+            candidates = act & any_touch
+        else:
+            candidates = act.copy()
+        if self.experience is None:
+            return
+        if not p.experience_steering:
+            candidates &= ~any_touch
+        if not p.experience_preshape:
+            candidates &= any_touch
+        masks = np.where(any_touch[:, None], pcp_masks(touching_segments), True)
+        candidates &= masks.any(axis=1)  # a palm contact alone specifies no joint
+        worlds = np.flatnonzero(candidates)
+        if not len(worlds):
+            return
+        winners = self.experience.best_match_batch(joints[worlds], masks[worlds])
+        match = self.experience.references[winners]
+        if math.isfinite(p.max_match_distance):
+            trusted = _rms(match - joints[worlds], masks[worlds]) <= p.max_match_distance
+            worlds, match, winners = worlds[trusted], match[trusted], winners[trusted]
+        self.matches[worlds] += 1
+        for world, winner in zip(worlds, winners):
+            self.winners[world].append(int(winner))
+        if self._targeting:
+            self._recall_for(worlds, np.asarray(winners, dtype=np.int64) + 1, match)
+            return
+        self._base[worlds] = np.where(self._steered, match, self._base[worlds])
+        if p.restart_closure or p.reach > 0:  # the first trusted match after a contact restarts the closure
+            restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]
+            self._recalled[restart] = True
+            touching = np.column_stack([touching_segments[np.ix_(restart, SEGMENT_FINGER == f)].any(axis=1)
+                                        for f in FINGERS]).reshape(len(restart), len(FINGERS))
+            if p.reach > 0:
+                for world, row in zip(restart, match[np.isin(worlds, restart)]):
+                    self._start_reach(world, joints[world], row, touching_segments[world])
+                reset = np.broadcast_to(self._steered_finger, touching.shape)
+            else:
+                reset = ~touching & ~self._held[restart] & self._steered_finger
+            self._closure[restart] = np.where(reset, 0.0, self._closure[restart])
+
+    def _recall_for(self, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
+        """'target': each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes
+        the recall of its steered free fingers that are not on their way to it already, nor done with it."""
+        visits = (worlds[:, None] * len(FINGERS) + np.arange(len(FINGERS))) * self._rows + keys[:, None]
+        new = (self._steered_finger & ~self._held[worlds] & ~np.isin(visits, self._visited)
+               & ~(self._approaching[worlds] & (self._heading[worlds] == keys[:, None])))
+        recalled = np.clip(np.where(self._steered, postures, self._target[worlds]), *self.limits.T)  # any hand's
+        self._recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, self._recall[worlds])
+        self._approaching[worlds] |= new
+        self._heading[worlds] = np.where(new, keys[:, None], self._heading[worlds])
+
+    def _done_with(self, fingers: np.ndarray) -> None:
+        """'target': these (world, finger) pairs are done with the recall they were on their way to."""
+        fingers = fingers & self._approaching
+        worlds, which = np.nonzero(fingers)
+        self._visited = np.union1d(self._visited, (worlds * len(FINGERS) + which) * self._rows + self._heading[fingers])
+        self._approaching &= ~fingers
+
+    def _arrive(self, act: np.ndarray, joints: np.ndarray) -> None:
+        """'target': a free finger whose target has reached its recall, its joints within `recall_tolerance`
+        of it or at rest short of it, closes on from it, its closure from 0."""
+        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
+            still = _per_finger(np.abs(joints - self._previous) <= REST_SPEED * self.params.control_period,
+                                FINGER_JOINT_MASKS)
+        near = _per_finger(np.abs(joints - self._recall) <= self.params.recall_tolerance, FINGER_JOINT_MASKS)
+        arrived = (act[:, None] & self._approaching & ~self._held & (near | still)
+                   & _per_finger(self._target == self._recall, FINGER_JOINT_MASKS))
+        self._base = np.where(arrived[:, JOINT_FINGER], self._recall, self._base)
+        self._closure[arrived] = 0.0
+        self._lost &= ~arrived
+        self._done_with(arrived)
+
+    def _start_reach(self, world: int, joints: np.ndarray, match: np.ndarray, touching: np.ndarray) -> None:
+        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
+        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
+        if not len(rows):
+            return
+        self._palm_goal[world] = palm_shift(self._kinematics, joints, match, rows, self.params.reach)
+        self._reaching[world] = bool(np.any(self._palm_goal[world] != self.palm_offset[world]))
+        self._held[world] = False
+        self._lost[world] = False
+
+
+class GraspController:
+    """The tactile grasp controller for one world, sensing and acting one posture at a time: `batch`, a
+    `BatchController` with N = 1, whose members it has (experience, params, hand, initial, ...), those of
+    the world as one value: phase ('A', 'B', 'C', 'done'), done, matches, winners, palm_offset (3,), m,
+    holding (the fingers that hold where they touched), time_to_grasp (s, None while not done)."""
+
+    def __init__(self, experience: Experience | None = None, params: ControllerParams | None = None,
+                 initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,
+                 hand: HandModel = SHADOW_HAND):
+        """A controller ready for its first grasp (the arguments of `BatchController`).
+
+        Args:
+            experience: None (the plain tactile controller), a PostureDatabase, a SOM, a PostureSet or any
+                `Experience`.
+            params: timing, gains and switches (`ControllerParams`; the paper's reading by default, `BLEND`).
+            initial_posture: the open hand it starts from (22,), rad (default the hand's keyframe `open`).
+            preshape: a fixed phase-B posture, rad (a constant preshape) instead of matching the experience there.
+            hand: the hand model it drives.
+        """
+        self.batch = BatchController(1, experience, params, initial_posture, preshape, hand)
+
+    def __getattr__(self, name: str) -> object:  # what does not depend on the world: experience, params, hand, ...
+        if name == "batch":
+            raise AttributeError(name)
+        return getattr(self.batch, name)
+
+    phase = property(lambda self: PHASES[self.batch.phase[0]])
+    done = property(lambda self: bool(self.batch.done[0]))
+    matches = property(lambda self: int(self.batch.matches[0]))
+    winners = property(lambda self: self.batch.winners[0])
+    palm_offset = property(lambda self: self.batch.palm_offset[0])
+    reaching = property(lambda self: bool(self.batch._reaching[0]))
+    holding = property(lambda self: frozenset(f for f, h in zip(FINGERS, self.batch._held[0]) if h))
+    time_to_grasp = property(lambda self: None if np.isnan(self.batch.time_to_grasp[0])
+                             else float(self.batch.time_to_grasp[0]))
+
+    def __repr__(self) -> str:
+        experience = "none" if self.experience is None else type(self.experience).__name__
+        return (f"GraspController(experience {experience}, recall {self.params.recall}, phase {self.phase}, "
+                f"{self.matches} matches{', done' if self.done else ''})")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
         """One control cycle.
@@ -270,94 +574,4 @@ class GraspController:
         forces = np.asarray(segment_forces, dtype=float)
         if forces.shape != (len(SEGMENTS),) or not np.all(np.isfinite(forces)):
             raise InvalidInput(f"segment_forces must be {len(SEGMENTS)} finite forces in SEGMENTS order")
-        p, dt = self.params, self.params.control_period
-        self.time += dt
-        if self.done:
-            return self._target.copy()
-        touching_segments = [s for s, f in zip(SEGMENTS, forces) if f > 0.0]
-        touching = frozenset(f for f in map(finger_of, touching_segments) if f is not None)
-        if self.time <= p.preshape_time and not touching_segments:
-            self._target = self.initial.copy()
-            return self._target.copy()
-
-        self.phase = "C" if touching_segments else "B"
-        self._match(joints, touching_segments)
-        for finger in touching if not self._reaching else ():  # while the palm moves, every finger follows the recall
-            self._last_touch[finger] = self.time
-            self._held.setdefault(finger, joints.copy())
-            self._lost.pop(finger, None)
-        for finger in [f for f in self._held if self.time - self._last_touch[f] > p.release_time]:
-            self._lost[finger] = self._held.pop(finger)  # lost its contact: close on from where it held
-            self._closure[finger] = 0.0
-
-        target = np.empty(len(FINGER_JOINTS))
-        for index, finger in enumerate(FINGERS):
-            of = _JOINTS_OF[finger]
-            if finger in self._held:  # D: hold where it touched and squeeze
-                target[of] = squeezed(self._held[finger], p.squeeze)[of]
-                continue
-            # D: close from the base towards the closed hand, following the goal at a bounded speed
-            self._closure[finger] = min(1.0, self._closure[finger] + p.closing_rate * dt)
-            base = self._lost[finger][of] if finger in self._lost else self._base[of]
-            goal = base + self._closure[finger] * (self.plan.closed[of] - base)
-            move = goal - self._target[of]
-            limit = p.follow_speed * self.plan.speed[index] * dt
-            distance = float(np.linalg.norm(move))
-            target[of] = self._target[of] + (move if distance <= limit else move * (limit / distance))
-        self._target = np.clip(target, self.plan.limits[:, 0], self.plan.limits[:, 1])
-        if self._reaching:  # the palm moves towards the recalled grasp's place at reach_speed
-            move = self._palm_goal - self.palm_offset
-            limit = p.reach_speed * dt
-            distance = float(np.linalg.norm(move))
-            self.palm_offset = self.palm_offset + (move if distance <= limit else move * (limit / distance))
-            self._reaching = bool(np.any(self.palm_offset != self._palm_goal))
-
-        if touching != self._touching:
-            self._touching, self._stable_since = touching, self.time
-        settled = all(f in touching or self._closure[f] >= 1.0 for f in FINGERS)
-        if (touching and settled and not self._reaching and self.time - self._stable_since >= p.stable_time) \
-                or self.time >= p.timeout:
-            self.done = True
-            self.phase = "done"
-            self.time_to_grasp = self.time
-        return self._target.copy()
-
-    def _match(self, joints: np.ndarray, touching_segments: list[str]) -> None:
-        """Phase B / C: the best-matching experienced posture becomes the base of the steered fingers."""
-        p = self.params
-        if not touching_segments and self.preshape is not None:
-            self._base = self.preshape.copy()
-            return
-        wanted = p.experience_steering if touching_segments else p.experience_preshape
-        if self.experience is None or not wanted:
-            return
-        mask = pcp_mask(touching_segments) if touching_segments else np.ones(len(FINGER_JOINTS), dtype=bool)
-        if not mask.any():  # a palm contact alone specifies no joint
-            return
-        winner = self.experience.best_match(joints, mask)
-        match = self.experience.references[winner]
-        if math.isfinite(p.max_match_distance):
-            rms = float(np.sqrt(np.mean((match - joints)[mask] ** 2)))
-            if rms > p.max_match_distance:
-                return
-        self.matches += 1
-        self.winners.append(int(winner))
-        self._base = np.where(self.plan.steered, match, self._base)
-        if (p.restart_closure or p.reach > 0) and touching_segments and not self._recalled:
-            self._recalled = True
-            touching = {finger_of(s) for s in touching_segments}
-            if p.reach > 0:
-                self._start_reach(joints, match, touching_segments)
-            for finger in p.steered_fingers:
-                if p.reach > 0 or (finger not in touching and finger not in self._held):
-                    self._closure[finger] = 0.0
-
-    def _start_reach(self, joints: np.ndarray, match: np.ndarray, touching_segments: list[str]) -> None:
-        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
-        rows = [SEGMENTS.index(s) for s in touching_segments if finger_of(s) is not None]
-        if not rows:
-            return
-        self._palm_goal = palm_shift(self.plan.kinematics, joints, match, np.array(rows), self.params.reach)
-        self._reaching = bool(np.any(self._palm_goal != self.palm_offset))
-        self._held.clear()
-        self._lost.clear()
+        return self.batch.step(joints[None], forces[None])[0]

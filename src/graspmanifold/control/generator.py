@@ -17,7 +17,7 @@ nearest the object) and must touch, while the fingers that take no part stay cur
 Our extension of the paper's procedure verifies every candidate as a grasp
 (`GeneratorParams.verify`, on by default): the hand is put at the candidate's palm pose in front of
 the free object, the fingers press with the controller's squeeze, the support is released and the
-hold test runs (`judge.judge_grasp`, six gravity directions of `verify_hold_seconds` each); only
+hold test runs (`judge.judge_scene`, six gravity directions of `verify_hold_seconds` each); only
 candidates that hold are kept, with their epsilon (at the object's friction) and largest
 displacement recorded in the set. `generate_postures(obj, n)` returns n postures either way: with
 verification it draws candidates in waves until n hold, at most `max_candidates_per_posture` times
@@ -53,12 +53,12 @@ from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
-from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, finger_limits, segment_of_geoms
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, segment_of_geoms
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
-from .judge import JUDGING, Judgement, hold_on_support, judge_grasp, supported_scene
+from .judge import JUDGING, Judgement, hold_on_support, judge_scene, supported_scene
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
@@ -136,24 +136,29 @@ PRESET_PARAMS: dict[str, GeneratorParams] = {
 
 
 class _Verifier:
-    """Replays a candidate at its palm pose on the free object and runs the hold test."""
+    """Replays a candidate at its palm pose on the free object and runs the hold test (`judge.judge_scene`,
+    the fingers pressing the candidate with the controller's squeeze)."""
 
     PERIOD = 0.02  # s between checks of the object's displacement
 
     def __init__(self, obj: GraspObject, params: GeneratorParams, hand: str = "ours"):
         self.scene = supported_scene(obj, hand=hand)
         self.params = params
+        self.rules = replace(JUDGING, hold_seconds=params.verify_hold_seconds, margin=False)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         scene = self.scene
         mujoco.mj_resetData(scene.model, scene.data)
+        scene.set_gravity(False)
         hold_on_support(scene)
         scene.set_hand_pose(hand_pos, hand_quat)
         scene.set_posture(posture)
-        scene.set_target(squeezed(posture, self.params.squeeze))
+        scene.set_target(squeezed(posture, self.params.squeeze, scene.hand))
         scene.run(0.2)  # the fingers press (SimulationError if the physics fails)
-        return judge_grasp(scene, lambda: scene.run(self.PERIOD), self.PERIOD, margin=False,
-                           rules=replace(JUDGING, hold_seconds=self.params.verify_hold_seconds))
+        judged = judge_scene(scene, self.rules, self.PERIOD)
+        if judged.fault:
+            raise SimulationError(judged.fault)
+        return judged
 
 
 class _SpringRig:
@@ -181,7 +186,7 @@ class _SpringRig:
         self.side_geoms = [geom_of[c] for c in contacts if c not in DISTAL_SEGMENTS]
         self.contact_geoms = [geom_of[c] for c in contacts]
         self.finger_dofs = self.scene.hand_dofs[2:]
-        self.limits = finger_limits()
+        self.limits = hand.limits()
         self._torque = np.zeros(3)
         self._fromto = np.zeros(6)
 

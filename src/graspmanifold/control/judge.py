@@ -5,13 +5,17 @@ spring with gravity off, or a table with gravity on); the support is released fi
 
 - hold: gravity is switched on along +x, -x, +y, -y, +z and -z in turn (`hold_seconds` each)
   while the hand keeps its grasp; the object must stay within `JudgingRules.hold_limit` of where it was grasped;
-- margin: a grasp that holds is then pushed, in the same six directions in turn, by an extra
-  force on the object that ramps from 0 to `margin_force` over `margin_seconds` (on top of
-  gravity along that direction); the margin is the extra force (N) at which the object first
-  leaves the 2 cm bound, `margin_force` when it never does (a censored value), 0 when it did not hold;
+- margin (where `JudgingRules.margin` asks for it): a grasp that holds is then pushed, in the same six
+  directions in turn, by an extra force on the object that ramps from 0 to `margin_force` over
+  `margin_seconds` (on top of gravity along that direction); the margin is the extra force (N) at which
+  the object first leaves the bound, `margin_force` when it never does (a censored value), 0 when it
+  did not hold or was not asked for;
 - force closure: the Ferrari-Canny epsilon of the L1 grasp wrench space of the contacts at the
   moment of release, with the object's friction (the one the simulation uses), above
   `epsilon_threshold`, the paper's measure.
+
+`judge_worlds` is the one judging loop, over N worlds at once: the trials run it while their controller
+grasps, the generator's verifier on fingers pressing a candidate (shorter hold, no margin: the rules are data).
 """
 
 from __future__ import annotations
@@ -21,10 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sim.hand import HandModel
+from ..base.errors import QualityError
+from ..sim.hand import SEGMENTS, HandModel
 from ..sim.objects import GraspObject
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
+from ..sim.worlds import CpuWorlds, Worlds
+from .controller import row_norms
 from .quality import epsilon_l1
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
@@ -32,8 +39,8 @@ HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0,
 
 @dataclass(frozen=True)
 class JudgingRules:
-    """How every grasp is judged (see the module doc), in one place: `judge_grasp`, the batched judge of
-    `batch_trials` and the generator's verifier (a shorter `hold_seconds`, no margin) all read it.
+    """How every grasp is judged (see the module doc), in one place: `judge_worlds` reads it for the
+    trials and for the generator's verifier (a shorter `hold_seconds`, no margin).
 
     Attributes:
         hold_seconds: s of gravity per direction in the hold test.
@@ -44,6 +51,7 @@ class JudgingRules:
             wrench of at least 1 % of its total normal force; smaller values are numerically marginal closure.
         support_stiffness: N/m (and N m/rad) of the object's support while the hand closes.
         support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
+        margin: measure the disturbance margin of a grasp that holds (False: the margin is 0).
     """
 
     hold_seconds: float = 0.5
@@ -53,6 +61,7 @@ class JudgingRules:
     epsilon_threshold: float = 0.01
     support_stiffness: float = 2000.0
     support_damping: float = 30.0
+    margin: bool = True
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
@@ -66,16 +75,20 @@ JUDGING = JudgingRules()
 
 @dataclass(frozen=True)
 class Judgement:
-    """How good one grasp is (see the module doc)."""
+    """How good one grasp is (see the module doc), or why its physics failed: epsilon at release (per unit
+    total normal force), hold, the largest displacement in the hold test (m; inf when the physics failed),
+    margin (N), the posture (22,) rad and touching segments (`SEGMENTS` order) at release, the deepest
+    contact (m), the fault (empty when none) and the world's clock when it failed (s)."""
 
     epsilon: float
     hold: bool
-    displacement: float  # m, largest during the hold test
-    margin: float  # N
-
-    @property
-    def force_closure(self) -> bool:
-        return self.epsilon > JUDGING.epsilon_threshold
+    displacement: float
+    margin: float
+    posture: np.ndarray | None = None
+    touching: np.ndarray | None = None
+    penetration: float = 0.0
+    fault: str = ""
+    time: float = float("nan")
 
 
 def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = "ours") -> Scene:
@@ -106,49 +119,116 @@ def hold_on_support(scene: Scene) -> None:
         scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
 
 
-def grasp_epsilon(scene: Scene) -> float:
-    """Epsilon of the current hand-object contacts, with the object's friction."""
-    return reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body].copy(), scene.object.friction)
-
-
 def reading_epsilon(reading: TactileReading, centre: np.ndarray, friction: float) -> float:
-    """Epsilon of a reading's contacts about the object's centre of mass `centre`."""
+    """Epsilon of a reading's contacts about the object's centre of mass `centre` (3,), m (0 without a contact)."""
     if not len(reading.forces):
         return 0.0
     return float(epsilon_l1(reading.points, reading.normals, centre, mu=friction))
 
 
-def judge_grasp(scene: Scene, cycle: Callable[[], None], period: float, *, rules: JudgingRules = JUDGING,
-                margin: bool = True) -> Judgement:
-    """Release the support and judge the grasp; `cycle()` advances one control period of `period` s."""
-    scene.set_object_support(0.0, 0.0)
-    if scene.table_geom is not None:
-        scene.set_table(False)  # lifted off the table
-    epsilon = grasp_epsilon(scene)
-    start = scene.object_pose()[0]
-    moved = lambda: float(np.linalg.norm(scene.object_pose()[0] - start))  # noqa: E731
-    worst = 0.0
-    for direction in HOLD_DIRECTIONS:
-        scene.set_gravity(GRAVITY * direction)
-        for _ in range(rules.cycles(rules.hold_seconds, period)):
-            cycle()
-            worst = max(worst, moved())
-    hold = worst <= rules.hold_limit
-    held_force = 0.0
-    if hold and margin:
-        held_force = rules.margin_force
-        steps = rules.cycles(rules.margin_seconds, period)
-        push = scene.data.xfrc_applied[scene.object_body]
-        for direction in HOLD_DIRECTIONS:
-            scene.set_gravity(GRAVITY * direction)
-            for k in range(1, steps + 1):
-                push[:3] = rules.margin_force * k / steps * direction
-                cycle()
-                if moved() > rules.hold_limit:
-                    held_force = rules.margin_force * (k - 1) / steps
-                    break
-            if held_force < rules.margin_force:
-                break
-        push[:] = 0.0
-    scene.set_gravity(False)
-    return Judgement(epsilon, hold, worst, held_force)
+def judge_scene(scene: Scene, rules: JudgingRules = JUDGING, period: float = 0.02) -> Judgement:
+    """Judge the grasp a scene (from `supported_scene`) holds now, its actuators keeping their targets:
+    `judge_worlds` on one world that only steps; one look at the object every `period` s."""
+    worlds = CpuWorlds([scene])
+    nstep = max(1, round(period / scene.model.opt.timestep))
+    return judge_worlds(worlds, period, lambda live: worlds.step(live, nstep), friction=scene.object.friction,
+                        rules=rules)[0]
+
+
+_GRASP, _HOLD, _MARGIN, _FINISHED = range(4)
+
+
+def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], dict[int, str]], *,
+                 friction: float, rules: JudgingRules = JUDGING,
+                 ready: Callable[[], np.ndarray] | None = None) -> list[Judgement]:
+    """The judging loop: every world, once its grasp is ready (`ready()`, (n,) bool, asked before every period;
+    None: all from the start), released and judged (see the module doc), all worlds advancing together one
+    control period of `period` s at a time until each is judged. `advance(live)` runs one period of the worlds
+    given (an index array; a judged world is never given, its state may not be finite): whatever drives the
+    hands, then the physics; it returns {world: why its physics failed}. `friction` is the objects', for epsilon.
+    Returns one `Judgement` per world, in order.
+    """
+    n = worlds.n
+    hold_cycles = rules.cycles(rules.hold_seconds, period)
+    margin_cycles = rules.cycles(rules.margin_seconds, period)
+    stage = np.full(n, _GRASP)
+    direction = np.zeros(n, dtype=int)  # which of HOLD_DIRECTIONS the judging is at
+    count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
+    start = np.zeros((n, 3))
+    worst = np.zeros(n)
+    held_force = np.zeros(n)
+    judged: list[Judgement | None] = [None] * n
+    grasped: dict[int, tuple] = {}
+
+    def finish(world: int) -> None:
+        stage[world] = _FINISHED
+        reading, posture, epsilon = grasped.pop(world)
+        judged[world] = Judgement(epsilon, bool(worst[world] <= rules.hold_limit), float(worst[world]),
+                                  float(held_force[world]), posture, np.array([reading.touches(s) for s in SEGMENTS]),
+                                  worlds.max_penetration(world))
+
+    def fail(world: int, why: str) -> None:
+        stage[world] = _FINISHED
+        grasped.pop(world, None)
+        judged[world] = Judgement(0.0, False, np.inf, 0.0, worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool),
+                                  worlds.max_penetration(world), why, worlds.time(world))
+
+    while (stage != _FINISHED).any():
+        # judging begins for the worlds whose grasp ended in the last period
+        begin = np.flatnonzero((stage == _GRASP) & (True if ready is None else ready()))
+        if len(begin):
+            worlds.release(begin)
+            positions = worlds.object_positions()
+            for world in begin:
+                reading, centre = worlds.reading(world)
+                try:
+                    epsilon = reading_epsilon(reading, centre, friction)
+                except QualityError as error:
+                    fail(world, str(error))
+                    continue
+                grasped[world] = (reading, worlds.posture(world), epsilon)
+                start[world] = positions[world]
+            begin = begin[stage[begin] == _GRASP]
+            stage[begin], direction[begin], count[begin] = _HOLD, 0, 0
+            worlds.set_gravity(begin, np.tile(GRAVITY * HOLD_DIRECTIONS[0], (len(begin), 1)))
+        # the hold test: hold_cycles periods per gravity direction
+        turn = np.flatnonzero((stage == _HOLD) & (count == hold_cycles))
+        direction[turn] += 1
+        count[turn] = 0
+        done_holding = turn[direction[turn] == len(HOLD_DIRECTIONS)]
+        held = done_holding[worst[done_holding] <= rules.hold_limit] if rules.margin else done_holding[:0]
+        for world in np.setdiff1d(done_holding, held):
+            finish(world)
+        stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, rules.margin_force
+        turn = turn[stage[turn] == _HOLD]
+        worlds.set_gravity(turn, GRAVITY * HOLD_DIRECTIONS[direction[turn]])
+        # the margin: a push ramping up over margin_cycles periods per direction
+        ramp = np.flatnonzero(stage == _MARGIN)
+        count[ramp] += 1
+        turn = ramp[count[ramp] > margin_cycles]
+        direction[turn] += 1
+        count[turn] = 1
+        for world in turn[direction[turn] == len(HOLD_DIRECTIONS)]:
+            worlds.push(np.array([world]), np.zeros((1, 3)))
+            finish(world)
+        ramp = ramp[stage[ramp] == _MARGIN]
+        worlds.set_gravity(ramp, GRAVITY * HOLD_DIRECTIONS[direction[ramp]])
+        pushes = (rules.margin_force * count[ramp] / margin_cycles)[:, None] * HOLD_DIRECTIONS[direction[ramp]]
+        worlds.push(ramp, pushes)
+
+        live = np.flatnonzero(stage != _FINISHED)
+        if not len(live):
+            break
+        for world, why in advance(live).items():
+            fail(world, why)
+        with np.errstate(invalid="ignore"):
+            moved = row_norms(worlds.object_positions() - start)
+        holding = np.flatnonzero(stage == _HOLD)
+        worst[holding] = np.maximum(worst[holding], moved[holding])
+        count[holding] += 1
+        ramp = np.flatnonzero(stage == _MARGIN)
+        for world in ramp[moved[ramp] > rules.hold_limit]:
+            held_force[world] = rules.margin_force * (count[world] - 1) / margin_cycles
+            worlds.push(np.array([world]), np.zeros((1, 3)))
+            finish(world)
+    return judged

@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation
 from ..base.errors import InvalidInput
 from ..base.io import load_npz, save_npz
 from ..base.poses import to_quat, to_rotation
-from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_limits, finger_of, segment_of_geoms
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_of, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
@@ -243,7 +243,7 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     distal ones) touch, every other segment stays clear of the object and the fingers of each other."""
     scene = Scene(obj)
     geometry = _GraspGeometry(scene, contacts)
-    limits = finger_limits()
+    limits = scene.hand.limits()
     lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
     base_rotation = to_rotation(quat)
 
@@ -275,7 +275,7 @@ def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
     2 mm in the object, and every joint is inside its limits."""
     scene = Scene(obj)
     geometry = _GraspGeometry(scene, start.contacts)
-    limits = finger_limits()
+    limits = scene.hand.limits()
     if np.any(start.posture < limits[:, 0] - 1e-9) or np.any(start.posture > limits[:, 1] + 1e-9):
         return False
     distal, other, _ = geometry.distances(start.posture, start.hand_pos, start.hand_quat)

@@ -19,13 +19,18 @@ from ..base.errors import InvalidInput
 from ..base.io import fingerprint, load_npz, save_npz
 from ..base.validation import check_data
 from ..sim.hand import N_FINGER_JOINTS
-from .nearest import MaskedNearest
+from .nearest import MaskedNearest, Recall
 from .postureset import PostureSet
 
 
 @runtime_checkable
 class Experience(Protocol):
-    """A set of reference postures answering masked best-match queries."""
+    """A set of reference postures answering masked best-match queries (Eq. 2 / Eq. 4): what the
+    controller recalls from. `PostureDatabase` and `SOM` are two; a user's own needs only these members
+    (`trials.conformance.check_experience_contract` checks one).
+
+    The API reference shows an experience base of one's own, recalled in a trial.
+    """
 
     dim: int
 
@@ -83,7 +88,7 @@ class Experience(Protocol):
         ...
 
 
-class PostureDatabase:
+class PostureDatabase(Recall):
     """All stored postures (n, dim); best matches are row indices into `postures`."""
 
     def __init__(self, postures: np.ndarray):
@@ -108,53 +113,8 @@ class PostureDatabase:
         """The stored postures (n, dim), read-only: `best_match` gives a row of them."""
         return self.postures
 
-    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
-        """The reference posture nearest to x under the masked distance of Eq. 2.
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            Its index: the stored posture's row.
-        """
-        return self._search.nearest(x, mask)
-
-    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """`best_match` of every query.
-
-        Args:
-            X: queries (m, dim), rad.
-            masks: None, one mask (dim,) for every query, or one per query (m, dim).
-
-        Returns:
-            Indices (m,).
-        """
-        return self._search.nearest_batch(X, masks)
-
-    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching reference posture in full: x completed from what the mask specifies.
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            The posture (dim,), rad.
-        """
-        return self.references[self.best_match(x, mask)].copy()
-
-    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """`complete` of every query.
-
-        Args:
-            X: queries (m, dim), rad.
-            masks: None, one mask (dim,) for every query, or one per query (m, dim).
-
-        Returns:
-            Postures (m, dim), rad.
-        """
-        return self.references[self.best_match_batch(X, masks)]
+    def _nearest(self) -> MaskedNearest:
+        return self._search
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
         """Write the database to an .npz file, atomically.

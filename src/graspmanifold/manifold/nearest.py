@@ -64,27 +64,11 @@ def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.nda
 
 
 def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
-    """`check_queries` for one query: returns float (dim,) arrays."""
-    query = np.asarray(x, dtype=float)
-    if query.shape != (dim,):
+    """`check_queries` for one query (dim,): returns float (dim,) arrays."""
+    if np.ndim(x) != 1:
         raise InvalidInput(f"x must have shape ({dim},), got {np.shape(x)}")
-    if mask is None:
-        weights = np.ones(dim)
-    else:
-        weights = np.asarray(mask, dtype=float)
-        if weights.shape != (dim,):
-            raise InvalidInput(f"mask must have shape ({dim},), got {np.shape(mask)}")
-        total = float(weights.sum())
-        if not math.isfinite(total):
-            raise InvalidInput("mask has non-finite weights")
-        if weights.min() < 0:
-            raise InvalidInput("mask has negative weights; expected booleans or weights p_k >= 0")
-        if total == 0.0:
-            raise InvalidInput("mask selects no dimension (all zero)")
-    query = np.where(weights > 0, query, 0.0)
-    if not np.isfinite(query).all():
-        raise InvalidInput(f"x has non-finite values where the mask is non-zero (column {int(np.argmin(np.isfinite(query)))})")
-    return query, weights
+    queries, weights = check_queries(x, mask, dim)
+    return queries[0], weights[0]
 
 
 class MaskedNearest:
@@ -178,3 +162,29 @@ class MaskedNearest:
             exact = np.sum(weights[row] * (self.points[candidates] - queries[row]) ** 2, axis=1)
             best[row] = candidates[np.argmin(exact)]
         return best
+
+
+class Recall:
+    """The `experience.Experience` protocol's queries (documented there) answered by a `MaskedNearest` of the
+    `references` a subclass provides with `_nearest()`: what the SOM and the posture database share."""
+
+    references: np.ndarray
+
+    def _nearest(self) -> MaskedNearest:
+        raise NotImplementedError
+
+    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
+        """The row of `references` nearest to the query x (dim,) under the masked distance of Eq. 2 / Eq. 4."""
+        return self._nearest().nearest(x, mask)
+
+    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`best_match` of every query (m, dim), with one mask (dim,) or one per query (m, dim)."""
+        return self._nearest().nearest_batch(X, masks)
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The best-matching reference in full (dim,), rad: x completed from what the mask specifies."""
+        return self.references[self.best_match(x, mask)].copy()
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`complete` of every query: (m, dim), rad."""
+        return self.references[self.best_match_batch(X, masks)]

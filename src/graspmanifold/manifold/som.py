@@ -51,7 +51,7 @@ from ..base.progress import progress_bar
 from ..base.validation import check_data, check_int
 from ..base.workers import free_cores
 from .kernels import compiled, online_epoch
-from .nearest import MaskedNearest
+from .nearest import MaskedNearest, Recall
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -125,7 +125,7 @@ PAPER = SOMSchedule(*TRAINING_SCHEDULE)
 RESUME = SOMSchedule(*RESUME_SCHEDULE)
 
 
-class SOM:
+class SOM(Recall):
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
     def __init__(self, rows: int, cols: int, dim: int | None = None, *, seed: int = 0, epochs: int = PAPER.epochs,
@@ -197,7 +197,7 @@ class SOM:
             raise NotFittedError("this SOM has no weights yet: call fit() (or initialize()) first")
         return self._weights
 
-    def _nearest(self) -> MaskedNearest:
+    def _nearest(self) -> MaskedNearest:  # best match and completion (Eq. 3 with Eq. 4's distance): `Recall`
         if self._search is None:
             self._search = MaskedNearest(self._require_weights().reshape(-1, self.dim))
         return self._search
@@ -363,55 +363,6 @@ class SOM:
             weights[update] = numerator.reshape(self.n_nodes, dim)[update] / denominator[update, None]
             report.update()
         return (weights + centre).reshape(rows, cols, dim)
-
-    # -- best match and completion (Eq. 3 with the masked distance of Eq. 4) ------------------------
-    def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
-        """The node nearest to x under the masked distance of Eq. 2.
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            The node's flat index (row * cols + col).
-        """
-        return self._nearest().nearest(x, mask)
-
-    def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """The nodes nearest to many queries (`best_match` of every row).
-
-        Args:
-            X: queries (m, dim), rad.
-            masks: None, one mask (dim,) for every query, or one per query (m, dim).
-
-        Returns:
-            Flat node indices (m,).
-        """
-        return self._nearest().nearest_batch(X, masks)
-
-    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The best-matching node's full reference vector: x pulled onto the map.
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (plain Euclidean), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            The reference vector (dim,), rad.
-        """
-        return self.references[self.best_match(x, mask)].copy()
-
-    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
-        """`complete` of every query.
-
-        Args:
-            X: queries (m, dim), rad.
-            masks: None, one mask (dim,) for every query, or one per query (m, dim).
-
-        Returns:
-            Reference vectors (m, dim), rad.
-        """
-        return self.references[self.best_match_batch(X, masks)]
 
     # -- quality and structure -------------------------------------------------------------------
     def quantization_error(self, X: np.ndarray) -> float:

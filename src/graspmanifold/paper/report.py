@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import atomic_write, write_text_atomic
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
-from ..control.controller import ControllerParams
+from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
@@ -37,6 +37,12 @@ HANDS = {"ours": "our MJCF from the published kinematics, primitive collision ge
 
 #: the evaluation methods of a run (its files are evaluation/<object>_<method>.npz)
 RUN_METHODS = ("none", "database", "som", "som_all")
+BLEND_METHODS = ("database_blend", "som_blend")  # the database and the SOM under `BLEND`, beside another controller
+
+
+def run_methods(controller: ControllerParams) -> tuple[str, ...]:
+    """The evaluation methods of a run with this controller: `BLEND_METHODS` too beside any other than `BLEND`."""
+    return RUN_METHODS + (() if controller == BLEND else BLEND_METHODS)
 #: the figures that draw the hand (they need offscreen OpenGL), by the paper's figure number
 RENDERED_KINDS = ("fig3", "fig5", "fig7")
 
@@ -106,7 +112,8 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
     builders[f"fig8_{obj}_resumed"] = lambda: lattice_panels(
         resumed, [("a) inter-node distances", None), ("b) training data", resumed_train),
                   ("c) evaluation postures", resumed_eval)], f"Fig. 8: {obj} map after resumed learning")
-    builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()], RUN_METHODS)
+    methods = RUN_METHODS + tuple(m for m in BLEND_METHODS if (obj, m) in run.results)
+    builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()], methods)
     if render is not None:
         corner, scale = choose_extract(run.maps[obj]), distance_scale(run.maps[obj])  # Fig. 7 shares both
         builders[f"fig3_{obj}_extract"] = lambda: extract_figure(run.maps[obj], train_hits[obj], render, corner,
@@ -203,8 +210,9 @@ def _fmt(value: object, digits: int = 3) -> str:
 def _choices(run: RunData) -> list[list[str]]:
     """The run's own choices where the paper fixes nothing (or fixes something else), one row each."""
     g, config = run.config["generator"], run.config
-    c = ControllerParams()
-    grid = config["grid"]
+    grid, c = config["grid"], _controller_params(config.get("controller"))
+    trust = "every match trusted" if c.max_match_distance == float("inf") else f"matches trusted within " \
+        f"{c.max_match_distance} rad RMS"
     return [
         ["posture procedure", "every spring candidate with its five fingertips on the object kept"
          if not g.get("verify") and config.get("procedure", "paper") == "paper"
@@ -227,8 +235,15 @@ def _choices(run: RunData) -> list[list[str]]:
          else f"{len(grid)} custom poses", "a regular position/orientation grid, values not given"],
         ["controller", f"{1 / c.control_period:.0f} Hz; preshape {c.preshape_time} s; closing rate {c.closing_rate}/s; "
          f"follow speed {c.follow_speed}x; squeeze {c.squeeze} rad; release {c.release_time} s; stable "
-         f"{c.stable_time} s; timeout {c.timeout} s; matches trusted within {c.max_match_distance} rad RMS; "
-         "open and closed postures of `posture.open_posture` / `closed_posture`", "described in [15], not given"],
+         f"{c.stable_time} s; timeout {c.timeout} s; {trust}; the hand model's keyframes `open` and `closed`",
+         "described in [15], not given"],
+        ["recalled posture (Section 2, Eq. 2)", "`recall='target'`: the free fingers' target, reached at the "
+         f"heuristic's joint speed; a finger closes on from it once within {c.recall_tolerance} rad of it (or at "
+         "rest short of it, no contact), its closure from 0; phase B matches the whole posture; each recall at most "
+         "once per finger; a finger that lost its contact closes on from where it held; `_blend` methods: `BLEND`"
+         if c.recall == "target" else "`recall='base'` (the blend): the heuristic's base, goal = match + c (closed "
+         "- match), c grown since phase B began", "\"acts as the target posture for the current control cycle\"; a "
+         "generic closing heuristic finalises the grasp"],
         ["object support while the hand closes", f"a spring-damper, {JUDGING.support_stiffness:g} N/m and {JUDGING.support_damping:g} "
          "N s/m, released before judging", "not described"],
         ["success", f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
@@ -239,11 +254,20 @@ def _choices(run: RunData) -> list[list[str]]:
     ]
 
 
+def _controller_params(stored: dict | None) -> ControllerParams:
+    """A run's controller from its run.json (one written before the choice of controller ran `BLEND`)."""
+    if stored is None:
+        return BLEND
+    return ControllerParams(**{**stored, "steered_fingers": tuple(stored.get("steered_fingers", BLEND.steered_fingers)),
+                               "max_match_distance": float(stored.get("max_match_distance", BLEND.max_match_distance))})
+
+
 def _config_text(config: dict) -> str:
     """The run's configuration in one line (a custom grid by its size, the generator by its mode; all of
     it is in run.json)."""
     shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()}
     shown["generator"] = f"mode {config['generator'].get('mode', 'settled')}"
+    shown["controller"] = f"recall {_controller_params(config.get('controller')).recall}"
     return ", ".join(f"{k} {json.dumps(v) if isinstance(v, dict) else v}" for k, v in shown.items())
 
 

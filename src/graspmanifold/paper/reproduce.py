@@ -28,6 +28,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
+from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
     PRESET_PARAMS,
@@ -44,7 +45,7 @@ from ..sim.hand_models import hand_name
 from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
-from .report import RUN_METHODS as METHODS, RunData, write_figures, write_report
+from .report import RunData, run_methods, write_figures, write_report
 from .summary import summarize
 
 #: how the training postures are made from the spring generator's candidates: `paper` keeps every one with
@@ -58,7 +59,8 @@ class ReproduceConfig:
     """Everything a run depends on. `postures` names the objects (paper objects or family members,
     `graspmanifold.sim.family.FAMILY`) and the candidates to generate for each; `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
-    the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file)."""
+    the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
+    `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`)."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -71,9 +73,13 @@ class ReproduceConfig:
     generator: GeneratorParams = field(default_factory=lambda: GeneratorParams(verify=False))
     procedure: str = "paper"
     hand: str = "ours"
+    controller: ControllerParams = field(default_factory=ControllerParams)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
+        if not isinstance(self.controller, ControllerParams):
+            raise InvalidInput(f"ReproduceConfig.controller must be ControllerParams (controller.CONTROLLERS names "
+                               f"two), got {self.controller!r}")
         if self.procedure not in PROCEDURES:
             raise InvalidInput(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
         if self.procedure == "verified" and self.generator.verify:
@@ -106,6 +112,7 @@ class ReproduceConfig:
 
     def to_json(self) -> dict:
         config = asdict(self)
+        config["controller"]["max_match_distance"] = str(self.controller.max_match_distance)  # 'inf' is no JSON number
         config["grid"] = self.grid if isinstance(self.grid, str) else [list(map(float, g)) for g in self.grid]
         return config
 
@@ -183,6 +190,7 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             previous = None
         if isinstance(previous, dict):
             previous.setdefault("hand", "ours")  # a run.json written before the choice of hand
+            previous.setdefault("controller", {**json.loads(json.dumps(asdict(BLEND))), "max_match_distance": "0.2"})
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise InvalidInput(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
@@ -216,7 +224,8 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
     write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))
     objects = tuple(config.postures)
     verified = config.procedure == "verified"
-    stages = _Stages(out, log, total=(3 + verified) * len(objects) + 2 + len(objects) * len(METHODS))
+    methods = run_methods(config.controller)
+    stages = _Stages(out, log, total=(3 + verified) * len(objects) + 2 + len(objects) * len(methods))
     started = time.perf_counter()
 
     # 1. posture sets
@@ -261,21 +270,23 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
 
     # 3. evaluation of every method on every object
-    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in objects for m in METHODS}
+    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in objects for m in methods}
     for (name, method), path in eval_paths.items():
+        kind = method.removesuffix("_blend")  # a `_blend` method: the same experience under the BLEND controller
+        params = BLEND if method.endswith("_blend") else config.controller
         inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]]}
 
-        def run_evaluation(name=name, method=method, path=path):
+        def run_evaluation(name=name, method=method, path=path, kind=kind, params=params):
             experience = {"none": None, "database": PostureDatabase(sets[name].postures),
-                          "som": maps[name], "som_all": maps["all"]}[method]
+                          "som": maps[name], "som_all": maps["all"]}[kind]
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
-                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand)
+                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params)
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
         stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, config.hand,
-                                                           *inputs[method]), [path], run_evaluation)
+                                                           asdict(params), *inputs[kind]), [path], run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
     # 4. resumed learning with the SOM's successful evaluation postures

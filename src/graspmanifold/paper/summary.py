@@ -19,7 +19,7 @@ from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_
 from ..manifold.som import SOM
 from ..trials.evaluation import EvaluationResult
 from ..trials.study import comparison_rows, judge_target
-from .report import RunData, figure_object
+from .report import BLEND_METHODS, RunData, figure_object
 from .verdicts import judge_claims, verdict_rows
 
 
@@ -178,7 +178,7 @@ def summarize(run: RunData, figure_info: dict) -> RunSummary:
     obj = figure_object(names)
     obj_hits = run.maps[obj].hit_counts(run.sets[obj].postures)
     keyed = {(o, run.results[(o, m)].grid_name, m): r for (o, m), r in run.results.items()}
-    rows = comparison_rows(keyed, ("database", "som", "som_all"), ("none",))
+    rows = comparison_rows(keyed, ("database", "som", "som_all", *BLEND_METHODS), ("none",))
     summary = RunSummary(
         library_version=library_version(), procedure=run.config.get("procedure", "paper"), objects=objects,
         evaluation=[result.summary for result in run.results.values()], figures=figure_info, figure_object=obj,

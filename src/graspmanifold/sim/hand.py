@@ -47,7 +47,6 @@ class HandModel:
         mjcf: the asset file of the hand alone, hanging on the mocap body `mount`.
         finger_joints: the model's joints in posture order (22).
         wrist_joints: the model's wrist joints (2).
-        joint_ranges: each joint's range, rad.
         finger_segments: the bodies of each finger (FINGERS) that can touch an object, palm side first.
         base_segments: the other bodies that can touch an object (forearm, wrist, palm).
         joint_segment: the segment each finger joint moves.
@@ -67,7 +66,6 @@ class HandModel:
     mjcf: str
     finger_joints: tuple[str, ...]
     wrist_joints: tuple[str, ...]
-    joint_ranges: dict[str, tuple[float, float]]
     finger_segments: dict[str, tuple[str, ...]]
     base_segments: tuple[str, ...]
     joint_segment: dict[str, str]
@@ -106,14 +104,24 @@ class HandModel:
         """
         return np.asarray(angles, dtype=float) * self._signs
 
+    @functools.cached_property
+    def joint_ranges(self) -> dict[str, tuple[float, float]]:
+        """Each wrist and finger joint's range, rad, by name, as its MJCF gives it (where ranges are written)."""
+        return {name: tuple(float(v) for v in self.model.joint(name).range)
+                for name in self.wrist_joints + self.finger_joints}
+
+    @functools.cached_property
+    def _limits(self) -> np.ndarray:
+        ranges = self.to_model(np.array([self.joint_ranges[j] for j in self.finger_joints]).T).T
+        return np.sort(ranges, axis=1)
+
     def limits(self) -> np.ndarray:
         """The finger joints' ranges in the paper's sense.
 
         Returns:
             (22, 2) array of [lower, upper], rad, in posture order.
         """
-        ranges = self.to_model(np.array([self.joint_ranges[j] for j in self.finger_joints]).T).T
-        return np.sort(ranges, axis=1)
+        return self._limits.copy()
 
     @property
     def segments(self) -> tuple[str, ...]:
@@ -210,10 +218,6 @@ class HandModel:
         return matrix
 
 
-_KNUCKLE = (-0.349066, 0.349066)
-_PROXIMAL = (-0.261799, 1.5708)
-_DISTAL = (0.0, 1.5708)
-
 SHADOW_HAND = HandModel(
     name="ours",
     mjcf="shadow_hand.xml",
@@ -225,19 +229,6 @@ SHADOW_HAND = HandModel(
         "THJ5", "THJ4", "THJ3", "THJ2", "THJ1",
     ),
     wrist_joints=("WRJ2", "WRJ1"),
-    joint_ranges={  # from the kinematics sheet
-        "WRJ2": (-0.523599, 0.174533),
-        "WRJ1": (-0.698132, 0.488692),
-        **{f"{f}J4": _KNUCKLE for f in ("FF", "MF", "RF", "LF")},
-        **{f"{f}J3": _PROXIMAL for f in ("FF", "MF", "RF", "LF")},
-        **{f"{f}J{j}": _DISTAL for f in ("FF", "MF", "RF", "LF") for j in (2, 1)},
-        "LFJ5": (0.0, 0.785398),
-        "THJ5": (-1.0472, 1.0472),
-        "THJ4": (0.0, 1.22173),
-        "THJ3": (-0.20944, 0.20944),
-        "THJ2": (-0.698132, 0.698132),
-        "THJ1": (-0.261799, 1.5708),
-    },
     finger_segments={
         "ff": ("ffproximal", "ffmiddle", "ffdistal"),
         "mf": ("mfproximal", "mfmiddle", "mfdistal"),
@@ -283,7 +274,8 @@ HAND_JOINTS: tuple[str, ...] = WRIST_JOINTS + FINGER_JOINTS
 """All 24 hinge joints, wrist first, in the model's order."""
 
 JOINT_RANGES: dict[str, tuple[float, float]] = SHADOW_HAND.joint_ranges
-"""Joint ranges (radians) from the kinematics sheet, by joint name."""
+"""Joint ranges (radians) by joint name, read from our MJCF (which tests/test_hand.py checks against the kinematics
+sheet)."""
 
 FINGER_SEGMENTS: dict[str, tuple[str, ...]] = SHADOW_HAND.finger_segments
 """The segments of each finger that carry collision geometry, palm side first."""
@@ -303,16 +295,8 @@ JOINT_SEGMENT: dict[str, str] = SHADOW_HAND.joint_segment
 ACTUATORS: tuple[str, ...] = SHADOW_HAND.actuators
 """The 20 position actuators, in the model's order. xxJ0 drives J1 + J2 of that finger."""
 
-HAND_MODEL_FILE = SHADOW_HAND.mjcf
-"""The asset file of our hand model."""
-
 PHYSICS_TIMESTEP = SHADOW_HAND.timestep
 """s, the physics step of the model (its <option timestep>): a control period is a whole number of them."""
-
-
-def hand_spec() -> mujoco.MjSpec:
-    """A fresh, editable MjSpec of the default hand (Scene adds the object to it)."""
-    return SHADOW_HAND.spec()
 
 
 def load_hand() -> mujoco.MjModel:
@@ -348,26 +332,26 @@ class SegmentKinematics:
     The controller's reach extension compares where a touching segment is now with where a recalled
     grasp would put it (`controller.ControllerParams.reach`)."""
 
-    def __init__(self) -> None:
-        self.model = load_hand()
+    def __init__(self, hand: HandModel = SHADOW_HAND) -> None:
+        self.hand = hand
+        self.model = hand.model  # read only: the positions are computed in this object's own data
         self.data = mujoco.MjData(self.model)
-        joints = [self.model.joint(name) for name in FINGER_JOINTS]
-        self._qpos = np.array([j.qposadr[0] for j in joints])
-        segment_of = segment_of_geoms(self.model)
-        self._geoms = np.array([int(np.flatnonzero(segment_of == i)[0]) for i in range(len(SEGMENTS))])
-        self._palm = self.model.body("palm").id
+        self._qpos = np.array([self.model.joint(name).qposadr[0] for name in hand.finger_joints])
+        segment_of = segment_of_geoms(self.model, hand)
+        self._geoms = np.array([int(np.flatnonzero(segment_of == i)[0]) for i in range(len(hand.segments))])
+        self._palm = self.model.body(hand.palm).id
 
     def positions(self, posture: np.ndarray) -> np.ndarray:
         """Where the segments are for a posture, the wrist straight.
 
         Args:
-            posture: the 22 finger joint angles, radians.
+            posture: the 22 finger joint angles, radians, the paper's sense.
 
         Returns:
             The centres (len(SEGMENTS), 3) of the segments' collision geometry, m, in the palm frame.
         """
         self.data.qpos[:] = 0.0
-        self.data.qpos[self._qpos] = posture
+        self.data.qpos[self._qpos] = self.hand.to_model(posture)
         mujoco.mj_kinematics(self.model, self.data)
         rotation = self.data.xmat[self._palm].reshape(3, 3)
         return (self.data.geom_xpos[self._geoms] - self.data.xpos[self._palm]) @ rotation

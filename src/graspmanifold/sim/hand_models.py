@@ -211,7 +211,6 @@ def describe_shadow_hand(loader: Callable[[], mujoco.MjSpec], name: str, mjcf: s
     actuators = tuple(model.actuator(a).name for a in range(model.nu) if _drives(model, a) & hand_joint_ids)
     hand = HandModel(
         name=name, mjcf=mjcf, finger_joints=finger_joints, wrist_joints=tuple(rename[j] for j in WRIST_JOINTS),
-        joint_ranges={rename[j]: tuple(float(v) for v in model.joint(rename[j]).range) for j in HAND_JOINTS},
         finger_segments={f: tuple(body[s] for s in SHADOW_HAND.finger_segments[f]) for f in FINGERS},
         base_segments=tuple(body[s] for s in SHADOW_HAND.base_segments),
         joint_segment={rename[j]: body[s] for j, s in SHADOW_HAND.joint_segment.items()},

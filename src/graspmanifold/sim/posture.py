@@ -20,16 +20,12 @@ from .hand import (
     SEGMENTS,
     SHADOW_HAND,
     HandModel,
-    finger_limits,
     finger_of,
 )
 
-_LIMITS = finger_limits()
-_JOINT_INDEX = {name: i for i, name in enumerate(FINGER_JOINTS)}
-
 
 def validate_posture(posture: object, *, name: str = "posture", check_limits: bool = False,
-                     tol: float = 1e-6) -> np.ndarray:
+                     tol: float = 1e-6, hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """A posture as a float (22,) array, or a ValueError saying what is wrong.
 
     Args:
@@ -37,6 +33,7 @@ def validate_posture(posture: object, *, name: str = "posture", check_limits: bo
         name: what to call it in the message.
         check_limits: a joint further than `tol` outside its range is an error too.
         tol: rad.
+        hand: the hand model whose ranges `check_limits` reads (default ours).
 
     Returns:
         The posture (22,), rad.
@@ -50,38 +47,42 @@ def validate_posture(posture: object, *, name: str = "posture", check_limits: bo
         joints = [FINGER_JOINTS[i] for i in np.flatnonzero(bad)]
         raise InvalidInput(f"{name} has non-finite values at joints {joints}")
     if check_limits:
-        outside = (array < _LIMITS[:, 0] - tol) | (array > _LIMITS[:, 1] + tol)
+        limits = hand.limits()
+        outside = (array < limits[:, 0] - tol) | (array > limits[:, 1] + tol)
         if outside.any():
-            details = ", ".join(f"{FINGER_JOINTS[i]}={array[i]:.4f} not in [{_LIMITS[i, 0]:.4f}, "
-                                f"{_LIMITS[i, 1]:.4f}]" for i in np.flatnonzero(outside))
-            raise InvalidInput(f"{name} is outside the joint limits: {details}")
+            details = ", ".join(f"{FINGER_JOINTS[i]}={array[i]:.4f} not in [{limits[i, 0]:.4f}, "
+                                f"{limits[i, 1]:.4f}]" for i in np.flatnonzero(outside))
+            raise InvalidInput(f"{name} is outside the joint limits of the {hand.name!r} hand: {details}")
     return array
 
 
-def within_limits(posture: np.ndarray, tol: float = 1e-6) -> bool:
+def within_limits(posture: np.ndarray, tol: float = 1e-6, hand: HandModel = SHADOW_HAND) -> bool:
     """Whether every joint of a posture lies inside its range.
 
     Args:
         posture: 22 finger joint angles, rad.
         tol: how far outside counts as inside, rad.
+        hand: the hand model (default ours).
 
     Returns:
         True when every joint is within its range (± tol).
     """
-    p = validate_posture(posture)
-    return bool(np.all((p >= _LIMITS[:, 0] - tol) & (p <= _LIMITS[:, 1] + tol)))
+    p, limits = validate_posture(posture), hand.limits()
+    return bool(np.all((p >= limits[:, 0] - tol) & (p <= limits[:, 1] + tol)))
 
 
-def clip_posture(posture: np.ndarray) -> np.ndarray:
+def clip_posture(posture: np.ndarray, hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """A copy of the posture with every joint clipped into its range.
 
     Args:
         posture: 22 finger joint angles, rad.
+        hand: the hand model (default ours).
 
     Returns:
         The clipped posture (22,), rad.
     """
-    return np.clip(validate_posture(posture), _LIMITS[:, 0], _LIMITS[:, 1])
+    limits = hand.limits()
+    return np.clip(validate_posture(posture), limits[:, 0], limits[:, 1])
 
 
 def posture_to_dict(posture: np.ndarray) -> dict[str, float]:
@@ -112,10 +113,6 @@ def dict_to_posture(joints: Mapping[str, float]) -> np.ndarray:
     if missing:
         raise InvalidInput(f"joints is missing finger joints {missing}")
     return validate_posture([joints[j] for j in FINGER_JOINTS], name="joints")
-
-
-#: actuator targets = CTRL_MATRIX @ posture, with the wrist angles in the first two rows.
-CTRL_MATRIX = SHADOW_HAND.ctrl_matrix
 
 
 def posture_to_ctrl(posture: np.ndarray, wrist: Iterable[float] = (0.0, 0.0),
@@ -166,13 +163,7 @@ def pcp_mask(segments: Iterable[str]) -> np.ndarray:
     unknown = sorted({s for s in segments if s not in SEGMENTS})
     if unknown:
         raise InvalidInput(f"segments has unknown segment names {unknown}; expected names from SEGMENTS")
-    deepest = {}
-    for seg in segments:
-        finger = finger_of(seg)
-        if finger is not None:
-            deepest[finger] = max(deepest.get(finger, -1), _SEGMENT_DEPTH[seg])
-    reach = np.array([deepest.get(f, -1) for f in _JOINT_FINGER])
-    return _JOINT_DEPTH <= reach
+    return pcp_masks(np.isin(SEGMENTS, segments)[None])[0]
 
 
 #: the finger of each segment in SEGMENTS order ("" for the palm)
@@ -181,8 +172,14 @@ _SEGMENT_DEPTH_ARRAY = np.array([_SEGMENT_DEPTH.get(s, -1) for s in SEGMENTS])
 
 
 def pcp_masks(touching: np.ndarray) -> np.ndarray:
-    """`pcp_mask` of many readings at once: touching segments (m, len(SEGMENTS)) bool, in SEGMENTS
-    order -> masks (m, 22)."""
+    """`pcp_mask` of many readings at once.
+
+    Args:
+        touching: which segments touch, (m, len(SEGMENTS)) bool in `SEGMENTS` order (e.g. `segment_forces > 0`).
+
+    Returns:
+        The masks (m, 22) bool in `FINGER_JOINTS` order.
+    """
     touching = np.asarray(touching, dtype=bool)
     if touching.ndim != 2 or touching.shape[1] != len(SEGMENTS):
         raise InvalidInput(f"touching must have shape (m, {len(SEGMENTS)}) (SEGMENTS order), got {touching.shape}")
@@ -191,10 +188,7 @@ def pcp_masks(touching: np.ndarray) -> np.ndarray:
     return _JOINT_DEPTH <= reach
 
 
-_OPEN, _CLOSED = SHADOW_HAND.keyframe_posture("open"), SHADOW_HAND.keyframe_posture("closed")
-
-
-def open_posture() -> np.ndarray:
+def open_posture(hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """The controller's initial posture (phase A): fingers straight, thumb opposed but low (the hand
     model's keyframe `open`).
 
@@ -202,17 +196,23 @@ def open_posture() -> np.ndarray:
     ready to close against the fingers yet stays clear of an object held 1 cm in front of the palm.
     Starting with the thumb in the palm plane instead makes it sweep into the object and land on top.
 
+    Args:
+        hand: the hand model (default ours).
+
     Returns:
         The posture (22,), rad.
     """
-    return _OPEN.copy()
+    return hand.keyframe_posture("open")
 
 
-def closed_posture() -> np.ndarray:
+def closed_posture(hand: HandModel = SHADOW_HAND) -> np.ndarray:
     """The generic closing target: every finger fully flexed, the thumb opposed and flexed (the hand
     model's keyframe `closed`).
 
+    Args:
+        hand: the hand model (default ours).
+
     Returns:
         The posture (22,), rad.
     """
-    return _CLOSED.copy()
+    return hand.keyframe_posture("closed")

@@ -404,7 +404,7 @@ class Scene:
             posture: 22 finger joint angles, rad.
             wrist: (WRJ2, WRJ1), rad.
         """
-        posture = validate_posture(posture, check_limits=True)
+        posture = validate_posture(posture, check_limits=True, hand=self.hand)
         ctrl = posture_to_ctrl(posture, wrist, self.hand)
         self.data.qpos[self.finger_qpos] = self.hand.to_model(posture)
         self.data.qpos[self.hand_qpos[:2]] = ctrl[self.hand.wrist_rows]
@@ -419,8 +419,8 @@ class Scene:
             posture: 22 finger joint angles, rad.
             wrist: (WRJ2, WRJ1), rad.
         """
-        self.data.ctrl[self.actuator_ids] = posture_to_ctrl(validate_posture(posture, name="target", check_limits=True),
-                                                            wrist, self.hand)
+        posture = validate_posture(posture, name="target", check_limits=True, hand=self.hand)
+        self.data.ctrl[self.actuator_ids] = posture_to_ctrl(posture, wrist, self.hand)
 
     # -- pictures --------------------------------------------------------------------------------
     def state(self) -> np.ndarray:

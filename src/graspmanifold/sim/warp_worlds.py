@@ -22,7 +22,6 @@ import numpy as np
 
 from ..base.errors import BackendUnavailable, InvalidInput, SimulationError
 from .hand import SEGMENTS, SHADOW_HAND, segment_of_geoms
-from .posture import CTRL_MATRIX
 from .scene import PENETRATION_LIMIT, Scene
 from .tactile import TactileReading
 
@@ -183,7 +182,7 @@ class WarpWorlds:
     # -- acting ---------------------------------------------------------------------------------------
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
         ctrl = self._d.ctrl.numpy()
-        ctrl[worlds] = targets @ CTRL_MATRIX.T
+        ctrl[worlds] = targets @ self.scenes[0].hand.ctrl_matrix.T
         self._d.ctrl.assign(ctrl)
 
     def release(self, worlds: np.ndarray) -> None:

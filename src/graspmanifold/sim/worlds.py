@@ -1,11 +1,11 @@
-"""Many grasp scenes stepped together: the physics behind batched trials (`batch_trials.py`).
+"""Many grasp scenes stepped together: the physics behind the trials (`trial.run_trials`).
 
 A `Worlds` object holds N copies of one object's scene, each already placed and posed by the
 trial setup (`Scene` on the host), and offers what a batched trial needs of the physics: read the
 joints, the tactile segment forces and the object's position of every world at once, command
 targets, step chosen worlds by a control period, change a world's gravity, support and push, and
 read one world's full tactile reading when its grasp is judged. `CpuWorlds` steps the scenes' own
-MuJoCo data (every number as a single trial computes it); `warp_worlds.WarpWorlds` steps all of
+MuJoCo data, one after the other; `warp_worlds.WarpWorlds` steps all of
 them at once on a GPU with MuJoCo Warp.
 """
 
@@ -57,8 +57,7 @@ class Worlds(Protocol):
 
 
 class CpuWorlds:
-    """Worlds stepped one after the other by CPU MuJoCo, in the scenes' own data: every number is
-    the one a single trial (`trial.run_trial`) computes."""
+    """Worlds stepped one after the other by CPU MuJoCo, in the scenes' own data."""
 
     def __init__(self, scenes: list[Scene]):
         if not scenes:

@@ -38,7 +38,7 @@ import numpy as np
 from ..base.checkpoints import PartStore
 from ..base.errors import InvalidInput
 from ..base.validation import check_int
-from ..control.controller import ControllerParams
+from ..control.controller import ControllerFactory, ControllerParams
 from ..control.generator import remove_checkpoints
 from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
@@ -127,14 +127,14 @@ def cells() -> list[tuple[str, str]]:
 def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
                   preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
                   every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
-                  label: str = "", progress: bool | None = None, executor: Executor | None = None
-                  ) -> dict[tuple[str, str], EvaluationResult]:
+                  label: str = "", progress: bool | None = None, executor: Executor | None = None,
+                  controller: ControllerFactory | None = None) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
     Args:
         experience: None (the plain heuristic), a PostureDatabase or a SOM: one for all objects.
         split: 'test' or 'selection'.
-        params: controller parameters; `preshape`: a constant phase-B posture (see `GraspController`).
+        params: controller parameters; `preshape`: a constant phase-B posture (see `BatchController`).
         noise: trial noise (`Noise`), none by default.
         objects: the benchmark objects to run (default: all of `OBJECTS`).
         every: keep every k-th pose of each grid (a smaller, CI-sized run).
@@ -144,6 +144,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         label: the method's name, for the stored files and `EvaluationResult.method`.
         progress: show progress bars (None: as `progress.show_progress` says, on by default).
         executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
+        controller: a user's own controller instead of ours (`evaluate(controller=...)`; give a `label`).
 
     Returns:
         {(object, placement): EvaluationResult} in `cells()` order.
@@ -161,7 +162,8 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
             continue
         path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
         grid = benchmark_grid(name, placement, split)[::every]
-        key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape).key(grid, seed)
+        key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape, method=label,
+                         controller=controller).key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
             stored = cell.load(path.name)
@@ -171,7 +173,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
                           params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor,
-                          method=label or "")
+                          method=label or "", controller=controller)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))

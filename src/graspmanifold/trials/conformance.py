@@ -1,7 +1,7 @@
-"""The contracts that every implementation of the library's two interfaces must meet, as checks one
-can run on a new one (as scikit-learn's `check_estimator`): an experience base (`Experience`: the
-raw database, the SOM, a user's own) and a set of worlds stepped together (`Worlds`: CPU MuJoCo,
-MuJoCo Warp). The test suite runs them over every implementation the library ships.
+"""The contracts that every implementation of the library's three interfaces must meet, as checks one
+can run on a new one (as scikit-learn's `check_estimator`): an experience base (`Experience`: the raw
+database, the SOM, a user's own), a grasp controller (`Controller`: ours, a user's own) and worlds
+stepped together (`Worlds`: CPU MuJoCo, MuJoCo Warp). The test suite runs them over every one it ships.
 
 Each check raises `AssertionError` naming the promise that is broken, and returns None otherwise.
 """
@@ -12,8 +12,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..control.controller import Controller, ControllerFactory
 from ..manifold.experience import Experience
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.hand import DISTAL_SEGMENTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import closed_posture, open_posture
 from ..sim.scene import GRAVITY, Scene
@@ -77,6 +78,63 @@ def check_experience_contract(experience: Experience, *, queries: int = 20, seed
                                   err_msg="complete_batch is not the matched references")
     np.testing.assert_array_equal(experience.best_match_batch(X, masks), before,
                                   err_msg="the answers changed after queries: the experience keeps hidden state")
+
+
+def check_controller_contract(make: ControllerFactory, hand: HandModel = SHADOW_HAND, *,
+                              seconds: float = 10.0) -> None:
+    """What the trials rely on of a grasp controller (`controller.Controller`).
+
+    Made for two worlds, it is driven with readings made up here, the hand still in its open posture: world 0
+    feels nothing, world 1 its index and thumb tips from 0.1 s on. It must have the protocol's members, a
+    period of whole physics steps, an open posture and (2, 22) finite targets in the hand's ranges, act on
+    touch (the worlds' targets come apart), keep the worlds apart (swapped worlds, swapped targets), start
+    again on `reset`, and finish a grasp whose five fingertips touch within `seconds`.
+
+    Args:
+        make: builds the implementation: `make(n, hand)`.
+        hand: the hand model it drives.
+        seconds: how long a grasp may take, s of controller time.
+    """
+    controller = make(2, hand)
+    assert isinstance(controller, Controller), f"{type(controller).__name__} lacks a member of the Controller " \
+        "protocol (n, control_period, initial, done, reset, step)"
+    period, low, high = controller.control_period, *hand.limits().T
+    steps = period / hand.timestep if isinstance(period, (int, float)) and period > 0 else 0.0
+    assert controller.n == 2 and steps >= 1 and abs(steps - round(steps)) < 1e-6, \
+        f"n {controller.n} for 2 worlds, control_period {period!r} s for whole {hand.timestep} s physics steps"
+    inside = lambda postures: np.all((postures >= low - 1e-9) & (postures <= high + 1e-9))  # noqa: E731
+    initial = np.asarray(controller.initial, dtype=float)
+    assert initial.shape == (N_FINGER_JOINTS,) and inside(initial), "initial must be 22 angles in the hand's ranges"
+    touched = np.zeros((2, len(SEGMENTS)))
+    touched[1, [SEGMENTS.index(DISTAL_SEGMENTS[0]), SEGMENTS.index(DISTAL_SEGMENTS[-1])]] = 1.0
+
+    def drive(swap: bool) -> list[np.ndarray]:
+        controller.reset()
+        assert np.asarray(controller.done).shape == (2,) and not np.any(controller.done), "done must be (2,) False"
+        targets = []
+        for cycle in range(max(2, round(1.0 / period))):
+            forces = touched[::-1] if swap else touched
+            target = np.asarray(controller.step(np.tile(initial, (2, 1)), forces * (cycle * period >= 0.1)))
+            assert target.shape == (2, N_FINGER_JOINTS), f"step returned shape {target.shape}, not (2, 22)"
+            assert np.all(np.isfinite(target)), f"step returned non-finite targets in cycle {cycle}"
+            assert inside(target), f"step returned targets outside the hand's ranges in cycle {cycle}"
+            targets.append(target[::-1] if swap else target)
+        return targets
+
+    first = drive(swap=False)
+    assert any(not np.array_equal(t[0], t[1]) for t in first), \
+        "the targets do not depend on the segment forces: the controller ignores touch"
+    for check, message in ((drive(swap=True), "a world's targets depend on another world's readings"),
+                           (drive(swap=False), "reset does not start a new grasp: the same readings, other targets")):
+        assert all(np.array_equal(a, b) for a, b in zip(first, check)), message
+    controller.reset()
+    tips = np.zeros((2, len(SEGMENTS)))
+    tips[:, [SEGMENTS.index(s) for s in DISTAL_SEGMENTS]] = 1.0
+    for _ in range(round(seconds / period)):
+        controller.step(np.tile(initial, (2, 1)), tips)
+        if np.all(controller.done):
+            return
+    raise AssertionError(f"a grasp whose five fingertips touch did not finish within {seconds} s")
 
 
 def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObject | None = None, *,

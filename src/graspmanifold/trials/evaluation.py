@@ -1,6 +1,6 @@
 """Evaluating a grasp controller over a grid of object poses (paper Section 5), with its result type.
 
-`evaluate` runs one trial (`trial.run_trial`) at every pose of a grid (`grid.py`), in parallel
+`evaluate` runs one trial (`trial.run_trials`) at every pose of a grid (`grid.py`), in parallel
 worker processes and resumably (checkpoint parts), and returns an `EvaluationResult`: the trials
 with their summary (rates with Wilson intervals), saved to and loaded from .npz. A trial whose
 physics failed counts as neither a success nor a failure: summaries report rates over the valid
@@ -25,15 +25,14 @@ from ..base.io import library_version, load_npz, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
-from ..control.controller import ControllerParams
+from ..control.controller import ControllerFactory, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.objects import GraspObject, object_from_params
-from .batch_trials import run_trials
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
-from .trial import Noise, Trial, TrialSetup
+from .trial import Noise, Trial, TrialSetup, run_trials
 
 
 @dataclass
@@ -250,7 +249,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              params: ControllerParams | None = None,
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
-             batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours") -> EvaluationResult:
+             batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
+             controller: ControllerFactory | None = None) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -271,16 +271,18 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         params: controller parameters (`ControllerParams`).
         table: the object stands on a table with gravity on while the hand closes (grid poses where the
             open hand would touch the table are left out of presets and refused in a custom grid).
-        preshape: a constant phase-B posture (22,), rad (see `GraspController`).
+        preshape: a constant phase-B posture (22,), rad (see `BatchController`).
         checkpoint_dir: where finished trials are kept until the end.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
         executor: run the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
-        backend: 'cpu' runs each chunk of trials as one batch (`batch_trials.run_trials`, the trials of
-            `trial.run_trial` bit for bit) in worker processes; 'warp' runs up to `batch_size` trials at
-            once on the GPU with MuJoCo Warp (the `gpu` extra; `warp_worlds.py`), in this process.
+        backend: 'cpu' runs each chunk of trials as one batch (`trial.run_trials`) in worker processes;
+            'warp' runs up to `batch_size` trials at once on the GPU with MuJoCo Warp (the `gpu` extra;
+            `warp_worlds.py`), in this process.
         batch_size: trials at once on the GPU.
         method: the method's label in the result (empty: 'none', 'database' or 'som', from the experience).
         hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`).
+        controller: a user's own controller instead of ours (`TrialSetup.controller`: `controller(n, hand)`
+            returns a `controller.Controller`); give it a `method` label, and no experience, preshape or params.
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -290,7 +292,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             argument.
     """
     setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method, hand)
+                       method, hand, controller)
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size = check_int(batch_size, "batch_size")

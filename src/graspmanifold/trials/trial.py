@@ -1,8 +1,10 @@
-"""One grasp trial: place the object at a grid pose, let the controller close the hand, judge the grasp.
+"""Grasp trials: place the object at a grid pose, let the controller close the hand, judge the grasp.
 
 A trial puts a free object (gravity off) in front of the open hand at one grid pose (`grid.py`),
-runs the controller until it reports the grasp done, and then judges the grasp (`judge.judge_grasp`:
+runs the controller until it reports the grasp done, and then judges the grasp (`judge.judge_worlds`:
 the hold test in six gravity directions, the disturbance margin, and epsilon for force closure).
+`run_trials` is the one trial loop: N grid poses at once, one controller for all (`BatchController`, or
+a user's own `Controller`) and one `Worlds` for the physics (`CpuWorlds`, or `WarpWorlds` on a GPU).
 While the hand closes, a stiff spring-damper support keeps the object near its place (as a table or
 a helper's hand would; without it the first touch would push a weightless object away); it is
 released before judging. Optional noise perturbs the true object pose around the grid pose (the
@@ -20,23 +22,24 @@ from __future__ import annotations
 import functools
 import math
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.errors import InvalidInput, QualityError, SimulationError
+from ..base.errors import InvalidInput
 from ..base.validation import check_int
-from ..control.controller import ControllerParams, GraspController
-from ..control.judge import JUDGING, judge_grasp, supported_scene
+from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
+from ..control.judge import JUDGING, judge_worlds, supported_scene
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
+from ..sim.worlds import CpuWorlds, Worlds
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
@@ -58,6 +61,9 @@ class Noise:
                     or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
                 raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
 
+
+#: s of simulated time after which a world whose controller never reports its grasp done is judged as it is
+MAX_GRASP_SECONDS = 600.0
 
 #: the physics engines trials run on: CPU MuJoCo, or MuJoCo Warp on an NVIDIA GPU (`warp_worlds.py`)
 BACKENDS = ("cpu", "warp")
@@ -91,6 +97,9 @@ class TrialSetup:
         method: the method's label in results and reports (empty: `method_name` of the experience).
         hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); experience from another hand's
             postures is refused.
+        controller: a user's own: `controller(n, hand)` returns a `controller.Controller` for n worlds (a
+            module-level class or function, for worker processes); it brings its own experience and parameters
+            (`experience`, `preshape`, `params` stay at their defaults), and `method` names it.
     """
 
     object: GraspObject
@@ -102,6 +111,7 @@ class TrialSetup:
     backend: str = "cpu"
     method: str = ""
     hand: HandModel = SHADOW_HAND
+    controller: ControllerFactory | None = None
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -122,6 +132,13 @@ class TrialSetup:
             raise InvalidInput(f"backend must be one of {BACKENDS}, got {self.backend!r}")
         if not isinstance(self.method, str):
             raise InvalidInput(f"method must be a label (a string), got {self.method!r}")
+        if self.controller is not None and not (callable(self.controller) and self.method):
+            raise InvalidInput(f"controller must be a callable controller(n, hand) that returns a Controller, with "
+                               f"a method label (method='...') to name its results; got {self.controller!r}")
+        if self.controller is not None and not (self.experience is None and self.preshape is None
+                                                and self.params == ControllerParams()):
+            raise InvalidInput("a custom controller brings its own experience and parameters: leave experience, "
+                               "preshape and params at their defaults")
         set_field("method", self.method or method_name(self.experience))
         set_field("table", bool(self.table))
 
@@ -136,18 +153,32 @@ class TrialSetup:
         Returns:
             A 20-character hexadecimal key.
         """
-        experience = self.experience
+        experience, custom = self.experience, self.controller
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
                            "params": asdict(self.params), "table": self.table, "backend": self.backend,
                            "experience": None if experience is None else type(experience).__name__,
-                           "hand": self.hand.name},
+                           "hand": self.hand.name, "controller": None if custom is None else
+                           f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
                           np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
 
-    def controller(self) -> GraspController:
-        """A fresh controller of this set-up."""
-        return GraspController(self.experience, self.params, preshape=self.preshape)
+    def make_controller(self, n: int) -> Controller:
+        """A fresh controller of this set-up.
+
+        Args:
+            n: worlds.
+
+        Returns:
+            Ours (`BatchController` with the set-up's experience, parameters, preshape and hand), or the user's.
+        """
+        if self.controller is None:
+            return BatchController(n, self.experience, self.params, preshape=self.preshape, hand=self.hand)
+        controller = self.controller(n, self.hand)
+        if not isinstance(controller, Controller):
+            raise InvalidInput(f"the controller {type(controller).__name__} lacks a member of the Controller protocol "
+                               "(n, control_period, initial, done, reset, step: graspmanifold.control.controller)")
+        return controller
 
 
 @dataclass
@@ -208,43 +239,79 @@ def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generat
     return scene
 
 
-def run_trial(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator,
-              observer: Callable[[Scene], None] | None = None) -> Trial:
-    """Place the object, let the controller grasp it, judge the grasp (epsilon, hold, margin).
+def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
+               observer: Callable[[Worlds], None] | None = None) -> list[Trial]:
+    """One trial per grid pose (n, 4), all at once: place the objects, let the controller grasp them, judge the grasps.
 
-    The object is held by a spring support with gravity off, or (`setup.table`) stands on a table
-    with gravity on while the hand closes. `observer(scene)` is called after the start and after
-    every control period, the judging included (`record_trial` keeps the states it sees)."""
-    controller = setup.controller()
-    noise = setup.noise
-    scene = trial_scene(setup, grid_pose, rng, controller.initial)
-    period = controller.params.control_period
-    if observer is not None:
-        observer(scene)
+    Every world runs on its own clock of control periods: its controller acts until it reports the grasp
+    done, then its judging begins (`judge.judge_worlds`) while the other worlds go on grasping. Trial i
+    draws its noise from `rngs[i]`; `observer(worlds)` is called after the start and after every control
+    period, the judging included (`record_trial` keeps the states it sees). Returns one `Trial` per pose.
+    """
+    poses = np.asarray(poses, dtype=float)
+    n = len(poses)
+    controller = setup.make_controller(n)
+    period = controller.control_period
+    scenes = [trial_scene(setup, pose, rng, controller.initial) for pose, rng in zip(poses, rngs)]
+    if setup.backend == "cpu":
+        worlds: Worlds = CpuWorlds(scenes)
+    else:
+        from ..sim.warp_worlds import WarpWorlds
 
-    def cycle() -> None:
-        sensed = scene.posture() + rng.normal(0.0, noise.joints, N_FINGER_JOINTS) if noise.joints else scene.posture()
-        scene.set_target(controller.step(sensed, scene.sensor.segment_forces(scene.data)))
-        if controller.params.reach > 0:  # the arm carries the palm where the recalled grasp wants it
-            scene.shift_hand(controller.palm_offset)
-        scene.run(period)
+        worlds = WarpWorlds(scenes)
+    nstep = max(1, round(period / scenes[0].model.opt.timestep))
+    grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
+    clock, time_to_grasp, failed = 0.0, np.full(n, np.nan), {}
+
+    def recalls(world: int) -> tuple[int, list[int]]:  # the best matches used (none, for a controller without)
+        return (int(getattr(controller, "matches", np.zeros(n, dtype=int))[world]),
+                list(getattr(controller, "winners", [[]] * n)[world]))
+
+    def advance(live: np.ndarray) -> dict[int, str]:
+        """One control period: the controller, then the physics. Worlds not given are not read (a failed
+        world's state may not be finite); their controller's targets no longer matter."""
+        nonlocal clock
+        sensed, forces = np.tile(controller.initial, (n, 1)), np.zeros((n, len(SEGMENTS)))
+        sensed[live], forces[live] = worlds.joints(live), worlds.segment_forces(live)
+        if setup.noise.joints:
+            for world in np.flatnonzero(grasping):
+                sensed[world] += rngs[world].normal(0.0, setup.noise.joints, N_FINGER_JOINTS)
+        targets = controller.step(sensed, forces)
+        clock += period
+        newly_done = grasping & np.asarray(controller.done, dtype=bool)
+        time_to_grasp[newly_done] = clock
+        worlds.set_targets(live, targets[live])
+        if getattr(controller, "moves_palm", False):  # the arm carries each palm where its recalled grasp wants it
+            worlds.shift_hands(live, controller.palm_offset[live])
+        failures = worlds.step(live, nstep)
+        failed.update({world: recalls(world) for world in failures})  # as they were when its physics failed
+        grasping[newly_done] = grasping[list(failures)] = False
         if observer is not None:
-            observer(scene)
+            observer(worlds)
+        return failures
 
-    grid_pose = np.asarray(grid_pose, dtype=float)
-    try:
-        while not controller.done:
-            cycle()
-        reading = scene.tactile()
-        posture = scene.posture()
-        judgement = judge_grasp(scene, cycle, period)
-    except (SimulationError, QualityError) as error:
-        return Trial(grid_pose, scene.posture(), np.zeros(len(SEGMENTS), dtype=bool), 0.0, False, np.inf,
-                     float(scene.time), controller.matches, 0.0, scene.max_penetration, str(error),
-                     np.array(controller.winners, dtype=int))
-    return Trial(grid_pose, posture, np.array([reading.touches(s) for s in SEGMENTS]),
-                 judgement.epsilon, judgement.hold, judgement.displacement, float(controller.time_to_grasp),
-                 controller.matches, judgement.margin, scene.max_penetration, winners=np.array(controller.winners, dtype=int))
+    def ready() -> np.ndarray:
+        """The worlds whose grasp is done (all after MAX_GRASP_SECONDS: a controller that never finishes)."""
+        if clock >= MAX_GRASP_SECONDS:
+            time_to_grasp[np.isnan(time_to_grasp)] = clock
+            return np.ones(n, dtype=bool)
+        return np.asarray(controller.done, dtype=bool)
+
+    if observer is not None:
+        observer(worlds)
+    trials = []
+    for world, judged in enumerate(judge_worlds(worlds, period, advance, friction=setup.object.friction, ready=ready)):
+        matches, winners = failed.get(world) or recalls(world)
+        trials.append(Trial(poses[world], judged.posture, judged.touching, judged.epsilon, judged.hold,
+                            judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
+                            matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int)))
+    return trials
+
+
+def run_trial(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator,
+              observer: Callable[[Worlds], None] | None = None) -> Trial:
+    """One trial: `run_trials` for one grid pose (4,), m and rad, with its random generator."""
+    return run_trials(setup, np.asarray(grid_pose, dtype=float)[None], [rng], observer)[0]
 
 
 @dataclass
@@ -322,8 +389,8 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}
 
-    def observe(scene: Scene) -> None:
-        seen["scene"] = scene  # the trial's one scene
+    def observe(worlds: Worlds) -> None:
+        scene = seen["scene"] = worlds.scenes[0]  # the trial's one scene
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 

@@ -1,0 +1,77 @@
+"""The trial loop: N grid poses at once give the trials each pose gives on its own; the controller's readings checked."""
+
+import os
+
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold.control.controller import BLEND, BatchController
+from graspmanifold.sim.posture import pcp_mask, pcp_masks
+from graspmanifold.trials.grid import check_grid
+
+
+@pytest.fixture(scope="module")
+def experience():
+    candidates = gm.generate_postures("cylinder", 60, seed=0, params=gm.GeneratorParams(job_size=15, verify=False))
+    postures = gm.verify_postures(candidates, "cylinder").postures  # those of the 60 that hold
+    return {"none": None, "database": gm.PostureDatabase(postures),
+            "som": gm.SOM(6, 6, 22, seed=0).fit(postures, epochs=20)}
+
+
+def test_pcp_masks_agree_with_pcp_mask(rng):
+    touching = rng.random((300, len(gm.SEGMENTS))) < 0.15
+    expected = np.array([pcp_mask([s for s, t in zip(gm.SEGMENTS, row) if t]) for row in touching])
+    assert np.array_equal(pcp_masks(touching), expected)
+    with pytest.raises(ValueError, match="touching must have shape"):
+        pcp_masks(touching[:, :5])
+
+
+def test_batched_controller_rejects_bad_readings():
+    batch = BatchController(3)
+    with pytest.raises(ValueError, match="joints must be"):
+        batch.step(np.zeros((2, 22)), np.zeros((3, len(gm.SEGMENTS))))
+    with pytest.raises(ValueError, match="segment_forces must be"):
+        batch.step(np.zeros((3, 22)), np.full((3, len(gm.SEGMENTS)), np.nan))
+    with pytest.raises(ValueError, match="n \\(worlds\\)"):
+        BatchController(0)
+
+
+TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
+                "penetration", "fault", "winners")
+
+
+@pytest.mark.parametrize("kind,noise,params", [("database", gm.Noise(), None), ("som", gm.Noise(0.004, 0.08, 0.01), None),
+                                               ("som", gm.Noise(), BLEND),
+                                               ("som", gm.Noise(), gm.ControllerParams(recall="base", reach=0.03))])
+def test_worlds_run_together_give_the_trials_each_gives_alone(experience, kind, noise, params):
+    """One trial loop over N worlds: a pose's trial does not depend on the other poses run beside it."""
+    from graspmanifold.trials.trial import TrialSetup, run_trial, run_trials
+
+    obj = gm.get_object("cylinder")
+    _, poses = check_grid("quick", obj)
+    poses = poses[::5]
+    rngs = [np.random.default_rng([3, i]) for i in range(len(poses))]
+    setup = TrialSetup(obj, experience[kind], noise, params)
+    batched = run_trials(setup, poses, rngs)
+    for i, (pose, trial) in enumerate(zip(poses, batched)):
+        single = run_trial(setup, pose, np.random.default_rng([3, i]))
+        for field in TRIAL_FIELDS:
+            assert np.array_equal(getattr(single, field), getattr(trial, field)), (i, field)
+    assert any(t.hold for t in batched) and any(t.margin > 0 for t in batched)
+
+
+def test_evaluate_names_a_bad_backend_and_a_missing_gpu():
+    with pytest.raises(ValueError, match="backend must be one of"):
+        gm.evaluate("box", None, "quick", backend="gpu")
+    with pytest.raises(ValueError, match="batch_size"):
+        gm.evaluate("box", None, "quick", backend="warp", batch_size=0)
+    try:  # without the gpu extra, or without a GPU, the warp backend says what is missing
+        import warp
+
+        has_gpu = bool(warp.get_cuda_device_count())
+    except ImportError:
+        has_gpu = False
+    if not has_gpu and not os.environ.get("GRASPMANIFOLD_WARP_DEVICE"):
+        with pytest.raises((ImportError, RuntimeError), match="graspmanifold\\[gpu\\]|NVIDIA GPU"):
+            gm.evaluate("box", None, np.array([[0.0, 0.0, 0.01, 0.0]]), backend="warp")
