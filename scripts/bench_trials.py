@@ -1,7 +1,7 @@
 """Benchmark grasp trials: the batched CPU backend against one trial at a time, and the Warp backend.
 
     python scripts/bench_trials.py cpu [--grids quick paper] [--workers 1 2]
-    python scripts/bench_trials.py agree [--objects box cylinder sphere] [--experience none]
+    python scripts/bench_trials.py agree [--objects box cylinder sphere] [--som MAP.npz]
     python scripts/bench_trials.py gpu [--worlds 1024 4096 16384]
 
 `cpu`: trials per minute of `evaluate(backend="cpu")` (each checkpoint chunk one batch) and of the
@@ -71,7 +71,7 @@ def bench_agree(args: argparse.Namespace) -> None:
           "| warp wall (s) |\n|---|---|---|---|---|---|---|---|---|---|")
     total, same_fc = 0, 0
     for obj in args.objects:
-        experience = None
+        experience = None if args.som is None else gm.SOM.load(args.som.format(object=obj))
         cpu = gm.evaluate(obj, experience, args.grid, seed=0, workers=args.cpu_workers)
         start = time.perf_counter()
         warp = gm.evaluate(obj, experience, args.grid, seed=0, backend="warp")
@@ -131,6 +131,7 @@ def main() -> None:
     agree.add_argument("--objects", nargs="+", default=list(gm.PAPER_OBJECTS))
     agree.add_argument("--grid", default="quick")
     agree.add_argument("--cpu-workers", type=int, default=2)
+    agree.add_argument("--som", help="recall from this map (the paper's reading), e.g. run/maps/{object}.npz")
     gpu = sub.add_parser("gpu")
     gpu.add_argument("--object", default="cylinder")
     gpu.add_argument("--worlds", nargs="+", type=int, default=[1024, 4096, 16384])

@@ -76,14 +76,16 @@ class Study:
     def log(self, text: str) -> None:
         print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
 
-    def run(self, split: str, method: str, experience=None, params=None, preshape=None, noise=None) -> dict:
+    def run(self, split: str, method: str, experience=None, params=None, preshape=None, noise=None,
+            controller=None) -> dict:
         """One method on every cell of a split, kept in --out/evaluation."""
         every = (8 if split == "test" else 6) if self.args.quick else 1
         start = time.perf_counter()
         stored = self.out / "evaluation"
         self.reused += sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in cells() if o in self.objects)
         self.evaluations += sum(o in self.objects for o, _ in cells())
-        results = run_benchmark(experience, split=split, params=params or BLEND, preshape=preshape, noise=noise,
+        results = run_benchmark(experience, split=split, params=params or (None if controller else BLEND),
+                                preshape=preshape, noise=noise, controller=controller,
                                 objects=self.objects, every=every, workers=self.args.workers,
                                 store=self.out / "evaluation", label=method, executor=self.executor)
         self.results[(split, method)] = results

@@ -446,10 +446,11 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     n = check_int(n, "n")
     workers = workers_for(workers, n, GENERATE_PER_WORKER)
     params = params or GeneratorParams()
-    starts = starting_postures(obj, params.designs)
+    starts, model = starting_postures(obj, params.designs), hand_model(hand)  # the hand refused here when unknown
     if not starts:
         raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
-    hand = hand_model(hand).name  # refused here when unknown or not installed, before any job
+    hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:
+    starts = [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
     key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
                       "starts": [s.name for s in starts], "hand": hand})
     store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None

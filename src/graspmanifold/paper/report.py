@@ -22,7 +22,7 @@ from ..manifold.som import RESUME, SOM
 from ..sim.objects import DEFAULT_FRICTION
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
-from ..trials.stats import rate_text
+from ..trials.stats import holm, rate_text
 
 if TYPE_CHECKING:
     from .summary import RunSummary
@@ -328,12 +328,14 @@ def _markdown(run: RunData, summary: dict) -> str:
                       rate_text(round(s["force_closure_rate"] * s["trials"]), s["trials"]), _fmt(s["mean_margin"]),
                       _fmt(s["mean_epsilon"]), _fmt(s["mean_time_to_grasp"])] for s in summary["evaluation"]]),
              "## Verdict: does experience beat the plain heuristic?\n\n",
-             "Each method against the heuristic (`none`) on the same poses, hold test, McNemar's exact test. "
-             "The library's full study with the stronger controls is `scripts/study_experience.py`.\n\n",
+             "Each method against the heuristic (`none`) on the same poses, hold test, McNemar's exact test, and "
+             "Holm's correction over the table's comparisons (the verdict reads it, at 0.05). The library's full "
+             "study with the stronger controls is `scripts/study_experience.py`.\n\n",
              _table(["object", "method", "hold", "heuristic", "only method held", "only heuristic held", "p",
-                     "verdict"],
-                    [[r["object"], r["method"], r["rate_text"], r["control_text"], r["only_method"],
-                      r["only_control"], f"{r['p_value']:.3g}", r["verdict"]] for r in summary["comparisons"]]),
+                     "Holm p", "verdict"],
+                    [[r["object"], r["method"], r["rate_text"], r["control_text"], r["only_method"], r["only_control"],
+                      f"{r['p_value']:.3g}", f"{h:.3g}", r["verdict"] if h < 0.05 else "no difference"] for r, h in
+                     zip(summary["comparisons"], holm([r["p_value"] for r in summary["comparisons"]]))]),
              f"{summary['verdict']}\n\n",
              "## Where the evaluation grasps land (Section 5)\n\n",
              "The paper observed that successful grasps of the experience-based controller match mostly "
