@@ -71,6 +71,7 @@ from ..sim.posture import SEGMENT_FINGER, pcp_masks, validate_posture
 JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
 #: (5, 22): which joints belong to which finger (FINGERS order)
 FINGER_JOINT_MASKS = JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
+_FINGER_SEGMENTS = SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None]  # (5, len(SEGMENTS)): each finger's
 #: joints that flex a finger around an object (the squeeze acts on these)
 FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
 #: which joints of a steered finger take the matched posture: all, or only the spread joints (finger
@@ -359,7 +360,7 @@ class BatchController:
         self.time += dt
         touching_segments = forces > 0.0
         any_touch = touching_segments.any(axis=1)
-        touching = _per_finger(touching_segments, SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None], np.any)
+        touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
         waiting = ~self.done & (self.time <= p.preshape_time) & ~any_touch  # phase A
         self._target[waiting] = self.initial
         act = ~self.done & ~waiting
@@ -368,7 +369,7 @@ class BatchController:
             return self._target.copy()
 
         self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
-        self._match(act, joints, touching_segments, any_touch)
+        self._match(act, joints, touching_segments, touching)
         # D: a touching finger holds where it first touched; one that lost its contact closes on from there
         touched = act[:, None] & touching & ~self._reaching[:, None]  # while the palm moves, fingers follow the recall
         self._last_touch[touched] = self.time
@@ -427,10 +428,10 @@ class BatchController:
         return self._target.copy()
 
     def _match(self, act: np.ndarray, joints: np.ndarray, touching_segments: np.ndarray,
-               any_touch: np.ndarray) -> None:
+               fingers_touching: np.ndarray) -> None:
         """Phase B / C of every acting world: the best-matching experienced posture becomes the steered
         free fingers' recall ('target') or the closing heuristic's base ('base')."""
-        p = self.params
+        p, any_touch = self.params, touching_segments.any(axis=1)
         if self.preshape is not None:
             shaping = act & ~any_touch
             if self._targeting:
@@ -466,8 +467,7 @@ class BatchController:
         if p.restart_closure or p.reach > 0:  # the first trusted match after a contact restarts the closure
             restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]
             self._recalled[restart] = True
-            touching = np.column_stack([touching_segments[np.ix_(restart, SEGMENT_FINGER == f)].any(axis=1)
-                                        for f in FINGERS]).reshape(len(restart), len(FINGERS))
+            touching = fingers_touching[restart]
             if p.reach > 0:
                 for world, row in zip(restart, match[np.isin(worlds, restart)]):
                     self._start_reach(world, joints[world], row, touching_segments[world])

@@ -15,7 +15,6 @@ re-ranked with the direct formula. Both give the brute-force argmin, the lowest 
 
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
