@@ -32,7 +32,8 @@ import numpy as np
 import graspmanifold as gm
 from graspmanifold.control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
 from graspmanifold.base.io import write_text_atomic
-from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
+from graspmanifold.base.checkpoints import remove_checkpoints
+from graspmanifold.control.generator import DATASET_PRESETS
 from graspmanifold.control.starts import nearest_primitive
 from graspmanifold.sim.family import SHAPES
 from graspmanifold.trials.stats import headroom, holm, rate_text

@@ -22,7 +22,8 @@ from pathlib import Path
 import graspmanifold as gm
 from graspmanifold.base.io import write_text_atomic
 from graspmanifold.base.paper_numbers import MAX_DISTANCE_DEG, MIN_DISTANCE_DEG
-from graspmanifold.control.generator import DATASET_PRESETS, remove_checkpoints
+from graspmanifold.base.checkpoints import remove_checkpoints
+from graspmanifold.control.generator import DATASET_PRESETS
 from graspmanifold.manifold.analysis import nearest_neighbour_deg
 from graspmanifold.trials.study import train_experience_map
 

@@ -35,17 +35,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.base.io import write_text_atomic
-from graspmanifold.base.workers import worker_pool
+from graspmanifold.base.checkpoints import PartStore, remove_checkpoints, result_key
+from graspmanifold.base.errors import GraspManifoldError
+from graspmanifold.base.io import LOCK_FILE, output_lock, write_text_atomic
+from graspmanifold.base.validation import check_int
+from graspmanifold.base.workers import worker_pool, workers_for
 from graspmanifold.control.controller import BLEND
-from graspmanifold.control.generator import remove_checkpoints
 from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
 from graspmanifold.trials.stats import MIN_HEADROOM, headroom, holm, mcnemar, rate_text
 from graspmanifold.trials.study import train_experience_map
@@ -95,23 +98,34 @@ class Study:
         return results
 
 
+def _read_experience(path: Path) -> tuple[gm.PostureSet, dict]:
+    postures = gm.PostureSet.load(path)
+    return postures, postures.metadata
+
+
 def experience(study: Study) -> tuple[gm.PostureSet, dict[str, gm.PostureSet]]:
-    """Verified postures of every grasp type per object (cached in --out), and their union."""
+    """Verified postures of every grasp type per object, kept in --out under the key of what made them (the
+    object, the number of postures, the generator's parameters and the code: `checkpoints.result_key`), and
+    their union."""
     sets = {}
+    params = gm.GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if study.args.quick else 50)
     for name in study.objects:
-        path = study.out / f"experience_{name}.npz"
-        if not path.exists():
-            start = time.perf_counter()
-            postures = gm.generate_postures(OBJECTS[name].object, study.args.postures, seed=0,
-                                            workers=study.args.workers, executor=study.executor,
-                                            params=gm.GeneratorParams(designs="grasp_types",
-                                                                      max_candidates_per_posture=10 if study.args.quick else 50),
-                                            checkpoint_dir=study.out / f"experience_{name}.parts")
-            postures.save(path)
-            remove_checkpoints(study.out / f"experience_{name}.parts")
-            study.log(f"experience {name}: {len(postures)} postures from {postures.metadata['candidates']} "
-                      f"candidates ({time.perf_counter() - start:.0f} s)")
-        sets[name] = gm.PostureSet.load(path)
+        obj, file_name = OBJECTS[name].object, f"experience_{name}.npz"
+        store = PartStore(study.out, result_key({"object": obj.params(), "n": study.args.postures, "seed": 0,
+                                                 "params": asdict(params)}), _read_experience)
+        stored = store.load(file_name)
+        if stored:
+            sets[name] = stored[study.out / file_name]
+            continue
+        start = time.perf_counter()
+        parts = study.out / f"experience_{name}.parts"
+        postures = gm.generate_postures(obj, study.args.postures, seed=0, workers=study.args.workers,
+                                        executor=study.executor, params=params, checkpoint_dir=parts)
+        store.save(file_name, lambda target, meta: replace(postures, metadata={**postures.metadata, **meta}).save(target))
+        remove_checkpoints(parts)
+        study.log(f"experience {name}: {len(postures)} postures from {postures.metadata['candidates']} "
+                  f"candidates ({time.perf_counter() - start:.0f} s)")
+        sets[name] = postures
     return gm.PostureSet.concatenate(list(sets.values())), sets
 
 
@@ -154,12 +168,28 @@ def main() -> None:
                         "quick: 7)")
     args = parser.parse_args()
     args.out = args.out or ("study-quick" if args.quick else "study")
-    args.postures = args.postures or (7 if args.quick else 48)
+    args.postures = 7 if args.quick and args.postures is None else 48 if args.postures is None else args.postures
     doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/experience_study.md"))
-    study = Study(args)
-    with worker_pool(args.workers) as pool:  # started once: a pool per evaluation costs seconds on small grids
-        study.executor = pool if args.workers > 1 else None
-        info = run(study)
+    try:  # every argument checked before --out is made
+        args.postures = check_int(args.postures, "--postures")
+        args.workers = workers_for(args.workers, len(cells()) * 100, 1)
+        with output_lock(Path(args.out) / LOCK_FILE, args.out):
+            study = Study(args)
+            with worker_pool(args.workers) as pool:  # started once: a pool per evaluation costs seconds on small grids
+                study.executor = pool if args.workers > 1 else None
+                info = run(study)
+            write_report(study, info, doc)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished evaluations are kept in {args.out}; run the same command again to resume",
+              file=sys.stderr)
+        raise SystemExit(130) from None
+    except GraspManifoldError as error:
+        raise SystemExit(f"error: {error}") from None
+
+
+def write_report(study: Study, info: dict, doc: Path) -> None:
+    """The report, study.json (and, for the full study, the report's JSON beside it)."""
+    args = study.args
     write_text_atomic(doc, report(study, info))
     data = json.dumps(info, indent=1, default=float)
     write_text_atomic(study.out / "study.json", data)

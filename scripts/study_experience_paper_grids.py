@@ -43,7 +43,8 @@ import numpy as np
 import graspmanifold as gm
 from graspmanifold.base.io import atomic_write, write_npz, write_text_atomic
 from graspmanifold.control.controller import BLEND
-from graspmanifold.control.generator import remove_checkpoints, verify_postures
+from graspmanifold.base.checkpoints import remove_checkpoints
+from graspmanifold.control.generator import verify_postures
 from graspmanifold.control.judge import JUDGING
 from graspmanifold.trials.evaluation import EvaluationResult, trial_count
 from graspmanifold.trials.grid import GRID_COLUMNS, coverage, grid_preset

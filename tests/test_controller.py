@@ -487,7 +487,9 @@ def test_a_recall_of_the_closed_hand_closes_as_the_plain_heuristic():
 def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
     """`BLEND` is the controller every result before the paper's reading came from: its trials, their
     postures, epsilons and per-cycle winners equal those that commit computed (tests/data/blend_trials.npz,
-    written there by the script below run on it)."""
+    written there by the script below run on it): bit for bit on the processor that wrote it; on another, MuJoCo's
+    floating point differs in the seventh digit (measured on an AMD EPYC: postures 7e-7 rad, epsilon 6e-6), so the
+    discrete outcomes are compared exactly and the measured values to well within what any reading resolves."""
     from pathlib import Path
 
     from graspmanifold.trials.grid import check_grid
@@ -505,8 +507,10 @@ def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
                "som_noise": gm.evaluate("cylinder", som, poses, noise=gm.Noise(0.004, 0.08, 0.01), params=BLEND, **run),
                "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, restart_closure=True), **run)}
     for name, result in results.items():
-        for field in ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches",
-                      "margin", "penetration"):
+        for field in ("touching", "hold", "time_to_grasp", "matches", "margin"):
             assert np.array_equal(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"]), \
                 (name, field)
+        for field, atol in (("posture", 1e-5), ("epsilon", 1e-4), ("hold_displacement", 1e-5), ("penetration", 1e-5)):
+            np.testing.assert_allclose(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"],
+                                       rtol=0, atol=atol, err_msg=f"{name} {field}")
         assert np.array_equal(np.concatenate([t.winners for t in result.trials]), golden[f"{name}/winners"]), name

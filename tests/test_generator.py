@@ -260,8 +260,8 @@ def test_corrupt_and_inconsistent_set_files_raise(small_sets, tmp_path):
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda: gm.generate_postures("cylinder", 0), "n must be a positive"),
-    (lambda: gm.generate_postures("cylinder", -5), "n must be a positive"),
+    (lambda: gm.generate_postures("cylinder", 0), "n must be a whole number in 1 ... 1000000"),
+    (lambda: gm.generate_postures("cylinder", -5), "n must be a whole number in 1 ... 1000000"),
     (lambda: gm.generate_postures("teapot", 10), "unknown object"),
     (lambda: gm.generate_postures("cylinder", 10, workers=0), "workers"),
 ])
@@ -279,7 +279,7 @@ def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
     with pytest.raises(SystemExit, match="exists; pass --force"):
         cli(["generate", "--object", "sphere", "--n", "8", "--no-verify", "--out", str(out)])
     assert out.read_bytes() == before
-    with pytest.raises(SystemExit, match="--n must be positive"):
+    with pytest.raises(SystemExit, match="--n must be a whole number in 1"):
         cli(["generate", "--object", "sphere", "--n", "0", "--out", str(tmp_path / "x.npz")])
     with pytest.raises(SystemExit, match="must end in .npz"):
         cli(["generate", "--object", "sphere", "--n", "4", "--out", str(tmp_path / "x.csv")])

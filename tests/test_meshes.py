@@ -39,7 +39,7 @@ def test_a_mesh_two_metres_across_is_refused_with_the_unit_hint():
 
 
 def test_missing_and_unreadable_files_are_refused(tmp_path):
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(ValueError, match="mesh file: no such file"):
         gm.make_object("mesh", mesh=tmp_path / "nothing.stl")
     garbage = tmp_path / "garbage.stl"
     garbage.write_bytes(b"\x00\x01 this is not a mesh")
@@ -67,7 +67,7 @@ def test_misleading_mesh_messages_say_what_is_wrong(tmp_path):
     with pytest.raises(ValueError, match="only 0.04 mm thick"):
         gm.make_object("mesh", mesh=trimesh.creation.box(extents=(0.05, 0.05, 0.00004)))
     (tmp_path / "folder.stl").mkdir()
-    with pytest.raises(ValueError, match="is a directory, not a mesh file"):
+    with pytest.raises(ValueError, match="is a directory, not a file"):
         gm.make_object("mesh", mesh=tmp_path / "folder.stl")
 
 
@@ -204,7 +204,7 @@ def test_the_cli_generates_and_evaluates_on_a_mesh_file(tmp_path):
     assert evaluated.returncode == 0, evaluated.stderr
     assert "| handle |" in (tmp_path / "eval" / "table.md").read_text()
     refused = run("demo", "--object", str(tmp_path / "missing.stl"))
-    assert refused.returncode != 0 and "does not exist" in refused.stderr
+    assert refused.returncode != 0 and "no such file" in refused.stderr
 
 
 def test_a_reproduction_runs_from_a_config_that_names_family_objects(tmp_path):

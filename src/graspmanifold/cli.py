@@ -12,6 +12,7 @@ import os
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -63,9 +64,16 @@ def _hand_on(obj: GraspObject, clearance: float, hand: str, close: bool = True, 
     return scene
 
 
+#: s, the longest `demo` closes the hand for (it closes in about 2 s)
+MAX_DEMO_SECONDS = 60.0
+
+
 def _demo(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     obj = _object(args)
+    if not 0 < args.seconds <= MAX_DEMO_SECONDS:  # NaN fails too
+        raise SystemExit(f"error: --seconds must be a positive duration of at most {MAX_DEMO_SECONDS:g} s (the hand "
+                         f"closes in about 2 s), got {args.seconds}")
     try:
         scene = _hand_on(obj, args.clearance, args.hand, seconds=args.seconds)
     except (ValueError, ImportError) as error:
@@ -103,43 +111,69 @@ def _check_output(path: str, force: bool) -> Path:
 
 
 def _check_writable_directory(out: Path) -> None:
-    """Make `out` and write a probe file in it, before any work that would be lost if it failed."""
+    """Refuse an output folder that cannot be made or written, before any work that would be lost if it failed,
+    without making it (a probe file is written in the nearest folder that exists)."""
+    if out.is_symlink() and not out.exists():
+        raise SystemExit(f"error: --out {out} is a symbolic link that leads nowhere (a loop, or its target is gone)")
     if out.exists() and not out.is_dir():
         raise SystemExit(f"error: cannot write results to {out}: it is a file, not a directory "
                          "(name another --out)")
+    existing = next(folder for folder in (out.absolute(), *out.absolute().parents) if folder.exists())
+    if not existing.is_dir():
+        raise SystemExit(f"error: cannot write results to {out}: {existing} is a file, not a directory")
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=out):
+        with tempfile.TemporaryFile(dir=existing):
             pass
     except OSError as error:
         raise SystemExit(f"error: cannot write results to {out}: {error.strerror or error}") from None
 
 
+def _checked(args: argparse.Namespace, units: int) -> None:
+    """The arguments every working command shares, checked before any file is made: the hand (loaded, so
+    that a file that is no Shadow Hand is refused now), the worker count (capped to the job's `units` of work)
+    and the executor (connected: `args.cluster`)."""
+    from .base.workers import workers_for
+    from .sim.hand_models import hand_model
+
+    try:
+        hand_model(args.hand)
+    except (InvalidInput, ImportError) as error:
+        raise SystemExit(f"error: --hand: {error}") from None
+    try:
+        args.workers = workers_for(args.workers, units, 1)
+    except InvalidInput as error:
+        raise SystemExit(f"error: --{error}") from None
+    args.cluster = _executor(args)
+
+
 def _generate(args: argparse.Namespace) -> int:
+    from .control.generator import MAX_POSTURES
+
     obj = _object(args)
-    out = _check_output(args.out, args.force)
-    with output_lock(out.with_name(f".{out.name}.lock"), out):
-        return _generate_into(args, obj, out)
-
-
-def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
-    """`generate` with its output file held."""
-    from .control.generator import DATASET_PRESETS, generate_postures, remove_checkpoints
-
     n = args.n if args.n is not None else DATASET_PRESETS[args.preset].get(obj.name, DATASET_PRESETS[args.preset]["cylinder"])
-    if n <= 0:
-        raise SystemExit(f"error: --n must be positive, got {n}")
+    if not 0 < n <= MAX_POSTURES:
+        raise SystemExit(f"error: --n must be a whole number in 1 ... {MAX_POSTURES}, got {n}")
+    if args.seed < 0:
+        raise SystemExit(f"error: --seed must be a whole number >= 0, got {args.seed}")
+    out = _check_output(args.out, args.force)
+    _checked(args, n)
+    with output_lock(out.with_name(f".{out.name}.lock"), out):
+        return _generate_into(args, obj, n, out)
+
+
+def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path) -> int:
+    """`generate` with its output file held."""
+    from .base.checkpoints import remove_checkpoints
+    from .control.generator import generate_postures
+
     checkpoints = out.with_name(out.name + ".parts")
     params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify, designs=args.designs,
                      **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
-    try:
-        postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params, hand=args.hand,
-                                     checkpoint_dir=checkpoints, progress=True, executor=_executor(args))
-    except ImportError as error:
-        raise SystemExit(f"error: --hand: {error}") from None
+    postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params, hand=args.hand,
+                                 checkpoint_dir=checkpoints, progress=True, executor=args.cluster)
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = (f"verified: {postures.metadata['verified_ratio']:.0%} of {postures.metadata['candidates']} candidates "
@@ -149,44 +183,68 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
     return 0
 
 
-def _load_experience(kind: str, postures: list[str], som_path: str | None, seed: int, hand: str = "ours"):
-    """The experience base the evaluate command asks for: none, a database or a SOM (of `hand`'s postures)."""
+def _experience_files(args: argparse.Namespace):
+    """The files of the experience base the evaluate command asks for, read and checked: None, a SOM, or the
+    posture sets (of --hand's postures) for a database or a map to train."""
+    from .manifold.postureset import PostureSet
+    from .manifold.som import SOM
+    from .sim.hand_models import hand_name
+
+    if args.experience == "none":
+        return None
+    if args.experience == "som" and args.som:
+        return SOM.load(args.som)
+    if not args.postures:
+        raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --som MAP.npz)")
+    sets = [PostureSet.load(p) for p in args.postures]
+    hand = hand_name(args.hand, "--hand")
+    foreign = [f"{p} ({s.metadata.get('hand', 'ours')})" for p, s in zip(args.postures, sets)
+               if s.metadata.get("hand", "ours") != hand]
+    if foreign:
+        raise SystemExit(f"error: --postures of another hand than --hand {args.hand}: {', '.join(foreign)}")
+    return PostureSet.concatenate(sets)
+
+
+def _experience(args: argparse.Namespace, files):
+    """The experience base from its files (`_experience_files`): as read, a database of the posture sets, or a
+    SOM trained on them."""
     from .manifold.experience import PostureDatabase
     from .manifold.postureset import PostureSet
     from .manifold.som import SOM
 
-    if kind == "none":
-        return None
-    if kind == "som" and som_path:
-        return SOM.load(som_path)
-    if not postures:
-        raise SystemExit(f"error: --experience {kind} needs --postures FILE.npz (or --som MAP.npz)")
-    sets = [PostureSet.load(p) for p in postures]
-    foreign = [f"{p} ({s.metadata.get('hand', 'ours')})" for p, s in zip(postures, sets)
-               if s.metadata.get("hand", "ours") != hand]
-    if foreign:
-        raise SystemExit(f"error: --postures of another hand than --hand {hand}: {', '.join(foreign)}")
-    data = PostureSet.concatenate(sets).postures
-    if kind == "database":
-        return PostureDatabase(data)
-    print(f"training a {MAP_SIZE[0]}x{MAP_SIZE[1]} SOM on {len(data)} postures (paper schedule) ...", file=sys.stderr)
-    return SOM(*MAP_SIZE, data.shape[1], seed=seed).fit(data, progress=True)
+    if not isinstance(files, PostureSet):
+        return files
+    if args.experience == "database":
+        return PostureDatabase(files.postures)
+    print(f"training a {MAP_SIZE[0]}x{MAP_SIZE[1]} SOM on {len(files)} postures (paper schedule) ...", file=sys.stderr)
+    return SOM(*MAP_SIZE, files.postures.shape[1], seed=args.seed).fit(files.postures, progress=True)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    from .trials.grid import check_grid
+    from .trials.trial import Noise
+
     obj = _object(args)
     out = Path(args.out)
     _check_writable_directory(out)
+    if args.seed < 0:
+        raise SystemExit(f"error: --seed must be a whole number >= 0, got {args.seed}")
+    try:
+        noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
+        units = len(check_grid(args.grid, obj)[1])
+        files = _experience_files(args)
+    except (InvalidInput, FileNotFoundError) as error:
+        raise SystemExit(f"error: {error}") from None
+    _checked(args, units)
     with output_lock(out / LOCK_FILE, out):
-        return _evaluate_into(args, obj, out)
+        return _evaluate_into(args, obj, out, noise, files)
 
 
-def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int:
+def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise, files) -> int:
     """`evaluate` with its output folder held."""
+    from .base.checkpoints import remove_checkpoints
     from .base.io import write_text_atomic
-    from .control.generator import remove_checkpoints
     from .trials.evaluation import evaluate, summary_json
-    from .trials.trial import Noise
 
     checkpoints = out / "trials.parts"
     results = [out / name for name in ("trials.npz", "summary.json", "table.md")]
@@ -194,16 +252,11 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path) -> int
         raise SystemExit(f"error: {out} holds results already; pass --force to overwrite them")
     if args.force:
         remove_checkpoints(checkpoints)
-    try:
-        noise = Noise(args.position_noise, args.yaw_noise, args.joint_noise)
-        experience = _load_experience(args.experience, args.postures or [], args.som, args.seed, args.hand)
-        start = time.perf_counter()
-        result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers,
-                          noise=noise, table=args.table, checkpoint_dir=checkpoints, progress=True,
-                          executor=_executor(args), backend=args.backend, hand=args.hand,
-                          params=CONTROLLERS[args.controller])
-    except (FileNotFoundError, ImportError) as error:
-        raise SystemExit(f"error: {error}") from None
+    experience = _experience(args, files)
+    start = time.perf_counter()
+    result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers, noise=noise,
+                      table=args.table, checkpoint_dir=checkpoints, progress=True, executor=args.cluster,
+                      backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller])
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -242,12 +295,16 @@ def _reproduce(args: argparse.Namespace) -> int:
         raise SystemExit(f"error: unknown preset {args.preset!r}; expected one of {', '.join(PRESETS)}")
     config = PRESETS[args.preset]
     _check_writable_directory(Path(args.out))
-    if args.objects:
-        sizes = config.postures
-        config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
-    config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller])
+    try:
+        if args.objects:
+            sizes = config.postures
+            config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
+        config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller])
+    except InvalidInput as error:
+        raise SystemExit(f"error: {error}") from None
+    _checked(args, sum(config.postures.values()))
     reproduce(args.out, config, workers=args.workers, force=args.force,
-              log=lambda line: print(line, file=sys.stderr, flush=True), executor=_executor(args))
+              log=lambda line: print(line, file=sys.stderr, flush=True), executor=args.cluster)
     print(f"report: {Path(args.out) / 'report.md'}")
     return 0
 
@@ -368,7 +425,12 @@ _ON_INTERRUPT = {
 }
 
 
+def _one_line_warning(message: Warning | str, category: type[Warning], *_: object, **__: object) -> str:
+    return f"warning: {message}\n"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    warnings.formatwarning = _one_line_warning  # the command's warnings as one line each, like its errors
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)

@@ -5,13 +5,16 @@ A job's stored results are filed under a key (`result_key`) made of its explicit
 bytes of its inputs and the library's code fingerprint, never of a pickle: a pickled SOM changes after a
 single `best_match` (its search cache goes with it), so a key made of one threw valid checkpoints away.
 A result filed under another key is never reused. A `PartStore` keeps the finished parts of one job in a
-folder; parts of another key, or that cannot be read, are removed, with one warning naming them.
+folder; parts of another key, or that cannot be read, are removed, with one warning naming them (only files
+named as its parts are: names are matched whole, never globbed).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -20,9 +23,14 @@ from typing import Generic, TypeVar
 import numpy as np
 
 from .errors import InvalidInput
+from .io import TEMPORARY_SUFFIX
 from .version import code_fingerprint
 
 Part = TypeVar("Part")
+
+#: the names of the generator's checkpoint parts (job_<start>_<chunk>.npz) and of an evaluation's (part_<first>.npz)
+JOB_PARTS = re.compile(r"job_\d{3,}_\d{4,}\.npz")
+TRIAL_PARTS = re.compile(r"part_\d{5,}\.npz")
 
 
 def result_key(*parts: object) -> str:
@@ -64,19 +72,23 @@ class PartStore(Generic[Part]):
         self.directory.mkdir(parents=True, exist_ok=True)
         self.key, self._read = key, read
 
-    def load(self, pattern: str, accept: Callable[[Path, Part, dict], bool] = lambda *_: True) -> dict[Path, Part]:
-        """The parts of this job saved earlier; every other file matching `pattern` (another key, unreadable,
-        or one `accept` refuses) is removed, with a warning naming them.
+    def load(self, names: str | re.Pattern, accept: Callable[[Path, Part, dict], bool] = lambda *_: True
+             ) -> dict[Path, Part]:
+        """The parts of this job saved earlier; every other file with a part's name (another key, unreadable,
+        or one `accept` refuses) is removed, with a warning naming them. No other file is touched: a name is
+        matched whole, never as a glob.
 
         Args:
-            pattern: the part files' glob, e.g. 'part_*.npz'.
+            names: the part files' names: one file name, or a compiled pattern that the whole name must match
+                (e.g. `re.compile(r"part_\\d+\\.npz")`).
             accept: whether a part of this key fits the job as it is now planned.
 
         Returns:
             The parts by path.
         """
+        matches = names.fullmatch if isinstance(names, re.Pattern) else names.__eq__
         found, discarded = {}, []
-        for path in sorted(self.directory.glob(pattern)):
+        for path in sorted(p for p in self.directory.iterdir() if p.is_file() and matches(p.name)):
             try:
                 part, meta = self._read(path)
             except (ValueError, KeyError):  # truncated, or not a part of ours
@@ -106,3 +118,24 @@ class PartStore(Generic[Part]):
         path = self.directory / name
         write(path, {"key": self.key, **meta})
         return path
+
+
+def remove_checkpoints(directory: str | os.PathLike) -> None:
+    """Delete a job's checkpoint folder once its result is saved: the part files the library wrote there
+    (`JOB_PARTS`, `TRIAL_PARTS`) and its temporary files, then the folder if nothing else is left in it (a
+    file of the user's own is never deleted).
+
+    Args:
+        directory: the folder (nothing happens when there is none).
+    """
+    directory = Path(directory)
+    if not directory.is_dir():
+        return
+    for path in directory.iterdir():
+        if path.is_file() and (JOB_PARTS.fullmatch(path.name) or TRIAL_PARTS.fullmatch(path.name)
+                               or path.name.endswith(TEMPORARY_SUFFIX)):
+            path.unlink(missing_ok=True)
+    try:
+        directory.rmdir()
+    except OSError:  # something else is in it
+        pass

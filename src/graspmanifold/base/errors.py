@@ -16,6 +16,18 @@ class InvalidInput(GraspManifoldError, ValueError):
     what was expected."""
 
 
+class MissingFile(InvalidInput, FileNotFoundError):
+    """A file to read that is not there: an `InvalidInput` (the message names the argument) and a
+    `FileNotFoundError`."""
+
+    def __init__(self, message: str, path: str) -> None:
+        InvalidInput.__init__(self, message)
+        self.filename, self.strerror = path, message
+
+    def __str__(self) -> str:
+        return self.strerror
+
+
 class NotFittedError(GraspManifoldError, RuntimeError, AttributeError):
     """A model (a SOM) used before it was fitted. An `AttributeError` too, so `hasattr` and protocol
     checks (`isinstance(som, Experience)`) read an unfitted map as lacking what fitting gives it."""

@@ -22,6 +22,7 @@ from typing import IO
 import numpy as np
 
 from .errors import InvalidInput, OutputInUse
+from .validation import check_input_file
 from .version import __version__, code_fingerprint
 
 SCHEMA_VERSION = 2
@@ -100,9 +101,10 @@ LOCK_FILE = ".graspmanifold.lock"
 def output_lock(lock: str | os.PathLike, output: str | os.PathLike | None = None) -> Iterator[None]:
     """Hold an output for this process while the block runs: a second writer is refused at once.
 
-    The lock is an advisory `flock` on the file `lock` (made if missing, left in place), which the
-    system releases when the holder exits, however it ends: a run killed with SIGKILL leaves no stale
-    lock. Where the system has no `flock` (Windows), outputs are not locked.
+    The lock is an advisory `flock` on the file `lock`, which the system releases when the holder exits,
+    however it ends: a run killed with SIGKILL leaves no stale lock. The lock file is removed when the block
+    ends, and so is the lock's folder when this call made it and the block left nothing in it (a run refused
+    for a bad argument leaves nothing behind). Where the system has no `flock` (Windows), outputs are not locked.
 
     Args:
         lock: the lock file, e.g. `out / LOCK_FILE` for a folder.
@@ -110,6 +112,7 @@ def output_lock(lock: str | os.PathLike, output: str | os.PathLike | None = None
 
     Raises:
         OutputInUse: another process holds the lock; the message names it (process id, start time).
+        OSError: the lock file cannot be written (a full disk): the message names it.
     """
     try:
         import fcntl
@@ -117,20 +120,53 @@ def output_lock(lock: str | os.PathLike, output: str | os.PathLike | None = None
         yield
         return
     lock = Path(lock)
-    lock.parent.mkdir(parents=True, exist_ok=True)
-    with open(lock, "a+", encoding="utf-8") as handle:
+    made = [folder for folder in (lock.parent, *lock.parent.parents) if not folder.exists()]
+    while True:  # until the file locked is the one at the path (a holder that ends removes it)
+        try:
+            lock.parent.mkdir(parents=True, exist_ok=True)
+            handle = open(lock, "a+", encoding="utf-8")
+        except OSError as error:
+            raise OSError(error.errno, f"cannot write {lock}: {error.strerror or error}", str(lock)) from error
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             handle.seek(0)
             holder = handle.read().strip() or "a process"
+            handle.close()
             raise OutputInUse(f"{output or lock.parent} is being written by another graspmanifold run ({holder}); "
                               "wait for it to finish, or choose another output") from None
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"process {os.getpid()}, started {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
-        handle.flush()
-        yield
+        try:
+            if os.stat(lock).st_ino == os.fstat(handle.fileno()).st_ino:
+                break
+        except FileNotFoundError:
+            pass
+        handle.close()
+    with handle:
+        try:
+            handle.seek(0)
+            handle.truncate()
+            handle.write(f"process {os.getpid()}, started {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+            handle.flush()
+        except OSError as error:
+            raise OSError(error.errno, f"cannot write {lock}: {error.strerror or error}", str(lock)) from error
+        try:
+            yield
+        finally:
+            _unlink_if_same(lock, handle.fileno())
+            for folder in made:  # innermost first; only folders this call made, and only when empty
+                try:
+                    folder.rmdir()
+                except OSError:
+                    break
+
+
+def _unlink_if_same(path: Path, fd: int) -> None:
+    """Remove `path` if it is still the file open as `fd` (not another run's lock made since)."""
+    try:
+        if os.stat(path).st_ino == os.fstat(fd).st_ino:
+            path.unlink()
+    except OSError:
+        pass
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
@@ -177,28 +213,79 @@ class _Arrays(dict):
         raise InvalidInput(f"{self.path} lacks the array {name!r} (a file of another version, or corrupt)")
 
 
-def _read_arrays(path: Path) -> dict[str, np.ndarray]:
-    """The arrays of an .npz file, each member's declared shape checked against the bytes it holds
-    before anything is allocated (a corrupt header cannot ask for terabytes); no pickles."""
-    arrays = {}
+#: how many times its size on disk a file's arrays may hold when inflated (the library's own files are stored,
+#: not compressed: once); a member that declares more is refused before anything is inflated
+MAX_INFLATION = 20
+#: bytes, the most the metadata member may hold
+MAX_METADATA_BYTES = 16 * 2**20
+
+
+def _array_header(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tuple[int, ...], bool, np.dtype, int]:
+    """A member's .npy header, read without inflating its data: shape, Fortran order, dtype and data bytes."""
+    if not info.filename.endswith(".npy"):
+        raise InvalidInput(f"member {info.filename!r} is not an array")
+    with archive.open(info) as member:
+        version = np.lib.format.read_magic(member)
+        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read_header(member)
+        offset = member.tell()
+    if dtype.hasobject:
+        raise InvalidInput(f"member {info.filename!r} holds Python objects")
+    size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if size != info.file_size - offset:
+        raise InvalidInput(f"member {info.filename!r} declares shape {shape} of {dtype} ({size} bytes) but "
+                           f"holds {info.file_size - offset} bytes")
+    return tuple(shape), fortran, dtype, size
+
+
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
+    shape, fortran, dtype, size = _array_header(archive, info)
+    with archive.open(info) as member:
+        member.read(info.file_size - size)
+        data = np.frombuffer(member.read(size), dtype=dtype, count=int(np.prod(shape, dtype=np.int64)))
+    return data.reshape(shape, order="F" if fortran else "C").copy()
+
+
+def _read_file(path: Path, kind: str, required: dict[str, tuple[int | None, ...]]) -> tuple[dict[str, np.ndarray], dict]:
+    """The metadata and arrays of an .npz file, checked in the order that bounds what a hostile file can cost:
+    the members' declared sizes against the file's size on disk (`MAX_INFLATION`), the metadata (its kind and
+    schema), then every header's shape against `required`, and only then the arrays' data; no pickles."""
+    allowed = MAX_INFLATION * max(path.stat().st_size, 1)
     with zipfile.ZipFile(path) as archive:
-        for info in archive.infolist():
-            if not info.filename.endswith(".npy"):
-                raise InvalidInput(f"member {info.filename!r} is not an array")
-            with archive.open(info) as member:
-                version = np.lib.format.read_magic(member)
-                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                               else np.lib.format.read_array_header_2_0)
-                shape, fortran, dtype = read_header(member)
-                if dtype.hasobject:
-                    raise InvalidInput(f"member {info.filename!r} holds Python objects")
-                size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-                if size != info.file_size - member.tell():
-                    raise InvalidInput(f"member {info.filename!r} declares shape {shape} of {dtype} ({size} bytes) but "
-                                     f"holds {info.file_size - member.tell()} bytes")
-                data = np.frombuffer(member.read(size), dtype=dtype, count=int(np.prod(shape, dtype=np.int64)))
-                arrays[info.filename[:-4]] = data.reshape(shape, order="F" if fortran else "C").copy()
-    return arrays
+        members = {info.filename: info for info in archive.infolist()}
+        declared = sum(info.file_size for info in members.values())
+        if declared > allowed:
+            raise _Refused(f"its members would inflate to {declared} bytes, more than {MAX_INFLATION} times the "
+                               f"file's {path.stat().st_size} bytes (a zip bomb?)")
+        info = members.pop(f"{_METADATA_KEY}.npy", None)
+        if info is None:
+            raise _Refused("it has no metadata")
+        if info.file_size > MAX_METADATA_BYTES:
+            raise _Refused(f"its metadata declares {info.file_size} bytes, more than {MAX_METADATA_BYTES}")
+        try:
+            meta = json.loads(str(_read_member(archive, info)))
+        except (json.JSONDecodeError, UnicodeDecodeError) as error:
+            raise _Refused(f"its metadata is corrupt: {error}") from None
+        if not isinstance(meta, dict):
+            raise _Refused(f"its metadata is corrupt: a JSON {type(meta).__name__}, not an object")
+        if meta.get("kind") != kind:
+            raise _Refused(f"it holds a {meta.get('kind')!r}, not a {kind!r}")
+        if meta.get("schema") != SCHEMA_VERSION:
+            raise _Refused(f"it has schema version {meta.get('schema')!r}; this library reads {SCHEMA_VERSION}")
+        headers = {name[:-4]: _array_header(archive, info) for name, info in members.items()}
+        for name, shape in required.items():
+            if name not in headers:
+                raise _Refused(f"it lacks the array {name!r}")
+            got = headers[name][0]
+            if len(got) != len(shape) or any(s is not None and s != g for s, g in zip(shape, got)):
+                raise _Refused(f"its array {name!r} has shape {got}, expected {shape}")
+        return {name[:-4]: _read_member(archive, info) for name, info in members.items()}, meta
+
+
+class _Refused(InvalidInput):
+    """A file refused for what it declares (another kind, a missing array, a bomb): said as it is, not as
+    corruption."""
 
 
 def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int | None, ...]]
@@ -214,35 +301,16 @@ def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int |
         The arrays (a missing one, asked for later, raises a ValueError naming the file) and the metadata.
 
     Raises:
-        FileNotFoundError: there is no such file.
-        ValueError: the file is truncated, corrupt, foreign, of another kind or schema, or lacks an array;
-            the message names it.
+        MissingFile: there is no such file (a `FileNotFoundError`).
+        ValueError: the file is truncated, corrupt, foreign, of another kind or schema, lacks an array, or
+            would inflate to more than `MAX_INFLATION` times its size; the message names it.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}" + (" (it is a directory)" if path.is_dir() else ""))
+    path = check_input_file(path, "path")
     try:
-        arrays = _read_arrays(path)
+        arrays, meta = _read_file(path, kind, required)
+    except _Refused as error:
+        raise InvalidInput(f"{path}: {error}") from None
     except Exception as error:  # noqa: BLE001 - whatever a corrupt file does to the parser, the file is at fault
         raise InvalidInput(f"{path} is not a readable .npz file (truncated or corrupt?): "
-                         f"{type(error).__name__}: {error}") from None
-    arrays = _Arrays(path, arrays)
-    if _METADATA_KEY not in arrays:
-        raise InvalidInput(f"{path} is not a graspmanifold file: it has no metadata")
-    try:
-        meta = json.loads(str(arrays.pop(_METADATA_KEY)))
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise InvalidInput(f"{path} has corrupt metadata: {error}") from None
-    if not isinstance(meta, dict):
-        raise InvalidInput(f"{path} has corrupt metadata: a JSON {type(meta).__name__}, not an object")
-    if meta.get("kind") != kind:
-        raise InvalidInput(f"{path} holds a {meta.get('kind')!r}, not a {kind!r}")
-    if meta.get("schema") != SCHEMA_VERSION:
-        raise InvalidInput(f"{path} has schema version {meta.get('schema')!r}; this library reads {SCHEMA_VERSION}")
-    for name, shape in required.items():
-        if name not in arrays:
-            raise InvalidInput(f"{path} lacks the array {name!r}")
-        got = arrays[name].shape
-        if len(got) != len(shape) or any(s is not None and s != g for s, g in zip(shape, got)):
-            raise InvalidInput(f"{path}: array {name!r} has shape {got}, expected {shape}")
-    return arrays, meta
+                           f"{type(error).__name__}: {error}") from None
+    return _Arrays(path, arrays), meta

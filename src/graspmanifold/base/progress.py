@@ -7,16 +7,24 @@ in the environment, turns them all off; a job's own `progress=False` turns off i
 
 from __future__ import annotations
 
-import os
 import sys
 from importlib.util import find_spec
+
+from .validation import env_switch
 
 if find_spec("ipywidgets") is not None:  # a notebook's widget bar; without ipywidgets tqdm.auto only warns
     from tqdm.auto import tqdm
 else:
     from tqdm import tqdm
 
-_shown = os.environ.get("GRASPMANIFOLD_PROGRESS", "1") != "0"
+_shown: bool | None = None  # GRASPMANIFOLD_PROGRESS, read when first asked
+
+
+def _progress_shown() -> bool:
+    global _shown
+    if _shown is None:
+        _shown = env_switch("GRASPMANIFOLD_PROGRESS")
+    return _shown
 
 
 def show_progress(enabled: bool) -> bool:
@@ -29,7 +37,7 @@ def show_progress(enabled: bool) -> bool:
         The setting before this call.
     """
     global _shown
-    previous, _shown = _shown, bool(enabled)
+    previous, _shown = _progress_shown(), bool(enabled)
     return previous
 
 
@@ -47,7 +55,7 @@ def progress_bar(total: int, label: str, unit: str, *, enabled: bool | None = No
     Returns:
         The bar.
     """
-    shown = _shown if enabled is None else bool(enabled) and _shown
+    shown = _progress_shown() if enabled is None else bool(enabled) and _progress_shown()
     return tqdm(total=total, desc=label, unit=f" {unit}" if unit else "it", disable=not shown, file=sys.stderr,
                 mininterval=0.5, smoothing=0.1, dynamic_ncols=True, leave=True, delay=2.0,
                 bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{remaining}, {rate_noinv_fmt}]")

@@ -3,9 +3,15 @@ the argument and say what was expected."""
 
 from __future__ import annotations
 
+import os
+import re
+import stat
+import warnings
+from pathlib import Path
+
 import numpy as np
 
-from .errors import InvalidInput
+from .errors import InvalidInput, MissingFile
 
 #: the largest magnitude accepted in a data array: the SOM's batch map scores in float32, whose
 #: squares overflow near 1e19; anything this large is a unit error rather than a posture
@@ -25,6 +31,10 @@ def check_int(value: object, name: str, low: int = 1, high: int | None = None) -
 def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
     """X as a float (n, dim) array with n >= 1 and only finite values of magnitude at most
     MAX_ABS_VALUE; errors name the bad row."""
+    kind = np.asarray(X).dtype.kind
+    if kind not in "iuf":  # bool, complex, strings, objects: not coordinates (complex lost its imaginary part)
+        raise InvalidInput(f"{name} must hold real numbers (integers or floats), got an array of "
+                           f"{np.asarray(X).dtype}")
     data = np.asarray(X, dtype=float)
     if data.ndim != 2 or data.shape[1] != dim or len(data) == 0:
         raise InvalidInput(f"{name} must have shape (n, {dim}) with n >= 1, got {data.shape}")
@@ -37,3 +47,103 @@ def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
         row = int(np.flatnonzero(huge)[0])
         raise InvalidInput(f"{name} row {row} has values beyond +-{MAX_ABS_VALUE:g}: {data[row].tolist()}")
     return np.ascontiguousarray(data)
+
+
+def check_input_file(path: object, name: str) -> Path:
+    """The absolute path of a file to read, refused unless it is an existing regular file (a directory, a FIFO,
+    a device such as /dev/zero or a symlink loop are named as what they are, not as a missing file).
+
+    Args:
+        path: the path given.
+        name: the argument's name, for the message.
+
+    Returns:
+        The resolved path.
+
+    Raises:
+        InvalidInput: not a path, a symlink loop, or not a regular file.
+        MissingFile: there is no such file (an `InvalidInput` and a `FileNotFoundError`).
+    """
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise InvalidInput(f"{name} must be the path of a file, got {path!r}")
+    try:
+        resolved = Path(path).expanduser().resolve()
+        mode = resolved.stat().st_mode
+    except FileNotFoundError:
+        raise MissingFile(f"{name}: no such file: {path}", str(path)) from None
+    except (OSError, RuntimeError) as error:  # a symlink loop (RuntimeError before Python 3.13), no permission
+        raise InvalidInput(f"{name}: cannot read {path}: {getattr(error, 'strerror', None) or error}") from None
+    if not stat.S_ISREG(mode):
+        kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+                else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise InvalidInput(f"{name}: {path} is {kind}, not a file")
+    return resolved
+
+
+#: a name that becomes part of a file name (a benchmark label, a method, an object): letters, digits and
+#: `_ . + -`, starting with a letter or digit, at most 100 characters; no path separator, no `..`, no glob
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}")
+
+
+def check_name(value: object, name: str) -> str:
+    """A name that becomes part of a file name, refused unless it matches `SAFE_NAME` without `..`.
+
+    Args:
+        value: the name given.
+        name: the argument's name, for the message.
+
+    Returns:
+        The name.
+
+    Raises:
+        InvalidInput: not such a name (the message says what is allowed).
+    """
+    if not isinstance(value, str) or not SAFE_NAME.fullmatch(value) or ".." in value:
+        raise InvalidInput(f"{name} becomes part of a file name: it must be 1-100 letters, digits and _ . + - "
+                           f"starting with a letter or digit (no '/', no '..', no '*'), got {value!r}")
+    return value
+
+
+def file_in(folder: str | os.PathLike, file_name: str, name: str) -> Path:
+    """The path of `file_name` in `folder`, refused unless it stays inside the folder.
+
+    Args:
+        folder: the store.
+        file_name: a file name made of checked names (`check_name`).
+        name: the argument the file name comes from, for the message.
+
+    Returns:
+        folder / file_name.
+
+    Raises:
+        InvalidInput: the path would leave the folder.
+    """
+    path = Path(folder) / file_name
+    if path.resolve().parent != Path(folder).resolve():
+        raise InvalidInput(f"{name} would put {file_name!r} outside its store {folder}")
+    return path
+
+
+#: the values an on/off environment variable of the library takes
+_ON, _OFF = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
+
+
+def env_switch(name: str, default: bool = True) -> bool:
+    """An on/off environment variable (`GRASPMANIFOLD_PROGRESS`, `GRASPMANIFOLD_COMPILED`): 1/true/yes/on or
+    0/false/no/off, any case; unset or empty gives `default`, and any other value gives it too, with a warning.
+
+    Args:
+        name: the variable.
+        default: its value when unset.
+
+    Returns:
+        The switch.
+    """
+    value = os.environ.get(name, "").strip().lower()
+    if value in _ON or value in _OFF:
+        return value in _ON
+    if value:
+        warnings.warn(f"{name}={os.environ[name]!r} is neither on ({', '.join(_ON)}) nor off ({', '.join(_OFF)}): "
+                      f"taken as {'on' if default else 'off'}", stacklevel=2)
+    return default

@@ -20,6 +20,7 @@ import ctypes
 import itertools
 import logging
 import os
+import re
 import signal
 import sys
 import threading
@@ -74,12 +75,17 @@ def default_workers() -> int:
     return max(1, min(2, usable_cores()))
 
 
+#: worker processes per usable core at most (a job asked for more gets this many, with a warning)
+WORKERS_PER_CORE = 4
+
+
 def workers_for(workers: int | None, units: int, per_worker: int) -> int:
     """The worker processes for a job of `units` pieces of work (trials, postures).
 
     Args:
-        workers: the caller's choice, kept as given; None: `default_workers()`, but no more than the job
-            fills (one, this process, below `per_worker` units: a pool's start costs about a second).
+        workers: the caller's choice, kept as given up to `WORKERS_PER_CORE` per usable core and one per unit
+            of work (above that, capped with a warning that says so); None: `default_workers()`, but no more
+            than the job fills (one, this process, below `per_worker` units: a pool's start costs about a second).
         units: the job's size.
         per_worker: the units that pay for one worker process.
 
@@ -87,7 +93,13 @@ def workers_for(workers: int | None, units: int, per_worker: int) -> int:
         The number of worker processes (1: this process).
     """
     if workers is not None:
-        return check_int(workers, "workers")
+        workers = check_int(workers, "workers")
+        cap = max(1, min(WORKERS_PER_CORE * usable_cores(), units))
+        if workers > cap:
+            warnings.warn(f"workers={workers} is more than this job can use ({units} unit(s) of work, "
+                          f"{usable_cores()} usable core(s), at most {WORKERS_PER_CORE} workers per core): "
+                          f"running {cap}", stacklevel=3)
+        return min(workers, cap)
     return max(1, min(default_workers(), units // per_worker))
 
 
@@ -181,6 +193,10 @@ class ClusterExecutor(Executor):
             thing.close()
 
 
+#: a Dask scheduler's address: [scheme://]host:port
+_SCHEDULER_ADDRESS = re.compile(r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:[A-Za-z0-9_.-]+|\[[0-9A-Fa-f:.]+\]):\d{1,5}")
+
+
 def cluster_executor(address: str) -> ClusterExecutor:
     """An executor that runs tasks on a Dask cluster (dask.distributed).
 
@@ -192,6 +208,9 @@ def cluster_executor(address: str) -> ClusterExecutor:
 
     Returns:
         a `ClusterExecutor` connected to it.
+
+    Raises:
+        InvalidInput: an address of no known form, or one where no Dask scheduler answers (one line).
     """
     if not isinstance(address, str) or not address:
         raise InvalidInput(f"executor address must be a string such as 'dask://tcp://host:8786' or 'local', "
@@ -205,12 +224,21 @@ def cluster_executor(address: str) -> ClusterExecutor:
     if address == "local":
         cluster = LocalCluster(processes=True, threads_per_worker=1)
         return ClusterExecutor(Client(cluster), owned=(cluster,))
-    for _ in range(CONNECT_TRIES - 1):
+    if not _SCHEDULER_ADDRESS.fullmatch(address):
+        raise InvalidInput(f"executor address must be 'dask://local' or a scheduler's 'dask://tcp://HOST:PORT' (tcp, "
+                           f"tls, ws, wss or ucx; a port of 1-65535), got {address!r}")
+    if not 0 < int(address.rsplit(":", 1)[1]) < 65536:
+        raise InvalidInput(f"executor address: the port must be 1-65535, got {address!r}")
+    for attempt in range(CONNECT_TRIES):
         try:
             return ClusterExecutor(Client(address, timeout=CONNECT_SECONDS))
         except AssertionError:  # distributed's handshake now and then reads two messages as one: try again
-            pass
-    return ClusterExecutor(Client(address, timeout=CONNECT_SECONDS))
+            if attempt == CONNECT_TRIES - 1:
+                raise InvalidInput(f"no Dask scheduler answers as one at {address}") from None
+        except Exception as error:  # noqa: BLE001 - refused, timed out, or junk read as a 3 EiB frame (MemoryError)
+            raise InvalidInput(f"cannot connect to a Dask scheduler at {address}: "
+                               f"{type(error).__name__}: {str(error)[:200]}") from None
+    raise AssertionError("unreachable")  # pragma: no cover
 
 
 #: tasks handed to the workers ahead of the results taken, per worker: the work in flight (and its

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import shutil
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor
@@ -44,7 +43,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..base.checkpoints import PartStore, result_key
+from ..base.checkpoints import JOB_PARTS, PartStore, result_key
 from ..base.errors import GenerationError, InvalidInput, SimulationError
 from ..base.io import library_version, load_npz, save_npz
 from ..base.paper_numbers import DATASET_SIZES
@@ -71,6 +70,8 @@ DATASET_PRESETS: dict[str, dict[str, int]] = {
 #: postures that pay for a worker process when `workers` is not given (a pool's start costs about a second)
 GENERATE_PER_WORKER = 50
 VERIFY_PER_WORKER = 20
+#: the most postures one call makes (the paper's sets are a few thousand; a million take a day on two cores)
+MAX_POSTURES = 1_000_000
 #: `verify_postures` warns when fewer than this share of the candidates hold
 FEW_HOLD = 0.1
 
@@ -443,7 +444,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     """
     seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
-    n = check_int(n, "n")
+    n = check_int(n, "n", high=MAX_POSTURES)
     workers = workers_for(workers, n, GENERATE_PER_WORKER)
     params = params or GeneratorParams()
     starts, model = starting_postures(obj, params.designs), hand_model(hand)  # the hand refused here when unknown
@@ -452,11 +453,11 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:
     starts = [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
     key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                      "starts": [s.name for s in starts], "hand": hand})
+                      "starts": [s.name for s in starts], "hand": model.digest})
     store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None
     saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     if store is not None:  # a job's file must be where its name says (a renamed file is not taken for another job)
-        stored = store.load("job_*.npz", lambda path, part, _: part[0] is not None
+        stored = store.load(JOB_PARTS, lambda path, part, _: part[0] is not None
                             and path == _job_file(store.directory, part[0])).values()
         saved = {(job.start_index, job.chunk): arrays for job, arrays in stored}
     results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
@@ -620,6 +621,3 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
                       rows[held, 1], rows[held, 2])
 
 
-def remove_checkpoints(directory: str | os.PathLike) -> None:
-    """Delete a checkpoint directory once its run has been saved."""
-    shutil.rmtree(directory, ignore_errors=True)

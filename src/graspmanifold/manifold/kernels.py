@@ -19,27 +19,31 @@ compiles for a few seconds, later processes load it. Where numba finds no writab
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 
 import numpy as np
 from numba import njit
 
+from ..base.validation import env_switch
+
 #: error codes of `masked_argmin` (non-negative values are indices)
 BAD_WEIGHT, EMPTY_MASK, BAD_QUERY = -1, -2, -3
 
-_enabled = os.environ.get("GRASPMANIFOLD_COMPILED", "1") != "0"
+_enabled: bool | None = None  # GRASPMANIFOLD_COMPILED, read when first asked
 
 
 def compiled() -> bool:
     """Whether the library uses the compiled kernels (True unless switched off)."""
+    global _enabled
+    if _enabled is None:
+        _enabled = env_switch("GRASPMANIFOLD_COMPILED")
     return _enabled
 
 
 def use_compiled(enabled: bool) -> bool:
     """Switch the compiled kernels on or off (off: the NumPy references); returns the previous setting."""
     global _enabled
-    previous, _enabled = _enabled, bool(enabled)
+    previous, _enabled = compiled(), bool(enabled)
     return previous
 
 

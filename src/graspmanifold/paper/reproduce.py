@@ -24,24 +24,24 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.checkpoints import result_key
+from ..base.checkpoints import remove_checkpoints, result_key
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
+from ..base.validation import check_int
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
     PRESET_PARAMS,
     GeneratorParams,
     generate_postures,
-    remove_checkpoints,
     verify_postures,
 )
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import PAPER, RESUME, SOM, check_schedule
-from ..sim.hand import N_FINGER_JOINTS
-from ..sim.hand_models import hand_name
+from ..sim.hand import N_FINGER_JOINTS, HandModel
+from ..sim.hand_models import hand_model, hand_name
 from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
@@ -209,15 +209,18 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         config = PRESETS[preset]
     else:
         config = preset
+    if workers is not None:
+        check_int(workers, "workers")
+    hand = hand_model(config.hand)  # refused here, before any file is written, when it is not a Shadow Hand
     out = Path(out)
     _check_output(out, config, force)
     with output_lock(out / LOCK_FILE):
-        return _run(out, config, workers, log, executor)
+        return _run(out, config, hand, workers, log, executor)
 
 
-def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], None],
+def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log: Callable[[str], None],
          executor: Executor | None) -> dict:
-    """`reproduce` with the output folder held."""
+    """`reproduce` with the output folder held; the stages that use the hand are keyed by its content."""
     for stale in out.rglob(f".*{TEMPORARY_SUFFIX}"):  # the library's own, left by a run killed while writing
         stale.unlink()
     run_record = {"config": config.to_json(), "library_version": library_version(), "versions": software_versions()}
@@ -239,7 +242,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
             postures.save(path)
             remove_checkpoints(parts)
         stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator),
-                                                  config.hand), [path], generate)
+                                                  hand.digest), [path], generate)
     if verified:  # the maps learn the candidates that hold
         candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
         for name, path in sets_paths.items():
@@ -248,7 +251,8 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
                                        executor=executor, progress=True)
                 held.save(path)
                 return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
-            stages.run(f"verify_{name}", result_key(asdict(config.generator), candidates_paths[name]), [path], verify)
+            stages.run(f"verify_{name}", result_key(asdict(config.generator), hand.digest, candidates_paths[name]),
+                       [path], verify)
     sets = {name: PostureSet.load(path) for name, path in sets_paths.items()}
     run_record["datasets"] = {name: {"procedure": config.procedure, "candidates": s.metadata.get("candidates", len(s)),
                                      "trained_on": len(s)} for name, s in sets.items()}
@@ -285,7 +289,7 @@ def _run(out: Path, config: ReproduceConfig, workers: int, log: Callable[[str], 
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
-        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, config.hand,
+        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, hand.digest,
                                                            asdict(params), *inputs[kind]), [path], run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 

@@ -10,8 +10,10 @@ Posture), the actuators; the J1+J2 coupling and the open and closed postures are
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from importlib import resources
 from pathlib import Path
 
@@ -103,6 +105,19 @@ class HandModel:
             The posture (..., 22), rad.
         """
         return np.asarray(angles, dtype=float) * self._signs
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """What the hand is, as a key: a digest of its compiled model (MuJoCo's binary model of the MJCF with
+        every file it includes and every mesh it loads) and of its description (joints, segments, sites, ...),
+        not of its name or path. Every result made with the hand is keyed by it (`checkpoints.result_key`), so
+        a hand file edited in place gives new results, never the old file's."""
+        binary = np.zeros(mujoco.mj_sizeModel(self.model), dtype=np.uint8)
+        mujoco.mj_saveModel(self.model, None, binary)
+        digest = hashlib.sha256(binary.tobytes())
+        description = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("name", "mjcf", "loader")}
+        digest.update(json.dumps(description, sort_keys=True, default=str).encode())
+        return digest.hexdigest()[:20]
 
     @functools.cached_property
     def joint_ranges(self) -> dict[str, tuple[float, float]]:

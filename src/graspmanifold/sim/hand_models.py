@@ -25,6 +25,7 @@ part is refused with the list of what is missing.
 from __future__ import annotations
 
 import functools
+import hashlib
 import importlib.util
 import itertools
 import os
@@ -36,6 +37,7 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.validation import check_input_file
 from .hand import DISTAL_SEGMENTS, FINGERS, HAND_JOINTS, SHADOW_HAND, WRIST_JOINTS, HandModel, finger_of
 
 #: the names `hand_model` knows; `gymnasium-robotics-touch` is the same hand with its 92 touch sensors; `menagerie`
@@ -156,9 +158,7 @@ def mjcf_hand(path: str | Path, name: str | None = None) -> HandModel:
         InvalidInput: an unreadable file, more than the hand in its world, or a model that is not a right
             Shadow Hand in the paper's sense (the message says what differs).
     """
-    path = Path(path).expanduser().resolve()
-    if not path.is_file():
-        raise InvalidInput(f"hand: no MJCF file at {path}")
+    path = check_input_file(path, "hand")
     return describe_shadow_hand(functools.partial(hand_file_spec, path), name or str(path), str(path))
 
 
@@ -398,7 +398,7 @@ def hand_name(hand: str | Path, argument: str = "hand") -> str:
     if isinstance(hand, str) and hand in HAND_MODELS:
         return hand
     if isinstance(hand, (str, Path)) and str(hand).endswith(".xml"):
-        return str(Path(hand).expanduser().resolve())
+        return str(check_input_file(hand, argument))
     raise InvalidInput(f"{argument} must be one of {HAND_MODELS} or the path of an MJCF file (.xml), got {hand!r}")
 
 
@@ -410,18 +410,32 @@ def hand_model(hand: str | Path = "ours") -> HandModel:
             of an MJCF file of a right Shadow Hand alone (`mjcf_hand`).
 
     Returns:
-        Its description (one object per name or path in a process).
+        Its description: one object per name, and per path and content (a file edited in place, or one of
+        the files it includes or its meshes, is read again; `HandModel.digest` tells the two apart).
 
     Raises:
         InvalidInput: an unknown name, a file that is not a Shadow Hand, or a model that lacks a part its
             description names (listed).
         ImportError: the model's package is not installed (the message says how to install it).
     """
-    return _described(hand_name(hand))
+    name = hand_name(hand)
+    return _described(name, "" if name in HAND_MODELS else _file_digest(name))
+
+
+def _file_digest(path: str) -> str:
+    """A digest of the hand file as MuJoCo compiles it (its includes and meshes with it)."""
+    try:
+        model = hand_file_spec(path).compile()
+    except ValueError as error:
+        raise InvalidInput(f"the hand model {path!r} does not compile: {error}") from None
+    binary = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, binary)
+    return hashlib.sha256(binary.tobytes()).hexdigest()
 
 
 @functools.cache
-def _described(hand: str) -> HandModel:
+def _described(hand: str, content: str) -> HandModel:
+    """The description of a named hand, or of a hand file with this content (the cache's key)."""
     if hand == SHADOW_HAND.name:
         described = SHADOW_HAND
     elif hand.startswith("gymnasium-robotics"):
@@ -449,5 +463,19 @@ def check_hand_model(hand: HandModel) -> None:
     absent = hand.missing()
     if absent:
         raise InvalidInput(f"the hand model {hand.name!r} lacks what its description names: {', '.join(absent)}")
-    if not np.all(np.abs(hand.coupling()).sum(axis=0) <= 1):
+    drives = np.abs(hand.coupling()).sum(axis=0)
+    if not np.all(drives <= 1):
         raise InvalidInput(f"the hand model {hand.name!r} drives a finger joint with more than one actuator")
+    driven = {joint for joint, count in zip(hand.finger_joints, drives) if count}
+    undriven = [joint for joint in hand.finger_joints if joint not in driven
+                and not any(joint in tendon and tendon & driven for tendon in _fixed_tendons(hand.model))]
+    if undriven:
+        raise InvalidInput(f"the hand model {hand.name!r} has no actuator for {', '.join(undriven)}, nor a fixed tendon "
+                           "that couples it to a driven joint: the controller could not move it")
+
+
+def _fixed_tendons(model: mujoco.MjModel) -> list[set[str]]:
+    """The joints of each fixed tendon of a model."""
+    wraps = [range(model.tendon_adr[t], model.tendon_adr[t] + model.tendon_num[t]) for t in range(model.ntendon)]
+    return [{model.joint(model.wrap_objid[w]).name for w in tendon if model.wrap_type[w] == mujoco.mjtWrap.mjWRAP_JOINT}
+            for tendon in wraps]

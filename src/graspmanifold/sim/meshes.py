@@ -19,15 +19,20 @@ from __future__ import annotations
 
 import hashlib
 import os
-from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from ..base.errors import InvalidInput
+from ..base.validation import check_input_file
 
 MIN_EXTENT = 0.005  # m: smaller than this is below what the fingertips can resolve
 MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a unit error)
+#: triangles a mesh may have: its queries (signed distance, closest point) slow down with them, and MuJoCo
+#: collides convex parts of at most 64 vertices
+MAX_FACES = 200_000
+#: the file formats a mesh object is read from (trimesh's meshes; not its archives)
+MESH_FORMATS = ("stl", "obj", "ply", "off", "glb", "gltf")
 
 #: V-HACD settings: enough parts for a handle or a mug, deterministic (single-threaded)
 DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64, "asyncACD": False}
@@ -36,16 +41,20 @@ DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPer
 def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> trimesh.Trimesh:
     """A copy of `mesh` (a trimesh, or a path to a .stl/.obj/.ply/... file), scaled by `scale`."""
     if isinstance(mesh, (str, os.PathLike)):
-        path = Path(mesh)
-        if not path.is_file():
-            raise InvalidInput(f"mesh file {str(path)!r} " + ("is a directory, not a mesh file" if path.is_dir()
-                                                             else "does not exist"))
+        path = check_input_file(mesh, "mesh file")
+        if path.suffix.lower().lstrip(".") not in MESH_FORMATS:
+            raise InvalidInput(f"mesh file {str(mesh)!r}: {path.suffix or 'no suffix'} is not a mesh format the library "
+                               f"reads ({', '.join('.' + f for f in MESH_FORMATS)})")
         try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
             loaded = trimesh.load(path, force="mesh", process=False)
         except Exception as error:  # trimesh raises many kinds for a file it cannot parse
             raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
         if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
             raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
+        if len(loaded.faces) > MAX_FACES:
+            raise InvalidInput(f"mesh file {str(path)!r} has {len(loaded.faces)} triangles, more than {MAX_FACES}: "
+                               "a grasp object needs far fewer (its collision parts keep at most 64 vertices each); "
+                               "simplify it first, e.g. mesh.simplify_quadric_decimation(face_count=20000)")
         bad = np.flatnonzero(~np.isfinite(loaded.vertices).all(axis=1))
         if len(bad):
             raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
@@ -69,6 +78,9 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
     """Raise ValueError unless the mesh is a closed solid of a graspable size."""
     if len(mesh.faces) == 0 or not np.all(np.isfinite(mesh.vertices)):
         raise InvalidInput("mesh has no triangles or non-finite vertices")
+    if len(mesh.faces) > MAX_FACES:
+        raise InvalidInput(f"mesh has {len(mesh.faces)} triangles, more than {MAX_FACES}: simplify it first, e.g. "
+                           "mesh.simplify_quadric_decimation(face_count=20000)")
     if not mesh.is_watertight:
         raise InvalidInput("mesh is not watertight (it has holes or open edges): a grasp object must be a closed "
                          "solid; repair it first, e.g. with trimesh.repair.fill_holes")
@@ -77,6 +89,10 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
     if not solid:
         raise InvalidInput(f"mesh encloses no positive volume (volume {mesh.volume:.3g} m^3): it is flat, "
                          "inside out or self-intersecting")
+    bodies = int(mesh.body_count)
+    if bodies > 1:
+        raise InvalidInput(f"mesh holds {bodies} separate solids: a grasp object is one solid (take one of "
+                           "mesh.split(), or join them into one with trimesh.boolean.union)")
     extent = float(mesh.extents.max())
     if extent > MAX_EXTENT:
         raise InvalidInput(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "

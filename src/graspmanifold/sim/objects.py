@@ -297,7 +297,8 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         scale: metres per unit of the mesh (0.001 for a file in mm; default 1).
         mass: kg (default 0.1).
         friction: the sliding friction coefficient, at most `MAX_FRICTION` (default `DEFAULT_FRICTION`).
-        name: the object's name (default: made from the shape and sizes).
+        name: the object's name (default: made from the shape and sizes; a mesh file's stem, with `_mesh` added
+            where the stem names one of the library's objects: `box.stl` is `box_mesh`, not the paper's box).
 
     Returns:
         The object; every extent `MIN_EXTENT` to `MAX_EXTENT` (5 mm to 30 cm).
@@ -319,7 +320,8 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
             raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
         solid = object_frame(load_mesh(mesh, 1.0 if scale is None else scale))
         digest = mesh_digest(solid)
-        label = name or (Path(mesh).stem if isinstance(mesh, (str, os.PathLike)) else f"mesh_{digest[:8]}")
+        label = name or (f"mesh_{digest[:8]}" if not isinstance(mesh, (str, os.PathLike)) else Path(mesh).stem
+                         + ("_mesh" if Path(mesh).stem in PAPER_SHAPES or Path(mesh).stem in FAMILY else ""))
         return GraspObject(name=label, shape="mesh", half_sizes=tuple(np.abs(solid.vertices).max(axis=0).tolist()),
                            mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
                            parts=tuple(convex_parts(solid)), mesh_digest=digest)

@@ -17,9 +17,11 @@ import atexit
 import ctypes.util
 import io
 import os
+import platform
 import subprocess
 import sys
 import threading
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -27,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.validation import check_int
+from ..base.validation import check_data, check_int
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -40,15 +42,28 @@ HOW_TO_ENABLE = ("install an offscreen OpenGL driver (Debian/Ubuntu: apt-get ins
                  "libegl-mesa0 libosmesa6) so that MUJOCO_GL=egl or MUJOCO_GL=osmesa works")
 
 
+#: the values of MUJOCO_GL that MuJoCo's import takes on this system
+_MUJOCO_TAKES = ("disable", "disabled", "off", "false", "0", "enable", "enabled", "on", "true", "1", "glfw") + {
+    "Linux": ("glx", "egl", "osmesa"), "Windows": ("wgl",), "Darwin": ("cgl",)}.get(platform.system(), ())
+
+
 def choose_offscreen_backend() -> str | None:
     """On a headless Linux machine, before MuJoCo's first import and with MUJOCO_GL unset: set MUJOCO_GL
     (and PyOpenGL's platform) to the offscreen backend whose library is installed, EGL first, then OSMesa,
     so that pictures are drawn in this process. `import graspmanifold` calls it.
 
+    A value of MUJOCO_GL that MuJoCo's import would refuse (it raises, and nothing of the library could run,
+    not even what draws nothing) is dropped with a warning.
+
     Returns:
         The backend set, or None where nothing was changed (a display, MuJoCo already imported, the
         variable already set, no offscreen library, not Linux).
     """
+    chosen = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if chosen and chosen not in _MUJOCO_TAKES and "mujoco" not in sys.modules:  # MuJoCo's import would fail
+        warnings.warn(f"MUJOCO_GL={os.environ['MUJOCO_GL']!r} is not a value MuJoCo takes ({', '.join(_MUJOCO_TAKES)}):"
+                      " ignored", stacklevel=2)
+        del os.environ["MUJOCO_GL"]
     if (os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules or not sys.platform.startswith("linux")
             or os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         return None
@@ -149,11 +164,15 @@ def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, 
 
     Returns:
         The images.
+
+    Raises:
+        InvalidInput: postures not finite (n, 22), a size outside 16-4096 pixels.
     """
     from .hand_models import hand_name  # MuJoCo is imported after MUJOCO_GL is chosen
 
-    postures = np.asarray(postures, dtype=float).reshape(-1, 22)
-    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(int(size)),
+    postures = check_data(np.asarray(postures, dtype=float).reshape(-1, 22), 22, "postures")
+    size = check_int(size, "size (pixels)", low=16, high=4096)
+    return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(size),
                   "hand": np.array(hand_name(hand))}, backends)
 
 

@@ -31,15 +31,13 @@ import itertools
 import os
 from concurrent.futures import Executor
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..base.checkpoints import PartStore
+from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import InvalidInput
-from ..base.validation import check_int
+from ..base.validation import check_int, check_name, file_in
 from ..control.controller import ControllerFactory, ControllerParams
-from ..control.generator import remove_checkpoints
 from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
 from .evaluation import EvaluationResult, evaluate
@@ -139,9 +137,10 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         objects: the benchmark objects to run (default: all of `OBJECTS`).
         every: keep every k-th pose of each grid (a smaller, CI-sized run).
         workers: worker processes; `seed`: the trials' seed.
-        store: a directory where each finished (object, placement) is kept as `<label>_<object>_<placement>.npz`
+        store: a directory where each finished (object, placement) is kept as `<label>_<split>_<object>_<placement>.npz`
             and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
-        label: the method's name, for the stored files and `EvaluationResult.method`.
+        label: the method's name, for the stored files and `EvaluationResult.method` (with a `store`: letters,
+            digits and `_ . + -`, `validation.SAFE_NAME`).
         progress: show progress bars (None: as `progress.show_progress` says, on by default).
         executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
         controller: a user's own controller instead of ours (`evaluate(controller=...)`; give a `label`).
@@ -156,11 +155,13 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
     if split not in SPLITS:
         raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
     every = check_int(every, "every")
+    if store is not None:  # the label becomes part of the stored files' names
+        check_name(label or "method", "label")
     results = {}
     for name, placement in cells():
         if name not in names:
             continue
-        path = None if store is None else Path(store) / f"{label or 'method'}_{split}_{name}_{placement}.npz"
+        path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "label")
         grid = benchmark_grid(name, placement, split)[::every]
         key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape, method=label,
                          controller=controller).key(grid, seed)

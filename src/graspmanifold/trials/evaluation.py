@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.checkpoints import PartStore
+from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
 from ..base.io import library_version, load_npz, save_npz
 from ..base.progress import progress_bar
@@ -305,7 +305,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
     if store is not None:  # a part must be one chunk of the chunks planned now, whole
         firsts = {chunk[0]: k for k, chunk in enumerate(chunks)}
         fits = lambda _, part, __: part[0] in firsts and len(part[1]) == len(chunks[firsts[part[0]]])  # noqa: E731
-        done = {firsts[first]: trials for first, trials in store.load("part_*.npz", fits).values()}
+        done = {firsts[first]: trials for first, trials in store.load(TRIAL_PARTS, fits).values()}
     method = setup.method
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]

@@ -144,7 +144,8 @@ class TrialSetup:
 
     def key(self, poses: np.ndarray, seed: int) -> str:
         """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
-        controller reads of it (its kind and its reference postures), never a pickle; not the label.
+        controller reads of it (its kind and its reference postures), never a pickle; of the hand, its content
+        (`HandModel.digest`); not the label.
 
         Args:
             poses: grid poses (n, 4), m and rad.
@@ -157,7 +158,7 @@ class TrialSetup:
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
                            "params": asdict(self.params), "table": self.table, "backend": self.backend,
                            "experience": None if experience is None else type(experience).__name__,
-                           "hand": self.hand.name, "controller": None if custom is None else
+                           "hand": self.hand.digest, "controller": None if custom is None else
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
