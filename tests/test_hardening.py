@@ -332,3 +332,11 @@ def test_input_that_was_taken_without_a_word_is_refused_or_named(tmp_path):
     huge = trimesh.creation.icosphere(subdivisions=7, radius=0.03)  # 327,680 triangles (655k vertices: 49 s)
     with pytest.raises(ValueError, match="327680 triangles, more than 200000: simplify it first"):
         gm.make_object("mesh", mesh=huge)
+
+
+def test_view_without_a_display_says_so_in_one_line(monkeypatch):
+    """`view` on a machine without a display printed GLFW's two lines and MuJoCo's log."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(SystemExit, match="^error: view opens a window and needs a display"):
+        cli(["view"])

@@ -90,6 +90,9 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _view(args: argparse.Namespace) -> int:
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise SystemExit("error: view opens a window and needs a display (DISPLAY is not set); `graspmanifold demo` "
+                         "runs the same scene without one")
     import mujoco.viewer  # imported here: it needs a display
 
     scene = _hand_on(_object(args), args.clearance, args.hand, args.close)

@@ -503,9 +503,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                 if store is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
                     store.save(_job_file(store.directory, job).name,
                                lambda path, meta: save_npz(path, "generator_job", result, meta), job=asdict(job))
-                report.update(len(result["postures"]))
+                report.update(min(len(result["postures"]), n - report.n))  # a job may find more than is kept
 
-            report.update(sum(len(r["postures"]) for r in finished.values()))
+            report.update(min(sum(len(r["postures"]) for r in finished.values()), n - report.n))
             parallel_map(_job_worker, pending, workers, keep, executor)
             for job in jobs():
                 result = finished[(job.start_index, job.chunk)]
