@@ -17,14 +17,11 @@ if find_spec("ipywidgets") is not None:  # a notebook's widget bar; without ipyw
 else:
     from tqdm import tqdm
 
-_shown: bool | None = None  # GRASPMANIFOLD_PROGRESS, read when first asked
+_shown: bool | None = None  # set by show_progress; until then GRASPMANIFOLD_PROGRESS says
 
 
 def _progress_shown() -> bool:
-    global _shown
-    if _shown is None:
-        _shown = env_switch("GRASPMANIFOLD_PROGRESS")
-    return _shown
+    return env_switch("GRASPMANIFOLD_PROGRESS") if _shown is None else _shown
 
 
 def show_progress(enabled: bool) -> bool:

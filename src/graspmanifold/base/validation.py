@@ -3,6 +3,7 @@ the argument and say what was expected."""
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import stat
@@ -129,9 +130,11 @@ def file_in(folder: str | os.PathLike, file_name: str, name: str) -> Path:
 _ON, _OFF = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 
+@functools.cache
 def env_switch(name: str, default: bool = True) -> bool:
-    """An on/off environment variable (`GRASPMANIFOLD_PROGRESS`, `GRASPMANIFOLD_COMPILED`): 1/true/yes/on or
-    0/false/no/off, any case; unset or empty gives `default`, and any other value gives it too, with a warning.
+    """An on/off environment variable (`GRASPMANIFOLD_PROGRESS`, `GRASPMANIFOLD_COMPILED`), read once per process:
+    1/true/yes/on or 0/false/no/off, any case; unset or empty gives `default`, and any other value gives it too,
+    with one warning.
 
     Args:
         name: the variable.

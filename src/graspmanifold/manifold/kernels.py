@@ -29,15 +29,12 @@ from ..base.validation import env_switch
 #: error codes of `masked_argmin` (non-negative values are indices)
 BAD_WEIGHT, EMPTY_MASK, BAD_QUERY = -1, -2, -3
 
-_enabled: bool | None = None  # GRASPMANIFOLD_COMPILED, read when first asked
+_enabled: bool | None = None  # set by use_compiled; until then GRASPMANIFOLD_COMPILED says
 
 
 def compiled() -> bool:
     """Whether the library uses the compiled kernels (True unless switched off)."""
-    global _enabled
-    if _enabled is None:
-        _enabled = env_switch("GRASPMANIFOLD_COMPILED")
-    return _enabled
+    return env_switch("GRASPMANIFOLD_COMPILED") if _enabled is None else _enabled
 
 
 def use_compiled(enabled: bool) -> bool:
