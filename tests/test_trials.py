@@ -1,6 +1,7 @@
 """The trial loop: N grid poses at once give the trials each pose gives on its own; the controller's readings checked."""
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -75,3 +76,47 @@ def test_evaluate_names_a_bad_backend_and_a_missing_gpu():
     if not has_gpu and not os.environ.get("GRASPMANIFOLD_WARP_DEVICE"):
         with pytest.raises((ImportError, RuntimeError), match="graspmanifold\\[gpu\\]|NVIDIA GPU"):
             gm.evaluate("box", None, np.array([[0.0, 0.0, 0.01, 0.0]]), backend="warp")
+
+
+def test_the_hold_test_stops_for_a_dropped_object_and_says_so():
+    """No later gravity direction can change a hold test the object has already failed: it ends in the period
+    the object leaves the bound, and the judgement says how much of the test ran."""
+    from graspmanifold.control.judge import HOLD_DIRECTIONS, JUDGING, judge_scene, supported_scene
+
+    scene = supported_scene("cylinder")
+    scene.set_hand_pose(*gm.facing_pose("cylinder", clearance=0.05))  # the open hand, far from the object
+    scene.set_posture(gm.open_posture())
+    dropped = judge_scene(scene)
+    assert not dropped.hold and JUDGING.hold_limit < dropped.displacement < 2 * JUDGING.hold_limit
+    assert 0 < dropped.hold_time < JUDGING.hold_seconds and dropped.margin == 0.0
+    scene = supported_scene("box")
+    scene.set_hand_pose(*gm.facing_pose("box"))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    scene.run(1.5)
+    held = judge_scene(scene)  # the closed hand holds the box
+    assert held.hold and held.hold_time == pytest.approx(len(HOLD_DIRECTIONS) * JUDGING.hold_seconds)
+
+
+def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold_test():
+    """Outcomes of the commit before the early stop (tests/data/hold_outcomes.npz: the plain heuristic on every
+    third pose of the quick grid, a benchmark sample, and the verifier on twelve cylinder candidates)."""
+    from graspmanifold.control.generator import GeneratorParams, verify_postures
+    from graspmanifold.trials.benchmark import OBJECTS, benchmark_grid
+    from graspmanifold.trials.grid import check_grid
+
+    golden = np.load(Path(__file__).parent / "data" / "hold_outcomes.npz")
+    runs = {f"quick/{name}": (name, check_grid("quick", gm.get_object(name))[1][::3]) for name in gm.PAPER_OBJECTS}
+    runs |= {f"bench/{name}": (OBJECTS[name].object, benchmark_grid(name, "fingertips", "test")[::20])
+             for name in ("marble", "pen")}
+    for key, (obj, poses) in runs.items():
+        result = gm.evaluate(obj, None, poses, seed=0, workers=1, progress=False)
+        for measure in ("hold", "force_closure"):
+            assert np.array_equal(result.outcomes(measure), golden[f"{key}/{measure}"]), (key, measure)
+        np.testing.assert_allclose([t.epsilon for t in result.trials], golden[f"{key}/epsilon"], rtol=0, atol=1e-4)
+    candidates = gm.generate_postures("cylinder", 12, seed=0, workers=1, params=GeneratorParams(verify=False),
+                                      progress=False)
+    held = verify_postures(candidates, "cylinder", 1, progress=False)
+    kept = np.array([any(np.array_equal(p, h) for h in held.postures) for p in candidates.postures])
+    assert np.array_equal(kept, golden["verify/cylinder/kept"]) and not kept.all()
+    np.testing.assert_allclose(held.epsilon, golden["verify/cylinder/epsilon"], rtol=0, atol=1e-4)

@@ -4,7 +4,8 @@ A grasp is judged once the hand has closed on a free object that a support has k
 spring with gravity off, or a table with gravity on); the support is released first. Three measures, primary first:
 
 - hold: gravity is switched on along +x, -x, +y, -y, +z and -z in turn (`hold_seconds` each)
-  while the hand keeps its grasp; the object must stay within `JudgingRules.hold_limit` of where it was grasped;
+  while the hand keeps its grasp; the object must stay within `JudgingRules.hold_limit` of where it was grasped
+  (the test ends for a world in the period its object leaves the bound);
 - margin (where `JudgingRules.margin` asks for it): a grasp that holds is then pushed, in the same six
   directions in turn, by an extra force on the object that ramps from 0 to `margin_force` over
   `margin_seconds` (on top of gravity along that direction); the margin is the extra force (N) at which
@@ -76,9 +77,12 @@ JUDGING = JudgingRules()
 @dataclass(frozen=True)
 class Judgement:
     """How good one grasp is (see the module doc), or why its physics failed: epsilon at release (per unit
-    total normal force), hold, the largest displacement in the hold test (m; inf when the physics failed),
-    margin (N), the posture (22,) rad and touching segments (`SEGMENTS` order) at release, the deepest
-    contact (m), the fault (empty when none) and the world's clock when it failed (s)."""
+    total normal force), hold, the largest displacement in the hold test (m; inf when the physics failed; for a
+    grasp that did not hold, where the object was in the period it first left the bound: beyond the limit, and
+    the test stops there, as no later direction can change the outcome), margin (N), the posture (22,) rad and
+    touching segments (`SEGMENTS` order) at release, the deepest contact (m, up to where judging stopped), the
+    fault (empty when none), the world's clock when it failed (s), and the seconds of the hold test run (all six
+    directions' `hold_seconds` for a grasp that held, fewer for one that dropped its object; 0 on a fault)."""
 
     epsilon: float
     hold: bool
@@ -89,6 +93,7 @@ class Judgement:
     penetration: float = 0.0
     fault: str = ""
     time: float = float("nan")
+    hold_time: float = 0.0
 
 
 def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = "ours") -> Scene:
@@ -156,6 +161,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
     start = np.zeros((n, 3))
     worst = np.zeros(n)
+    hold_time = np.full(n, len(HOLD_DIRECTIONS) * rules.hold_seconds)
     held_force = np.zeros(n)
     judged: list[Judgement | None] = [None] * n
     grasped: dict[int, tuple] = {}
@@ -165,7 +171,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         reading, posture, epsilon = grasped.pop(world)
         judged[world] = Judgement(epsilon, bool(worst[world] <= rules.hold_limit), float(worst[world]),
                                   float(held_force[world]), posture, np.array([reading.touches(s) for s in SEGMENTS]),
-                                  worlds.max_penetration(world))
+                                  worlds.max_penetration(world), hold_time=float(hold_time[world]))
 
     def fail(world: int, why: str) -> None:
         stage[world] = _FINISHED
@@ -226,6 +232,9 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         holding = np.flatnonzero(stage == _HOLD)
         worst[holding] = np.maximum(worst[holding], moved[holding])
         count[holding] += 1
+        for world in holding[worst[holding] > rules.hold_limit]:  # dropped: no later direction can change that
+            hold_time[world] = rules.hold_seconds * direction[world] + period * count[world]
+            finish(world)
         ramp = np.flatnonzero(stage == _MARGIN)
         for world in ramp[moved[ramp] > rules.hold_limit]:
             held_force[world] = rules.margin_force * (count[world] - 1) / margin_cycles
