@@ -172,7 +172,7 @@ def main() -> None:
     doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/experience_study.md"))
     try:  # every argument checked before --out is made
         args.postures = check_int(args.postures, "--postures")
-        args.workers = workers_for(args.workers, len(cells()) * 100, 1)
+        args.workers = workers_for(args.workers, 10**6, 1)  # capped at the cores: the trials always outnumber them
         with output_lock(Path(args.out) / LOCK_FILE, args.out):
             study = Study(args)
             with worker_pool(args.workers) as pool:  # started once: a pool per evaluation costs seconds on small grids

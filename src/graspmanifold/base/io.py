@@ -239,8 +239,10 @@ def _array_header(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> tuple[tupl
     return tuple(shape), fortran, dtype, size
 
 
-def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
-    shape, fortran, dtype, size = _array_header(archive, info)
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo,
+                 header: tuple[tuple[int, ...], bool, np.dtype, int] | None = None) -> np.ndarray:
+    """A member's array; `header` is its `_array_header` when already read."""
+    shape, fortran, dtype, size = header or _array_header(archive, info)
     with archive.open(info) as member:
         member.read(info.file_size - size)
         data = np.frombuffer(member.read(size), dtype=dtype, count=int(np.prod(shape, dtype=np.int64)))
@@ -280,7 +282,7 @@ def _read_file(path: Path, kind: str, required: dict[str, tuple[int | None, ...]
             got = headers[name][0]
             if len(got) != len(shape) or any(s is not None and s != g for s, g in zip(shape, got)):
                 raise _Refused(f"its array {name!r} has shape {got}, expected {shape}")
-        return {name[:-4]: _read_member(archive, info) for name, info in members.items()}, meta
+        return {name[:-4]: _read_member(archive, info, headers[name[:-4]]) for name, info in members.items()}, meta
 
 
 class _Refused(InvalidInput):

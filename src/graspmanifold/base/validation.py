@@ -32,11 +32,10 @@ def check_int(value: object, name: str, low: int = 1, high: int | None = None) -
 def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:
     """X as a float (n, dim) array with n >= 1 and only finite values of magnitude at most
     MAX_ABS_VALUE; errors name the bad row."""
-    kind = np.asarray(X).dtype.kind
-    if kind not in "iuf":  # bool, complex, strings, objects: not coordinates (complex lost its imaginary part)
-        raise InvalidInput(f"{name} must hold real numbers (integers or floats), got an array of "
-                           f"{np.asarray(X).dtype}")
-    data = np.asarray(X, dtype=float)
+    given = np.asarray(X)
+    if given.dtype.kind not in "iuf":  # bool, complex (its imaginary part was dropped), strings, objects
+        raise InvalidInput(f"{name} must hold real numbers (integers or floats), got an array of {given.dtype}")
+    data = given.astype(float, copy=False)
     if data.ndim != 2 or data.shape[1] != dim or len(data) == 0:
         raise InvalidInput(f"{name} must have shape (n, {dim}) with n >= 1, got {data.shape}")
     finite = np.isfinite(data).all(axis=1)
