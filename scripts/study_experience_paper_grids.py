@@ -96,7 +96,7 @@ class Study:
             start = time.perf_counter()
             parts = path.with_suffix(".parts")
             result = gm.evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
-                                 params=params or BLEND, preshape=preshape, checkpoint_dir=parts)
+                                 params=params or BLEND, preshape=preshape, checkpoint_dir=parts, margin=True)
             result.method, result.grid_name = method, grid_name
             result.save(path)
             remove_checkpoints(parts)

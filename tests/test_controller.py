@@ -271,7 +271,7 @@ def test_bad_experience_is_rejected():
 
 
 def test_a_centred_cylinder_is_grasped_and_held():
-    result = gm.evaluate("cylinder", None, grid=np.array([[0.0, 0.0, 0.01, 0.0]]))
+    result = gm.evaluate("cylinder", None, grid=np.array([[0.0, 0.0, 0.01, 0.0]]), margin=True)
     trial = result.trials[0]
     assert trial.force_closure and trial.hold and trial.margin > 0
     assert trial.touching[[gm.SEGMENTS.index(s) for s in gm.DISTAL_SEGMENTS]].sum() >= 4
@@ -339,7 +339,7 @@ def test_an_object_on_a_table_is_grasped_and_lifted_off():
     """With a table the object stands on it under gravity while the hand closes; judging lifts it off."""
     grid = gm.grid_preset("quick", "cylinder", table=True)
     assert 0 < len(grid) < len(gm.grid_preset("quick", "cylinder"))  # the table is in the way of some poses
-    result = gm.evaluate("cylinder", None, grid=grid[:2], table=True)
+    result = gm.evaluate("cylinder", None, grid=grid[:2], table=True, margin=True)
     assert all(t.hold and t.margin > 0 for t in result.trials)
     scene = gm.Scene("cylinder", free_object=True, gravity=True, table=True)
     scene.run(0.5)
@@ -502,7 +502,7 @@ def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
                        limits[:, 0], limits[:, 1])
     database, som = gm.PostureDatabase(postures), gm.SOM(4, 4, 22, seed=0).fit(postures, epochs=5, progress=False)
     poses = check_grid("quick", gm.get_object("cylinder"))[1][::4]
-    run = dict(seed=3, workers=1, progress=False)
+    run = dict(seed=3, workers=1, progress=False, margin=True)
     results = {"database": gm.evaluate("cylinder", database, poses, params=BLEND, **run),
                "som_noise": gm.evaluate("cylinder", som, poses, noise=gm.Noise(0.004, 0.08, 0.01), params=BLEND, **run),
                "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, restart_closure=True), **run)}

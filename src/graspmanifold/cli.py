@@ -259,7 +259,8 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
     start = time.perf_counter()
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True, executor=args.cluster,
-                      backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller])
+                      backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller],
+                      margin=args.margin)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -388,6 +389,8 @@ def build_parser() -> argparse.ArgumentParser:
                           help="the object stands on a table (gravity on) instead of a spring support")
     workers(evaluate)
     evaluate.add_argument("--seed", type=int, default=0)
+    evaluate.add_argument("--margin", action="store_true",
+                          help="measure the disturbance margin of the grasps that hold (more simulation per held grasp)")
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")

@@ -145,7 +145,7 @@ class _Verifier:
     def __init__(self, obj: GraspObject, params: GeneratorParams, hand: str = "ours"):
         self.scene = supported_scene(obj, hand=hand)
         self.params = params
-        self.rules = replace(JUDGING, hold_seconds=params.verify_hold_seconds, margin=False)
+        self.rules = replace(JUDGING, hold_seconds=params.verify_hold_seconds)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         scene = self.scene

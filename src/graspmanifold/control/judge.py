@@ -6,17 +6,21 @@ spring with gravity off, or a table with gravity on); the support is released fi
 - hold: gravity is switched on along +x, -x, +y, -y, +z and -z in turn (`hold_seconds` each)
   while the hand keeps its grasp; the object must stay within `JudgingRules.hold_limit` of where it was grasped
   (the test ends for a world in the period its object leaves the bound);
-- margin (where `JudgingRules.margin` asks for it): a grasp that holds is then pushed, in the same six
+- margin (only where `JudgingRules.margin` asks for it: a report that shows it; it adds up to six
+  `margin_seconds` of physics to every grasp that holds): a grasp that holds is then pushed, in the same six
   directions in turn, by an extra force on the object that ramps from 0 to `margin_force` over
   `margin_seconds` (on top of gravity along that direction); the margin is the extra force (N) at which
-  the object first leaves the bound, `margin_force` when it never does (a censored value), 0 when it
-  did not hold or was not asked for;
+  the object first leaves the bound (the ramp ends there), `margin_force` when it never does (a censored
+  value), 0 when it did not hold, NaN when it was not asked for;
 - force closure: the Ferrari-Canny epsilon of the L1 grasp wrench space of the contacts at the
   moment of release, with the object's friction (the one the simulation uses), above
   `epsilon_threshold`, the paper's measure.
 
-`judge_worlds` is the one judging loop, over N worlds at once: the trials run it while their controller
-grasps, the generator's verifier on fingers pressing a candidate (shorter hold, no margin: the rules are data).
+`judge_worlds` is the one judging loop, over N worlds at once, whatever steps them (`CpuWorlds`, or
+`WarpWorlds` on a GPU): the trials run it while their controller grasps, the generator's verifier on
+fingers pressing a candidate (a shorter hold: the rules are data). No simulated second is spent that cannot
+change an outcome: a world's hold test ends in the period its object leaves the bound, its margin ramp
+likewise, and the margin runs only where it is asked for.
 """
 
 from __future__ import annotations
@@ -52,7 +56,8 @@ class JudgingRules:
             wrench of at least 1 % of its total normal force; smaller values are numerically marginal closure.
         support_stiffness: N/m (and N m/rad) of the object's support while the hand closes.
         support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
-        margin: measure the disturbance margin of a grasp that holds (False: the margin is 0).
+        margin: measure the disturbance margin of a grasp that holds (False: the margin is NaN, not measured;
+            `TrialSetup.margin` asks for it).
     """
 
     hold_seconds: float = 0.5
@@ -62,7 +67,7 @@ class JudgingRules:
     epsilon_threshold: float = 0.01
     support_stiffness: float = 2000.0
     support_damping: float = 30.0
-    margin: bool = True
+    margin: bool = False
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
@@ -79,7 +84,8 @@ class Judgement:
     """How good one grasp is (see the module doc), or why its physics failed: epsilon at release (per unit
     total normal force), hold, the largest displacement in the hold test (m; inf when the physics failed; for a
     grasp that did not hold, where the object was in the period it first left the bound: beyond the limit, and
-    the test stops there, as no later direction can change the outcome), margin (N), the posture (22,) rad and
+    the test stops there, as no later direction can change the outcome), margin (N; NaN when the rules did not ask
+    for it), the posture (22,) rad and
     touching segments (`SEGMENTS` order) at release, the deepest contact (m, up to where judging stopped), the
     fault (empty when none), the world's clock when it failed (s), and the seconds of the hold test run (all six
     directions' `hold_seconds` for a grasp that held, fewer for one that dropped its object; 0 on a fault)."""
@@ -162,7 +168,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     start = np.zeros((n, 3))
     worst = np.zeros(n)
     hold_time = np.full(n, len(HOLD_DIRECTIONS) * rules.hold_seconds)
-    held_force = np.zeros(n)
+    held_force = np.zeros(n) if rules.margin else np.full(n, np.nan)
     judged: list[Judgement | None] = [None] * n
     grasped: dict[int, tuple] = {}
 
@@ -176,7 +182,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     def fail(world: int, why: str) -> None:
         stage[world] = _FINISHED
         grasped.pop(world, None)
-        judged[world] = Judgement(0.0, False, np.inf, 0.0, worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool),
+        judged[world] = Judgement(0.0, False, np.inf, 0.0 if rules.margin else np.nan, worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool),
                                   worlds.max_penetration(world), why, worlds.time(world))
 
     while (stage != _FINISHED).any():
@@ -203,7 +209,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         count[turn] = 0
         done_holding = turn[direction[turn] == len(HOLD_DIRECTIONS)]
         held = done_holding[worst[done_holding] <= rules.hold_limit] if rules.margin else done_holding[:0]
-        for world in np.setdiff1d(done_holding, held):
+        for world in np.setdiff1d(done_holding, held):  # a grasp that held, when no margin is asked for
             finish(world)
         stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, rules.margin_force
         turn = turn[stage[turn] == _HOLD]

@@ -285,7 +285,8 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
                           "som": maps[name], "som_all": maps["all"]}[kind]
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
-                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params)
+                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
+                              margin=True)  # the report shows the mean margin
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name

@@ -97,6 +97,10 @@ class TactileSensor:
         self.min_force = float(min_force)
         self._segment_of_geom = segment_of_geoms(model, hand)
         self._is_object_geom = model.geom_bodyid == object_id
+        # the segment a contact between two geoms is felt by (-1: not a hand-object pair), looked up in one step
+        hand_first = (self._segment_of_geom[:, None] >= 0) & self._is_object_geom[None, :]
+        self._pair_segment = np.where(hand_first, self._segment_of_geom[:, None], -1).astype(np.int16)
+        self._pair_segment = np.maximum(self._pair_segment, self._pair_segment.T)
         self._wrench = np.zeros(6)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
 
@@ -122,11 +126,15 @@ class TactileSensor:
         Returns:
             Forces (len(SEGMENTS),), N, in `SEGMENTS` order.
         """
-        segment_forces = np.zeros(len(SEGMENTS))
-        if data.ncon:
-            segments, forces, _ = self._hand_object(_geom_pairs(data), self._normal_forces(data))
-            np.add.at(segment_forces, segments, forces)
-        return segment_forces
+        n = data.ncon
+        if not n:
+            return np.zeros(len(SEGMENTS))
+        contact = data.contact
+        segments = self._pair_segment[contact.geom1[:n], contact.geom2[:n]]
+        forces = self._normal_forces(data)
+        with np.errstate(invalid="ignore"):
+            felt = (segments >= 0) & (forces >= self.min_force)  # NaN (not in the solver) is never felt
+        return np.bincount(segments[felt], forces[felt], minlength=len(SEGMENTS))
 
     def reading(self, geoms: np.ndarray, forces: np.ndarray, normals: np.ndarray, points: np.ndarray,
                 dists: np.ndarray) -> TactileReading:
@@ -180,10 +188,7 @@ class TactileSensor:
     def _hand_object(self, geoms: np.ndarray, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Segment (k,), normal force (k,) and row of every hand-object contact in the solver whose
         force reaches `min_force`."""
-        g1, g2 = geoms[:, 0], geoms[:, 1]
-        hand_first = (self._segment_of_geom[g1] >= 0) & self._is_object_geom[g2]
-        hand_second = (self._segment_of_geom[g2] >= 0) & self._is_object_geom[g1]
+        segments = self._pair_segment[geoms[:, 0], geoms[:, 1]].astype(int)
         with np.errstate(invalid="ignore"):
-            rows = np.flatnonzero((hand_first | hand_second) & ~np.isnan(forces) & (forces >= self.min_force))
-        segments = np.where(hand_first[rows], self._segment_of_geom[g1[rows]], self._segment_of_geom[g2[rows]])
-        return segments, forces[rows], rows
+            rows = np.flatnonzero((segments >= 0) & (forces >= self.min_force))  # NaN: not in the solver
+        return segments[rows], forces[rows], rows

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
@@ -33,6 +34,36 @@ from ..sim.objects import GraspObject, object_from_params
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
 from .trial import Noise, Trial, TrialSetup, run_trials
+
+#: what each array of an evaluation file holds (stored in its metadata as "fields"), one row per trial
+FIELDS = {
+    "grid": "(n, 4) grid pose: x, z, gap (m), yaw (rad)",
+    "postures": "(n, 22) rad, the posture at release",
+    "touching": "(n, len(segments)) bool, the segments touching at release",
+    "epsilon": "Ferrari-Canny epsilon at release, per unit total normal force",
+    "hold": "bool, the object stayed within the hold limit in all six gravity directions",
+    "hold_displacement": "m, the largest displacement in the hold test; for a grasp that did not hold, where the "
+                         "object was in the period it first left the bound (beyond the limit: the test stops "
+                         "there); inf when the physics failed",
+    "hold_time": "s of the hold test run (six hold_seconds when held, fewer when dropped, 0 on a fault)",
+    "time_to_grasp": "s until the controller reported the grasp done",
+    "matches": "experience queries the controller used",
+    "margin": "N of extra disturbance held (margin_force when never dropped, 0 when not held); NaN: not measured",
+    "penetration": "m, the deepest contact at the end of any control period",
+    "fault": "why the physics failed; empty when it did not",
+    "winners": "the best matches of every trial's queries, one trial after the other (matches of each)",
+}
+
+
+def _measured_mean(values: list[float]) -> float | None:
+    """The mean of the values measured (not NaN); None when none was (NaN with no trial at all)."""
+    measured = [v for v in values if not math.isnan(v)]
+    return float(np.mean(measured)) if measured else (None if values else float("nan"))
+
+
+def _number(value: float | None, digits: int) -> str:
+    """A table cell: the value to `digits` decimals, or an em dash when it was not measured (None)."""
+    return "—" if value is None else f"{value:.{digits}f}"
 
 
 @dataclass
@@ -71,8 +102,9 @@ class EvaluationResult:
 
     @property
     def summary(self) -> dict[str, float | int | str]:
-        """Rates (with 95 % Wilson intervals) and means over the valid trials; `trials` counts
-        them, `invalid_trials` the trials whose physics failed (see the module doc)."""
+        """Rates (with 95 % Wilson intervals) and means over the valid trials (`mean_margin` None where the
+        margin was not measured); `trials` counts them, `invalid_trials` the trials whose physics failed (see the
+        module doc)."""
         valid = [t for t in self.trials if t.valid]
         n, holds, closures = len(valid), sum(t.hold for t in valid), sum(t.force_closure for t in valid)
 
@@ -86,7 +118,7 @@ class EvaluationResult:
             "force_closure_rate": closures / n if n else float("nan"),
             "force_closure_interval": list(wilson_interval(int(closures), n)),
             "epsilon_threshold": JUDGING.epsilon_threshold,
-            "mean_margin": mean([t.margin for t in valid]),
+            "mean_margin": _measured_mean([t.margin for t in valid]),  # None: not measured
             "mean_epsilon": mean([t.epsilon for t in valid]),
             "mean_time_to_grasp": mean([t.time_to_grasp for t in valid]),
             "mean_touching_segments": mean([t.touching.sum() for t in valid]),
@@ -147,7 +179,7 @@ class EvaluationResult:
         return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
                 "| mean time to grasp (s) |\n|---|---|---|---|---|---|---|---|\n"
                 f"| {s['object']} | {s['method']} | {trial_count(s)} | {rate_text(round(s['hold_rate'] * n), n)} | "
-                f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_margin']:.2f} | "
+                f"{rate_text(round(s['force_closure_rate'] * n), n)} | {_number(s['mean_margin'], 2)} | "
                 f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
@@ -170,12 +202,13 @@ class EvaluationResult:
                   "time_to_grasp": np.array([x.time_to_grasp for x in t]),
                   "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
                   "penetration": np.array([x.penetration for x in t]),
-                  "fault": np.array([x.fault for x in t], dtype=str)}
+                  "fault": np.array([x.fault for x in t], dtype=str),
+                  "hold_time": np.array([x.hold_time for x in t])}
         if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
-                "units": "m, rad, s, N; epsilon per unit total normal force", **(extra or {})}
+                "units": "m, rad, s, N; epsilon per unit total normal force", "fields": FIELDS, **(extra or {})}
         return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
 
     @classmethod
@@ -214,7 +247,8 @@ class EvaluationResult:
             winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
-                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i])
+                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i],
+                        float(a["hold_time"][i]) if "hold_time" in a else float("nan"))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu")), meta
@@ -250,12 +284,12 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
-             controller: ControllerFactory | None = None) -> EvaluationResult:
+             controller: ControllerFactory | None = None, margin: bool = False) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
-    with gravity on), then released and judged: the hold test, its margin, and epsilon at the object's
-    friction. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun
+    with gravity on), then released and judged: the hold test, epsilon at the object's friction, and the
+    disturbance margin where `margin` asks for it. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun
     with the same arguments (and the same library code) picks them up; parts of another configuration are
     discarded with a warning. The same seed gives the same trials, whatever the number of workers, the
     executor or interruptions (on one backend).
@@ -283,6 +317,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`).
         controller: a user's own controller instead of ours (`TrialSetup.controller`: `controller(n, hand)`
             returns a `controller.Controller`); give it a `method` label, and no experience, preshape or params.
+        margin: measure the disturbance margin of every grasp that holds (N; up to 1.8 s more simulation per
+            held grasp); False: the trials' margin and the summary's mean margin are NaN, not measured.
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -292,7 +328,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             argument.
     """
     setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method, hand, controller)
+                       method, hand, controller, margin)
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size = check_int(batch_size, "batch_size")

@@ -2,7 +2,8 @@
 
 A trial puts a free object (gravity off) in front of the open hand at one grid pose (`grid.py`),
 runs the controller until it reports the grasp done, and then judges the grasp (`judge.judge_worlds`:
-the hold test in six gravity directions, the disturbance margin, and epsilon for force closure).
+the hold test in six gravity directions, epsilon for force closure, and the disturbance margin where
+`TrialSetup.margin` asks for it).
 `run_trials` is the one trial loop: N grid poses at once, one controller for all (`BatchController`, or
 a user's own `Controller`) and one `Worlds` for the physics (`CpuWorlds`, or `WarpWorlds` on a GPU).
 While the hand closes, a stiff spring-damper support keeps the object near its place (as a table or
@@ -23,7 +24,7 @@ import functools
 import math
 import os
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.validation import check_int
 from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
-from ..control.judge import JUDGING, judge_worlds, supported_scene
+from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
@@ -100,6 +101,8 @@ class TrialSetup:
         controller: a user's own: `controller(n, hand)` returns a `controller.Controller` for n worlds (a
             module-level class or function, for worker processes); it brings its own experience and parameters
             (`experience`, `preshape`, `params` stay at their defaults), and `method` names it.
+        margin: measure the disturbance margin of every grasp that holds (`judge` module doc; up to 1.8 s more
+            simulation per held grasp); False: `Trial.margin` is NaN.
     """
 
     object: GraspObject
@@ -112,6 +115,7 @@ class TrialSetup:
     method: str = ""
     hand: HandModel = SHADOW_HAND
     controller: ControllerFactory | None = None
+    margin: bool = False
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -141,6 +145,12 @@ class TrialSetup:
                                "preshape and params at their defaults")
         set_field("method", self.method or method_name(self.experience))
         set_field("table", bool(self.table))
+        set_field("margin", bool(self.margin))
+
+    @property
+    def rules(self) -> JudgingRules:
+        """The judging rules of these trials: `JUDGING`, with the margin where it is asked for."""
+        return replace(JUDGING, margin=self.margin)
 
     def key(self, poses: np.ndarray, seed: int) -> str:
         """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
@@ -156,7 +166,7 @@ class TrialSetup:
         """
         experience, custom = self.experience, self.controller
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
-                           "params": asdict(self.params), "table": self.table, "backend": self.backend,
+                           "params": asdict(self.params), "table": self.table, "backend": self.backend, "margin": self.margin,
                            "experience": None if experience is None else type(experience).__name__,
                            "hand": self.hand.digest, "controller": None if custom is None else
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
@@ -194,17 +204,20 @@ class Trial:
     hold_displacement: float
     time_to_grasp: float
     matches: int
-    margin: float = 0.0  # N of extra disturbance held (JUDGING.margin_force when never dropped)
+    margin: float = 0.0  # N of extra disturbance held (JUDGING.margin_force when never dropped; NaN: not measured)
     penetration: float = 0.0  # m, the deepest contact at the end of any control period (Scene.max_penetration)
     fault: str = ""  # why the physics of this trial failed; empty when it did not
     #: the best match of every experience query the controller used (`matches` of them), in order: rows of
     #: `experience.references` (a SOM's flat node indices); None when not recorded (a file of library 0.1.0)
     winners: np.ndarray | None = field(default_factory=lambda: np.zeros(0, dtype=int))
+    #: s of the hold test run: 6 x `JUDGING.hold_seconds` for a grasp that held, less for one that dropped its
+    #: object (the test ends there), 0 when the physics failed; NaN when not recorded (a file written before it was kept)
+    hold_time: float = float("nan")
 
     def __repr__(self) -> str:
         outcome = f"invalid: {self.fault}" if self.fault else (
-            f"{'held' if self.hold else 'dropped'}, epsilon {self.epsilon:.3f}, margin {self.margin:.1f} N, "
-            f"{self.time_to_grasp:.2f} s")
+            f"{'held' if self.hold else 'dropped'}, epsilon {self.epsilon:.3f}, "
+            f"{'' if math.isnan(self.margin) else f'margin {self.margin:.1f} N, '}{self.time_to_grasp:.2f} s")
         return f"Trial(pose {np.round(self.grid_pose, 3).tolist()}: {outcome})"
 
     @property
@@ -301,11 +314,13 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     if observer is not None:
         observer(worlds)
     trials = []
-    for world, judged in enumerate(judge_worlds(worlds, period, advance, friction=setup.object.friction, ready=ready)):
+    for world, judged in enumerate(judge_worlds(worlds, period, advance, friction=setup.object.friction,
+                                                rules=setup.rules, ready=ready)):
         matches, winners = failed.get(world) or recalls(world)
         trials.append(Trial(poses[world], judged.posture, judged.touching, judged.epsilon, judged.hold,
                             judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
-                            matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int)))
+                            matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int),
+                            judged.hold_time))
     return trials
 
 
