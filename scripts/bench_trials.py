@@ -11,7 +11,8 @@ the same trials bit for bit. `agree`: CPU against Warp trial by trial on a grid 
 hold), with Wilson intervals and McNemar's test; Warp runs on the GPU, or on Warp's CPU device with
 GRASPMANIFOLD_WARP_DEVICE=cpu. `gpu`: Warp trials per minute at several world counts (the paper
 grid's poses repeated with pose noise), the first call's kernel compilation timed apart, and the
-share of the wall time spent in the physics.
+share of the wall time spent in the physics, then `agree` on the quick grid: the one command to run
+the day a GPU is lent.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import time
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.base.workers import parallel_map
+from graspmanifold.base.workers import parallel_map, usable_cores
 from graspmanifold.trials.grid import check_grid
 from graspmanifold.trials.stats import mcnemar, rate_text
 from graspmanifold.trials.trial import Noise, TrialSetup, run_trial
@@ -118,6 +119,9 @@ def bench_gpu(args: argparse.Namespace) -> None:
         s = result.summary
         print(f"| {worlds} | {wall:.1f} | {60 * worlds / wall:.0f} | {physics['s'] / wall:.0%} | "
               f"{s['hold_rate']:.0%} | {s['force_closure_rate']:.0%} |", flush=True)
+    print(f"\nagreement with the CPU on the {args.agree_grid} grid:\n")
+    bench_agree(argparse.Namespace(objects=list(gm.PAPER_OBJECTS), grid=args.agree_grid, som=None,
+                                   cpu_workers=usable_cores()))
 
 
 def main() -> None:
@@ -135,6 +139,7 @@ def main() -> None:
     gpu = sub.add_parser("gpu")
     gpu.add_argument("--object", default="cylinder")
     gpu.add_argument("--worlds", nargs="+", type=int, default=[1024, 4096, 16384])
+    gpu.add_argument("--agree-grid", default="quick", help="the grid of the CPU agreement that follows")
     args = parser.parse_args()
     print(f"graspmanifold from {gm.__file__}")
     {"cpu": bench_cpu, "agree": bench_agree, "gpu": bench_gpu}[args.what](args)

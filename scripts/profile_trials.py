@@ -2,6 +2,7 @@
 
     python scripts/profile_trials.py trials [--grid paper] [--every 9] [--margin]
     python scripts/profile_trials.py generator [--object cylinder] [--n 20]
+    python scripts/profile_trials.py stepping [--worlds 16] [--threads 2]
 
 `trials` runs the plain heuristic on every k-th pose of a grid (`paper`, `quick`, or `benchmark`: the
 benchmark's test poses of every object and placement), each object's poses as one batch as `evaluate` runs
@@ -10,7 +11,10 @@ controller is done, then the hold test for `Judgement.hold_time`, then the margi
 phase, seconds of `mj_step` (with the per-period health check) per phase, and the Python around the physics
 (the controller, the tactile reads, epsilon at release, the judging loop). `generator` does the same for the
 posture generator's phases: the walk (the hand gliding with its springs), the settling, the candidate test,
-and the verifier's replay (pressing, then the hold test).
+and the verifier's replay (pressing, then the hold test). `stepping` times one control period (10 steps) of
+N grasping worlds three ways: the trials' Python loop of `mj_step`, `mujoco.rollout` (its own thread pool,
+no Python between steps; the state copied in and out, and `mj_forward` for the contacts the tactile
+reads need), and what a bare `mj_step` call costs on an empty model (the loop's ceiling on Python overhead).
 
 The timings wrap the library's own methods (no copy of their code); the wrappers' own cost, a few
 microseconds per call, is inside the Python share.
@@ -60,7 +64,7 @@ def table(rows: list[tuple], header: tuple) -> str:
 
 
 def profile_trials(grid: str, every: int, margin: bool) -> None:
-    cells = [(o.object, benchmark_grid(o.object.name, p)) for o in OBJECTS for p in PLACEMENTS] if grid == "benchmark" \
+    cells = [(o.object, benchmark_grid(o.object.name, p)) for o in OBJECTS.values() for p in PLACEMENTS] if grid == "benchmark" \
         else [(gm.get_object(name), check_grid(grid, gm.get_object(name))[1]) for name in PAPER_SHAPES]
     per_world: list[list[float]] = []  # physics seconds of every advance of the current batch's worlds
     original_step = CpuWorlds.step
@@ -160,6 +164,60 @@ def profile_generator(name: str, n: int) -> None:
     print(table(rows, ("phase", "steps / posture", "ms / posture", "share of wall time")))
 
 
+def profile_stepping(worlds: int, threads: int, periods: int = 20) -> None:
+    import mujoco
+    from mujoco import rollout
+
+    from graspmanifold.control.judge import supported_scene
+
+    scenes = []
+    for k in range(worlds):  # hands closing on the cylinder, each a little further along
+        scene = supported_scene("cylinder")
+        scene.set_hand_pose(*gm.facing_pose("cylinder", clearance=0.01))
+        scene.set_posture(gm.open_posture())
+        scene.set_target(gm.closed_posture())
+        scene.step(300 + 10 * k)
+        scenes.append(scene)
+    models, spec = [s.model for s in scenes], mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+    def python_loop() -> None:
+        for scene in scenes:
+            for _ in range(10):
+                mujoco.mj_step(scene.model, scene.data)
+
+    def with_rollout(pool, datas) -> None:
+        state = np.array([np.empty(mujoco.mj_stateSize(s.model, spec)) for s in scenes])
+        for row, scene in zip(state, scenes):
+            mujoco.mj_getState(scene.model, scene.data, row, spec)
+        out, _ = pool.rollout(models, datas, state, np.array([s.data.ctrl for s in scenes])[:, None, :], nstep=10,
+                              initial_warmstart=np.array([s.data.qacc_warmstart for s in scenes]))
+        for row, scene in zip(out[:, -1], scenes):
+            mujoco.mj_setState(scene.model, scene.data, row, spec)
+            mujoco.mj_forward(scene.model, scene.data)
+
+    def per_period(run: Callable[[], None]) -> float:
+        run()
+        started = time.perf_counter()
+        for _ in range(periods):
+            run()
+        return 1000 * (time.perf_counter() - started) / periods
+
+    rows = [("Python loop of mj_step (the trials')", f"{per_period(python_loop):.2f}")]
+    for nthread in sorted({1, threads}):
+        pool = rollout.Rollout(nthread=nthread)
+        datas = [mujoco.MjData(models[0]) for _ in range(nthread)]
+        rows.append((f"mujoco.rollout, {nthread} thread(s)", f"{per_period(lambda: with_rollout(pool, datas)):.2f}"))
+        pool.close()
+    empty = mujoco.MjModel.from_xml_string("<mujoco/>")
+    data = mujoco.MjData(empty)
+    started = time.perf_counter()
+    for _ in range(100_000):
+        mujoco.mj_step(empty, data)
+    bare = 1e6 * (time.perf_counter() - started) / 100_000
+    print(f"one control period (10 steps) of {worlds} grasping worlds; a bare mj_step call costs {bare:.1f} us\n")
+    print(table(rows, ("stepping", "ms per period")))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="what", required=True)
@@ -170,11 +228,16 @@ def main() -> None:
     gen = sub.add_parser("generator")
     gen.add_argument("--object", default="cylinder")
     gen.add_argument("--n", type=int, default=20)
+    stepping = sub.add_parser("stepping")
+    stepping.add_argument("--worlds", type=int, default=16)
+    stepping.add_argument("--threads", type=int, default=2)
     args = parser.parse_args()
     if args.what == "trials":
         profile_trials(args.grid, args.every, args.margin)
-    else:
+    elif args.what == "generator":
         profile_generator(args.object, args.n)
+    else:
+        profile_stepping(args.worlds, args.threads)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """Every implementation of the library's interfaces meets its contract (`trials.conformance`)."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -119,3 +121,33 @@ def test_a_users_own_experience_meets_the_contract_and_is_recalled_in_a_trial():
     result = names["result"]
     assert result.method == "one_by_one" and len(result.trials) == 4
     assert sum(t.matches for t in result.trials) > 0
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere", "marble", "pen"])
+def test_warp_buffers_hold_a_closed_hand_on_every_object(name, monkeypatch):
+    """The contacts and constraint rows Warp allocates per world (`warp_worlds.CONTACTS_PER_WORLD`,
+    `CONSTRAINTS_PER_WORLD`) hold a hand closed hard on each object, with room to spare; on Warp's CPU device
+    where no GPU is lent (`GRASPMANIFOLD_WARP_DEVICE`); skipped without the gpu extra."""
+    pytest.importorskip("mujoco_warp")
+    monkeypatch.setenv("GRASPMANIFOLD_WARP_DEVICE", os.environ.get("GRASPMANIFOLD_WARP_DEVICE", "cpu"))
+    from graspmanifold.sim import warp_worlds
+    from graspmanifold.trials.benchmark import OBJECTS
+    from graspmanifold.trials.grid import check_grid
+    from graspmanifold.trials.trial import TrialSetup, trial_scene
+
+    obj = OBJECTS[name].object
+    poses = check_grid("quick", obj)[1][:2] if name in gm.PAPER_OBJECTS else np.array([[0.0, 0.0, 0.01, 0.0]])
+    scenes = [trial_scene(TrialSetup(obj), pose, np.random.default_rng(0), gm.open_posture()) for pose in poses]
+    worlds = warp_worlds.WarpWorlds(scenes)
+    everyone = np.arange(worlds.n)
+    worlds.set_targets(everyone, np.tile(gm.closed_posture(), (worlds.n, 1)))  # the whole hand, squeezing
+    peak_contacts, peak_rows = 0, 0
+    for _ in range(40):  # 0.8 s: closed and pressing
+        assert not worlds.step(everyone, 10)
+        peak_contacts = max(peak_contacts, int(worlds._d.nacon.numpy()[0]))
+        peak_rows = max(peak_rows, int(np.max(worlds._d.nefc.numpy())))
+    print(f"{name}: at most {peak_contacts} contacts in {worlds.n} worlds, {peak_rows} constraint rows in one")
+    assert not worlds.overflow().any()
+    assert worlds.segment_forces(everyone).sum() > 0  # it does touch the object
+    assert peak_contacts <= 0.5 * warp_worlds.CONTACTS_PER_WORLD * worlds.n, peak_contacts
+    assert peak_rows <= 0.5 * warp_worlds.CONSTRAINTS_PER_WORLD, peak_rows

@@ -224,10 +224,12 @@ class WarpWorlds:
             else:
                 for _ in range(nstep):
                     mjw.step(self._m, self._d)
-        overflow = int(self._d.overflow.numpy()[0]) if hasattr(self._d, "overflow") else 0
-        if overflow:
-            raise SimulationError(f"MuJoCo Warp's buffers overflowed (flags {overflow:#x}): more than "
-                               f"{CONTACTS_PER_WORLD} contacts or {CONSTRAINTS_PER_WORLD} constraint rows in a world")
+        overflow = self.overflow()
+        if overflow.any():  # a lost contact or constraint row makes every world's physics suspect
+            worst = np.flatnonzero(overflow)
+            raise SimulationError(f"MuJoCo Warp's buffers overflowed in {len(worst)} of {self.n} worlds (world "
+                                  f"{worst[0]}: flags {int(overflow[worst[0]]):#x}): more than {CONTACTS_PER_WORLD} "
+                                  f"contacts or {CONSTRAINTS_PER_WORLD} constraint rows in a world")
         self._observe()
         self._max_penetration = np.maximum(self._max_penetration, self._penetration)
         finite = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
@@ -241,6 +243,10 @@ class WarpWorlds:
                 failed[int(world)] = (f"the simulation of the {self.scenes[0].object.name} scene failed at "
                                       f"t = {self.time(world):.3f} s: {'; '.join(found)}")
         return failed
+
+    def overflow(self) -> np.ndarray:
+        """MuJoCo Warp's overflow flags of every world (n,) int (`mujoco_warp.OverflowType`; 0: none so far)."""
+        return np.broadcast_to(self._d.overflow.numpy(), (self.n,)).astype(int)
 
     def _warm_up(self) -> None:
         """Compile every kernel of a step (a graph capture cannot) on a one-world copy of the data."""
