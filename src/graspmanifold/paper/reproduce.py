@@ -29,6 +29,7 @@ from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_int
+from ..base.workers import default_workers, worker_pool
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
@@ -202,7 +203,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
               force: bool = False, log: Callable[[str], None] = print, executor: Executor | None = None) -> dict:
     """Run (or resume) the whole pipeline into `out`; returns the summary written to summary.json.
     `executor` runs the generator's jobs and the trials elsewhere (a Dask cluster:
-    `workers.cluster_executor`), with the same results."""
+    `workers.cluster_executor`), with the same results; without one, every stage shares one pool of `workers`
+    processes (None: `workers.default_workers()`)."""
     if isinstance(preset, str):
         if preset not in PRESETS:
             raise InvalidInput(f"unknown preset {preset!r}; expected one of {tuple(PRESETS)}")
@@ -215,7 +217,11 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     out = Path(out)
     _check_output(out, config, force)
     with output_lock(out / LOCK_FILE):
-        return _run(out, config, hand, workers, log, executor)
+        pool_size = default_workers() if workers is None else workers
+        if executor is not None or pool_size == 1:
+            return _run(out, config, hand, workers, log, executor)
+        with worker_pool(pool_size) as pool:  # one pool for every stage: a pool's start costs about a second
+            return _run(out, config, hand, pool_size, log, pool)
 
 
 def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log: Callable[[str], None],
