@@ -64,8 +64,10 @@ def table(rows: list[tuple], header: tuple) -> str:
 
 
 def profile_trials(grid: str, every: int, margin: bool) -> None:
-    cells = [(o.object, benchmark_grid(o.object.name, p)) for o in OBJECTS.values() for p in PLACEMENTS] if grid == "benchmark" \
-        else [(gm.get_object(name), check_grid(grid, gm.get_object(name))[1]) for name in PAPER_SHAPES]
+    if grid == "benchmark":
+        cells = [(o.object, benchmark_grid(o.object.name, p)) for o in OBJECTS.values() for p in PLACEMENTS]
+    else:
+        cells = [(gm.get_object(name), check_grid(grid, gm.get_object(name))[1]) for name in PAPER_SHAPES]
     per_world: list[list[float]] = []  # physics seconds of every advance of the current batch's worlds
     original_step = CpuWorlds.step
 
@@ -114,7 +116,8 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
              for label, seconds in python.items()]
     rows.append(("total", f"{sum(steps.values()) / trials:.0f}", f"{1000 * wall / trials:.1f}", "100 %",
                  f"{1e6 * total_physics / sum(steps.values()):.0f}"))
-    print(f"{grid} grid, every {every}. pose: {trials} trials ({judged_held} held), margin {'on' if margin else 'off'}, "
+    print(f"{grid} grid, every {every}. pose: {trials} trials ({judged_held} held), "
+          f"margin {'on' if margin else 'off'}, "
           f"{60 * trials / wall:.0f} trials/min on one core\n")
     print(table(rows, ("phase", "steps / trial", "ms / trial", "share of wall time", "us / step")))
 
@@ -155,7 +158,8 @@ def profile_generator(name: str, n: int) -> None:
     started = time.perf_counter()
     gm.generate_postures(name, n, seed=0, workers=1, progress=False)
     wall = time.perf_counter() - started
-    rows = [(label, f"{counts[label] / n:.0f}", f"{1000 * SECONDS[label] / n:.1f}", f"{100 * SECONDS[label] / wall:.1f} %")
+    rows = [(label, f"{counts[label] / n:.0f}", f"{1000 * SECONDS[label] / n:.1f}",
+             f"{100 * SECONDS[label] / wall:.1f} %")
             for label in ("walk", "settle", "candidate test", "verification")]
     rest = wall - sum(SECONDS[label] for label in ("walk", "settle", "candidate test", "verification"))
     rows += [("other (set-up, bookkeeping)", "", f"{1000 * rest / n:.1f}", f"{100 * rest / wall:.1f} %"),

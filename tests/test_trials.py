@@ -121,3 +121,20 @@ def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold
     kept = np.array([any(np.array_equal(p, h) for h in held.postures) for p in candidates.postures])
     assert np.array_equal(kept, golden["verify/cylinder/kept"]) and not kept.all()
     np.testing.assert_allclose(held.epsilon, golden["verify/cylinder/epsilon"], rtol=0, atol=1e-4)
+
+
+def test_the_margin_is_measured_only_where_it_is_asked_for(tmp_path):
+    """The margin's ramp adds up to 1.8 s of physics to every held grasp: it runs only with margin=True; not
+    asked for, a trial's margin is NaN, the summary's mean margin None and the table shows a dash."""
+    import math
+
+    pose = np.array([[0.0, 0.0, 0.01, 0.0]])
+    plain = gm.evaluate("cylinder", None, pose, progress=False)
+    measured = gm.evaluate("cylinder", None, pose, progress=False, margin=True)
+    a, b = plain.trials[0], measured.trials[0]
+    assert a.hold and b.hold and a.epsilon == b.epsilon and a.hold_time == b.hold_time == pytest.approx(3.0)
+    assert math.isnan(a.margin) and plain.summary["mean_margin"] is None and "| — |" in plain.markdown()
+    assert b.margin > 0 and measured.summary["mean_margin"] == b.margin and "margin" not in repr(a)
+    loaded = gm.EvaluationResult.load(plain.save(tmp_path / "plain.npz"))
+    assert math.isnan(loaded.trials[0].margin) and loaded.trials[0].hold_time == a.hold_time
+    assert loaded.summary["mean_margin"] is None

@@ -84,11 +84,11 @@ class Judgement:
     """How good one grasp is (see the module doc), or why its physics failed: epsilon at release (per unit
     total normal force), hold, the largest displacement in the hold test (m; inf when the physics failed; for a
     grasp that did not hold, where the object was in the period it first left the bound: beyond the limit, and
-    the test stops there, as no later direction can change the outcome), margin (N; NaN when the rules did not ask
-    for it), the posture (22,) rad and
-    touching segments (`SEGMENTS` order) at release, the deepest contact (m, up to where judging stopped), the
-    fault (empty when none), the world's clock when it failed (s), and the seconds of the hold test run (all six
-    directions' `hold_seconds` for a grasp that held, fewer for one that dropped its object; 0 on a fault)."""
+    the test stops there, as no later direction can change the outcome), margin (N; NaN when the rules did not
+    ask for it), the posture (22,) rad and touching segments (`SEGMENTS` order) at release, the deepest contact
+    (m, up to where judging stopped), the fault (empty when none), the world's clock when it failed (s), and the
+    seconds of the hold test run (all six directions' `hold_seconds` for a grasp that held, fewer for one that
+    dropped its object; 0 on a fault)."""
 
     epsilon: float
     hold: bool
@@ -182,8 +182,9 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     def fail(world: int, why: str) -> None:
         stage[world] = _FINISHED
         grasped.pop(world, None)
-        judged[world] = Judgement(0.0, False, np.inf, 0.0 if rules.margin else np.nan, worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool),
-                                  worlds.max_penetration(world), why, worlds.time(world))
+        judged[world] = Judgement(0.0, False, np.inf, 0.0 if rules.margin else np.nan, worlds.posture(world),
+                                  np.zeros(len(SEGMENTS), dtype=bool), worlds.max_penetration(world), why,
+                                  worlds.time(world))
 
     while (stage != _FINISHED).any():
         # judging begins for the worlds whose grasp ended in the last period

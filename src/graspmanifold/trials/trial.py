@@ -376,8 +376,8 @@ class Recording:
 def record_trial(obj: str | GraspObject, experience: Experience | None = None,
                  grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
                  noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
-                 preshape: np.ndarray | None = None, hand: str | HandModel = "ours") -> Recording:
-    """Run one trial as `evaluate` would at a grid pose and keep the scene's state along the way.
+                 preshape: np.ndarray | None = None, hand: str | HandModel = "ours", margin: bool = True) -> Recording:
+    """Run one trial as `evaluate(..., margin=True)` would at a grid pose; keep the scene's state along the way.
 
     `record_trial("box").save_gif("grasp.gif")` animates it; `recording.scene.render()` draws its final state.
 
@@ -392,6 +392,8 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         table: the object stands on a table with gravity on.
         preshape: a constant phase-B posture (22,), rad.
         hand: the hand model, or its name.
+        margin: measure the disturbance margin too (`TrialSetup.margin`; on by default: a recording shows the
+            whole judging, the pushes included).
 
     Returns:
         The recording: the trial's outcome, its scene and the kept states.
@@ -410,7 +412,8 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
-    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, hand=hand)
+    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, hand=hand,
+                       margin=margin)
     period = setup.params.control_period
     trial = run_trial(setup, grid_pose, np.random.default_rng([seed, 0]), observer=observe)
     return Recording(trial, seen["scene"], np.array(states), every * period)
