@@ -314,3 +314,25 @@ def test_springs_that_break_the_physics_are_named_not_reported_as_a_low_yield():
                        r"MuJoCo warning \w+.*spring_stiffness 1e\+12 N/m") as raised:
         gm.generate_postures("cylinder", 4, seed=0, params=params)
     assert "verify=False" not in str(raised.value)
+
+
+def test_an_object_wider_than_the_hand_spans_is_refused_with_its_size_before_any_search():
+    """A 30 cm box: no design can close around it, and the message says why in sizes, at once."""
+    import time
+
+    import trimesh
+    from scipy.spatial.transform import Rotation
+
+    from graspmanifold.sim.hand_models import hand_model
+
+    hand = hand_model("ours")
+    assert 0.18 < hand.span < 0.26  # thumb tip to little fingertip, the hand open
+    started = time.perf_counter()
+    with pytest.raises(gm.GenerationError, match=r"30\.0 cm across at its narrowest.*spans 22\.0 cm"):
+        gm.generate_postures(gm.make_object("box", size=(0.3, 0.3, 0.3)), 5, progress=False)
+    assert time.perf_counter() - started < 5  # before the starting-posture search (minutes for such a box)
+    plank = trimesh.creation.box(extents=(0.12, 0.07, 0.02))
+    plank.apply_transform(np.block([[Rotation.from_euler("xyz", [0.4, 0.3, 0.2]).as_matrix(), np.zeros((3, 1))],
+                                    [np.zeros((1, 3)), np.ones((1, 1))]]))
+    assert gm.make_object("mesh", mesh=plank).narrowest_width == pytest.approx(0.02, rel=1e-6)  # turned: not its box
+    assert gm.get_object("cylinder").narrowest_width == pytest.approx(0.06)

@@ -52,13 +52,13 @@ from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
-from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, segment_of_geoms
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, HandModel, segment_of_geoms
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
 from .judge import JUDGING, Judgement, hold_on_support, judge_scene, supported_scene
-from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, starting_postures
+from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, designs_for, starting_postures
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
     "paper": dict(DATASET_SIZES),
@@ -354,6 +354,26 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
             "first_fault": np.array(first_fault), "exhausted": np.array(exhausted)}
 
 
+def _size_text(obj: GraspObject, hand: HandModel) -> str:
+    """The object's size against the hand's, in words."""
+    return (f"it is {100 * obj.narrowest_width:.1f} cm across at its narrowest and {200 * obj.half_extents.max():.1f} "
+            f"cm at its longest; the {hand.name!r} hand spans {100 * hand.span:.1f} cm (thumb tip to the farthest "
+            "fingertip, open)")
+
+
+def _design_names(obj: GraspObject, family: str) -> list[str]:
+    """The names of the designs searched for an object in a family."""
+    return [design.name for design in designs_for(obj, family)]
+
+
+def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
+    """Refuse an object wider at its narrowest than the hand's span before any search: no design can close
+    around it."""
+    if obj.narrowest_width > hand.span:
+        raise GenerationError(f"{obj.name} cannot be grasped by this hand: {_size_text(obj, hand)}, so no grasp "
+                              "can close around it (use an object that is narrower somewhere than the hand spans)")
+
+
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
     norm = np.linalg.norm(v)
     return v if norm <= radius else v * (radius / norm)
@@ -439,17 +459,24 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         `verified_by_start`, `kept_by_start`).
 
     Raises:
-        GenerationError: no starting posture was found, or with verification fewer than n candidates
-            held within the budget (the message gives the yield per starting posture).
+        GenerationError: the object is wider at its narrowest than the hand spans (`HandModel.span`), no
+            starting posture was found (the message gives the object's size against the hand's and the designs
+            tried), or with verification fewer than n candidates held within the budget (the message gives the
+            yield per starting posture).
     """
     seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
     n = check_int(n, "n", high=MAX_POSTURES)
     workers = workers_for(workers, n, GENERATE_PER_WORKER)
     params = params or GeneratorParams()
-    starts, model = starting_postures(obj, params.designs), hand_model(hand)  # the hand refused here when unknown
+    model = hand_model(hand)  # the hand refused here when unknown
+    _check_graspable(obj, model)
+    starts = starting_postures(obj, params.designs)
     if not starts:
-        raise GenerationError(f"no starting posture could be found for {obj.name} (designs {params.designs!r})")
+        raise GenerationError(f"no starting posture could be found for {obj.name}: {_size_text(obj, model)}; none of "
+                              f"the {params.designs!r} designs ({', '.join(_design_names(obj, params.designs))}) "
+                              "closes the hand on it with its contacts touching (an object too small for the "
+                              "fingertips to meet on it, or of a shape none of them fits)")
     hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:
     starts = [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
     key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),

@@ -120,6 +120,20 @@ class HandModel:
         return digest.hexdigest()[:20]
 
     @functools.cached_property
+    def span(self) -> float:
+        """The hand's span, m: the largest distance from the thumb's tip to another fingertip with the hand open
+        (the `open` posture); an object wider than this at its narrowest cannot be closed around."""
+        model = self.model
+        data = mujoco.MjData(model)
+        angles = self.to_model(self.keyframe_posture("open"))
+        for joint, angle in zip(self.finger_joints, angles):
+            data.qpos[model.joint(joint).qposadr[0]] = angle
+        mujoco.mj_kinematics(model, data)
+        tips = np.array([data.site_xpos[model.site(site).id] for site in self.fingertip_sites])
+        thumb = FINGERS.index("th")
+        return float(np.linalg.norm(np.delete(tips, thumb, axis=0) - tips[thumb], axis=1).max())
+
+    @functools.cached_property
     def joint_ranges(self) -> dict[str, tuple[float, float]]:
         """Each wrist and finger joint's range, rad, by name, as its MJCF gives it (where ranges are written)."""
         return {name: tuple(float(v) for v in self.model.joint(name).range)

@@ -61,6 +61,19 @@ class GraspObject:
             return np.array([r, r, h])
         return np.full(3, self.half_sizes[0])
 
+    @cached_property
+    def narrowest_width(self) -> float:
+        """The object's width at its narrowest, m: the smallest extent of a primitive (a box's shortest side, a
+        cylinder's diameter or length, a ball's diameter); of a mesh, the smallest extent of its convex hull
+        along the hull's face normals and the frame's axes (an upper bound within a few per cent of the true
+        minimum width). What a hand has to span to close around it."""
+        if self.shape != "mesh":
+            return float(2 * self.half_extents.min())
+        hull = self.mesh.convex_hull
+        directions = np.vstack([np.eye(3), hull.face_normals])
+        heights = hull.vertices @ directions.T
+        return float((heights.max(axis=0) - heights.min(axis=0)).min())
+
     def with_(self, *, mass: float | None = None, friction: float | None = None,
               name: str | None = None) -> GraspObject:
         """This object with another mass or friction, named after what differs.
