@@ -62,9 +62,14 @@ def test_every_grasp_type_has_valid_starting_postures(name):
         gm.starting_postures(name, "wraps")
 
 
-def test_starting_postures_are_found_for_other_sizes():
+def test_starting_postures_are_found_for_other_sizes(capsys):
     obj = gm.make_object("cylinder", radius=0.025, length=0.12)
-    starts = gm.starting_postures(obj)
+    shown = gm.show_progress(True)
+    try:
+        starts = gm.starting_postures(obj)
+    finally:
+        gm.show_progress(shown)
+    assert f"starting postures {obj.name} (five_fingertip): 100%" in capsys.readouterr().err  # the search shows progress
     assert len(starts) >= 3
     for start in starts:
         assert_valid_grasp(obj, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))

@@ -35,6 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.io import load_npz, save_npz
+from ..base.progress import progress_bar
 from ..base.poses import to_quat, to_rotation
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_of, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
@@ -284,20 +285,24 @@ def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
     return bool(set(start.contacts) <= touching and np.all(np.concatenate([distal, other]) >= -MAX_PENETRATION))
 
 
-def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
+                           progress: bool | None = None) -> list[StartingPosture]:
     """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`).
     The `grasp_types` family takes its power grasps from the object's five-fingertip starting postures
-    (shipped or searched) and searches the `PRECISION_DESIGNS`."""
+    (shipped or searched) and searches the `PRECISION_DESIGNS`. A bar counts the designs searched (seconds
+    each for a primitive, longer for a mesh; `progress` as `progress.progress_bar` takes it)."""
     obj = get_object(obj)
     if family == "grasp_types":
         designs, found = PRECISION_DESIGNS, starting_postures(obj, "five_fingertip")
     else:
         designs, found = designs_for(obj, family), []
-    for design in designs:
-        pos, quat = design_pose(obj, design)
-        start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
-        if is_design_grasp(obj, start):
-            found.append(start)
+    with progress_bar(len(designs), f"starting postures {obj.name} ({family})", "designs", enabled=progress) as bar:
+        for design in designs:
+            pos, quat = design_pose(obj, design)
+            start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
+            if is_design_grasp(obj, start):
+                found.append(start)
+            bar.update(1)
     return found
 
 
