@@ -69,7 +69,7 @@ def test_starting_postures_are_found_for_other_sizes(capsys):
         starts = gm.starting_postures(obj)
     finally:
         gm.show_progress(shown)
-    assert f"starting postures {obj.name} (five_fingertip): 100%" in capsys.readouterr().err  # the search shows progress
+    assert f"starting postures {obj.name} (five_fingertip): 100%" in capsys.readouterr().err  # the search's bar
     assert len(starts) >= 3
     for start in starts:
         assert_valid_grasp(obj, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))

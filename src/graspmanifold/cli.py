@@ -390,7 +390,8 @@ def build_parser() -> argparse.ArgumentParser:
     workers(evaluate)
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--margin", action="store_true",
-                          help="measure the disturbance margin of the grasps that hold (more simulation per held grasp)")
+                          help="measure the disturbance margin of the grasps that hold "
+                               "(more simulation per held grasp)")
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")

@@ -361,11 +361,6 @@ def _size_text(obj: GraspObject, hand: HandModel) -> str:
             "fingertip, open)")
 
 
-def _design_names(obj: GraspObject, family: str) -> list[str]:
-    """The names of the designs searched for an object in a family."""
-    return [design.name for design in designs_for(obj, family)]
-
-
 def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
     """Refuse an object wider at its narrowest than the hand's span before any search: no design can close
     around it."""
@@ -473,8 +468,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     _check_graspable(obj, model)
     starts = starting_postures(obj, params.designs)
     if not starts:
+        tried = ", ".join(design.name for design in designs_for(obj, params.designs))
         raise GenerationError(f"no starting posture could be found for {obj.name}: {_size_text(obj, model)}; none of "
-                              f"the {params.designs!r} designs ({', '.join(_design_names(obj, params.designs))}) "
+                              f"the {params.designs!r} designs ({tried}) "
                               "closes the hand on it with its contacts touching (an object too small for the "
                               "fingertips to meet on it, or of a shape none of them fits)")
     hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:

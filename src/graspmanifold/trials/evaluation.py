@@ -289,7 +289,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
     with gravity on), then released and judged: the hold test, epsilon at the object's friction, and the
-    disturbance margin where `margin` asks for it. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished trials are saved there and a rerun
+    disturbance margin where `margin` asks for it. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished
+    trials are saved there and a rerun
     with the same arguments (and the same library code) picks them up; parts of another configuration are
     discarded with a warning. The same seed gives the same trials, whatever the number of workers, the
     executor or interruptions (on one backend).
@@ -318,7 +319,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         controller: a user's own controller instead of ours (`TrialSetup.controller`: `controller(n, hand)`
             returns a `controller.Controller`); give it a `method` label, and no experience, preshape or params.
         margin: measure the disturbance margin of every grasp that holds (N; up to 1.8 s more simulation per
-            held grasp); False: the trials' margin and the summary's mean margin are NaN, not measured.
+            held grasp); False: not measured, the trials' margin is NaN and the summary's mean margin None.
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.

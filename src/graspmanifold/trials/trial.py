@@ -166,7 +166,8 @@ class TrialSetup:
         """
         experience, custom = self.experience, self.controller
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
-                           "params": asdict(self.params), "table": self.table, "backend": self.backend, "margin": self.margin,
+                           "params": asdict(self.params), "table": self.table, "backend": self.backend,
+                           "margin": self.margin,
                            "experience": None if experience is None else type(experience).__name__,
                            "hand": self.hand.digest, "controller": None if custom is None else
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
@@ -211,7 +212,8 @@ class Trial:
     #: `experience.references` (a SOM's flat node indices); None when not recorded (a file of library 0.1.0)
     winners: np.ndarray | None = field(default_factory=lambda: np.zeros(0, dtype=int))
     #: s of the hold test run: 6 x `JUDGING.hold_seconds` for a grasp that held, less for one that dropped its
-    #: object (the test ends there), 0 when the physics failed; NaN when not recorded (a file written before it was kept)
+    #: object (the test ends there), 0 when the physics failed; NaN when not recorded (a file written before
+    #: it was kept)
     hold_time: float = float("nan")
 
     def __repr__(self) -> str:
