@@ -15,3 +15,18 @@ def engine(request) -> str:
     previous = kernels.use_compiled(request.param == "compiled")
     yield request.param
     kernels.use_compiled(previous)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _own_cache(tmp_path_factory):
+    """The searched starting postures go to a folder of this test session's, not the user's cache (set before
+    any worker process starts, so the workers share it)."""
+    import os
+
+    previous = os.environ.get("GRASPMANIFOLD_CACHE")
+    os.environ["GRASPMANIFOLD_CACHE"] = str(tmp_path_factory.mktemp("cache"))
+    yield
+    if previous is None:
+        os.environ.pop("GRASPMANIFOLD_CACHE")
+    else:
+        os.environ["GRASPMANIFOLD_CACHE"] = previous

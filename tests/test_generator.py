@@ -73,6 +73,38 @@ def test_starting_postures_are_found_for_other_sizes(capsys):
     assert len(starts) >= 3
     for start in starts:
         assert_valid_grasp(obj, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))
+    # stored for the next process: a second one reads them (no search, no warning) and gets the same grasps
+    import subprocess
+    import sys
+
+    code = ("import warnings, numpy as np, graspmanifold as gm; warnings.simplefilter('error'); "
+            "obj = gm.make_object('cylinder', radius=0.025, length=0.12); "
+            "print(np.concatenate([s.posture for s in gm.starting_postures(obj)]).tolist())")
+    again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    np.testing.assert_array_equal(eval(again.stdout), np.concatenate([s.posture for s in starts]))
+    from graspmanifold.control.starts import cache_directory
+
+    stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_five_fingertip_*.npz"))
+    assert len(stored) == 1
+
+
+def test_a_users_own_starting_postures_are_the_ones_explored_and_bad_ones_are_refused():
+    from dataclasses import replace
+
+    mine = replace(gm.starting_postures("cylinder", "grasp_types")[-2], name="my_tripod")  # the tripod, renamed
+    postures = gm.generate_postures("cylinder", 4, seed=0, workers=1, starts=[mine], progress=False)
+    assert len(postures) == 4 and postures.start_names == ("cylinder:my_tripod",)
+    assert postures.metadata["kept_by_start"] == {"my_tripod": 4}
+    assert postures.metadata["grasp_types"] == {"my_tripod": "tripod"}
+    with pytest.raises(ValueError, match=r"starts\[0\] \('my_tripod'\)\.posture must be 22 finite numbers"):
+        gm.generate_postures("cylinder", 4, starts=[replace(mine, posture=mine.posture[:20])])
+    with pytest.raises(ValueError, match=r"starts\[0\] \('my_tripod'\) is not a grasp of cylinder"):
+        gm.generate_postures("cylinder", 4, starts=[replace(mine, hand_pos=mine.hand_pos + [0.0, 0.0, 0.3])])
+    with pytest.raises(ValueError, match="names of their own"):
+        gm.generate_postures("cylinder", 4, starts=[mine, mine])
+    with pytest.raises(ValueError, match="non-empty list"):
+        gm.generate_postures("cylinder", 4, starts=[])
 
 
 @pytest.fixture(scope="module")

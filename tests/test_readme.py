@@ -3,6 +3,7 @@
 import re
 import subprocess
 import sys
+import textwrap
 from pathlib import Path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -10,7 +11,8 @@ VERIFIED_SECTION = "## Beside it: `graspmanifold reproduce --preset verified`"
 
 
 def test_every_python_block_runs_verbatim(tmp_path):
-    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+    blocks = [textwrap.dedent(b) for b in re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)]  # a block
+    # in a list item is indented with it
     assert len(blocks) >= 3
     outputs = []
     for number, block in enumerate(blocks):

@@ -34,7 +34,7 @@ from __future__ import annotations
 import itertools
 import os
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -58,7 +58,15 @@ from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
 from .judge import JUDGING, Judgement, hold_on_support, judge_scene, supported_scene
-from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, designs_for, starting_postures
+from .starts import (
+    CONTACT_GAP,
+    DESIGN_FAMILIES,
+    MAX_PENETRATION,
+    StartingPosture,
+    check_starting_postures,
+    designs_for,
+    starting_postures,
+)
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
     "paper": dict(DATASET_SIZES),
@@ -421,8 +429,8 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool | None = None, executor: Executor | None = None, hand: str = "ours"
-                      ) -> PostureSet:
+                      progress: bool | None = None, executor: Executor | None = None, hand: str = "ours",
+                      starts: Sequence[StartingPosture] | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
     Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
@@ -447,6 +455,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             default).
         executor: run the jobs there instead of in `workers` local processes.
         hand: the hand model's name (`hand_models.HAND_MODELS`); the postures record it (`metadata["hand"]`).
+        starts: your own starting postures (`StartingPosture`s, palm poses in the object's frame; checked by
+            `starts.check_starting_postures`), used instead of those of `params.designs`.
 
     Returns:
         A `PostureSet` of n postures; its metadata says how many candidates were drawn and how many
@@ -466,7 +476,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     params = params or GeneratorParams()
     model = hand_model(hand)  # the hand refused here when unknown
     _check_graspable(obj, model)
-    starts = starting_postures(obj, params.designs)
+    own = starts is not None
+    starts = check_starting_postures(starts, obj) if own else starting_postures(obj, params.designs)
     if not starts:
         tried = ", ".join(design.name for design in designs_for(obj, params.designs))
         raise GenerationError(f"no starting posture could be found for {obj.name}: {_size_text(obj, model)}; none of "
@@ -476,7 +487,8 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:
     starts = [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
     key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                      "starts": [s.name for s in starts], "hand": model.digest})
+                      "starts": [s.name for s in starts], "hand": model.digest},
+                     *([np.concatenate([s.hand_pos, s.hand_quat, s.posture]) for s in starts] if own else []))
     store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None
     saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     if store is not None:  # a job's file must be where its name says (a renamed file is not taken for another job)

@@ -15,7 +15,9 @@ index finger), with the fingers that take no part curled into the palm.
 
 The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
 families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object
-family its five-fingertip ones; the rest is computed on first use. A mesh object
+family its five-fingertip ones; the rest is searched on first use and kept in `cache_directory()`,
+so that the next process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
+each a `StartingPosture`, e.g. a rough grasp brought onto the surface by `refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
 designs place the palm relative to the object's principal axes and its extents, and the
 least-squares refinement brings the fingertips onto the actual surface, so any watertight solid of
@@ -24,15 +26,18 @@ hand size gets its grasps this way.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 from functools import cache, lru_cache
+from pathlib import Path
 
 import mujoco
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import load_npz, save_npz
 from ..base.progress import progress_bar
@@ -285,6 +290,59 @@ def is_design_grasp(obj: str | GraspObject, start: StartingPosture) -> bool:
     return bool(set(start.contacts) <= touching and np.all(np.concatenate([distal, other]) >= -MAX_PENETRATION))
 
 
+def check_starting_postures(starts: object, obj: str | GraspObject) -> list[StartingPosture]:
+    """A user's own starting postures, checked: each a `StartingPosture` with a palm position (3,), m, a unit
+    quaternion (4,), 22 joint angles in radians, contact segments among `SEGMENTS`, a grasp type among
+    `GRASP_TYPES`, a name of its own, and a valid grasp of the object (`is_design_grasp`: its contacts touch,
+    nothing deeper than 2 mm, joints in range; `refine` brings a rough grasp there).
+
+    Args:
+        starts: the starting postures (a non-empty list or tuple).
+        obj: the object they grasp, or its name (palm poses in its frame).
+
+    Returns:
+        The starts, their arrays as float arrays.
+
+    Raises:
+        InvalidInput: naming the first start that is not as described, and why.
+    """
+    obj = get_object(obj)
+    if not isinstance(starts, (list, tuple)) or not starts:
+        raise InvalidInput(f"starts must be a non-empty list of StartingPosture, got {starts!r:.80}")
+    checked = []
+    for i, start in enumerate(starts):
+        if not isinstance(start, StartingPosture):
+            raise InvalidInput(f"starts[{i}] must be a StartingPosture, got {type(start).__name__}")
+        arrays = {}
+        for field, size in (("hand_pos", 3), ("hand_quat", 4), ("posture", len(FINGER_JOINTS))):
+            value = np.asarray(getattr(start, field), dtype=float)
+            if value.shape != (size,) or not np.all(np.isfinite(value)):
+                raise InvalidInput(f"starts[{i}] ({start.name!r}).{field} must be {size} finite numbers, got shape "
+                                   f"{value.shape}")
+            arrays[field] = value
+        if abs(np.linalg.norm(arrays["hand_quat"]) - 1.0) > 1e-3:
+            raise InvalidInput(f"starts[{i}] ({start.name!r}).hand_quat must be a unit quaternion (w x y z)")
+        unknown = [c for c in start.contacts if c not in SEGMENTS]
+        if not start.contacts or unknown:
+            raise InvalidInput(f"starts[{i}] ({start.name!r}).contacts must name segments of {SEGMENTS}, got "
+                               f"{start.contacts!r}")
+        if start.grasp_type not in GRASP_TYPES:
+            raise InvalidInput(f"starts[{i}] ({start.name!r}).grasp_type must be one of {GRASP_TYPES}, got "
+                               f"{start.grasp_type!r}")
+        start = StartingPosture(str(start.name), arrays["hand_pos"], arrays["hand_quat"] / np.linalg.norm(
+            arrays["hand_quat"]), arrays["posture"], tuple(start.contacts), start.grasp_type)
+        if not is_design_grasp(obj, start):
+            raise InvalidInput(f"starts[{i}] ({start.name!r}) is not a grasp of {obj.name}: its contact segments "
+                               f"{start.contacts} must touch (within {CONTACT_GAP * 1000:g} mm), nothing may be deeper "
+                               f"than {MAX_PENETRATION * 1000:g} mm in the object and every joint in range (starts.refine "
+                               "brings a rough grasp onto the surface)")
+        checked.append(start)
+    names = [s.name for s in checked]
+    if len(set(names)) < len(names):
+        raise InvalidInput(f"starts must have names of their own, got {names}")
+    return checked
+
+
 def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
                            progress: bool | None = None) -> list[StartingPosture]:
     """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`).
@@ -331,10 +389,24 @@ def _shipped() -> tuple[dict[str, np.ndarray], dict]:
     return load_npz(asset_path(STARTS_FILE), "starting_postures", {})
 
 
+def cache_directory() -> Path:
+    """Where starting postures searched for an object that ships none are kept, so that another process
+    finds them: `$GRASPMANIFOLD_CACHE`, else `$XDG_CACHE_HOME/graspmanifold`, else `~/.cache/graspmanifold`.
+
+    Returns:
+        The folder (made when something is first stored there).
+    """
+    if os.environ.get("GRASPMANIFOLD_CACHE"):
+        return Path(os.environ["GRASPMANIFOLD_CACHE"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "graspmanifold"
+
+
 def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
     """The starting postures of an object in a design family (`DESIGN_FAMILIES`): shipped for the
-    paper's objects and the object family, else computed (once per object and process; a few
-    seconds per design for a primitive, longer for a mesh).
+    paper's objects and the object family; else searched once (a few seconds per design for a
+    primitive, longer for a mesh, with a progress bar) and stored in `cache_directory()`, under a key
+    of the object's parameters (a mesh's digest among them) and the library's code, so that a second
+    process reads them instead of searching again.
 
     Args:
         obj: an object or its name.
@@ -361,16 +433,36 @@ def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, 
         key, entry = next(((k, e) for k, e in meta["objects"].items() if e.get("family", "five_fingertip") == family
                            and _geometry(e["object"]) == _geometry(obj.params())), (key, None))
     if entry is not None:
-        count = len(entry["names"])
-        contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
-        designs = {d.name: d for d in designs_for(obj, family)}
-        types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
-        return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
-                                     tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
-    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now, once per process, "
-                  "takes seconds for a primitive and minutes for a mesh (python scripts/find_starting_postures.py --all "
-                  "stores them for the paper's objects and the family)", stacklevel=3)
-    return tuple(find_starting_postures(obj, family))
+        return _read_entry(arrays, key, entry, obj, family)
+    cached = cache_directory() / "starting_postures" / f"{obj.name}_{family}_{result_key(obj.params(), family)}.npz"
+    if cached.exists():
+        try:
+            arrays, meta = load_npz(cached, "starting_postures", {})
+            return _read_entry(arrays, _key(obj.name, family), meta["objects"][_key(obj.name, family)], obj, family)
+        except (ValueError, KeyError, OSError) as error:  # a damaged file is searched again and replaced
+            warnings.warn(f"the stored starting postures {cached} cannot be read ({error}): searching again",
+                          stacklevel=3)
+    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now (seconds for a "
+                  f"primitive, a minute or more for a mesh); they are kept in {cached.parent} for the next process",
+                  stacklevel=3)
+    found = find_starting_postures(obj, family)
+    try:
+        save_starting_postures(cached, {(obj, family): found})
+    except OSError as error:  # a read-only home: the search is only lost for the next process
+        warnings.warn(f"the starting postures could not be stored in {cached.parent} ({error}); set "
+                      "GRASPMANIFOLD_CACHE to a writable folder to keep them", stacklevel=3)
+    return tuple(found)
+
+
+def _read_entry(arrays: dict[str, np.ndarray], key: str, entry: dict, obj: GraspObject, family: str
+                ) -> tuple[StartingPosture, ...]:
+    """The starting postures of one object and family in a file written by `save_starting_postures`."""
+    count = len(entry["names"])
+    contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
+    designs = {d.name: d for d in designs_for(obj, family)}
+    types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
+    return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
+                                 tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
 
 
 def _geometry(params: dict) -> dict:
