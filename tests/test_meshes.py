@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 import graspmanifold as gm
-from graspmanifold.sim.family import FAMILY, SHAPES, family_mesh
+from graspmanifold.sim.family import FAMILY, HELD_OUT, SHAPES, family_mesh
 
 RNG = np.random.default_rng(0)
 
@@ -175,14 +175,19 @@ def test_the_family_holds_every_shape_in_three_sizes_and_the_paper_objects_as_me
     np.testing.assert_allclose(large.half_extents / small.half_extents, 1.5, rtol=1e-6)
     with pytest.raises(ValueError, match="family name"):
         gm.get_object("teapot_m")
+    assert set(HELD_OUT) <= set(FAMILY)  # the shapes kept aside from tuning are members
+    mug = gm.get_object("mug_m")  # a cup and its handle, one solid: its ring handle leaves a hole through it
+    assert mug.mesh.euler_number == 0 and 0.079 < mug.narrowest_width < 0.081
 
 
 # -- the pipeline ---------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("shape", sorted(SHAPES))
+@pytest.mark.parametrize("shape", sorted(set(SHAPES) - {"egg", "wedge"}))
 def test_every_family_shape_generates_postures_trains_a_map_and_evaluates(shape):
     """Public API end to end on the small size: 100 postures (unverified candidates, to keep the test
-    short), a 10 x 10 map, the quick grid with that map; physics healthy on every trial."""
+    short), a 10 x 10 map, the quick grid with that map; physics healthy on every trial. The egg and the
+    wedge, convex solids like the ellipsoid and the rounded box, take the same path and are left out to
+    keep the suite short (they passed it when added)."""
     name = f"{shape}_s"
     postures = gm.generate_postures(name, 100, seed=0, workers=2, params=gm.GeneratorParams(verify=False))
     assert len(postures) == 100 and postures.metadata["object"]["mesh_digest"]
