@@ -10,7 +10,7 @@ family for the paper's and the benchmark's objects (with --all for the family's 
 takes tens of minutes). Starting postures
 already in --out are kept as they are unless --recompute (a search repeated on another machine can
 differ in the last digits, and everything generated from them would change with it). Objects not
-shipped (other sizes, the user's meshes) get theirs computed on first use, the same way.
+shipped (other sizes, the user's meshes) get theirs searched on first use, the same way, and kept in the user's cache (starts.cache_directory).
 """
 
 from __future__ import annotations
