@@ -87,6 +87,15 @@ def test_starting_postures_are_found_for_other_sizes(capsys):
 
     stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_five_fingertip_*.npz"))
     assert len(stored) == 1
+    # a damaged stored file is named, searched again and replaced
+    from graspmanifold.control import starts as starts_module
+
+    stored[0].write_bytes(stored[0].read_bytes()[:100])
+    starts_module._starting_postures.cache_clear()
+    with pytest.warns(UserWarning, match="cannot be read"):
+        searched = gm.starting_postures(obj)
+    np.testing.assert_array_equal([s.posture for s in searched], [s.posture for s in starts])
+    assert gm.io.load_npz(stored[0], "starting_postures", {})[1]["objects"]
 
 
 def test_a_users_own_starting_postures_are_the_ones_explored_and_bad_ones_are_refused():
