@@ -468,6 +468,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             starting posture was found (the message gives the object's size against the hand's and the designs
             tried), or with verification fewer than n candidates held within the budget (the message gives the
             yield per starting posture).
+        InvalidInput: a start of `starts` that is not a valid grasp of the object (the message names it).
     """
     seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
