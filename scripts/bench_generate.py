@@ -1,9 +1,13 @@
 """Benchmark the spring-based posture generator on the paper's dataset sizes.
 
     python scripts/bench_generate.py [--workers 2] [--preset paper] [--out DIR]
+    python scripts/bench_generate.py --defaults [--n 40] [--workers 1] [--objects box cylinder sphere]
 
 Generates the box, cylinder and sphere sets, and reports wall time, accepted postures per second
 per worker, the acceptance ratio and how clustered the data is around its starting postures.
+`--defaults`: `generate_postures(obj, n)` with the library's defaults (verified postures), the verified
+postures per second, the candidates drawn and their verified share; it runs against any version of the
+library (PYTHONPATH=OTHER/src) for a before/after pair.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import os
 import time
 from pathlib import Path
 
+from graspmanifold.base.errors import GenerationError
 from graspmanifold.control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
 
 
@@ -22,14 +27,20 @@ def main() -> None:
     parser.add_argument("--preset", choices=sorted(DATASET_PRESETS), default="paper")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="directory to save the sets in (optional)")
+    parser.add_argument("--defaults", action="store_true", help="verified postures with the defaults instead")
+    parser.add_argument("--n", type=int, default=40, help="postures per object with --defaults")
+    parser.add_argument("--objects", nargs="+", default=list(DATASET_PRESETS["paper"]), help="with --defaults")
     args = parser.parse_args()
+    if args.defaults:
+        return bench_defaults(args.objects, args.n, args.workers, args.seed)
     print(f"{os.cpu_count()} cores, {args.workers} workers, preset {args.preset}\n")
     print("| object | postures | wall (s) | postures / s / worker | acceptance | starts | within-start (°) | between starts (°) |")
     print("|---|---|---|---|---|---|---|---|")
     total_n, total_t = 0, 0.0
     for name, n in DATASET_PRESETS[args.preset].items():
         start = time.perf_counter()
-        candidates = generate_postures(name, n, seed=args.seed, workers=args.workers, params=GeneratorParams(verify=False))
+        candidates = generate_postures(name, n, seed=args.seed, workers=args.workers,
+                                       params=GeneratorParams(verify=False))
         postures = verify_postures(candidates, name, args.workers)  # n candidates walked and verified
         seconds = time.perf_counter() - start
         total_n, total_t = total_n + n, total_t + seconds
@@ -40,6 +51,24 @@ def main() -> None:
         if args.out:
             postures.save(Path(args.out) / f"{name}.npz")
     print(f"| all | {total_n} | {total_t:.1f} | {total_n / total_t / args.workers:.1f} | | | | |")
+
+
+def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
+    """Verified postures per second of `generate_postures(obj, n)` with its defaults, per object."""
+    print(f"{os.cpu_count()} cores, {workers} workers, generate_postures(obj, {n}) with its defaults\n")
+    print("| object | postures | wall (s) | verified postures / s | candidates | verified share |")
+    print("|---|---|---|---|---|---|")
+    for name in names:
+        start = time.perf_counter()
+        try:
+            postures = generate_postures(name, n, seed=seed, workers=workers, progress=False)
+        except GenerationError as error:
+            print(f"| {name} | {n} | {time.perf_counter() - start:.1f} | – | GenerationError: {error} | |", flush=True)
+            continue
+        seconds = time.perf_counter() - start
+        meta = postures.metadata
+        print(f"| {name} | {n} | {seconds:.1f} | {n / seconds:.2f} | {meta['candidates']} | "
+              f"{meta['verified_ratio']:.0%} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,16 +1,17 @@
 """Find the starting postures of the paper's objects, the benchmark's and the object family, and ship them
 in assets/.
 
-    python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz] [--recompute]
-                                             [--all]
+    python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz]
+                                             [--recompute [FAMILY ...]]
 
-Deterministic: a least-squares search from each grasp design (graspmanifold.control.starts.designs_for): the
-five-fingertip family for the paper's objects, the benchmark's and the object family, the grasp-types
-family for the paper's and the benchmark's objects (with --all for the family's meshes too, which
-takes tens of minutes). Starting postures
-already in --out are kept as they are unless --recompute (a search repeated on another machine can
-differ in the last digits, and everything generated from them would change with it). Objects not
-shipped (other sizes, the user's meshes) get theirs searched on first use, the same way, and kept in the user's cache (starts.cache_directory).
+Deterministic: a least-squares search from each grasp design (graspmanifold.control.starts.find_starting_postures)
+of both families for the paper's objects and the benchmark's, the five-fingertip family for the object family,
+and the grasp-types family for the medium size of each family shape that is not held out (family.HELD_OUT:
+those are searched on first use, as a new object's are; so are the family's other sizes).
+Starting postures already in --out are kept as they are unless their object changed or their family is recomputed (--recompute alone:
+every family; a search repeated on another machine can differ in the last digits, and everything generated
+from them would change with it). Objects not shipped (other sizes, the user's meshes) get theirs searched on
+first use, the same way, and kept in the user's cache (starts.cache_directory).
 """
 
 from __future__ import annotations
@@ -29,13 +30,14 @@ from graspmanifold.control.starts import (
     find_starting_postures,
     save_starting_postures,
 )
-from graspmanifold.sim.family import FAMILY
+from graspmanifold.sim.family import FAMILY, HELD_OUT
 from graspmanifold.sim.objects import PAPER_OBJECTS, get_object
 from graspmanifold.trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
 
 
-def shipped(path: Path) -> dict[tuple[str, str], list[StartingPosture]]:
-    """The starting postures already in a shipped file, by (object name, family)."""
+def shipped(path: Path) -> dict[tuple[str, str], tuple[dict, list[StartingPosture]]]:
+    """The starting postures already in a shipped file, with the parameters of the object they were found
+    for, by (object name, family)."""
     if not path.exists():
         return {}
     arrays, meta = load_npz(path, "starting_postures", {})
@@ -46,7 +48,7 @@ def shipped(path: Path) -> dict[tuple[str, str], list[StartingPosture]]:
         count = len(entry["names"])
         contacts = entry.get("contacts")
         types = entry.get("grasp_types")
-        found[(name, family)] = [
+        found[(name, family)] = entry["object"], [
             StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
                             *(() if contacts is None else (tuple(contacts[i]), types[i])))
             for i, n in enumerate(entry["names"])] if count else []
@@ -60,20 +62,23 @@ def named(name: str):
 
 def search(task: tuple[str, str]) -> list[StartingPosture]:
     name, family = task
-    return find_starting_postures(named(name), family)
+    return find_starting_postures(named(name), family, workers=1)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "assets" / STARTS_FILE))
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--recompute", action="store_true", help="search again what the file already holds")
-    parser.add_argument("--all", action="store_true", help="the grasp-types family for the object family's meshes too")
+    parser.add_argument("--recompute", nargs="*", choices=DESIGN_FAMILIES,
+                        help="search again what the file holds of these families (none named: of every family)")
     args = parser.parse_args()
+    recompute = set(DESIGN_FAMILIES if args.recompute == [] else args.recompute or ())
     names = list(dict.fromkeys([*PAPER_OBJECTS, *BENCHMARK_OBJECTS, *FAMILY]))
     wanted = [(name, family) for name in names for family in DESIGN_FAMILIES
-              if family == "five_fingertip" or args.all or name not in FAMILY]
-    kept = {} if args.recompute else shipped(Path(args.out))
+              if family == "five_fingertip" or name not in FAMILY or (name.endswith("_m") and name not in HELD_OUT)]
+    # an object whose parameters changed (a mesh made anew) is searched again
+    kept = {key: starts for key, (params, starts) in shipped(Path(args.out)).items()
+            if key[1] not in recompute and key in wanted and params == named(key[0]).params()}
     tasks = [key for key in wanted if key not in kept]
     start = time.perf_counter()
 

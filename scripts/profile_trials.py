@@ -123,7 +123,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
 
 
 def profile_generator(name: str, n: int) -> None:
-    rig, verifier = generator._SpringRig, generator._Verifier
+    rig, verifier = generator._SpringRig, judge.GraspVerifier
     counts: dict[str, int] = defaultdict(int)
     context = ["walk"]
     original_simulate = rig.simulate
@@ -147,14 +147,14 @@ def profile_generator(name: str, n: int) -> None:
         setattr(rig, method, phase)
     timed(rig, "accepted_posture", "candidate test")
     timed(verifier, "__call__", "verification")
-    original_judge = generator.judge_scene
+    original_judge = judge.judge_scene
 
     def judge_scene(scene, rules, period):
         judged = original_judge(scene, rules, period)
         counts["verification"] += round((0.2 + judged.hold_time) / scene.model.opt.timestep)
         return judged
 
-    generator.judge_scene = judge_scene
+    judge.judge_scene = judge_scene
     started = time.perf_counter()
     gm.generate_postures(name, n, seed=0, workers=1, progress=False)
     wall = time.perf_counter() - started

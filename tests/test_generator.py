@@ -48,18 +48,52 @@ def test_shipped_starting_postures_are_five_fingertip_grasps(name):
 
 
 @pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
-def test_every_grasp_type_has_valid_starting_postures(name):
-    """The grasp-types family: the power grasps of the five-fingertip family plus a pinch, a tripod and a
-    lateral grasp, each touching with its own contact segments (shipped, like the five-fingertip ones)."""
-    from graspmanifold.control.starts import is_design_grasp
+def test_every_grasp_type_start_is_a_valid_grasp_that_holds(name):
+    """The grasp-types family (the default): at least three designs of at least two grasp types, each start a
+    valid grasp that holds its object when the verifier replays it (shipped, like the five-fingertip ones)."""
+    from graspmanifold.control.judge import GraspVerifier
+    from graspmanifold.control.starts import holds, is_design_grasp
 
     starts = gm.starting_postures(name, "grasp_types")
-    assert [s.name for s in starts][: len(gm.starting_postures(name))] == [s.name for s in gm.starting_postures(name)]
-    assert {s.grasp_type for s in starts} == {"power", "precision", "tripod", "lateral"}
+    assert gm.GeneratorParams().designs == "grasp_types"
+    assert len(starts) >= 3 and len({s.grasp_type for s in starts}) >= 2
+    verifier = GraspVerifier(gm.get_object(name))
     for start in starts:
-        assert is_design_grasp(name, start), start.name
+        assert is_design_grasp(name, start) and holds(verifier, start), start.name
     with pytest.raises(ValueError, match="family must be one of"):
         gm.starting_postures(name, "wraps")
+
+
+@pytest.mark.parametrize("name", ["box", "cylinder", "sphere"])
+def test_each_shipped_design_yields_verified_postures_on_its_object(name):
+    """Every start of the default family gives verified postures when explored alone: no shipped design is one
+    whose candidates never hold (those of the paper's five-fingertip wraps under the squeeze, issue 37)."""
+    for start in gm.starting_postures(name, "grasp_types"):
+        postures = gm.generate_postures(name, 2, seed=0, workers=1, starts=[start], progress=False,
+                                        params=gm.GeneratorParams(job_size=4, max_candidates_per_posture=25))
+        assert len(postures) == 2 and postures.metadata["verified_by_start"][start.name] > 0, start.name
+
+
+def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes_cancel():
+    """The cause of the paper's wraps that never hold (issue 37): in the cylinder's mid wrap the controller's
+    squeeze draws the thumb away from the object (its motion points away from its push). The refinement's press
+    term turns it in; its balance term makes the contacts' unit pushes cancel better."""
+    from graspmanifold.control.starts import (
+        PRESS_COSINE, _GraspGeometry, design_pose, design_posture, designs_for, refine)
+
+    cylinder = gm.get_object("cylinder")
+    design = next(d for d in designs_for(cylinder) if d.name == "wrap_mid")
+    pos, quat = design_pose(cylinder, design)
+    measured = {}
+    for terms in ({}, {"press": 1.0}, {"balance": 2.5}):
+        start = refine(cylinder, pos, quat, design_posture(design), design.name, **terms)
+        geometry = _GraspGeometry(gm.Scene(cylinder))
+        geometry.distances(start.posture, start.hand_pos, start.hand_quat)
+        pushes = geometry.pushes()
+        thumb = geometry.pushing.index(geometry.scene.model.geom("thdistal").id)
+        measured[tuple(terms)] = (geometry.pressing(start.posture, pushes)[thumb], np.linalg.norm(pushes.mean(axis=0)))
+    assert measured[()][0] < 0 < PRESS_COSINE - 0.05 < measured[("press",)][0], measured
+    assert measured[("balance",)][1] < 0.5 * measured[()][1], measured
 
 
 def test_starting_postures_are_found_for_other_sizes(capsys):
@@ -101,7 +135,8 @@ def test_starting_postures_are_found_for_other_sizes(capsys):
 def test_a_users_own_starting_postures_are_the_ones_explored_and_bad_ones_are_refused():
     from dataclasses import replace
 
-    mine = replace(gm.starting_postures("cylinder", "grasp_types")[-2], name="my_tripod")  # the tripod, renamed
+    tripod = next(s for s in gm.starting_postures("cylinder", "grasp_types") if s.name == "tripod")
+    mine = replace(tripod, name="my_tripod")
     postures = gm.generate_postures("cylinder", 4, seed=0, workers=1, starts=[mine], progress=False)
     assert len(postures) == 4 and postures.start_names == ("cylinder:my_tripod",)
     assert postures.metadata["kept_by_start"] == {"my_tripod": 4}
@@ -175,7 +210,8 @@ def test_verifying_candidates_afterwards_keeps_those_the_generator_keeps():
     held = [any(np.array_equal(p, q) for q in kept.postures) for p in candidates.postures]
     assert sum(held) == len(kept) and np.all(np.isfinite(kept.epsilon))
     verified = gm.generate_postures("cylinder", 8, seed=0,
-                                    params=gm.GeneratorParams(job_size=6, max_candidates_per_posture=10))
+                                    params=gm.GeneratorParams(job_size=6, max_candidates_per_posture=10,
+                                                              designs="five_fingertip"))  # SMALL's starts
     for start in np.unique(kept.start_ids):  # each start's kept postures come first, in the same order
         mine, theirs = kept.postures[kept.start_ids == start], verified.postures[verified.start_ids == start]
         assert np.array_equal(theirs[: len(mine)], mine[: len(theirs)])
@@ -345,7 +381,8 @@ def test_a_new_objects_slow_set_up_and_a_verification_that_keeps_few_are_announc
     with pytest.warns(UserWarning, match="no shipped starting postures .* searching them now"):
         gm.starting_postures(gm.make_object("cylinder", radius=0.026, length=0.13))
     assert len(gm.starting_postures(gm.make_object("cylinder", friction=0.3))) == len(gm.starting_postures("cylinder"))
-    candidates = gm.generate_postures("sphere", 6, params=gm.GeneratorParams(verify=False, job_size=6))
+    candidates = gm.generate_postures("sphere", 6, params=gm.GeneratorParams(verify=False,
+                                                                             job_size=6))
     monkeypatch.setattr(generator, "FEW_HOLD", 1.01)  # whatever holds, it is "few"
     with pytest.warns(UserWarning, match=r"only \d+ of 6 sphere candidates hold"):
         gm.verify_postures(candidates, "sphere")

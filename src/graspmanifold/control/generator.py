@@ -9,10 +9,11 @@ distal segments touch the object (gap <= 1 mm), nothing penetrates deeper than 2
 inside its range and the hand is at rest are candidates. Because the walk stays near its starting
 posture, the data clusters around the starting postures, as the paper's did.
 
-The starting postures come from a family of designs (`GeneratorParams.designs`): the paper's
-five-fingertip grasps, or every grasp type (`starts.DESIGN_FAMILIES`), where only the design's own
-contact segments are pulled by springs (a fingertip by its tip, another segment at its point
-nearest the object) and must touch, while the fingers that take no part stay curled.
+The starting postures come from a family of designs (`GeneratorParams.designs`, `starts.DESIGN_FAMILIES`):
+by default every grasp type (power wraps, pinch, tripod, lateral), each start one that holds when
+verified, where only the design's own contact segments are pulled by springs (a fingertip by its tip,
+another segment at its point nearest the object) and must touch, while the fingers that take no part
+stay curled; or the paper's five-fingertip grasps (the presets of `reproduce`, the paper's procedure).
 
 Our extension of the paper's procedure verifies every candidate as a grasp
 (`GeneratorParams.verify`, on by default): the hand is put at the candidate's palm pose in front of
@@ -57,7 +58,7 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams, squeezed
-from .judge import JUDGING, Judgement, hold_on_support, judge_scene, supported_scene
+from .judge import VERIFY_HOLD_SECONDS, GraspVerifier
 from .starts import (
     CONTACT_GAP,
     DESIGN_FAMILIES,
@@ -109,13 +110,18 @@ class GeneratorParams:
     record_every: int = 5  # physics steps between recorded postures in "recording" mode
     max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
     verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
-    verify_hold_seconds: float = 0.25  # s per gravity direction of the verifying hold test
+    verify_hold_seconds: float = VERIFY_HOLD_SECONDS  # s per gravity direction of the verifying hold test
     squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
     #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
     max_candidates_per_posture: int = 50
-    designs: str = "five_fingertip"  # the family of starting postures (starts.DESIGN_FAMILIES)
+    #: the family of starting postures (starts.DESIGN_FAMILIES); None (the default): with verification every
+    #: grasp type, each start one that holds ("grasp_types"), without it the paper's five-fingertip grasps
+    #: ("five_fingertip"): verify=False is the paper's procedure, its designs included
+    designs: str | None = None
 
     def __post_init__(self) -> None:
+        if self.designs is None:
+            object.__setattr__(self, "designs", "grasp_types" if self.verify else "five_fingertip")
         if self.mode not in MODES:
             raise InvalidInput(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
         if self.designs not in DESIGN_FAMILIES:
@@ -142,32 +148,6 @@ PRESET_PARAMS: dict[str, GeneratorParams] = {
     "quick": GeneratorParams(verify=False),
     "paper": GeneratorParams(mode="recording", record_every=1, verify=False),
 }
-
-
-class _Verifier:
-    """Replays a candidate at its palm pose on the free object and runs the hold test (`judge.judge_scene`,
-    the fingers pressing the candidate with the controller's squeeze)."""
-
-    PERIOD = 0.02  # s between checks of the object's displacement
-
-    def __init__(self, obj: GraspObject, params: GeneratorParams, hand: str = "ours"):
-        self.scene = supported_scene(obj, hand=hand)
-        self.params = params
-        self.rules = replace(JUDGING, hold_seconds=params.verify_hold_seconds)
-
-    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
-        scene = self.scene
-        mujoco.mj_resetData(scene.model, scene.data)
-        scene.set_gravity(False)
-        hold_on_support(scene)
-        scene.set_hand_pose(hand_pos, hand_quat)
-        scene.set_posture(posture)
-        scene.set_target(squeezed(posture, self.params.squeeze, scene.hand))
-        scene.run(0.2)  # the fingers press (SimulationError if the physics fails)
-        judged = judge_scene(scene, self.rules, self.PERIOD)
-        if judged.fault:
-            raise SimulationError(judged.fault)
-        return judged
 
 
 class _SpringRig:
@@ -289,7 +269,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
     rig = _SpringRig(obj, params, start.contacts, hand)
-    verifier = _Verifier(obj, params, hand) if params.verify else None
+    verifier = _verifier(obj, params, hand) if params.verify else None
     rig.reset_to(start)
     rig.scene.set_target(start.posture)
     base = to_rotation(start.hand_quat)
@@ -375,6 +355,11 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
     if obj.narrowest_width > hand.span:
         raise GenerationError(f"{obj.name} cannot be grasped by this hand: {_size_text(obj, hand)}, so no grasp "
                               "can close around it (use an object that is narrower somewhere than the hand spans)")
+
+
+def _verifier(obj: GraspObject, params: GeneratorParams, hand: str) -> GraspVerifier:
+    """The verifier of a candidate: the controller's squeeze and hold test of `params`."""
+    return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand)
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -520,9 +505,12 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
             plan = []  # (start, its first chunk in this wave, candidates to draw)
             for s in short:
                 wanted = allocation[s] - held(s)
-                if params.verify and results[s]:  # as many as the yield so far says, and a tenth more
+                if params.verify and results[s]:  # as many as the yield so far says, and a tenth more, but at
+                    # most as many again as drawn so far (a start whose first few candidates all dropped is not
+                    # sent for tenfold that many at once)
                     rate = (held(s) + 1) / (drawn(s) + 2)
-                    wanted = min(int(np.ceil(1.1 * wanted / rate)), int(budget / len(starts)) - drawn(s))
+                    wanted = min(int(np.ceil(1.1 * wanted / rate)), max(wanted, drawn(s)),
+                                 int(budget / len(starts)) - drawn(s))
                 plan.append((s, len(results[s]), max(1, wanted)))
 
             def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
@@ -598,7 +586,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
     """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
     obj, params, postures, poses, hand = task
-    verifier = _Verifier(obj, params, hand)
+    verifier = _verifier(obj, params, hand)
     rows = []
     for posture, pose in zip(postures, poses):
         try:

@@ -8,15 +8,19 @@ keeps every other segment out of the object and the fingers out of each other.
 
 Two families of designs (`DESIGN_FAMILIES`): `five_fingertip`, the paper's kind (all five distal
 segments touch; wraps of the object's nearest primitive shape, `GRASP_DESIGNS`), and
-`grasp_types`, ours: those wraps (power grasps) and one design of each precision grasp type
-(`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of thumb, index and
-middle tips, and a lateral grasp pressing the object between the thumb's pad and the side of the
-index finger), with the fingers that take no part curled into the palm.
+`grasp_types`, ours and the generator's default: those wraps (power grasps) and one design of each
+precision grasp type (`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of
+thumb, index and middle tips, and a lateral grasp pressing the object between the thumb's pad and the
+side of the index finger), with the fingers that take no part curled into the palm. A design of this
+family is kept only in a refinement whose start holds the object when the generator's verifier replays
+it (`REFINEMENTS`, `GraspVerifier`): the paper's wraps, refined to touch alone, mostly do not (their
+thumb presses sideways and slides off under the squeeze), so the family's refinements also ask the
+contacts' pushes to cancel.
 
-The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
-families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object
-family its five-fingertip ones; the rest is searched on first use and kept in `cache_directory()`,
-so that the next process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
+The paper's objects, the benchmark's (`benchmark.OBJECTS`) and the object family ship their starting
+postures of both families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`;
+the family's held-out members, `family.HELD_OUT`, only their five-fingertip ones); the rest is searched on
+first use and kept in `cache_directory()`, so that the next process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
 each a `StartingPosture`, e.g. a rough grasp brought onto the surface by `refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
 designs place the palm relative to the object's principal axes and its extents, and the
@@ -26,9 +30,10 @@ hand size gets its grasps this way.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache, lru_cache
 from pathlib import Path
 
@@ -38,18 +43,23 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..base.checkpoints import result_key
-from ..base.errors import InvalidInput
+from ..base.errors import InvalidInput, SimulationError
 from ..base.io import load_npz, save_npz
 from ..base.progress import progress_bar
+from ..base.workers import default_workers, parallel_map
 from ..base.poses import to_quat, to_rotation
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_of, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
+from .controller import squeezed
+from .judge import GraspVerifier
 
 STARTS_FILE = "starting_postures.npz"
 CONTACT_GAP = 0.001  # a contact segment "touches" within 1 mm
 MAX_PENETRATION = 0.002
+#: `refine(press=...)` asks the squeeze's motion of each contact to make at most about 45 degrees with its push
+PRESS_COSINE = 0.7
 
 #: the grasp types a design can be (Cutkosky's taxonomy, coarsely): power wraps, the two-finger
 #: precision pinch, the three-finger tripod, and the lateral (key) grasp
@@ -230,6 +240,43 @@ class _GraspGeometry:
                       and (fingers[a] == "th" or fingers[b] == "th"
                            or abs(order.index(fingers[a]) - order.index(fingers[b])) == 1)]
         self._fromto = np.zeros(6)
+        capsule = mujoco.mjtGeom.mjGEOM_CAPSULE
+        self._capsules = [g for g in self.distal if model.geom_type[g] == capsule]
+        self._others = [g for g in self.distal if model.geom_type[g] != capsule]
+        #: the contact geoms in the order of the rows of `pushes` and `pressing`
+        self.pushing = self._capsules + self._others
+
+    def pushes(self) -> np.ndarray:
+        """Unit directions (len(distal), 3) in which the contact geoms (`pushing`) press the object at the current
+        kinematics: from the point of a geom's core (a capsule's segment, another geom's centre) nearest the
+        object towards the object's closest surface point. Smooth in the hand's pose while the core stays
+        outside the object, for a mesh too (unlike its face normals)."""
+        model, data = self.scene.model, self.scene.data
+        along = np.linspace(-1.0, 1.0, 5)[None, :, None]
+        half_axes = data.geom_xmat[self._capsules].reshape(-1, 3, 3)[:, :, 2] * model.geom_size[self._capsules, 1:2]
+        cores = [data.geom_xpos[self._capsules][:, None, :] + along * half_axes[:, None, :],
+                 np.repeat(data.geom_xpos[self._others][:, None, :], along.shape[1], axis=1)]
+        points = np.concatenate(cores)  # (geoms, 5, 3); the object sits at the world origin, unrotated
+        towards = self.scene.object.closest_point(points.reshape(-1, 3)).reshape(points.shape) - points
+        gaps = np.linalg.norm(towards, axis=2)
+        nearest = np.argmin(gaps, axis=1)
+        rows = np.arange(len(points))
+        return towards[rows, nearest] / np.maximum(gaps[rows, nearest], 1e-9)[:, None]
+
+    def pressing(self, posture: np.ndarray, pushes: np.ndarray) -> np.ndarray:
+        """Cosines (len(distal),) between where the controller's squeeze moves each contact geom (a small
+        `controller.squeezed` of the posture, at the current hand pose) and its push on the object (`pushes`):
+        1 when the squeeze presses it straight in, negative when it draws it away (the thumb of the paper's
+        mid and low wraps: the squeeze flexes it off the object)."""
+        model, data, geoms = self.scene.model, self.scene.data, self.pushing
+        before = data.geom_xpos[geoms].copy()
+        saved = data.qpos.copy()
+        data.qpos[self.scene.finger_qpos] = squeezed(posture, 0.05, self.scene.hand)
+        mujoco.mj_kinematics(model, data)
+        moved = data.geom_xpos[geoms] - before
+        data.qpos[:] = saved
+        mujoco.mj_kinematics(model, data)
+        return np.sum(moved * pushes, axis=1) / np.maximum(np.linalg.norm(moved, axis=1), 1e-9)
 
     def distances(self, posture: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, ...]:
         scene, model, data = self.scene, self.scene.model, self.scene.data
@@ -243,10 +290,29 @@ class _GraspGeometry:
 
 
 def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray,
-           name: str = "start", contacts: tuple[str, ...] = DISTAL_SEGMENTS, grasp_type: str = "power"
-           ) -> StartingPosture:
+           name: str = "start", contacts: tuple[str, ...] = DISTAL_SEGMENTS, grasp_type: str = "power",
+           balance: float = 0.0, press: float = 0.0) -> StartingPosture:
     """Least-squares search from a rough grasp to one where the contact segments (by default all five
-    distal ones) touch, every other segment stays clear of the object and the fingers of each other."""
+    distal ones) touch, every other segment stays clear of the object and the fingers of each other.
+
+    Args:
+        obj: the object.
+        pos: (3,) m, the rough grasp's palm position in the object frame.
+        quat: (4,) its palm orientation (w x y z); the search moves the palm by up to 3 cm and 0.5 rad.
+        posture: (22,) rad, its finger joints.
+        name: the start's name.
+        contacts: the segments that must touch.
+        grasp_type: the start's grasp type (`GRASP_TYPES`).
+        balance: weight of a term that asks the contacts' pushes to cancel (the mean of their unit
+            directions towards the object, `_GraspGeometry.pushes`, near zero): the thumb then opposes the
+            fingers instead of pressing sideways; 0 leaves it out.
+        press: weight of a term that asks the controller's squeeze to press each contact into the object
+            (`_GraspGeometry.pressing`: the cosine between its motion under the squeeze and its push at least
+            `PRESS_COSINE`); 0 leaves it out.
+
+    Returns:
+        The refined `StartingPosture` (check it with `is_design_grasp`).
+    """
     scene = Scene(obj)
     geometry = _GraspGeometry(scene, contacts)
     limits = scene.hand.limits()
@@ -261,7 +327,10 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     def residuals(v: np.ndarray) -> np.ndarray:
         joints, p, q = unpack(v)
         distal, other, pairs = geometry.distances(joints, p, q)
+        pushes = geometry.pushes() if balance or press else None
         return np.concatenate([
+            balance * pushes.mean(axis=0) if balance else [],  # the pushes cancel
+            press * np.maximum(0.0, PRESS_COSINE - geometry.pressing(joints, pushes)) if press else [],  # squeeze in
             100.0 * distal,                                   # touch: contact gap 0
             300.0 * np.maximum(0.0, 0.001 - other),           # other segments stay out of the object
             300.0 * np.maximum(0.0, 0.002 - pairs),           # fingers stay out of each other
@@ -343,25 +412,87 @@ def check_starting_postures(starts: object, obj: str | GraspObject) -> list[Star
     return checked
 
 
+@dataclass(frozen=True)
+class Refinement:
+    """One way to refine a design (`refine`): the weights of the terms that balance the contacts' pushes and
+    that make the squeeze press each contact in, and the palm's gap to the surface in place of the design's
+    (`standoff`, m; None keeps the design's)."""
+
+    balance: float = 0.0
+    press: float = 0.0
+    standoff: float | None = None
+
+
+#: Tried in turn for each design of the `grasp_types` family until its start holds (`GraspVerifier`): the
+#: design as it is; then with the squeeze pressing every contact in (`refine(press=...)`: in the paper's mid
+#: and low wraps the controller's squeeze draws the thumb off the object, its motion at about 140 degrees
+#: from its push); with the contacts' pushes balanced (so the thumb opposes the fingers); both; for a
+#: power grasp, the palm 1 mm off the surface (taking up what four fingers push more than the thumb); and
+#: the balance weighed more (a pinch of a tapered or curved object needs its two pushes nearly opposed).
+#: Whether one start holds turns on millimetres, so several are tried (docs/generator_defaults.md has what
+#: each object got).
+REFINEMENTS: tuple[Refinement, ...] = (
+    Refinement(), Refinement(press=1.0), Refinement(balance=0.6), Refinement(balance=0.6, press=1.0),
+    Refinement(press=1.0, standoff=0.001), Refinement(balance=0.6, standoff=0.001),
+    Refinement(balance=2.5), Refinement(balance=6.0, press=1.0),
+)
+
+
+def holds(verifier: GraspVerifier, start: StartingPosture) -> bool:
+    """Whether a start holds its object when replayed by the generator's verifier (its physics failing counts
+    as not holding)."""
+    try:
+        return bool(verifier(start.posture, start.hand_pos, start.hand_quat).hold)
+    except SimulationError:
+        return False
+
+
+def _search_design(task: tuple[GraspObject, GraspDesign, bool]) -> StartingPosture | None:
+    """One design's start: the first of its refinements (all of `REFINEMENTS` when `checked`, else the plain
+    one) that is a valid grasp and, when `checked`, holds; None when none is."""
+    obj, design, checked = task
+    verifier = GraspVerifier(obj) if checked else None
+    for refinement in REFINEMENTS if checked else REFINEMENTS[:1]:
+        if refinement.standoff is not None and design.grasp_type != "power":
+            continue
+        shaped = replace(design, standoff=design.standoff if refinement.standoff is None else refinement.standoff)
+        pos, quat = design_pose(obj, shaped)
+        start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type,
+                       refinement.balance, refinement.press)
+        if is_design_grasp(obj, start) and (verifier is None or holds(verifier, start)):
+            return start
+    return None
+
+
 def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
-                           progress: bool | None = None) -> list[StartingPosture]:
-    """Search every grasp design of the family for this object; keep the valid grasps (`is_design_grasp`).
-    The `grasp_types` family takes its power grasps from the object's five-fingertip starting postures
-    (shipped or searched) and searches the `PRECISION_DESIGNS`. A bar counts the designs searched (seconds
-    each for a primitive, longer for a mesh; `progress` as `progress.progress_bar` takes it)."""
+                           progress: bool | None = None, workers: int | None = None) -> list[StartingPosture]:
+    """Search every grasp design of the family for this object.
+
+    `five_fingertip` (the paper's kind): each design refined once, kept when it is a valid grasp
+    (`is_design_grasp`). `grasp_types`: each design refined in the ways of `REFINEMENTS` in turn and kept in
+    the first that is a valid grasp and holds the object when the generator's verifier replays it
+    (`GraspVerifier`: the controller's squeeze, then the hold test), so that every start of the family is a
+    grasp that holds; a design none of whose refinements holds is left out. A bar counts the designs
+    searched (seconds each for a primitive, a minute or more for a mesh; `progress` as
+    `progress.progress_bar` takes it); the designs are searched in parallel.
+
+    Args:
+        obj: an object or its name.
+        family: a design family (`DESIGN_FAMILIES`).
+        progress: show the bar (None: as `progress.show_progress` says).
+        workers: worker processes (None: `workers.default_workers()` in a main process, one inside a worker).
+
+    Returns:
+        The starting postures found, in the order of `designs_for(obj, family)`.
+    """
     obj = get_object(obj)
-    if family == "grasp_types":
-        designs, found = PRECISION_DESIGNS, starting_postures(obj, "five_fingertip")
-    else:
-        designs, found = designs_for(obj, family), []
+    designs = designs_for(obj, family)
+    if workers is None:  # a worker of a pool searches alone: no pools inside pools
+        workers = min(default_workers(), len(designs)) if multiprocessing.parent_process() is None else 1
+    tasks = [(obj, design, family == "grasp_types") for design in designs]
     with progress_bar(len(designs), f"starting postures {obj.name} ({family})", "designs", enabled=progress) as bar:
-        for design in designs:
-            pos, quat = design_pose(obj, design)
-            start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type)
-            if is_design_grasp(obj, start):
-                found.append(start)
-            bar.update(1)
-    return found
+        found = parallel_map(_search_design, tasks, workers, lambda *_: bar.update(1))
+    return [start for start in found if start is not None]
 
 
 def _key(name: str, family: str) -> str:

@@ -38,7 +38,10 @@ SIZES: dict[str, float] = {"s": 0.8, "m": 1.0, "l": 1.2}
 
 
 def _capsule() -> trimesh.Trimesh:
-    return trimesh.creation.capsule(height=0.10, radius=0.025, count=[24, 12])
+    caps = np.linspace(0.0, np.pi / 2, 7)  # each end a quarter circle of the profile: a hemisphere
+    bottom = [(0.025 * np.sin(a), -0.05 - 0.025 * np.cos(a)) for a in caps]
+    top = [(0.025 * np.cos(a), 0.05 + 0.025 * np.sin(a)) for a in caps]
+    return _revolved([*bottom, *top], sections=24)
 
 
 def _ellipsoid() -> trimesh.Trimesh:

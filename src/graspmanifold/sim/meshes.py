@@ -102,10 +102,29 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
                          f"{MIN_EXTENT * 1000:.0f} mm in every direction")
 
 
+def canonical_order(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The same solid with its vertices in lexicographic order and its faces sorted, each listed from its
+    lowest vertex on (its orientation kept): a mesh library that lists them in another order (trimesh 5 does,
+    against 4) gives the same arrays, so the same object frame, convex parts and digest.
+
+    Args:
+        mesh: a mesh.
+
+    Returns:
+        A new mesh (duplicate vertices merged).
+    """
+    vertices, inverse = np.unique(np.asarray(mesh.vertices, dtype=float) + 0.0, axis=0, return_inverse=True)
+    faces = inverse.reshape(-1)[np.asarray(mesh.faces)]
+    first = np.argmin(faces, axis=1)
+    faces = np.take_along_axis(faces, (first[:, None] + np.arange(3)) % 3, axis=1)
+    return trimesh.Trimesh(vertices, faces[np.lexsort(faces.T[::-1])], process=False)
+
+
 def object_frame(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """A checked copy of the mesh in the object frame (see the module docstring)."""
+    """A checked copy of the mesh in the object frame (see the module docstring), its vertices and faces in
+    `canonical_order`."""
     check_solid(mesh)
-    mesh = mesh.copy()
+    mesh = canonical_order(mesh)
     mesh.apply_translation(-mesh.center_mass)
     axes = np.asarray(mesh.principal_inertia_vectors, dtype=float)  # rows
     along = mesh.vertices @ axes.T
