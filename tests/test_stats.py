@@ -94,3 +94,41 @@ def test_headroom_of_a_hand_made_table():
         headroom({"a": a, "b": b[:5]})
     with pytest.raises(ValueError, match="boolean"):
         headroom({"a": a.astype(int)})
+
+
+def test_the_chance_oracle_of_a_hand_made_table():
+    """Three strategies on ten poses; the chance oracle is over the best strategy's run and two noisy reruns of
+    it (as many runs as strategies), and the gate reads the headroom beyond it."""
+    t, f = True, False
+    outcomes = {"a": np.array([t, t, t, t, t, f, f, f, f, f]),   # best: 5 of 10
+                "b": np.array([t, f, f, f, f, t, t, t, f, f]),   # adds poses 5, 6, 7
+                "c": np.array([f, f, f, f, f, f, f, f, t, f])}   # adds pose 8: oracle 9
+    reruns = [np.array([t, t, t, t, f, t, f, f, f, f]),          # adds pose 5
+              np.array([t, t, f, t, t, f, f, f, f, f])]          # adds nothing: chance oracle 6
+    room = headroom(outcomes, reruns=reruns)
+    assert (room.best, room.oracle, room.best_successes, room.chance_oracle) == ("a", 9, 5, 6)
+    assert room.headroom == pytest.approx(0.4) and room.chance == pytest.approx(0.1)
+    assert room.beyond_chance == pytest.approx(0.3) and room.sufficient
+    assert "chance oracle over 3 runs of a 60 %" in room.text() and "30.0 points beyond chance" in room.text()
+    noisy = headroom(outcomes, reruns=[outcomes["b"] | outcomes["a"], outcomes["c"] | outcomes["a"]])
+    assert noisy.chance_oracle == 9 and noisy.beyond_chance == pytest.approx(0.0) and not noisy.sufficient
+    assert np.isnan(headroom(outcomes).chance) and headroom(outcomes).chance_oracle is None
+    with pytest.raises(ValueError, match="reruns must hold 2 runs of the best strategy"):
+        headroom(outcomes, reruns=reruns[:1])
+    with pytest.raises(ValueError, match=r"reruns\[1\] must be a boolean array of 10 poses"):
+        headroom(outcomes, reruns=[reruns[0], reruns[1][:4]])
+
+
+def test_stratified_splits_are_random_disjoint_and_keep_each_strata_share():
+    from graspmanifold.trials.stats import stratified_split
+
+    strata = [("pen", "palm")] * 40 + [("pen", "tips")] * 20 + [("marble", "palm")] * 10
+    selection, test = stratified_split(strata, 0.3, seed=0)
+    assert not set(selection) & set(test) and sorted([*selection, *test]) == list(range(70))
+    assert [sum(strata[i] == s for i in selection) for s in dict.fromkeys(strata)] == [12, 6, 3]
+    again, _ = stratified_split(strata, 0.3, seed=0)
+    other, _ = stratified_split(strata, 0.3, seed=1)
+    assert np.array_equal(again, selection) and not np.array_equal(other, selection)
+    assert not set(selection) >= set(range(0, 70, 2))  # not a lattice of every other pose
+    with pytest.raises(ValueError, match=r"selection must be a share in \(0, 1\)"):
+        stratified_split(strata, 1.0, seed=0)
