@@ -63,7 +63,8 @@ def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
         try:
             postures = generate_postures(name, n, seed=seed, workers=workers, progress=False)
         except GenerationError as error:
-            print(f"| {name} | {n} | {time.perf_counter() - start:.1f} | – | GenerationError: {error} | |", flush=True)
+            seconds = time.perf_counter() - start
+            print(f"| {name} | {n} | {seconds:.1f} | – | GenerationError: {error} | |", flush=True)
             continue
         seconds = time.perf_counter() - start
         meta = postures.metadata

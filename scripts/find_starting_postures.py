@@ -8,7 +8,8 @@ Deterministic: a least-squares search from each grasp design (graspmanifold.cont
 of both families for the paper's objects and the benchmark's, the five-fingertip family for the object family,
 and the grasp-types family for the medium size of each family shape that is not held out (family.HELD_OUT:
 those are searched on first use, as a new object's are; so are the family's other sizes).
-Starting postures already in --out are kept as they are unless their object changed or their family is recomputed (--recompute alone:
+Starting postures already in --out are kept as they are unless their object changed or their family is
+recomputed (--recompute alone:
 every family; a search repeated on another machine can differ in the last digits, and everything generated
 from them would change with it). Objects not shipped (other sizes, the user's meshes) get theirs searched on
 first use, the same way, and kept in the user's cache (starts.cache_directory).

@@ -74,7 +74,8 @@ def main() -> None:
         "| object | starting postures | designs in the set | grasp types in the set | start search (s) | "
         "generation (s) | verified postures / s | designs with no start that holds |",
         "|---|---|---|---|---|---|---|---|", *summaries, "",
-        "| object | design (grasp type) | candidates | verified [95 % CI] | kept |", "|---|---|---|---|---|", *rows, ""])
+        "| object | design (grasp type) | candidates | verified [95 % CI] | kept |",
+        "|---|---|---|---|---|", *rows, ""])
     write_text_atomic(args.out, text)
     print(f"wrote {args.out}")
 

@@ -364,9 +364,9 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every candidate without replaying it as a grasp (the paper's procedure)")
     generate.add_argument("--designs", choices=DESIGN_FAMILIES,
-                          help="the starting postures: every grasp type (power, precision pinch, tripod, lateral), each "
-                          "start one that holds (the default), or the paper's five-fingertip grasps (the default with "
-                          "--no-verify, the paper's procedure)")
+                          help="the starting postures: every grasp type (power, precision pinch, tripod, lateral), "
+                          "each start one that holds (the default), or the paper's five-fingertip grasps (the "
+                          "default with --no-verify, the paper's procedure)")
     generate.add_argument("--preset", choices=("quick", "paper"), default="quick",
                           help="the generator mode and the dataset sizes when --n is not given: " + "; ".join(
                               f"{name} ({', '.join(f'{o} {n}' for o, n in sizes.items())})"

@@ -17,10 +17,11 @@ it (`REFINEMENTS`, `GraspVerifier`): the paper's wraps, refined to touch alone, 
 thumb presses sideways and slides off under the squeeze), so the family's refinements also ask the
 contacts' pushes to cancel.
 
-The paper's objects, the benchmark's (`benchmark.OBJECTS`) and the object family ship their starting
-postures of both families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`;
-the family's held-out members, `family.HELD_OUT`, only their five-fingertip ones); the rest is searched on
-first use and kept in `cache_directory()`, so that the next process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
+The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
+families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object family
+its five-fingertip ones and the grasp-types ones of the medium size of each shape not held out
+(`family.HELD_OUT`); the rest is searched on first use and kept in `cache_directory()`, so that the next
+process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
 each a `StartingPosture`, e.g. a rough grasp brought onto the surface by `refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
 designs place the palm relative to the object's principal axes and its extents, and the

@@ -184,8 +184,8 @@ class Headroom:
         text = (f"oracle {rate_text(self.oracle, self.n)} vs best ({self.best}) "
                 f"{rate_text(self.best_successes, self.n)}: headroom {rate_text(self.gain, self.n)} (n = {self.n})")
         if self.chance_oracle is not None:
-            text += (f"; chance oracle over {len(self.rates)} runs of {self.best} {rate_text(self.chance_oracle, self.n)}: "
-                     f"{100 * self.beyond_chance:.1f} points beyond chance")
+            text += (f"; chance oracle over {len(self.rates)} runs of {self.best} "
+                     f"{rate_text(self.chance_oracle, self.n)}: {100 * self.beyond_chance:.1f} points beyond chance")
         return text
 
 
