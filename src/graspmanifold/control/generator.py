@@ -57,7 +57,7 @@ from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, HandModel, segm
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
-from .controller import ControllerParams, squeezed
+from .controller import ControllerParams
 from .judge import VERIFY_HOLD_SECONDS, GraspVerifier
 from .starts import (
     CONTACT_GAP,

@@ -26,7 +26,7 @@ likewise, and the margin runs only where it is asked for.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -172,7 +172,7 @@ class GraspVerifier:
                  hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours"):
         self.scene = supported_scene(obj, hand=hand)
         self.squeeze = squeeze
-        self.rules = JudgingRules(hold_seconds=hold_seconds)
+        self.rules = replace(JUDGING, hold_seconds=hold_seconds)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         """Judge one grasp.

@@ -441,7 +441,15 @@ REFINEMENTS: tuple[Refinement, ...] = (
 
 def holds(verifier: GraspVerifier, start: StartingPosture) -> bool:
     """Whether a start holds its object when replayed by the generator's verifier (its physics failing counts
-    as not holding)."""
+    as not holding).
+
+    Args:
+        verifier: a `GraspVerifier` of the start's object.
+        start: the starting posture (palm pose in the object frame, m).
+
+    Returns:
+        True when the hold test passes.
+    """
     try:
         return bool(verifier(start.posture, start.hand_pos, start.hand_quat).hold)
     except SimulationError:
