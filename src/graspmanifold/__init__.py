@@ -14,6 +14,7 @@ choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in 
 
 from .manifold.analysis import resume_learning, smoothness  # noqa: E402
 from .control.controller import ControllerParams, GraspController
+from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase
 from .control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
@@ -61,7 +62,7 @@ from .base.version import __version__
 _SUBMODULES = {
     "analysis": "manifold", "benchmark": "trials", "errors": "base", "evaluation": "trials", "figures": "paper",
     "grid": "trials", "io": "base", "judge": "control", "plots": "manifold", "quality": "control", "render": "sim",
-    "report": "paper", "reproduce": "paper", "stats": "trials", "study": "trials", "trial": "trials", "validation":
+    "regrasp": "control", "report": "paper", "reproduce": "paper", "selector": "trials", "stats": "trials", "study": "trials", "trial": "trials", "validation":
     "base", "workers": "base"
 }
 
@@ -82,7 +83,7 @@ __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "ControllerParams", "GraspController", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
+    "TactileSensor", "ControllerParams", "GraspController", "Regrasp", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
     "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "pcp_masks", "posture_to_ctrl",

@@ -37,6 +37,11 @@ What a best match does is `ControllerParams.recall`:
   grasp puts them, `hand.SegmentKinematics`, at most `reach` at `reach_speed`, every finger following the
   recall meanwhile; `palm_offset` is where the palm is, palm frame).
 
+Beyond the paper, a controller with a `regrasp.Regrasp` of more than one attempt is probed once its grasp
+is done (the trials lift it: gravity on, touch watched); a failing grasp is opened and grasped again from
+where the object lies (`restart`: phase A opens the hand whatever touches, then B, C and D as before), with
+the next preshape chosen from what the failed attempt sensed.
+
 Ablations switch parts off (`experience_preshape`, `experience_steering`, `steered_fingers`,
 `steered_joints`, `max_match_distance`: see `ControllerParams`). The controller drives the hand it is
 given (`HandModel`): its open and closed postures, its ranges, its kinematics. Any object with the
@@ -66,6 +71,7 @@ from ..sim.hand import (
     finger_of,
 )
 from ..sim.posture import SEGMENT_FINGER, pcp_masks, validate_posture
+from .regrasp import Regrasp
 
 #: the index into FINGERS of each finger joint's finger: `per_finger[:, JOINT_FINGER]` spreads (n, 5) over (n, 22)
 JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
@@ -259,7 +265,7 @@ class BatchController:
 
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,
-                 hand: HandModel = SHADOW_HAND):
+                 hand: HandModel = SHADOW_HAND, regrasp: Regrasp | None = None):
         """A controller ready for the first grasp in every world.
 
         Args:
@@ -270,6 +276,8 @@ class BatchController:
             preshape: a fixed phase-B posture, rad, instead of matching the experience there (phase C still
                 recalls); with recall='target' the hand goes to it and closes on from it, with 'base' it is the base.
             hand: the hand model it drives (its closed posture, joint ranges and kinematics).
+            regrasp: its attempts and how it chooses the next one after a failed lift probe (`regrasp.Regrasp`;
+                None: one attempt, the paper's).
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
@@ -283,6 +291,9 @@ class BatchController:
                                         name="initial_posture", check_limits=True, hand=hand)
         self.preshape = None if preshape is None else validate_posture(preshape, name="preshape", check_limits=True,
                                                                        hand=hand)
+        self.regrasp = regrasp or Regrasp()
+        if self.regrasp.grasp_types is not None and self.experience is None:
+            raise InvalidInput("Regrasp.grasp_types recalls the next grasp from the experience: give an experience")
         self.closed, self.limits = hand.keyframe_posture("closed"), hand.limits()
         self.speed = self.params.closing_rate * np.array([np.linalg.norm((self.closed - self.initial)[of])
                                                           for of in FINGER_JOINT_MASKS])
@@ -333,6 +344,40 @@ class BatchController:
         self._recall = np.tile(self.initial, (n, 1))
         self._visited = np.zeros(0, dtype=np.int64)  # (world, finger, key) of every recall a finger is done with
         self._previous = np.full((n, N_FINGER_JOINTS), np.nan)  # the joints sensed one cycle before
+        self._started = np.zeros(n)  # s: when each world's attempt began
+        self.attempt = np.ones(n, dtype=int)  # each world's attempt, 1 the first
+        self._preshapes = np.full((n, N_FINGER_JOINTS), np.nan) if self.preshape is None else \
+            np.tile(self.preshape, (n, 1))  # each world's phase-B preshape (NaN rows: none)
+
+    def restart(self, worlds: np.ndarray, joints: np.ndarray, segment_forces: np.ndarray) -> None:
+        """The next attempt in these worlds, whose grasp failed its lift probe (`regrasp`): the hand opens
+        (phase A) and closes again, from where the object lies, with the preshape `Regrasp.next_preshapes`
+        chooses from what the failed attempt sensed last. Their best matches so far stay in `matches` / `winners`.
+
+        Args:
+            worlds: the worlds' indices (m,).
+            joints: (m, 22) rad, their joints sensed last.
+            segment_forces: (m, len(SEGMENTS)) N, their segment forces sensed last.
+        """
+        worlds = np.asarray(worlds, dtype=int)
+        if np.any(self.attempt[worlds] >= self.regrasp.attempts):
+            raise InvalidInput(f"restart: every world has {self.regrasp.attempts} attempts at most (Regrasp.attempts)")
+        joints, forces = np.asarray(joints, dtype=float), np.asarray(segment_forces, dtype=float)
+        for attempt in np.unique(self.attempt[worlds]):
+            rows = self.attempt[worlds] == attempt
+            self._preshapes[worlds[rows]] = self.regrasp.next_preshapes(self.experience, int(attempt), joints[rows],
+                                                                        forces[rows], self._preshapes[worlds[rows]])
+        self.attempt[worlds] += 1
+        self._started[worlds] = self.time
+        self.phase[worlds], self.done[worlds], self.time_to_grasp[worlds] = 0, False, np.nan
+        for name in ("_closure", "_held", "_lost", "_touching", "_recalled", "_reaching", "_approaching", "_heading"):
+            getattr(self, name)[worlds] = 0
+        self._last_touch[worlds] = -np.inf
+        self._base[worlds] = self._recall[worlds] = self.initial
+        self._palm_goal[worlds] = self.palm_offset[worlds]
+        self._previous[worlds] = np.nan
+        mine = np.isin(self._visited // (len(FINGERS) * self._rows), worlds)
+        self._visited = self._visited[~mine]
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -361,7 +406,8 @@ class BatchController:
         touching_segments = forces > 0.0
         any_touch = touching_segments.any(axis=1)
         touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
-        waiting = ~self.done & (self.time <= p.preshape_time) & ~any_touch  # phase A
+        elapsed = self.time - self._started
+        waiting = ~self.done & (elapsed <= p.preshape_time) & (~any_touch | (self.attempt > 1))  # A: a regrasp opens
         self._target[waiting] = self.initial
         act = ~self.done & ~waiting
         if not act.any():
@@ -420,7 +466,7 @@ class BatchController:
         settled = np.all(touching | closed, axis=1)
         finished = act & ((touching.any(axis=1) & settled & ~self._reaching
                            & (self.time - self._stable_since >= p.stable_time))
-                          | (self.time >= p.timeout))
+                          | (elapsed >= p.timeout))
         self.done |= finished
         self.phase[finished] = PHASES.index("done")
         self.time_to_grasp[finished] = self.time
@@ -432,15 +478,13 @@ class BatchController:
         """Phase B / C of every acting world: the best-matching experienced posture becomes the steered
         free fingers' recall ('target') or the closing heuristic's base ('base')."""
         p, any_touch = self.params, touching_segments.any(axis=1)
-        if self.preshape is not None:
-            shaping = act & ~any_touch
-            if self._targeting:
-                self._recall_for(np.flatnonzero(shaping), np.zeros(shaping.sum(), dtype=np.int64), self.preshape)
-            else:
-                self._base[shaping] = self.preshape
-            candidates = act & any_touch
+        preshaped = ~np.isnan(self._preshapes[:, 0])
+        shaping = act & ~any_touch & preshaped
+        if self._targeting:
+            self._recall_for(np.flatnonzero(shaping), np.zeros(shaping.sum(), dtype=np.int64), self._preshapes[shaping])
         else:
-            candidates = act.copy()
+            self._base[shaping] = self._preshapes[shaping]
+        candidates = act & ~(preshaped & ~any_touch)
         if self.experience is None:
             return
         if not p.experience_steering:

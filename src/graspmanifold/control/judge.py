@@ -290,6 +290,8 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
             break
         for world, why in advance(live).items():
             fail(world, why)
+        if not np.isin(stage, (_HOLD, _MARGIN)).any():  # the objects are looked at only while judged
+            continue
         with np.errstate(invalid="ignore"):
             moved = row_norms(worlds.object_positions() - start)
         holding = np.flatnonzero(stage == _HOLD)

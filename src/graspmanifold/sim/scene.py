@@ -289,6 +289,14 @@ class Scene:
         self.model.jnt_stiffness[joint.id] = stiffness
         self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
 
+    def anchor_object_support(self) -> None:
+        """Move the support's rest pose (`set_object_support`) to where the free object lies now: re-engaged,
+        the support keeps the object there instead of pulling it back to its start."""
+        if not self.free_object:
+            raise InvalidInput("anchor_object_support needs a Scene with free_object=True")
+        address = self.model.joint("object_free").qposadr[0]
+        self.model.qpos_spring[address: address + 7] = self.data.qpos[address: address + 7]
+
     def set_table(self, present: bool) -> None:
         """Put the table back or take it away (a Scene made with table=True).
 

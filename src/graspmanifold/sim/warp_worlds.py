@@ -192,6 +192,9 @@ class WarpWorlds:
         self._m.jnt_stiffness.assign(self._stiffness)
         self._m.dof_damping.assign(self._damping)
 
+    def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None:
+        raise InvalidInput("re-engaging the support where the object lies (a regrasp) runs on the cpu backend only")
+
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
         if len(worlds):
             self._gravity[worlds] = vectors

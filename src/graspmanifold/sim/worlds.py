@@ -41,6 +41,8 @@ class Worlds(Protocol):
 
     def release(self, worlds: np.ndarray) -> None: ...  # support off (and table away)
 
+    def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None: ...  # support on, where it lies
+
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None: ...
 
     def push(self, worlds: np.ndarray, forces: np.ndarray) -> None: ...  # extra force on the object (N)
@@ -102,6 +104,11 @@ class CpuWorlds:
             scene.set_object_support(0.0, 0.0)
             if scene.table_geom is not None:
                 scene.set_table(False)
+
+    def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None:
+        for world in worlds:
+            self.scenes[world].anchor_object_support()
+            self.scenes[world].set_object_support(stiffness, damping)
 
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
         for world, vector in zip(worlds, vectors):

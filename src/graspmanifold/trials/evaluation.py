@@ -26,6 +26,7 @@ from ..base.io import library_version, load_npz, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
+from ..control.regrasp import Regrasp
 from ..control.controller import ControllerFactory, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.experience import Experience
@@ -33,7 +34,7 @@ from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.objects import GraspObject, object_from_params
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
-from .trial import Noise, Trial, TrialSetup, run_trials
+from .trial import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, Noise, Trial, TrialSetup, run_trials
 
 #: what each array of an evaluation file holds (stored in its metadata as "fields"), one row per trial
 FIELDS = {
@@ -203,7 +204,9 @@ class EvaluationResult:
                   "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
                   "penetration": np.array([x.penetration for x in t]),
                   "fault": np.array([x.fault for x in t], dtype=str),
-                  "hold_time": np.array([x.hold_time for x in t])}
+                  "hold_time": np.array([x.hold_time for x in t]), "attempts": np.array([x.attempts for x in t], dtype=int),
+                  "first_contact": np.array([x.first_contact for x in t]).reshape(-1, FIRST_CONTACT_FEATURES),
+                  "failure": np.array([x.failure for x in t]).reshape(-1, FAILURE_FEATURES)}
         if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
@@ -245,10 +248,16 @@ class EvaluationResult:
                 raise InvalidInput(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
                                  f"{int(ends[-1])} matches; the file is corrupt")
             winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
+        for name, width in (("first_contact", FIRST_CONTACT_FEATURES), ("failure", FAILURE_FEATURES)):
+            if name in a and np.shape(a[name]) != (len(a["epsilon"]), width):
+                raise InvalidInput(f"{path}: {name} must be ({len(a['epsilon'])}, {width}), got {np.shape(a[name])}; "
+                                   "the file is corrupt")
         trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
                         float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
                         float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i],
-                        float(a["hold_time"][i]) if "hold_time" in a else float("nan"))
+                        float(a["hold_time"][i]) if "hold_time" in a else float("nan"),
+                        int(a["attempts"][i]) if "attempts" in a else 1,
+                        *((a[name][i] for name in ("first_contact", "failure")) if "failure" in a else ()))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu")), meta
@@ -284,7 +293,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
-             controller: ControllerFactory | None = None, margin: bool = False) -> EvaluationResult:
+             controller: ControllerFactory | None = None, margin: bool = False,
+             regrasp: Regrasp | None = None) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -320,6 +330,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             returns a `controller.Controller`); give it a `method` label, and no experience, preshape or params.
         margin: measure the disturbance margin of every grasp that holds (N; up to 1.8 s more simulation per
             held grasp); False: not measured, the trials' margin is NaN and the summary's mean margin None.
+        regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt, the paper's).
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -329,7 +340,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             argument.
     """
     setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method, hand, controller, margin)
+                       method, hand, controller, margin, regrasp or Regrasp())
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size = check_int(batch_size, "batch_size")

@@ -34,12 +34,13 @@ from ..base.errors import InvalidInput
 from ..base.validation import check_int
 from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
+from ..control.regrasp import PROBE_DIRECTION, Regrasp
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
-from ..sim.scene import Scene
+from ..sim.scene import GRAVITY, Scene
 from ..sim.worlds import CpuWorlds, Worlds
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 
@@ -62,6 +63,10 @@ class Noise:
                     or not np.isfinite(value) or value < 0 or value > MAX_NOISE[name]:
                 raise InvalidInput(f"noise {name} must be a standard deviation 0 ... {MAX_NOISE[name]:.3g}, got {value!r}")
 
+
+#: the length of `Trial.first_contact` (time, joints, segment forces) and of `Trial.failure` (joints, forces)
+FIRST_CONTACT_FEATURES = 1 + N_FINGER_JOINTS + len(SEGMENTS)
+FAILURE_FEATURES = N_FINGER_JOINTS + len(SEGMENTS)
 
 #: s of simulated time after which a world whose controller never reports its grasp done is judged as it is
 MAX_GRASP_SECONDS = 600.0
@@ -103,6 +108,9 @@ class TrialSetup:
             (`experience`, `preshape`, `params` stay at their defaults), and `method` names it.
         margin: measure the disturbance margin of every grasp that holds (`judge` module doc; up to 1.8 s more
             simulation per held grasp); False: `Trial.margin` is NaN.
+        regrasp: the controller's attempts, its lift probe and how it chooses the next attempt (`regrasp.Regrasp`;
+            the default: one attempt, the paper's). A user's own controller with more attempts needs `attempt` and
+            `restart` (as `BatchController` has them).
     """
 
     object: GraspObject
@@ -116,6 +124,7 @@ class TrialSetup:
     hand: HandModel = SHADOW_HAND
     controller: ControllerFactory | None = None
     margin: bool = False
+    regrasp: Regrasp = Regrasp()
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -143,6 +152,12 @@ class TrialSetup:
                                                 and self.params == ControllerParams()):
             raise InvalidInput("a custom controller brings its own experience and parameters: leave experience, "
                                "preshape and params at their defaults")
+        set_field("regrasp", self.regrasp or Regrasp())
+        if not isinstance(self.regrasp, Regrasp):
+            raise InvalidInput(f"regrasp must be a Regrasp, got {type(self.regrasp).__name__}")
+        if self.regrasp.attempts > 1 and (self.table or self.backend != "cpu"):
+            raise InvalidInput("a regrasp (Regrasp.attempts > 1) runs on the spring support (table=False) and the cpu "
+                               "backend: its probe re-engages the support where the object lies")
         set_field("method", self.method or method_name(self.experience))
         set_field("table", bool(self.table))
         set_field("margin", bool(self.margin))
@@ -170,7 +185,8 @@ class TrialSetup:
                            "margin": self.margin,
                            "experience": None if experience is None else type(experience).__name__,
                            "hand": self.hand.digest, "controller": None if custom is None else
-                           f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
+                           f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}",
+                           **({"regrasp": self.regrasp.description()} if self.regrasp.attempts > 1 else {})},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
                           np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
@@ -185,11 +201,15 @@ class TrialSetup:
             Ours (`BatchController` with the set-up's experience, parameters, preshape and hand), or the user's.
         """
         if self.controller is None:
-            return BatchController(n, self.experience, self.params, preshape=self.preshape, hand=self.hand)
+            return BatchController(n, self.experience, self.params, preshape=self.preshape, hand=self.hand,
+                                   regrasp=self.regrasp)
         controller = self.controller(n, self.hand)
         if not isinstance(controller, Controller):
             raise InvalidInput(f"the controller {type(controller).__name__} lacks a member of the Controller protocol "
                                "(n, control_period, initial, done, reset, step: graspmanifold.control.controller)")
+        if self.regrasp.attempts > 1 and not (hasattr(controller, "restart") and hasattr(controller, "attempt")):
+            raise InvalidInput(f"the controller {type(controller).__name__} has no `attempt` and `restart` "
+                               f"(BatchController's), so it cannot make {self.regrasp.attempts} attempts")
         return controller
 
 
@@ -215,6 +235,14 @@ class Trial:
     #: object (the test ends there), 0 when the physics failed; NaN when not recorded (a file written before
     #: it was kept)
     hold_time: float = float("nan")
+    #: grasp attempts the controller made (`TrialSetup.regrasp`), 1 without a regrasp
+    attempts: int = 1
+    #: what the controller sensed at its first contact: [s since the start, the 22 joints (rad), the segment forces
+    #: (N, `SEGMENTS` order)] (`FIRST_CONTACT_FEATURES`); NaN when nothing was touched or not recorded
+    first_contact: np.ndarray = field(default_factory=lambda: np.full(FIRST_CONTACT_FEATURES, np.nan))
+    #: what it sensed when its first attempt failed the lift probe: [the 22 joints (rad), the segment forces (N)]
+    #: (`FAILURE_FEATURES`); NaN when no probe failed
+    failure: np.ndarray = field(default_factory=lambda: np.full(FAILURE_FEATURES, np.nan))
 
     def __repr__(self) -> str:
         outcome = f"invalid: {self.fault}" if self.fault else (
@@ -278,6 +306,8 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     nstep = max(1, round(period / scenes[0].model.opt.timestep))
     grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
     clock, time_to_grasp, failed = 0.0, np.full(n, np.nan), {}
+    first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
+    failure = np.full((n, FAILURE_FEATURES), np.nan)
 
     def recalls(world: int) -> tuple[int, list[int]]:  # the best matches used (none, for a controller without)
         return (int(getattr(controller, "matches", np.zeros(n, dtype=int))[world]),
@@ -292,6 +322,8 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
         if setup.noise.joints:
             for world in np.flatnonzero(grasping):
                 sensed[world] += rngs[world].normal(0.0, setup.noise.joints, N_FINGER_JOINTS)
+        touched = grasping & np.isnan(first_contact[:, 0]) & (forces > 0).any(axis=1)
+        first_contact[touched] = np.column_stack([np.full(touched.sum(), clock), sensed[touched], forces[touched]])
         targets = controller.step(sensed, forces)
         clock += period
         newly_done = grasping & np.asarray(controller.done, dtype=bool)
@@ -306,12 +338,43 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
             observer(worlds)
         return failures
 
+    attempts, probe = setup.regrasp.attempts, setup.regrasp.probe_seconds
+    probing = np.full(n, np.nan)  # s: when each world's lift probe began (NaN: none runs)
+    probed = np.zeros(n, dtype=bool)  # passed the probe: the judge's turn
+
     def ready() -> np.ndarray:
-        """The worlds whose grasp is done (all after MAX_GRASP_SECONDS: a controller that never finishes)."""
+        """The worlds whose grasp is done (all after MAX_GRASP_SECONDS: a controller that never finishes); with
+        attempts left, a done grasp is first probed (`regrasp` module doc) and, failing, grasped again."""
         if clock >= MAX_GRASP_SECONDS:
             time_to_grasp[np.isnan(time_to_grasp)] = clock
             return np.ones(n, dtype=bool)
-        return np.asarray(controller.done, dtype=bool)
+        done = np.asarray(controller.done, dtype=bool)
+        if attempts == 1:
+            return done
+        last = np.asarray(controller.attempt) >= attempts
+        begin = np.flatnonzero(done & ~last & ~probed & np.isnan(probing))
+        if len(begin):  # support off, the object's weight on: only touch is watched from here
+            worlds.release(begin)
+            worlds.set_gravity(begin, np.tile(GRAVITY * PROBE_DIRECTION, (len(begin), 1)))
+            probing[begin] = clock
+        watched = np.flatnonzero(~np.isnan(probing))
+        if len(watched):
+            forces = worlds.segment_forces(watched)
+            over = clock - probing[watched] >= probe - 1e-9
+            failing = np.where(over, setup.regrasp.failing(forces), ~(forces > 0).any(axis=1))  # gone: ends early
+            passed = watched[~failing & over]
+            again = watched[failing]
+            probed[passed], probing[passed] = True, np.nan
+            if len(again):  # gravity off, the support on where the object lies, the next attempt from there
+                worlds.set_gravity(again, np.zeros((len(again), 3)))
+                worlds.support(again, JUDGING.support_stiffness, JUDGING.support_damping)
+                joints = worlds.joints(again)
+                first = again[np.isnan(failure[again, 0])]
+                failure[first] = np.column_stack([joints, forces[failing]])[np.isin(again, first)]
+                controller.restart(again, joints, forces[failing])
+                probing[again], grasping[again] = np.nan, True
+                done = np.asarray(controller.done, dtype=bool)
+        return done & (probed | (np.asarray(controller.attempt) >= attempts))
 
     if observer is not None:
         observer(worlds)
@@ -322,7 +385,8 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
         trials.append(Trial(poses[world], judged.posture, judged.touching, judged.epsilon, judged.hold,
                             judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
                             matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int),
-                            judged.hold_time))
+                            judged.hold_time, int(getattr(controller, "attempt", np.ones(n, dtype=int))[world]),
+                            first_contact[world], failure[world]))
     return trials
 
 

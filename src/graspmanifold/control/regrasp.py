@@ -1,0 +1,194 @@
+"""Regrasp, beyond the paper: notice a failing grasp by touch alone, open the hand and try another grasp.
+
+A trial with a `Regrasp` of more than one attempt does, once the controller reports its grasp done and
+attempts remain, a lift probe: the object's support is released and gravity pulls it along
+`PROBE_DIRECTION` (its weight, as when the hand lifts it) for `probe_seconds`, while the hand keeps its
+targets. The probe watches what a tactile skin reports, nothing else (`Regrasp.failing`): at its end a
+grasp is failing when fewer than two parts of the hand (the five fingers and the palm) touch the object, so
+nothing opposes anything, or their normal forces add up to less than `min_force`; it ends early once no
+segment touches at all (the object is gone). A failing grasp's probe ends: gravity goes off, the support is
+re-engaged where the object lies now (it is not put back), and the controller starts its next attempt from there
+(`BatchController.restart`), with the next preshape chosen from what the failed attempt sensed:
+
+- `grasp_types` given (one per reference posture of the experience, `reference_grasp_types`): the
+  experience's best match for the failed attempt's Partial Contact Posture (its last sensed joints and
+  touching segments, Eq. 1-2) among the references of another grasp type than the one the hand ended in
+  (the type of the reference nearest to its last posture): regrasp with experience;
+- `preshapes` given: a fixed sequence, row k the preshape of attempt k + 2 (NaN row: none, the plain heuristic);
+- `chooser` given: a learned choice from what the failed attempt sensed (`trials.selector.StrategySelector`);
+- neither: the first attempt's way again (the heuristic retried, or its constant preshape again).
+
+A grasp that passes the probe, or the last attempt, goes to the judge's full hold test, once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import pickle
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..manifold.experience import Experience
+from ..manifold.postureset import PostureSet
+from ..sim.hand import N_FINGER_JOINTS
+from ..sim.posture import SEGMENT_FINGER, pcp_masks
+
+#: the probe's gravity, unit vector in the world: the object's weight as when the hand lifts it
+PROBE_DIRECTION = np.array([0.0, 0.0, -1.0])
+#: the part of the hand (a finger, or the palm) each segment belongs to, for the probe's rule
+_FINGER_OF_SEGMENT = np.unique(SEGMENT_FINGER, return_inverse=True)[1]
+
+
+@dataclass(frozen=True, eq=False)
+class Regrasp:
+    """How many attempts a trial's controller has, how it probes a grasp and how it chooses the next one
+    (see the module doc).
+
+    Attributes:
+        attempts: grasp attempts at most (1: no probe, the paper's single grasp).
+        probe_seconds: s of the lift probe.
+        min_force: N, the least total normal force of a grasp that passes the probe.
+        preshapes: (attempts - 1, 22) rad, a fixed sequence of the later attempts' preshapes (NaN rows: none).
+        grasp_types: (k,) one grasp type per reference posture of the experience: recall the next grasp from
+            the experience, another type than the failed one.
+        chooser: `chooser(features)` -> (m, 22) rad, the next preshapes (NaN rows: none) from what the failed
+            attempts sensed, (m, 22 + len(SEGMENTS)): their joints and segment forces (`Trial.failure`); e.g. a
+            fitted `trials.selector.StrategySelector`. A picklable object, for worker processes.
+    """
+
+    attempts: int = 1
+    probe_seconds: float = 0.2
+    min_force: float = 1.0
+    preshapes: np.ndarray | None = None
+    grasp_types: np.ndarray | None = None
+    chooser: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.attempts, bool) or not isinstance(self.attempts, (int, np.integer)) or self.attempts < 1:
+            raise InvalidInput(f"Regrasp.attempts must be an integer >= 1, got {self.attempts!r}")
+        for name in ("probe_seconds", "min_force"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise InvalidInput(f"Regrasp.{name} must be a positive finite number, got {value!r}")
+        if self.preshapes is not None:
+            rows = np.asarray(self.preshapes, dtype=float)
+            if rows.shape != (self.attempts - 1, N_FINGER_JOINTS):
+                raise InvalidInput(f"Regrasp.preshapes must be ({self.attempts - 1}, {N_FINGER_JOINTS}): one preshape "
+                                   f"per attempt after the first, got shape {rows.shape}")
+            if not np.all(np.isfinite(rows) | np.isnan(rows).all(axis=1, keepdims=True)):
+                raise InvalidInput("Regrasp.preshapes rows must be finite angles, or all NaN (no preshape)")
+            object.__setattr__(self, "preshapes", rows)
+        if sum(x is not None for x in (self.preshapes, self.grasp_types, self.chooser)) > 1:
+            raise InvalidInput("Regrasp takes one way to choose the next attempt: preshapes (a fixed sequence), "
+                               "grasp_types (recall from the experience) or a chooser")
+        if self.chooser is not None and not callable(self.chooser):
+            raise InvalidInput(f"Regrasp.chooser must be callable: chooser(features) -> preshapes, got {self.chooser!r}")
+        if self.grasp_types is not None:
+            object.__setattr__(self, "grasp_types", np.asarray(self.grasp_types, dtype=str).ravel())
+
+    def description(self) -> dict:
+        """What a checkpoint key needs of it: plain values."""
+        return {"attempts": int(self.attempts), "probe_seconds": float(self.probe_seconds),
+                "min_force": float(self.min_force),
+                "preshapes": None if self.preshapes is None else np.nan_to_num(self.preshapes, nan=99.0).round(9).tolist(),
+                "grasp_types": None if self.grasp_types is None else self.grasp_types.tolist(),
+                "chooser": None if self.chooser is None else hashlib.sha256(pickle.dumps(self.chooser)).hexdigest()}
+
+    def failing(self, forces: np.ndarray) -> np.ndarray:
+        """The probe's rule at its end, from touch alone: fewer than two parts of the hand (fingers, palm) touch,
+        or the normal forces add up to less than `min_force`.
+
+        Args:
+            forces: segment forces (m, len(SEGMENTS)), N, in `SEGMENTS` order.
+
+        Returns:
+            (m,) bool: the grasps that are failing.
+        """
+        forces = np.asarray(forces, dtype=float)
+        parts = np.zeros((len(forces), _FINGER_OF_SEGMENT.max() + 1), dtype=bool)
+        np.logical_or.at(parts, (np.arange(len(forces))[:, None], _FINGER_OF_SEGMENT[None, :]), forces > 0)
+        return (parts.sum(axis=1) < 2) | (forces.sum(axis=1) < self.min_force)
+
+    def next_preshapes(self, experience: Experience | None, attempt: int, joints: np.ndarray, forces: np.ndarray,
+                       current: np.ndarray) -> np.ndarray:
+        """The preshapes of the next attempt of m worlds whose attempt `attempt` (1, 2, ...) failed.
+
+        Args:
+            experience: the controller's experience (needed with `grasp_types`).
+            attempt: the number of the attempt that failed.
+            joints: (m, 22) rad, the joints sensed when it failed.
+            forces: (m, len(SEGMENTS)) N, the segment forces sensed then.
+            current: (m, 22) rad, the failed attempt's preshapes (NaN rows: none).
+
+        Returns:
+            (m, 22) rad, NaN rows where the attempt has no preshape.
+        """
+        if self.preshapes is not None:
+            return np.tile(self.preshapes[attempt - 1], (len(joints), 1))
+        if self.chooser is not None:
+            chosen = np.asarray(self.chooser(np.column_stack([joints, forces])), dtype=float)
+            if chosen.shape != joints.shape:
+                raise InvalidInput(f"Regrasp.chooser must return ({len(joints)}, {N_FINGER_JOINTS}) preshapes, got "
+                                   f"shape {chosen.shape}")
+            return chosen
+        if self.grasp_types is None:
+            return current.copy()
+        references = np.asarray(experience.references, dtype=float)
+        if len(self.grasp_types) != len(references):
+            raise InvalidInput(f"Regrasp.grasp_types has {len(self.grasp_types)} types for an experience of "
+                               f"{len(references)} reference postures")
+        nearest = np.argmin(((references[None] - joints[:, None]) ** 2).sum(axis=2), axis=1)
+        failed_type = self.grasp_types[nearest]
+        masks = np.array(pcp_masks(np.asarray(forces) > 0), dtype=bool)
+        masks[~masks.any(axis=1)] = True  # nothing specified (only the palm touched): the whole posture
+        chosen = np.empty_like(joints)
+        for row, (posture, mask, excluded) in enumerate(zip(joints, masks, failed_type)):
+            allowed = np.flatnonzero(self.grasp_types != excluded)
+            if not len(allowed):  # one grasp type only: the best match of any
+                allowed = np.arange(len(references))
+            distances = (((references[allowed] - posture) ** 2) * mask).sum(axis=1)
+            chosen[row] = references[allowed[np.argmin(distances)]]
+        return chosen
+
+
+def grasp_types_of(postures: PostureSet) -> np.ndarray:
+    """The grasp type of every posture of a generated set, from its metadata's `grasp_types` (starting design ->
+    type, as `generate_postures` writes it).
+
+    Args:
+        postures: the posture set.
+
+    Returns:
+        (n,) str, one type per posture.
+    """
+    types_by_design = postures.metadata.get("grasp_types")
+    names = [name.split(":", 1)[-1] for name in postures.start_names]  # "object:design" or "design"
+    if not isinstance(types_by_design, dict) or not all(name in types_by_design for name in names):
+        raise InvalidInput("postures must name each starting design's grasp type (metadata 'grasp_types', written "
+                           "by generate_postures)")
+    return np.array([types_by_design[names[i]] for i in postures.start_ids], dtype=str)
+
+
+def reference_grasp_types(experience: Experience, postures: np.ndarray, types: np.ndarray) -> np.ndarray:
+    """The grasp type of each reference posture of an experience: that of the nearest of the postures it was
+    made from (a database's own postures; a SOM node's nearest training posture).
+
+    Args:
+        experience: a SOM, a PostureDatabase or any `Experience`.
+        postures: (m, 22) rad, the postures it was made from.
+        types: (m,) their grasp types (`grasp_types_of`).
+
+    Returns:
+        (k,) str, one type per row of `experience.references`.
+    """
+    data, types = np.asarray(postures, dtype=float), np.asarray(types, dtype=str)
+    if data.ndim != 2 or data.shape[1] != N_FINGER_JOINTS or types.shape != (len(data),) or not len(data):
+        raise InvalidInput(f"postures must be (m, {N_FINGER_JOINTS}) with one type each (m >= 1), got shapes "
+                           f"{data.shape} and {types.shape}")
+    references = np.asarray(experience.references, dtype=float)
+    nearest = np.array([np.argmin(((data - row) ** 2).sum(axis=1)) for row in references], dtype=int)
+    return types[nearest]
