@@ -38,6 +38,7 @@ from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import InvalidInput
 from ..base.validation import check_int, check_name, file_in
 from ..control.controller import ControllerFactory, ControllerParams
+from ..control.regrasp import Regrasp
 from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
 from .evaluation import EvaluationResult, evaluate
@@ -117,6 +118,31 @@ def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray
     return poses[reachable(obj, poses)]
 
 
+def benchmark_split(selection: float = 1 / 3, seed: int = 0) -> dict[str, dict[tuple[str, str], np.ndarray]]:
+    """A random split of all the benchmark's poses (the test lattice and its midpoints, pooled) into a selection
+    split, to fix controls and tune on, and a test split, touched once; stratified by object and placement
+    (`stats.stratified_split`), so each (object, placement) gives each split the same share.
+
+    Args:
+        selection: the share of each (object, placement) in the selection split, in (0, 1).
+        seed: the split's seed.
+
+    Returns:
+        {'selection': {(object, placement): poses (n, 4)}, 'test': {...}}, cells in `cells()` order.
+    """
+    from .stats import stratified_split
+
+    poses = {key: np.concatenate([benchmark_grid(*key, split) for split in SPLITS]) for key in cells()}
+    strata = [key for key in cells() for _ in poses[key]]
+    everything = np.concatenate(list(poses.values()))
+    picked, rest = stratified_split(strata, selection, seed)
+    split = {}
+    for name, rows in (("selection", picked), ("test", rest)):
+        labels = [strata[i] for i in rows]
+        split[name] = {key: everything[rows[[label == key for label in labels]]] for key in cells()}
+    return split
+
+
 def cells() -> list[tuple[str, str]]:
     """Every (object, placement) of the benchmark, in a fixed order."""
     return [(name, placement) for name in OBJECTS for placement in PLACEMENTS]
@@ -126,7 +152,8 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                   preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
                   every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
                   label: str = "", progress: bool | None = None, executor: Executor | None = None,
-                  controller: ControllerFactory | None = None) -> dict[tuple[str, str], EvaluationResult]:
+                  controller: ControllerFactory | None = None, regrasp: Regrasp | None = None,
+                  poses: dict[tuple[str, str], np.ndarray] | None = None) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
     Args:
@@ -144,6 +171,9 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         progress: show progress bars (None: as `progress.show_progress` says, on by default).
         executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
         controller: a user's own controller instead of ours (`evaluate(controller=...)`; give a `label`).
+        regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt).
+        poses: the grid poses of each (object, placement) instead of `benchmark_grid(object, placement, split)`
+            (a random split, `benchmark_split`); `split` then only names the stored files.
 
     Returns:
         {(object, placement): EvaluationResult} in `cells()` order.
@@ -162,9 +192,9 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         if name not in names:
             continue
         path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "label")
-        grid = benchmark_grid(name, placement, split)[::every]
+        grid = (benchmark_grid(name, placement, split) if poses is None else poses[(name, placement)])[::every]
         key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape, method=label,
-                         controller=controller).key(grid, seed)
+                         controller=controller, regrasp=regrasp or Regrasp()).key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
             stored = cell.load(path.name)
@@ -174,7 +204,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
                           params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor,
-                          method=label or "", controller=controller)
+                          method=label or "", controller=controller, regrasp=regrasp)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
