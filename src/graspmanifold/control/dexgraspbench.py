@@ -1,0 +1,312 @@
+"""DexGraspBench's judging protocol, as data, beside our hold test (`judge.JUDGING`).
+
+DexGraspBench (with BODex, ICRA 2025) judges *open-loop* grasps, each a pregrasp, a grasp and a squeeze
+(a hand root pose and joint angles): once per direction of +x, -x, +y, -y, +z and -z it resets the scene
+to the pregrasp (a hand that starts more than `max_penetration` inside the object fails outright), moves
+pregrasp -> grasp and grasp -> squeeze in `approach_targets` interpolated targets of `steps_per_target`
+physics steps each (the root by its mocap body, the joints by their servos), pushes the object with an
+external force of `force_per_kg` x the direction x its mass (gravity off), and simulates `hold_chunks` x
+`steps_per_chunk` steps, stopping early once the object has moved more than `translation_limit` or turned
+more than `angle_limit` from where it began. A grasp succeeds when it stays within both in every direction.
+Its values changed between versions, so the version is part of the protocol (`PROTOCOLS`): `main` (0.1 kg,
+0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg, 0.10 m, 180 degrees). The physics it needs is
+a named profile of the scene (`PhysicsProfile`): a 4 ms step, implicitfast, elliptic cones with impratio 10,
+condim 4, two noslip iterations, friction 0.6 sliding and 0.02 torsional, gravity off, the object's mass
+set by rescaling its density. Our hand keeps its own servos (DexGraspBench's Menagerie hand has kp 5 on
+main): the protocol judges the grasp, the hand is the one under test.
+
+`q1` is its analytic force-closure metric in its convention (fingertip contacts within 5 mm, one point per
+link, an 8-edge pyramid at half the friction, torques about the contacts' centroid scaled by their mean
+radius), beside our `quality.epsilon_l1` (the L1 epsilon about the object's centre of mass at the
+simulation's friction, 8 edges, torques scaled by the largest lever): two metrics, each named for what it is.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..sim.scene import Scene
+from .judge import HOLD_DIRECTIONS
+from .quality import epsilon_l1
+
+
+@dataclass(frozen=True)
+class PhysicsProfile:
+    """The physics options a protocol needs of a scene (`apply` sets them on a compiled scene).
+
+    Attributes:
+        name: the profile's name.
+        timestep: s per physics step.
+        integrator: MuJoCo's integrator, by name ('implicitfast').
+        cone: the friction cone ('elliptic').
+        impratio: the ratio of frictional to normal constraint impedance.
+        condim: contact dimensionality of every geom (4: sliding and torsional friction).
+        noslip_iterations: MuJoCo's noslip solver iterations.
+        friction: (sliding, torsional) coefficients of every geom.
+        gravity: gravity on (False: off, as during DexGraspBench's test).
+        object_mass: kg, the object's mass, set by rescaling its density (its inertia scales alike).
+    """
+
+    name: str
+    timestep: float
+    integrator: str
+    cone: str
+    impratio: float
+    condim: int
+    noslip_iterations: int
+    friction: tuple[float, float]
+    gravity: bool
+    object_mass: float
+
+    def apply(self, scene: Scene) -> None:
+        """Set these options on a scene's compiled model (its data keeps its state; call before simulating).
+
+        Args:
+            scene: a scene (`Scene`), its object free or welded.
+        """
+        model = scene.model
+        model.opt.timestep = self.timestep
+        model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{self.integrator.upper()}")
+        model.opt.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.cone.upper()}")
+        model.opt.impratio = self.impratio
+        model.opt.noslip_iterations = self.noslip_iterations
+        model.geom_condim[:] = self.condim
+        model.geom_friction[:, 0], model.geom_friction[:, 1] = self.friction
+        scene.set_gravity(self.gravity)
+        body = scene.object_body
+        scale = self.object_mass / float(model.body_mass[body])
+        model.body_mass[body] *= scale
+        model.body_inertia[body] *= scale
+        mujoco.mj_setConst(model, scene.data)
+
+
+def _profile(mass: float) -> PhysicsProfile:
+    return PhysicsProfile(name=f"dexgraspbench-{mass * 1000:.0f}g", timestep=0.004, integrator="implicitfast",
+                          cone="elliptic", impratio=10.0, condim=4, noslip_iterations=2, friction=(0.6, 0.02),
+                          gravity=False, object_mass=mass)
+
+
+@dataclass(frozen=True)
+class DexGraspBenchProtocol:
+    """DexGraspBench's external-force test, one version of it (see the module doc).
+
+    Attributes:
+        version: 'main' or 'paper'.
+        physics: the scene's physics profile.
+        translation_limit: m the object may move and still be held.
+        angle_limit: rad it may turn.
+        force_per_kg: N of external force per kg of object (10: about its weight, along each direction).
+        max_penetration: m, a pregrasp deeper than this inside the object fails outright.
+        approach_targets: interpolated targets of each move (pregrasp -> grasp, grasp -> squeeze).
+        steps_per_target: physics steps per target.
+        hold_chunks: chunks of the push, checked after each (the early stop).
+        steps_per_chunk: physics steps per chunk.
+        directions: the external force's unit directions, in turn.
+    """
+
+    version: str
+    physics: PhysicsProfile
+    translation_limit: float
+    angle_limit: float
+    force_per_kg: float = 10.0
+    max_penetration: float = 0.01
+    approach_targets: int = 10
+    steps_per_target: int = 10
+    hold_chunks: int = 10
+    steps_per_chunk: int = 50
+    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+
+    @property
+    def name(self) -> str:
+        """Its name in `PROTOCOLS`."""
+        return "dexgraspbench" if self.version == "main" else f"dexgraspbench-{self.version}"
+
+    @property
+    def push(self) -> float:
+        """N, the external force on the object."""
+        return self.force_per_kg * self.physics.object_mass
+
+
+DEXGRASPBENCH = DexGraspBenchProtocol("main", _profile(0.1), translation_limit=0.05, angle_limit=math.radians(15))
+"""DexGraspBench's main branch: 0.1 kg, the object within 5 cm and 15 degrees."""
+DEXGRASPBENCH_PAPER = DexGraspBenchProtocol("paper", _profile(0.03), translation_limit=0.10,
+                                            angle_limit=math.radians(180))
+"""The BODex paper's version: 0.03 kg, within 10 cm and 180 degrees."""
+PROTOCOLS: dict[str, DexGraspBenchProtocol] = {p.name: p for p in (DEXGRASPBENCH, DEXGRASPBENCH_PAPER)}
+"""DexGraspBench's protocols by name; our own hold test is 'ours' (`judge.JUDGING`)."""
+
+
+def protocol(name: str) -> DexGraspBenchProtocol:
+    """A DexGraspBench protocol by name.
+
+    Args:
+        name: a key of `PROTOCOLS`.
+
+    Returns:
+        The protocol.
+    """
+    if name not in PROTOCOLS:
+        raise InvalidInput(f"protocol must be one of {tuple(PROTOCOLS)}, got {name!r}")
+    return PROTOCOLS[name]
+
+
+#: m: contacts farther from the object than this do not count for `q1`
+Q1_CONTACT_DISTANCE = 0.005
+
+
+def q1(points: np.ndarray, normals: np.ndarray, links: np.ndarray, distances: np.ndarray | None = None,
+       friction: float = 0.6) -> float:
+    """DexGraspBench's Q1 (Ferrari-Canny) of a grasp's contacts, in its convention: contacts within 5 mm of the
+    object (the caller keeps the fingertip links' only), every link's contacts averaged into one point and
+    normal, an 8-edge friction pyramid at half the friction, torques about the contacts' centroid divided by
+    their mean distance from it. DexGraspBench reports 2 - q1 (2 without contacts); this returns q1.
+
+    Args:
+        points: (k, 3) m, contact points.
+        normals: (k, 3) contact normals into the object (need not be unit).
+        links: (k,) the link (body) each contact is on.
+        distances: (k,) m, each contact's distance to the object (negative: penetrating); None: all count.
+        friction: the sliding friction of the simulation (DexGraspBench: 0.6); the metric takes half.
+
+    Returns:
+        q1 (0: not force closure, or fewer than two links touch).
+    """
+    points, normals = np.asarray(points, dtype=float), np.asarray(normals, dtype=float)
+    links = np.asarray(links)
+    if points.ndim != 2 or points.shape[1:] != (3,) or normals.shape != points.shape or links.shape != (len(points),):
+        raise InvalidInput(f"points and normals must be (k, 3) and links (k,), got {points.shape}, {normals.shape} "
+                           f"and {links.shape}")
+    near = np.ones(len(points), dtype=bool) if distances is None else np.asarray(distances) <= Q1_CONTACT_DISTANCE
+    points, normals, links = points[near], normals[near], links[near]
+    unit = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    merged = [(points[links == link].mean(axis=0), unit[links == link].mean(axis=0)) for link in np.unique(links)]
+    if len(merged) < 2:
+        return 0.0
+    where, towards = (np.array(x) for x in zip(*merged))
+    centroid = where.mean(axis=0)
+    radius = float(np.linalg.norm(where - centroid, axis=1).mean())
+    return epsilon_l1(where, towards, centroid, mu=friction / 2, num_edges=8, torque_scale=radius or None)
+
+
+@dataclass(frozen=True)
+class OpenLoopGrasp:
+    """A grasp as DexGraspBench replays it: the pregrasp, the grasp and the squeeze, each a palm pose in the
+    object frame and a posture.
+
+    Attributes:
+        poses: (3, 7) the palm's position (m) and orientation (w x y z) in the object frame, per stage.
+        postures: (3, 22) rad, the finger joints per stage (the paper's joint order and senses).
+    """
+
+    poses: np.ndarray
+    postures: np.ndarray
+
+    def __post_init__(self) -> None:
+        for name, width in (("poses", 7), ("postures", 22)):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (3, width) or not np.all(np.isfinite(value)):
+                raise InvalidInput(f"OpenLoopGrasp.{name} must be (3, {width}) finite values (pregrasp, grasp, "
+                                   f"squeeze), got shape {value.shape}")
+            object.__setattr__(self, name, value)
+
+
+@dataclass(frozen=True)
+class ForceTest:
+    """The outcome of DexGraspBench's external-force test (`external_force_test`).
+
+    Attributes:
+        success: held within both limits in every direction.
+        translation: (6,) m, the largest displacement per direction (NaN: not run, an earlier one failed).
+        rotation: (6,) rad, the largest turn per direction (NaN: not run).
+        penetration: m, how deep the hand was inside the object at the pregrasp.
+        steps: physics steps simulated.
+        fault: why the test could not judge ('' when it could): a penetrating pregrasp, or failed physics.
+    """
+
+    success: bool
+    translation: np.ndarray
+    rotation: np.ndarray
+    penetration: float
+    steps: int
+    fault: str = ""
+
+
+def _turned(a: np.ndarray, b: np.ndarray) -> float:
+    """rad between two orientations (w x y z)."""
+    return 2.0 * math.acos(min(1.0, abs(float(np.dot(a, b)))))
+
+
+def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    if np.dot(a, b) < 0:
+        b = -b
+    angle = math.acos(min(1.0, float(np.dot(a, b))))
+    if angle < 1e-9:
+        return a.copy()
+    return (math.sin((1 - t) * angle) * a + math.sin(t * angle) * b) / math.sin(angle)
+
+
+def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
+                        protocol: DexGraspBenchProtocol = DEXGRASPBENCH) -> ForceTest:
+    """Judge an open-loop grasp as DexGraspBench does (see the module doc); the directions run in turn and the
+    test ends at the first that fails (no later one can change the outcome).
+
+    Args:
+        scene: a scene with a free object (`Scene(obj, free_object=True)`); the protocol's physics profile is
+            applied to it (its model changes for good).
+        grasp: the pregrasp, grasp and squeeze.
+        protocol: the protocol's version (`PROTOCOLS`).
+
+    Returns:
+        The `ForceTest`.
+    """
+    if not scene.free_object:
+        raise InvalidInput("external_force_test needs a scene with free_object=True")
+    protocol.physics.apply(scene)
+    model, data = scene.model, scene.data
+    translation, rotation = np.full(len(protocol.directions), np.nan), np.full(len(protocol.directions), np.nan)
+    steps, depth = 0, 0.0
+    for k, direction in enumerate(protocol.directions):
+        scene.reset()
+        scene.set_object_support(0.0, 0.0)
+        scene.set_posture(grasp.postures[0])
+        mounts = []
+        for pose in grasp.poses:
+            mounts.append(scene.mount_pose_for(pose[:3], pose[3:]))
+        data.mocap_pos[scene.mount_id], data.mocap_quat[scene.mount_id] = mounts[0]
+        scene.forward()
+        depth = scene.penetration()
+        if depth > protocol.max_penetration:
+            return ForceTest(False, translation, rotation, depth, steps, f"the pregrasp starts {depth * 1000:.1f} mm "
+                             f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
+        start_position, start_quat = scene.object_pose()
+        for stage in (0, 1):  # pregrasp -> grasp, grasp -> squeeze
+            for target in range(1, protocol.approach_targets + 1):
+                t = target / protocol.approach_targets
+                data.mocap_pos[scene.mount_id] = (1 - t) * mounts[stage][0] + t * mounts[stage + 1][0]
+                data.mocap_quat[scene.mount_id] = _slerp(mounts[stage][1], mounts[stage + 1][1], t)
+                scene.set_target((1 - t) * grasp.postures[stage] + t * grasp.postures[stage + 1])
+                mujoco.mj_step(model, data, nstep=protocol.steps_per_target)
+                steps += protocol.steps_per_target
+        data.xfrc_applied[scene.object_body, :3] = protocol.push * np.asarray(direction)
+        moved = turned = 0.0
+        for _ in range(protocol.hold_chunks):
+            mujoco.mj_step(model, data, nstep=protocol.steps_per_chunk)
+            steps += protocol.steps_per_chunk
+            if data.warning.number.any() or not np.all(np.isfinite(data.qpos)):
+                return ForceTest(False, translation, rotation, depth, steps, "the physics failed (a MuJoCo warning or "
+                                 "a non-finite state)")
+            position, quat = scene.object_pose()
+            moved = max(moved, float(np.linalg.norm(position - start_position)))
+            turned = max(turned, _turned(quat, start_quat))
+            if moved > protocol.translation_limit or turned > protocol.angle_limit:
+                break  # the early stop: this direction has failed
+        data.xfrc_applied[scene.object_body, :3] = 0.0
+        translation[k], rotation[k] = moved, turned
+        if moved > protocol.translation_limit or turned > protocol.angle_limit:
+            return ForceTest(False, translation, rotation, depth, steps)
+    return ForceTest(True, translation, rotation, depth, steps)

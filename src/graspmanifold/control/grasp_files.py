@@ -1,0 +1,197 @@
+"""DexGraspBench's grasp files, read and written safely: other tools judge our grasps, we judge theirs.
+
+A DexGraspBench grasp file is one `.npy` file per grasp holding a dict (a NumPy pickle): `obj_path` (a
+processed object folder), `obj_scale`, `obj_pose` (7: position, quaternion w x y z) and, for each stage of
+pregrasp, grasp and squeeze, the hand's root pose and joint positions: either inside `<stage>_qpos` (the 7
+root values first, then the joints) or apart, as `<stage>_pose` (7) beside `<stage>_qpos` (the joints).
+The joints are in the hand model's order (`HandModel.wrist_joints` then `finger_joints`, the order of
+Menagerie's Shadow hand, which DexGraspBench uses) and senses; the root is the body the hand hangs from
+(our `HandModel.mount`), its pose in the object frame.
+
+A pickle can run any code while it is read, so `read_grasp_file` never hands one to `pickle` as it is:
+it reads the .npy header itself and unpickles with an unpickler that admits only what NumPy arrays and
+scalars need; the result must be a dict of arrays, numbers and strings. Anything else is refused, the
+file named, before any of it runs.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import pickle
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..base.poses import compose, invert
+from ..base.validation import check_name, file_in
+from ..sim.hand import HandModel
+from ..sim.hand_models import hand_model
+from ..sim.scene import Scene
+from .dexgraspbench import OpenLoopGrasp
+
+STAGES: tuple[str, ...] = ("pregrasp", "grasp", "squeeze")
+#: the globals a pickle of NumPy arrays and scalars needs (NumPy 1 and 2 spell the module differently)
+_ADMITTED = {(module, name) for module in ("numpy.core.multiarray", "numpy._core.multiarray")
+             for name in ("_reconstruct", "scalar")} | {("numpy", "ndarray"), ("numpy", "dtype")}
+
+
+class _ArraysOnly(pickle.Unpickler):
+    def find_class(self, module: str, name: str) -> object:
+        if (module, name) not in _ADMITTED:
+            raise pickle.UnpicklingError(f"it asks for {module}.{name}, which a file of arrays never needs")
+        return super().find_class(module, name)
+
+
+def _plain(value: object) -> bool:
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "biufcUS"
+    return isinstance(value, (str, bytes, int, float, bool, np.number, np.bool_))
+
+
+def read_grasp_file(path: str | os.PathLike) -> dict[str, object]:
+    """The dict of one DexGraspBench grasp file, read without running anything it holds.
+
+    Args:
+        path: the `.npy` file.
+
+    Returns:
+        {name: array, number or string}.
+
+    Raises:
+        ValueError: the file is missing, not a .npy file, truncated, or holds anything but a dict of arrays,
+            numbers and strings (an arbitrary pickle is refused, not run); the message names the file.
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as error:
+        raise InvalidInput(f"grasp file {path}: cannot be read ({error.strerror})") from None
+    stream = io.BytesIO(raw)
+    try:
+        version = np.lib.format.read_magic(stream)
+        reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, _, dtype = reader(stream)
+        if dtype.hasobject:
+            content = _ArraysOnly(stream).load()
+        else:  # a plain array is data, not a grasp
+            raise InvalidInput(f"grasp file {path}: holds a plain {dtype} array, not a dict of a grasp")
+    except InvalidInput:
+        raise
+    except Exception as error:  # noqa: BLE001 - every way a foreign or broken file fails is one refusal
+        raise InvalidInput(f"grasp file {path}: refused, not a DexGraspBench grasp file of arrays ({error})") from None
+    if isinstance(content, np.ndarray) and content.shape == () and content.dtype.hasobject:
+        content = content.item()
+    if not isinstance(content, dict) or not all(isinstance(k, str) and _plain(v) for k, v in content.items()):
+        raise InvalidInput(f"grasp file {path}: refused, it must hold a dict of arrays, numbers and strings, got "
+                           f"{type(content).__name__}")
+    return content
+
+
+@dataclass(frozen=True)
+class GraspFile:
+    """One grasp read from a DexGraspBench grasp file.
+
+    Attributes:
+        path: the file.
+        object_path: the processed object folder the file names (as written there).
+        object_scale: the object's scale.
+        object_pose: (7,) the object's pose (position m, quaternion w x y z) in the world.
+        grasp: the pregrasp, grasp and squeeze: palm poses in the object frame and postures (paper order, rad).
+        wrist: (3, 2) rad, the wrist joints per stage.
+    """
+
+    path: Path
+    object_path: str
+    object_scale: float
+    object_pose: np.ndarray
+    grasp: OpenLoopGrasp
+    wrist: np.ndarray
+
+
+def _mount_to_palm(hand: HandModel) -> tuple[np.ndarray, np.ndarray]:
+    """The palm's pose in the frame of the body the hand hangs from (the wrist straight)."""
+    scene = Scene("box", hand=hand)
+    mount = scene.data.mocap_pos[scene.mount_id].copy(), scene.data.mocap_quat[scene.mount_id].copy()
+    return compose(*invert(*mount), scene.data.xpos[scene.palm_id].copy(), scene.data.xquat[scene.palm_id].copy())
+
+
+def read_grasp_files(folder: str | os.PathLike, hand: str | HandModel = "ours") -> list[GraspFile]:
+    """Every DexGraspBench grasp file (`*.npy`) in a folder, for a Shadow hand (see the module doc).
+
+    Args:
+        folder: the folder (its files read in name order).
+        hand: the hand model whose joint order and senses the files use, or its name.
+
+    Returns:
+        One `GraspFile` per file.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InvalidInput(f"folder must be a folder of grasp files, got {folder}")
+    hand = hand if isinstance(hand, HandModel) else hand_model(hand)
+    palm_in_mount = _mount_to_palm(hand)
+    joints = len(hand.wrist_joints) + len(hand.finger_joints)
+    grasps = []
+    for path in sorted(folder.glob("*.npy")):
+        content = read_grasp_file(path)
+        missing = [k for k in ("obj_path", "obj_scale", "obj_pose", *(f"{s}_qpos" for s in STAGES)) if k not in content]
+        if missing:
+            raise InvalidInput(f"grasp file {path}: lacks {missing}")
+        poses, postures, wrists = [], [], []
+        for stage in STAGES:
+            qpos = np.asarray(content[f"{stage}_qpos"], dtype=float).ravel()
+            if f"{stage}_pose" in content:
+                root, qpos = np.asarray(content[f"{stage}_pose"], dtype=float).ravel(), qpos
+            else:
+                root, qpos = qpos[:7], qpos[7:]
+            if root.shape != (7,) or qpos.shape != (joints,) or not np.all(np.isfinite(np.r_[root, qpos])):
+                raise InvalidInput(f"grasp file {path}: {stage} must give a root pose (7) and {joints} joints of the "
+                                   f"{hand.name!r} hand, got {root.size} and {qpos.size} values")
+            palm = compose(root[:3], root[3:] / np.linalg.norm(root[3:]), *palm_in_mount)
+            poses.append(np.r_[palm[0], palm[1]])
+            wrists.append(qpos[: len(hand.wrist_joints)])
+            postures.append(hand.from_model(qpos[len(hand.wrist_joints):]))
+        grasps.append(GraspFile(path, str(content["obj_path"]), float(np.asarray(content["obj_scale"]).ravel()[0]),
+                                np.asarray(content["obj_pose"], dtype=float).ravel(),
+                                OpenLoopGrasp(np.array(poses), np.array(postures)), np.array(wrists)))
+    return grasps
+
+
+def write_grasp_files(folder: str | os.PathLike, grasps: list[OpenLoopGrasp], object_path: str,
+                      object_scale: float = 1.0, hand: str | HandModel = "ours", prefix: str = "grasp") -> list[Path]:
+    """Our grasps as DexGraspBench grasp files (the root pose inside `<stage>_qpos`, the wrist straight).
+
+    Args:
+        folder: where to write them (made when missing).
+        grasps: the grasps (palm poses in the object frame, postures).
+        object_path: the processed object folder to name in them.
+        object_scale: the object's scale.
+        hand: the hand model whose joint order and senses to write, or its name.
+        prefix: the files are `<prefix>_00000.npy`, ...
+
+    Returns:
+        The files written.
+    """
+    check_name(prefix, "prefix")
+    hand = hand if isinstance(hand, HandModel) else hand_model(hand)
+    mount_in_palm = invert(*_mount_to_palm(hand))
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for k, grasp in enumerate(grasps):
+        content: dict[str, object] = {"obj_path": str(object_path), "obj_scale": float(object_scale),
+                                      "obj_pose": np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])}
+        for stage, pose, posture in zip(STAGES, grasp.poses, grasp.postures):
+            root = compose(pose[:3], pose[3:], *mount_in_palm)
+            content[f"{stage}_qpos"] = np.concatenate([root[0], root[1], np.zeros(len(hand.wrist_joints)),
+                                                       hand.to_model(posture)])
+        path = file_in(folder, f"{prefix}_{k:05d}.npy", "prefix")
+        partial = path.with_suffix(".npy.partial")
+        with open(partial, "wb") as handle:
+            np.save(handle, np.array(content, dtype=object), allow_pickle=True)
+        os.replace(partial, path)
+        written.append(path)
+    return written

@@ -1,0 +1,145 @@
+"""DexGraspBench's protocol: its physics profile, its external-force test, its Q1, its grasp files."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold.control.controller import squeezed
+from graspmanifold.control.dexgraspbench import (
+    DEXGRASPBENCH, DEXGRASPBENCH_PAPER, OpenLoopGrasp, external_force_test, protocol, q1,
+)
+from graspmanifold.control.grasp_files import read_grasp_file, read_grasp_files, write_grasp_files
+from graspmanifold.control.quality import epsilon_l1
+
+
+@pytest.fixture(scope="module")
+def box_grasps():
+    postures = gm.generate_postures("box", 3, seed=0, workers=1, progress=False)
+    return [OpenLoopGrasp(np.tile(pose, (3, 1)), np.array([gm.open_posture(), posture, squeezed(posture, 0.15)]))
+            for pose, posture in zip(postures.hand_poses, postures.postures)]
+
+
+@pytest.mark.parametrize("version, mass", [(DEXGRASPBENCH, 0.1), (DEXGRASPBENCH_PAPER, 0.03)])
+def test_the_physics_profile_sets_the_options_listed(version, mass):
+    scene = gm.Scene("box", free_object=True, gravity=True)
+    version.physics.apply(scene)
+    opt = scene.model.opt
+    assert opt.timestep == 0.004 and opt.impratio == 10 and opt.noslip_iterations == 2
+    assert opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST and opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+    assert (scene.model.geom_condim == 4).all()
+    assert np.allclose(scene.model.geom_friction[:, :2], [0.6, 0.02]) and not opt.gravity.any()
+    assert math.isclose(scene.model.body_mass[scene.object_body], mass)
+    assert version.push == pytest.approx(10 * mass)
+    assert protocol(version.name) is version
+    with pytest.raises(ValueError, match="protocol must be one of"):
+        protocol("dexgraspbench-v9")
+
+
+def test_a_grasp_that_holds_passes_every_direction(box_grasps):
+    results = [external_force_test(gm.Scene("box", free_object=True), g) for g in box_grasps]
+    held = [r for r in results if r.success]
+    assert held, [r.translation for r in results]
+    for r in held:
+        assert r.steps == 6 * (2 * 10 * 10 + 10 * 50) and not r.fault
+        assert (r.translation <= DEXGRASPBENCH.translation_limit).all()
+        assert (r.rotation <= DEXGRASPBENCH.angle_limit).all()
+
+
+def test_a_grasp_that_drops_fails_in_its_first_direction_and_stops_early(box_grasps):
+    away = box_grasps[0].poses + np.array([0.0, 0.0, 0.15, 0, 0, 0, 0])  # the hand far from the object
+    result = external_force_test(gm.Scene("box", free_object=True),
+                                 OpenLoopGrasp(away, np.tile(gm.open_posture(), (3, 1))))
+    assert not result.success and result.translation[0] > DEXGRASPBENCH.translation_limit
+    assert np.isnan(result.translation[1:]).all()  # no later direction ran
+    assert 2 * 10 * 10 < result.steps < 2 * 10 * 10 + 10 * 50  # the push stopped early
+
+
+def test_a_pregrasp_15_mm_inside_the_object_fails_outright():
+    position, quat = gm.facing_pose("box", clearance=0.0)  # the palm faces the box from +x, touching it
+    inside = np.r_[position - [0.015, 0.0, 0.0], quat]
+    grasp = OpenLoopGrasp(np.tile(inside, (3, 1)), np.tile(gm.open_posture(), (3, 1)))
+    result = external_force_test(gm.Scene("box", free_object=True), grasp, DEXGRASPBENCH_PAPER)
+    assert not result.success and result.steps == 0 and "inside the object" in result.fault
+    assert result.penetration > 0.01
+
+
+def test_q1_in_its_convention_equals_the_hand_computation():
+    # four links on a 3 cm sphere, one of them touching twice; a fifth contact 8 mm away does not count
+    points = np.array([[0.03, 0, 0], [-0.015, 0.026, 0], [-0.015, -0.026, 0.0], [0, 0, 0.029], [0, 0, 0.031],
+                       [0, 0, -0.038]])
+    normals = -points / np.linalg.norm(points, axis=1, keepdims=True)
+    links = np.array([1, 2, 3, 4, 4, 5])
+    distances = np.array([0, 0, 0, -0.001, 0.001, 0.008])
+    # by hand: link 4's two contacts become (0, 0, 0.03) along -z; the centroid of the four is
+    # (0, 0, 0.0075); their mean distance from it
+    where = np.array([[0.03, 0, 0], [-0.015, 0.026, 0], [-0.015, -0.026, 0.0], [0, 0, 0.03]])
+    towards = np.array([[-1, 0, 0], normals[1], normals[2], [0, 0, -1]])
+    centroid = np.array([0.0, 0.0, 0.0075])
+    radius = np.mean(np.linalg.norm(where - centroid, axis=1))
+    expected = epsilon_l1(where, towards, centroid, mu=0.3, num_edges=8, torque_scale=radius)
+    assert expected > 0
+    assert q1(points, normals, links, distances) == pytest.approx(expected, rel=1e-9)
+    assert q1(points[:1], normals[:1], links[:1]) == 0.0  # one link: no closure
+
+
+def test_grasp_files_round_trip(tmp_path, box_grasps):
+    written = write_grasp_files(tmp_path, box_grasps, "DGNObj/box_core", object_scale=0.8)
+    assert [p.name for p in written] == ["grasp_00000.npy", "grasp_00001.npy", "grasp_00002.npy"]
+    read = read_grasp_files(tmp_path)
+    assert len(read) == 3
+    for mine, theirs in zip(box_grasps, read):
+        assert np.allclose(mine.postures, theirs.grasp.postures)
+        assert np.allclose(mine.poses[:, :3], theirs.grasp.poses[:, :3], atol=1e-9)
+        assert np.allclose(np.abs(np.sum(mine.poses[:, 3:] * theirs.grasp.poses[:, 3:], axis=1)), 1.0)
+        assert theirs.object_path == "DGNObj/box_core" and theirs.object_scale == 0.8
+
+
+def test_the_other_root_layout_reads_the_same(tmp_path, box_grasps):
+    write_grasp_files(tmp_path / "inside", box_grasps[:1], "box")
+    content = read_grasp_file(tmp_path / "inside" / "grasp_00000.npy")
+    apart = dict(content)
+    for stage in ("pregrasp", "grasp", "squeeze"):
+        apart[f"{stage}_pose"], apart[f"{stage}_qpos"] = content[f"{stage}_qpos"][:7], content[f"{stage}_qpos"][7:]
+    (tmp_path / "apart").mkdir()
+    np.save(tmp_path / "apart" / "g.npy", np.array(apart, dtype=object), allow_pickle=True)
+    one, other = read_grasp_files(tmp_path / "inside")[0], read_grasp_files(tmp_path / "apart")[0]
+    assert np.allclose(one.grasp.poses, other.grasp.poses) and np.allclose(one.grasp.postures, other.grasp.postures)
+
+
+def _leave_a_mark(path):
+    with open(path, "w") as handle:
+        handle.write("ran")
+
+
+class _Foreign:
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return _leave_a_mark, (self.marker,)
+
+
+def test_a_foreign_pickle_is_refused_and_nothing_runs(tmp_path):
+    marker = tmp_path / "it ran"
+    np.save(tmp_path / "evil.npy", np.array({"obj_path": _Foreign(str(marker))}, dtype=object), allow_pickle=True)
+    with pytest.raises(ValueError, match=r"evil\.npy: refused"):
+        read_grasp_file(tmp_path / "evil.npy")
+    with pytest.raises(ValueError, match=r"evil\.npy: refused"):
+        read_grasp_files(tmp_path)
+    assert not marker.exists()
+    np.save(tmp_path / "list.npy", np.array([[1, 2]], dtype=object), allow_pickle=True)
+    with pytest.raises(ValueError, match=r"list\.npy: refused, it must hold a dict"):
+        read_grasp_file(tmp_path / "list.npy")
+    (tmp_path / "cut.npy").write_bytes((tmp_path / "evil.npy").read_bytes()[:70])
+    with pytest.raises(ValueError, match=r"cut\.npy: refused"):
+        read_grasp_file(tmp_path / "cut.npy")
+
+
+def test_a_grasp_file_without_its_stages_is_named(tmp_path):
+    np.save(tmp_path / "half.npy", np.array({"obj_path": "x", "obj_scale": 1.0, "obj_pose": np.zeros(7)},
+                                            dtype=object), allow_pickle=True)
+    with pytest.raises(ValueError, match=r"half\.npy: lacks \['pregrasp_qpos'"):
+        read_grasp_files(tmp_path)
