@@ -143,3 +143,21 @@ def test_a_grasp_file_without_its_stages_is_named(tmp_path):
                                             dtype=object), allow_pickle=True)
     with pytest.raises(ValueError, match=r"half\.npy: lacks \['pregrasp_qpos'"):
         read_grasp_files(tmp_path)
+
+
+def test_closed_loop_trials_take_either_protocol_by_name():
+    grid = gm.grid_preset("quick", "box")[:4]
+    ours = gm.evaluate("box", None, grid, workers=1, progress=False)
+    theirs = gm.evaluate("box", None, grid, workers=1, progress=False, protocol="dexgraspbench")
+    for trial in theirs.trials:  # a push of 1 N per direction for 2 s, each from the grasp's end
+        assert trial.valid and trial.hold_time <= 6 * 2.0 + 1e-9
+        assert trial.hold_time == pytest.approx(12.0) if trial.hold else trial.hold_time < 12.0
+    assert max(t.hold_time for t in ours.trials) <= 6 * 0.5 + 1e-9
+    assert gm.TrialSetup("box").key(grid, 0) != gm.TrialSetup("box", protocol="dexgraspbench").key(grid, 0)
+    with pytest.raises(ValueError, match="protocol must be one of"):
+        gm.evaluate("box", None, grid, protocol="dexgraspbench-v0")
+    with pytest.raises(ValueError, match="without our disturbance margin"):
+        gm.TrialSetup("box", protocol="dexgraspbench", margin=True)
+    verified = gm.generate_postures("box", 2, seed=0, workers=1, progress=False,
+                                    params=gm.GeneratorParams(verify_protocol="dexgraspbench-paper"))
+    assert len(verified) == 2

@@ -22,6 +22,7 @@ from .base.io import LOCK_FILE, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
+from .control.dexgraspbench import PROTOCOL_NAMES
 from .control.controller import CONTROLLERS
 from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
@@ -260,7 +261,7 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True, executor=args.cluster,
                       backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller],
-                      margin=args.margin)
+                      margin=args.margin, protocol=args.protocol)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -303,7 +304,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         if args.objects:
             sizes = config.postures
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
-        config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller])
+        config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller], protocol=args.protocol)
     except InvalidInput as error:
         raise SystemExit(f"error: {error}") from None
     _checked(args, sum(config.postures.values()))
@@ -313,6 +314,8 @@ def _reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm) or "
+                 "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
                    "closing heuristic's base (our earlier variant)")
 
@@ -351,6 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--hand", default="ours", help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
+    reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
@@ -400,6 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
                                "(pip install 'graspmanifold[gpu]')")
     evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
+    evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

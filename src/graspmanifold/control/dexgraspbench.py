@@ -24,14 +24,14 @@ simulation's friction, 8 edges, torques scaled by the largest lever): two metric
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput
 from ..sim.scene import Scene
-from .judge import HOLD_DIRECTIONS
+from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules
 from .quality import epsilon_l1
 
 
@@ -141,6 +141,29 @@ PROTOCOLS: dict[str, DexGraspBenchProtocol] = {p.name: p for p in (DEXGRASPBENCH
 """DexGraspBench's protocols by name; our own hold test is 'ours' (`judge.JUDGING`)."""
 
 
+#: every judging protocol by name: our hold test, and DexGraspBench's versions
+PROTOCOL_NAMES: tuple[str, ...] = ("ours", *PROTOCOLS)
+
+
+def judging_rules(name: str) -> JudgingRules:
+    """The rules of the one judging loop (`judge.judge_worlds`) for a protocol: ours (`JUDGING`), or DexGraspBench's
+    external-force test after a grasp (a push of `push` N per direction, gravity off, each direction from the
+    state at the grasp's end, `hold_chunks` x `steps_per_chunk` steps, the translation and angle limits).
+
+    Args:
+        name: one of `PROTOCOL_NAMES`.
+
+    Returns:
+        The rules (checked every control period, not every chunk of 50 steps: an early stop is found sooner).
+    """
+    if name == "ours":
+        return JUDGING
+    p = protocol(name)
+    return replace(JUDGING, hold_seconds=p.hold_chunks * p.steps_per_chunk * p.physics.timestep,
+                   hold_limit=p.translation_limit, push=p.push, angle_limit=p.angle_limit, from_grasp=True,
+                   physics=p.physics.name)
+
+
 def protocol(name: str) -> DexGraspBenchProtocol:
     """A DexGraspBench protocol by name.
 
@@ -151,7 +174,7 @@ def protocol(name: str) -> DexGraspBenchProtocol:
         The protocol.
     """
     if name not in PROTOCOLS:
-        raise InvalidInput(f"protocol must be one of {tuple(PROTOCOLS)}, got {name!r}")
+        raise InvalidInput(f"protocol must be one of {PROTOCOL_NAMES}, got {name!r}")
     return PROTOCOLS[name]
 
 

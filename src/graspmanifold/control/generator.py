@@ -58,6 +58,7 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams
+from .dexgraspbench import PROTOCOL_NAMES
 from .judge import VERIFY_HOLD_SECONDS, GraspVerifier
 from .starts import (
     CONTACT_GAP,
@@ -111,6 +112,9 @@ class GeneratorParams:
     max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
     verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
     verify_hold_seconds: float = VERIFY_HOLD_SECONDS  # s per gravity direction of the verifying hold test
+    #: the verifier's judging protocol (`dexgraspbench.PROTOCOL_NAMES`): "ours" (the hold test of
+    #: `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
+    verify_protocol: str = "ours"
     squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
     #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
     max_candidates_per_posture: int = 50
@@ -124,10 +128,13 @@ class GeneratorParams:
             object.__setattr__(self, "designs", "grasp_types" if self.verify else "five_fingertip")
         if self.mode not in MODES:
             raise InvalidInput(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
+        if self.verify_protocol not in PROTOCOL_NAMES:
+            raise InvalidInput(f"GeneratorParams.verify_protocol must be one of {PROTOCOL_NAMES}, "
+                               f"got {self.verify_protocol!r}")
         if self.designs not in DESIGN_FAMILIES:
             raise InvalidInput(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
         for name, value in asdict(self).items():
-            if name in ("verify", "mode", "designs"):
+            if name in ("verify", "mode", "designs", "verify_protocol"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
                 raise InvalidInput(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
@@ -359,7 +366,7 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
 
 def _verifier(obj: GraspObject, params: GeneratorParams, hand: str) -> GraspVerifier:
     """The verifier of a candidate: the controller's squeeze and hold test of `params`."""
-    return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand)
+    return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand, params.verify_protocol)
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:

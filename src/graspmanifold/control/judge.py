@@ -25,6 +25,7 @@ likewise, and the margin runs only where it is asked for.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -60,6 +61,12 @@ class JudgingRules:
         support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
         margin: measure the disturbance margin of a grasp that holds (False: the margin is NaN, not measured;
             `TrialSetup.margin` asks for it).
+        push: N; 0 (ours): the disturbance along each direction is gravity; above 0 (DexGraspBench's): an external
+            force of this size on the object, gravity off.
+        angle_limit: rad the object may turn from where it was grasped and still be held (inf: any).
+        from_grasp: every direction starts again from the state at the grasp's end (DexGraspBench replays its
+            grasp for each); False (ours): the directions follow one another.
+        physics: the name of the scene's physics profile (`dexgraspbench.PhysicsProfile`), '' for ours.
     """
 
     hold_seconds: float = 0.5
@@ -70,6 +77,10 @@ class JudgingRules:
     support_stiffness: float = 2000.0
     support_damping: float = 30.0
     margin: bool = False
+    push: float = 0.0
+    angle_limit: float = math.inf
+    from_grasp: bool = False
+    physics: str = ""
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
@@ -161,18 +172,25 @@ class GraspVerifier:
     Args:
         obj: the object (palm poses are in its frame).
         squeeze: rad the fingers press past the posture (`controller.squeezed`).
-        hold_seconds: s of gravity per direction.
+        hold_seconds: s of gravity per direction (our protocol's).
         hand: the hand model, or its name.
+        protocol: 'ours', or a DexGraspBench version (`dexgraspbench.PROTOCOL_NAMES`): its physics profile on the
+            replay's scene and its external-force test instead of the hold test.
     """
 
     PERIOD = 0.02  # s between checks of the object's displacement
     PRESS_SECONDS = 0.2
 
     def __init__(self, obj: GraspObject, squeeze: float = ControllerParams.squeeze,
-                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours"):
+                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours", protocol: str = "ours"):
         self.scene = supported_scene(obj, hand=hand)
         self.squeeze = squeeze
         self.rules = replace(JUDGING, hold_seconds=hold_seconds)
+        if protocol != "ours":
+            from .dexgraspbench import judging_rules, protocol as named  # it builds on this module
+
+            named(protocol).physics.apply(self.scene)
+            self.rules = judging_rules(protocol)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         """Judge one grasp.
@@ -222,6 +240,9 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     direction = np.zeros(n, dtype=int)  # which of HOLD_DIRECTIONS the judging is at
     count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
     start = np.zeros((n, 3))
+    start_quat = np.zeros((n, 4))
+    saved: dict[int, object] = {}  # the state at each grasp's end, where every direction starts (`from_grasp`)
+    turning = math.isfinite(rules.angle_limit)
     worst = np.zeros(n)
     hold_time = np.full(n, len(HOLD_DIRECTIONS) * rules.hold_seconds)
     held_force = np.zeros(n) if rules.margin else np.full(n, np.nan)
@@ -234,6 +255,15 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         judged[world] = Judgement(epsilon, bool(worst[world] <= rules.hold_limit), float(worst[world]),
                                   float(held_force[world]), posture, np.array([reading.touches(s) for s in SEGMENTS]),
                                   worlds.max_penetration(world), hold_time=float(hold_time[world]))
+
+    def disturb(chosen: np.ndarray) -> None:
+        """The disturbance of each chosen world's direction: gravity along it, or a push with gravity off."""
+        along = HOLD_DIRECTIONS[direction[chosen]]
+        if rules.push > 0:
+            worlds.set_gravity(chosen, np.zeros((len(chosen), 3)))
+            worlds.push(chosen, rules.push * along)
+        else:
+            worlds.set_gravity(chosen, GRAVITY * along)
 
     def fail(world: int, why: str) -> None:
         stage[world] = _FINISHED
@@ -257,9 +287,13 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
                     continue
                 grasped[world] = (reading, worlds.posture(world), epsilon)
                 start[world] = positions[world]
+                if turning:
+                    start_quat[world] = worlds.object_quats()[world]
+                if rules.from_grasp:
+                    saved[world] = worlds.save(world)
             begin = begin[stage[begin] == _GRASP]
             stage[begin], direction[begin], count[begin] = _HOLD, 0, 0
-            worlds.set_gravity(begin, np.tile(GRAVITY * HOLD_DIRECTIONS[0], (len(begin), 1)))
+            disturb(begin)
         # the hold test: hold_cycles periods per gravity direction
         turn = np.flatnonzero((stage == _HOLD) & (count == hold_cycles))
         direction[turn] += 1
@@ -270,7 +304,9 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
             finish(world)
         stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, rules.margin_force
         turn = turn[stage[turn] == _HOLD]
-        worlds.set_gravity(turn, GRAVITY * HOLD_DIRECTIONS[direction[turn]])
+        for world in turn if rules.from_grasp else ():
+            worlds.restore(world, saved[world])
+        disturb(turn)
         # the margin: a push ramping up over margin_cycles periods per direction
         ramp = np.flatnonzero(stage == _MARGIN)
         count[ramp] += 1
@@ -294,6 +330,9 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
             continue
         with np.errstate(invalid="ignore"):
             moved = row_norms(worlds.object_positions() - start)
+            if turning:  # an angle beyond the limit counts as a displacement beyond it
+                dots = np.clip(np.abs(np.sum(worlds.object_quats() * start_quat, axis=1)), 0.0, 1.0)
+                moved = np.where(2.0 * np.arccos(dots) > rules.angle_limit, np.inf, moved)
         holding = np.flatnonzero(stage == _HOLD)
         worst[holding] = np.maximum(worst[holding], moved[holding])
         count[holding] += 1

@@ -30,6 +30,7 @@ from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock,
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_int
 from ..base.workers import default_workers, worker_pool
+from ..control.dexgraspbench import PROTOCOL_NAMES
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
@@ -61,7 +62,9 @@ class ReproduceConfig:
     `graspmanifold.sim.family.FAMILY`) and the candidates to generate for each; `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
     the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
-    `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`)."""
+    `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`);
+    `protocol` how the trials are judged (`dexgraspbench.PROTOCOL_NAMES`: our hold test, with the margin the report
+    shows, or a DexGraspBench version, without it)."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -75,8 +78,11 @@ class ReproduceConfig:
     procedure: str = "paper"
     hand: str = "ours"
     controller: ControllerParams = field(default_factory=ControllerParams)
+    protocol: str = "ours"
 
     def __post_init__(self) -> None:
+        if self.protocol not in PROTOCOL_NAMES:
+            raise InvalidInput(f"ReproduceConfig.protocol must be one of {PROTOCOL_NAMES}, got {self.protocol!r}")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
         if not isinstance(self.controller, ControllerParams):
             raise InvalidInput(f"ReproduceConfig.controller must be ControllerParams (controller.CONTROLLERS names "
@@ -292,12 +298,13 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
                               checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
-                              margin=True)  # the report shows the mean margin
+                              margin=config.protocol == "ours", protocol=config.protocol)  # the report's margin
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
         stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, hand.digest,
-                                                           asdict(params), *inputs[kind]), [path], run_evaluation)
+                                                           asdict(params), config.protocol, *inputs[kind]), [path],
+                   run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
     # 4. resumed learning with the SOM's successful evaluation postures

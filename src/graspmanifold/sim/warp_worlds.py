@@ -195,6 +195,15 @@ class WarpWorlds:
     def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None:
         raise InvalidInput("re-engaging the support where the object lies (a regrasp) runs on the cpu backend only")
 
+    def object_quats(self) -> np.ndarray:
+        raise InvalidInput("the objects' orientations (DexGraspBench's angle limit) are read on the cpu backend only")
+
+    def save(self, world: int) -> object:
+        raise InvalidInput("saving a world's state (DexGraspBench's protocol) runs on the cpu backend only")
+
+    def restore(self, world: int, state: object) -> None:
+        raise InvalidInput("restoring a world's state (DexGraspBench's protocol) runs on the cpu backend only")
+
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
         if len(worlds):
             self._gravity[worlds] = vectors

@@ -34,6 +34,12 @@ class Worlds(Protocol):
 
     def object_positions(self) -> np.ndarray: ...  # (n, 3)
 
+    def object_quats(self) -> np.ndarray: ...  # (n, 4), w x y z
+
+    def save(self, world: int) -> object: ...  # the world's whole simulation state
+
+    def restore(self, world: int, state: object) -> None: ...  # back to a saved state
+
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None: ...
 
     # advance `worlds` by nstep timesteps (others may advance too); {world: why its physics failed}
@@ -58,6 +64,10 @@ class Worlds(Protocol):
     def max_penetration(self, world: int) -> float: ...
 
 
+#: what `CpuWorlds.save` keeps: everything the next step depends on (positions, velocities, controls, pushes, mocap)
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
 class CpuWorlds:
     """Worlds stepped one after the other by CPU MuJoCo, in the scenes' own data."""
 
@@ -80,6 +90,20 @@ class CpuWorlds:
 
     def object_positions(self) -> np.ndarray:
         return np.array([scene.data.xpos[scene.object_body] for scene in self.scenes])
+
+    def object_quats(self) -> np.ndarray:
+        return np.array([scene.data.xquat[scene.object_body] for scene in self.scenes])
+
+    def save(self, world: int) -> np.ndarray:
+        scene = self.scenes[world]
+        state = np.empty(mujoco.mj_stateSize(scene.model, _STATE))
+        mujoco.mj_getState(scene.model, scene.data, state, _STATE)
+        return state
+
+    def restore(self, world: int, state: np.ndarray) -> None:
+        scene = self.scenes[world]
+        mujoco.mj_setState(scene.model, scene.data, state, _STATE)
+        mujoco.mj_forward(scene.model, scene.data)
 
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
         ctrl = targets @ self.hand.ctrl_matrix.T  # wrist rows stay 0: the hand's wrist is held straight

@@ -153,7 +153,8 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                   every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
                   label: str = "", progress: bool | None = None, executor: Executor | None = None,
                   controller: ControllerFactory | None = None, regrasp: Regrasp | None = None,
-                  poses: dict[tuple[str, str], np.ndarray] | None = None) -> dict[tuple[str, str], EvaluationResult]:
+                  poses: dict[tuple[str, str], np.ndarray] | None = None,
+                  protocol: str = "ours") -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
     Args:
@@ -172,6 +173,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
         controller: a user's own controller instead of ours (`evaluate(controller=...)`; give a `label`).
         regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt).
+        protocol: how the grasps are judged, by name (`TrialSetup.protocol`).
         poses: the grid poses of each (object, placement) instead of `benchmark_grid(object, placement, split)`
             (a random split, `benchmark_split`); `split` then only names the stored files.
 
@@ -194,7 +196,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "label")
         grid = (benchmark_grid(name, placement, split) if poses is None else poses[(name, placement)])[::every]
         key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape, method=label,
-                         controller=controller, regrasp=regrasp or Regrasp()).key(grid, seed)
+                         controller=controller, regrasp=regrasp or Regrasp(), protocol=protocol).key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
             stored = cell.load(path.name)
@@ -204,7 +206,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
                           params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor,
-                          method=label or "", controller=controller, regrasp=regrasp)
+                          method=label or "", controller=controller, regrasp=regrasp, protocol=protocol)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))

@@ -294,7 +294,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
              controller: ControllerFactory | None = None, margin: bool = False,
-             regrasp: Regrasp | None = None) -> EvaluationResult:
+             regrasp: Regrasp | None = None, protocol: str = "ours") -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -331,6 +331,8 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
         margin: measure the disturbance margin of every grasp that holds (N; up to 1.8 s more simulation per
             held grasp); False: not measured, the trials' margin is NaN and the summary's mean margin None.
         regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt, the paper's).
+        protocol: how the grasps are judged, by name (`TrialSetup.protocol`): 'ours', 'dexgraspbench' or
+            'dexgraspbench-paper'; a result's `hold` is that protocol's success.
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
@@ -340,7 +342,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
             argument.
     """
     setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method, hand, controller, margin, regrasp or Regrasp())
+                       method, hand, controller, margin, regrasp or Regrasp(), protocol)
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size = check_int(batch_size, "batch_size")
