@@ -161,3 +161,20 @@ def test_closed_loop_trials_take_either_protocol_by_name():
     verified = gm.generate_postures("box", 2, seed=0, workers=1, progress=False,
                                     params=gm.GeneratorParams(verify_protocol="dexgraspbench-paper"))
     assert len(verified) == 2
+
+
+def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
+    from graspmanifold.control.dexgraspbench import open_loop_grasps, replay
+
+    postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
+    grasps = open_loop_grasps(postures)
+    assert np.allclose(grasps[0].postures[1], postures.postures[0])
+    assert np.allclose(grasps[0].poses[0], postures.hand_poses[0])
+    for name in ("ours", "dexgraspbench"):
+        held, faults = replay("box", grasps, name)
+        assert held.dtype == bool and held.shape == (2,) and len(faults) == 2
+    held, _ = replay("box", box_grasps, "dexgraspbench")
+    direct = [external_force_test(gm.Scene("box", free_object=True), g).success for g in box_grasps]
+    assert list(held) == direct  # the same test, grasp by grasp
+    with pytest.raises(ValueError, match="protocol must be one of"):
+        replay("box", grasps, "dexgraspbench-v0")

@@ -31,7 +31,11 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..sim.scene import Scene
-from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules
+from ..manifold.postureset import PostureSet
+from ..sim.objects import GraspObject
+from ..sim.posture import open_posture
+from .controller import ControllerParams, squeezed
+from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules, judge_scene
 from .quality import epsilon_l1
 
 
@@ -273,6 +277,31 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
     return (math.sin((1 - t) * angle) * a + math.sin(t * angle) * b) / math.sin(angle)
 
 
+def _start(scene: Scene, grasp: OpenLoopGrasp) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The scene reset to the pregrasp (the object free, unsupported); the hand mount's pose of each stage."""
+    scene.reset()
+    scene.set_object_support(0.0, 0.0)
+    scene.set_posture(grasp.postures[0])
+    mounts = [scene.mount_pose_for(pose[:3], pose[3:]) for pose in grasp.poses]
+    scene.data.mocap_pos[scene.mount_id], scene.data.mocap_quat[scene.mount_id] = mounts[0]
+    scene.forward()
+    return mounts
+
+
+def _approach(scene: Scene, grasp: OpenLoopGrasp, mounts: list, protocol: DexGraspBenchProtocol) -> int:
+    """Pregrasp -> grasp -> squeeze in the protocol's interpolated targets; the physics steps taken."""
+    data, steps = scene.data, 0
+    for stage in (0, 1):
+        for target in range(1, protocol.approach_targets + 1):
+            t = target / protocol.approach_targets
+            data.mocap_pos[scene.mount_id] = (1 - t) * mounts[stage][0] + t * mounts[stage + 1][0]
+            data.mocap_quat[scene.mount_id] = _slerp(mounts[stage][1], mounts[stage + 1][1], t)
+            scene.set_target((1 - t) * grasp.postures[stage] + t * grasp.postures[stage + 1])
+            mujoco.mj_step(scene.model, data, nstep=protocol.steps_per_target)
+            steps += protocol.steps_per_target
+    return steps
+
+
 def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
                         protocol: DexGraspBenchProtocol = DEXGRASPBENCH) -> ForceTest:
     """Judge an open-loop grasp as DexGraspBench does (see the module doc); the directions run in turn and the
@@ -294,27 +323,13 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
     translation, rotation = np.full(len(protocol.directions), np.nan), np.full(len(protocol.directions), np.nan)
     steps, depth = 0, 0.0
     for k, direction in enumerate(protocol.directions):
-        scene.reset()
-        scene.set_object_support(0.0, 0.0)
-        scene.set_posture(grasp.postures[0])
-        mounts = []
-        for pose in grasp.poses:
-            mounts.append(scene.mount_pose_for(pose[:3], pose[3:]))
-        data.mocap_pos[scene.mount_id], data.mocap_quat[scene.mount_id] = mounts[0]
-        scene.forward()
+        mounts = _start(scene, grasp)
         depth = scene.penetration()
         if depth > protocol.max_penetration:
             return ForceTest(False, translation, rotation, depth, steps, f"the pregrasp starts {depth * 1000:.1f} mm "
                              f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
         start_position, start_quat = scene.object_pose()
-        for stage in (0, 1):  # pregrasp -> grasp, grasp -> squeeze
-            for target in range(1, protocol.approach_targets + 1):
-                t = target / protocol.approach_targets
-                data.mocap_pos[scene.mount_id] = (1 - t) * mounts[stage][0] + t * mounts[stage + 1][0]
-                data.mocap_quat[scene.mount_id] = _slerp(mounts[stage][1], mounts[stage + 1][1], t)
-                scene.set_target((1 - t) * grasp.postures[stage] + t * grasp.postures[stage + 1])
-                mujoco.mj_step(model, data, nstep=protocol.steps_per_target)
-                steps += protocol.steps_per_target
+        steps += _approach(scene, grasp, mounts, protocol)
         data.xfrc_applied[scene.object_body, :3] = protocol.push * np.asarray(direction)
         moved = turned = 0.0
         for _ in range(protocol.hold_chunks):
@@ -333,3 +348,49 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
         if moved > protocol.translation_limit or turned > protocol.angle_limit:
             return ForceTest(False, translation, rotation, depth, steps)
     return ForceTest(True, translation, rotation, depth, steps)
+
+
+def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squeeze) -> list[OpenLoopGrasp]:
+    """Our postures as open-loop grasps: the open hand at the grasp's palm pose, the posture, and the posture
+    squeezed as the controller squeezes (`controller.squeezed`).
+
+    Args:
+        postures: a posture set (palm poses in the object frame and postures).
+        squeeze: rad past the posture on the flexion joints.
+
+    Returns:
+        One `OpenLoopGrasp` per posture.
+    """
+    return [OpenLoopGrasp(np.tile(pose, (3, 1)), np.array([open_posture(), posture, squeezed(posture, squeeze)]))
+            for pose, posture in zip(postures.hand_poses, postures.postures)]
+
+
+def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: str = "ours",
+           hand: str = "ours") -> tuple[np.ndarray, list[str]]:
+    """Open-loop grasps executed as DexGraspBench executes them (pregrasp -> grasp -> squeeze in interpolated
+    targets, the object free and unsupported), judged by the protocol named: DexGraspBench's external-force test
+    (its physics), or ours (our physics, the same approach, then the hold test of `judge.JUDGING`).
+
+    Args:
+        obj: the object, or its name.
+        grasps: the grasps.
+        protocol_name: one of `PROTOCOL_NAMES`.
+        hand: the hand model's name.
+
+    Returns:
+        (held (n,) bool, faults: why a grasp could not be judged, '' where it could).
+    """
+    scene = Scene(obj, free_object=True, hand=hand)
+    held, faults = np.zeros(len(grasps), dtype=bool), []
+    for k, grasp in enumerate(grasps):
+        if protocol_name != "ours":
+            result = external_force_test(scene, grasp, protocol(protocol_name))
+            held[k] = result.success
+            faults.append(result.fault)
+            continue
+        mounts = _start(scene, grasp)
+        _approach(scene, grasp, mounts, DEXGRASPBENCH)  # its targets and steps, our physics
+        judged = judge_scene(scene, JUDGING)
+        held[k] = judged.hold and not judged.fault
+        faults.append(judged.fault)
+    return held, faults
