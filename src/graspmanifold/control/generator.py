@@ -58,7 +58,7 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams
-from .dexgraspbench import PROTOCOL_NAMES
+from .dexgraspbench import PROTOCOL_NAMES, judging_rules, protocol
 from .judge import VERIFY_HOLD_SECONDS, GraspVerifier
 from .starts import (
     CONTACT_GAP,
@@ -366,7 +366,10 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
 
 def _verifier(obj: GraspObject, params: GeneratorParams, hand: str) -> GraspVerifier:
     """The verifier of a candidate: the controller's squeeze and hold test of `params`."""
-    return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand, params.verify_protocol)
+    if params.verify_protocol == "ours":
+        return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand)
+    return GraspVerifier(obj, params.squeeze, hand=hand, rules=judging_rules(params.verify_protocol),
+                         physics=protocol(params.verify_protocol).physics)
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -41,6 +42,9 @@ from ..sim.worlds import CpuWorlds, Worlds
 from ..base.errors import SimulationError
 from .controller import ControllerParams, row_norms, squeezed
 from .quality import epsilon_l1
+
+if TYPE_CHECKING:
+    from .dexgraspbench import PhysicsProfile
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 
@@ -172,25 +176,23 @@ class GraspVerifier:
     Args:
         obj: the object (palm poses are in its frame).
         squeeze: rad the fingers press past the posture (`controller.squeezed`).
-        hold_seconds: s of gravity per direction (our protocol's).
+        hold_seconds: s of gravity per direction (with our rules).
         hand: the hand model, or its name.
-        protocol: 'ours', or a DexGraspBench version (`dexgraspbench.PROTOCOL_NAMES`): its physics profile on the
-            replay's scene and its external-force test instead of the hold test.
+        rules: other judging rules than ours with `hold_seconds` (`dexgraspbench.judging_rules`).
+        physics: a physics profile to apply to the replay's scene (`dexgraspbench.PhysicsProfile`), or None.
     """
 
     PERIOD = 0.02  # s between checks of the object's displacement
     PRESS_SECONDS = 0.2
 
     def __init__(self, obj: GraspObject, squeeze: float = ControllerParams.squeeze,
-                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours", protocol: str = "ours"):
+                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours",
+                 rules: JudgingRules | None = None, physics: PhysicsProfile | None = None):
         self.scene = supported_scene(obj, hand=hand)
         self.squeeze = squeeze
-        self.rules = replace(JUDGING, hold_seconds=hold_seconds)
-        if protocol != "ours":
-            from .dexgraspbench import judging_rules, protocol as named  # it builds on this module
-
-            named(protocol).physics.apply(self.scene)
-            self.rules = judging_rules(protocol)
+        self.rules = rules or replace(JUDGING, hold_seconds=hold_seconds)
+        if physics is not None:
+            physics.apply(self.scene)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         """Judge one grasp.

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import atomic_write, write_text_atomic
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
-from ..control import dexgraspbench
+from ..control.dexgraspbench import protocol as named_protocol
 from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
@@ -269,7 +269,7 @@ def _success_text(protocol: str) -> str:
     if protocol == "ours":
         return (f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
                 f"{100 * JUDGING.hold_limit:.0f} cm; {epsilon}")
-    p = dexgraspbench.protocol(protocol)
+    p = named_protocol(protocol)
     return (f"DexGraspBench's external-force test ({p.version} version, its physics profile): a push of {p.push:g} N "
             f"along ±x, ±y, ±z, each from the state at the grasp's end, the object within "
             f"{100 * p.translation_limit:.0f} cm and {math.degrees(p.angle_limit):.0f}°; {epsilon}")
