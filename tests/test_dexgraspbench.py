@@ -178,3 +178,22 @@ def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
     assert list(held) == direct  # the same test, grasp by grasp
     with pytest.raises(ValueError, match="protocol must be one of"):
         replay("box", grasps, "dexgraspbench-v0")
+
+
+def test_a_grasp_files_object_folder_is_found_or_named(tmp_path, box_grasps):
+    import trimesh
+
+    from graspmanifold.control.grasp_files import grasp_object, posture_set
+
+    folder = tmp_path / "objects" / "core_box_1" / "mesh"
+    folder.mkdir(parents=True)
+    trimesh.creation.box(extents=(40.0, 40.0, 160.0)).export(folder / "simplified.obj")  # in mm
+    write_grasp_files(tmp_path / "grasps", box_grasps, "core_box_1", object_scale=0.001)
+    files = read_grasp_files(tmp_path / "grasps")
+    obj = grasp_object(files[0], root=tmp_path / "objects")
+    assert obj.name == "core_box_1" and np.allclose(sorted(2 * np.asarray(obj.half_extents)), [0.04, 0.04, 0.16])
+    with pytest.raises(ValueError, match=r"object folder .*core_box_1 is missing"):
+        grasp_object(files[0], root=tmp_path / "elsewhere")
+    postures = posture_set(files)
+    assert len(postures) == 3 and np.allclose(postures.postures, [g.grasp.postures[1] for g in files])
+    assert np.allclose(postures.metadata["squeeze"], [g.grasp.postures[2] for g in files])

@@ -369,7 +369,8 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: s
            hand: str = "ours") -> tuple[np.ndarray, list[str]]:
     """Open-loop grasps executed as DexGraspBench executes them (pregrasp -> grasp -> squeeze in interpolated
     targets, the object free and unsupported), judged by the protocol named: DexGraspBench's external-force test
-    (its physics), or ours (our physics, the same approach, then the hold test of `judge.JUDGING`).
+    (its physics), or ours (our physics, the same targets over the same seconds, then the hold test of
+    `judge.JUDGING`).
 
     Args:
         obj: the object, or its name.
@@ -382,6 +383,8 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: s
     """
     scene = Scene(obj, free_object=True, hand=hand)
     held, faults = np.zeros(len(grasps), dtype=bool), []
+    timed = replace(DEXGRASPBENCH, steps_per_target=round(
+        DEXGRASPBENCH.steps_per_target * DEXGRASPBENCH.physics.timestep / scene.model.opt.timestep))
     for k, grasp in enumerate(grasps):
         if protocol_name != "ours":
             result = external_force_test(scene, grasp, protocol(protocol_name))
@@ -389,7 +392,7 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: s
             faults.append(result.fault)
             continue
         mounts = _start(scene, grasp)
-        _approach(scene, grasp, mounts, DEXGRASPBENCH)  # its targets and steps, our physics
+        _approach(scene, grasp, mounts, timed)  # its targets and their seconds, our physics
         judged = judge_scene(scene, JUDGING)
         held[k] = judged.hold and not judged.fault
         faults.append(judged.fault)

@@ -27,8 +27,10 @@ import numpy as np
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
 from ..base.validation import check_name, file_in
-from ..sim.hand import HandModel
+from ..manifold.postureset import PostureSet
+from ..sim.hand import SEGMENTS, HandModel
 from ..sim.hand_models import hand_model
+from ..sim.objects import GraspObject, make_object
 from ..sim.scene import Scene
 from .dexgraspbench import OpenLoopGrasp
 
@@ -195,3 +197,59 @@ def write_grasp_files(folder: str | os.PathLike, grasps: list[OpenLoopGrasp], ob
         os.replace(partial, path)
         written.append(path)
     return written
+
+
+#: where a processed object folder keeps its mesh, tried in turn (then any .obj, .stl or .ply in the folder, in name
+#: order)
+MESH_FILES: tuple[str, ...] = ("mesh/simplified.obj", "mesh/coacd.obj", "simplified.obj")
+
+
+def grasp_object(grasp: GraspFile, root: str | os.PathLike | None = None, mass: float = 0.1) -> GraspObject:
+    """The object a grasp file names: the mesh of its processed object folder (`obj_path`, relative to `root`
+    when it is relative), at the file's scale.
+
+    Args:
+        grasp: a grasp read by `read_grasp_files`.
+        root: the folder `obj_path` is relative to (None: as it stands, relative to the working directory).
+        mass: kg (DexGraspBench sets its objects' mass by density; `dexgraspbench.PhysicsProfile` does on a scene).
+
+    Returns:
+        The mesh object, named after its folder.
+
+    Raises:
+        ValueError: the folder is missing, or holds no mesh; the message names it.
+    """
+    folder = Path(grasp.object_path)
+    if root is not None and not folder.is_absolute():
+        folder = Path(root) / folder
+    if not folder.is_dir():
+        raise InvalidInput(f"grasp file {grasp.path}: its object folder {folder} is missing (obj_path "
+                           f"{grasp.object_path!r}{'' if root is None else f' under {root}'})")
+    found = [folder / name for name in MESH_FILES if (folder / name).is_file()]
+    found += sorted(p for p in folder.rglob("*") if p.suffix.lower() in (".obj", ".stl", ".ply"))
+    if not found:
+        raise InvalidInput(f"grasp file {grasp.path}: its object folder {folder} holds no mesh ({', '.join(MESH_FILES)}, "
+                           "or any .obj, .stl or .ply)")
+    return make_object("mesh", mesh=found[0], scale=grasp.object_scale, mass=mass, name=folder.name)
+
+
+def posture_set(grasps: list[GraspFile]) -> PostureSet:
+    """Grasps read from files as a posture set: the grasp stage's postures and palm poses, the pregrasp's and the
+    squeeze's in its metadata (`pregrasp`, `pregrasp_poses`, `squeeze`, `squeeze_poses`, lists), the files' names
+    in `files`.
+
+    Args:
+        grasps: grasps read by `read_grasp_files` (one object's, as a posture set holds one object's).
+
+    Returns:
+        The posture set (its contacts unknown: all False; one start, 'dexgraspbench').
+    """
+    if not grasps:
+        raise InvalidInput("grasps must hold at least one grasp read from a file")
+    stage = {name: np.array([g.grasp.postures[k] for g in grasps]) for k, name in enumerate(STAGES)}
+    poses = {name: np.array([g.grasp.poses[k] for g in grasps]) for k, name in enumerate(STAGES)}
+    metadata = {"source": "dexgraspbench", "files": [str(g.path) for g in grasps],
+                **{name: stage[name].tolist() for name in ("pregrasp", "squeeze")},
+                **{f"{name}_poses": poses[name].tolist() for name in ("pregrasp", "squeeze")}}
+    return PostureSet(stage["grasp"], poses["grasp"], np.zeros(len(grasps), dtype=np.int64),
+                      np.zeros((len(grasps), len(SEGMENTS)), dtype=bool), ("dexgraspbench",), metadata)
