@@ -169,10 +169,13 @@ def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
     postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
     grasps = open_loop_grasps(postures)
     assert np.allclose(grasps[0].postures[1], postures.postures[0])
-    assert np.allclose(grasps[0].poses[0], postures.hand_poses[0])
+    assert np.allclose(grasps[0].poses[1], postures.hand_poses[0])
+    assert np.linalg.norm(grasps[0].poses[0, :3]) == pytest.approx(np.linalg.norm(grasps[0].poses[1, :3]) + 0.02)
     for name in ("ours", "dexgraspbench"):
         held, faults = replay("box", grasps, name)
         assert held.dtype == bool and held.shape == (2,) and len(faults) == 2
+        alone = [replay("box", [g], name)[0][0] for g in grasps]  # a hold test before leaves nothing behind
+        assert list(held) == alone
     held, _ = replay("box", box_grasps, "dexgraspbench")
     direct = [external_force_test(gm.Scene("box", free_object=True), g).success for g in box_grasps]
     assert list(held) == direct  # the same test, grasp by grasp

@@ -278,8 +278,10 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
 
 
 def _start(scene: Scene, grasp: OpenLoopGrasp) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The scene reset to the pregrasp (the object free, unsupported); the hand mount's pose of each stage."""
+    """The scene reset to the pregrasp (the object free, unsupported, gravity off: a hold test before left it
+    on); the hand mount's pose of each stage."""
     scene.reset()
+    scene.set_gravity(False)
     scene.set_object_support(0.0, 0.0)
     scene.set_posture(grasp.postures[0])
     mounts = [scene.mount_pose_for(pose[:3], pose[3:]) for pose in grasp.poses]
@@ -350,19 +352,31 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
     return ForceTest(True, translation, rotation, depth, steps)
 
 
-def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squeeze) -> list[OpenLoopGrasp]:
-    """Our postures as open-loop grasps: the open hand at the grasp's palm pose, the posture, and the posture
-    squeezed as the controller squeezes (`controller.squeezed`).
+#: m the pregrasp's palm stands back from the grasp's, away from the object's centre
+PREGRASP_BACK_OFF = 0.02
+
+
+def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squeeze,
+                     back_off: float = PREGRASP_BACK_OFF) -> list[OpenLoopGrasp]:
+    """Our postures as open-loop grasps: the pregrasp the open hand with its palm `back_off` further from the
+    object's centre than the grasp's (so that no finger starts inside the object), the grasp the posture at its
+    palm pose, the squeeze that posture squeezed as the controller squeezes (`controller.squeezed`).
 
     Args:
         postures: a posture set (palm poses in the object frame and postures).
         squeeze: rad past the posture on the flexion joints.
+        back_off: m.
 
     Returns:
         One `OpenLoopGrasp` per posture.
     """
-    return [OpenLoopGrasp(np.tile(pose, (3, 1)), np.array([open_posture(), posture, squeezed(posture, squeeze)]))
-            for pose, posture in zip(postures.hand_poses, postures.postures)]
+    grasps = []
+    for pose, posture in zip(postures.hand_poses, postures.postures):
+        away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
+        pregrasp = np.r_[pose[:3] + back_off * away, pose[3:]]
+        grasps.append(OpenLoopGrasp(np.array([pregrasp, pose, pose]),
+                                    np.array([open_posture(), posture, squeezed(posture, squeeze)])))
+    return grasps
 
 
 def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: str = "ours",
@@ -392,6 +406,11 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: s
             faults.append(result.fault)
             continue
         mounts = _start(scene, grasp)
+        depth = scene.penetration()
+        if depth > DEXGRASPBENCH.max_penetration:  # its rule for a pregrasp, whatever judges the grasp
+            held[k] = False
+            faults.append(f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
+            continue
         _approach(scene, grasp, mounts, timed)  # its targets and their seconds, our physics
         judged = judge_scene(scene, JUDGING)
         held[k] = judged.hold and not judged.fault
