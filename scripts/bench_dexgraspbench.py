@@ -2,8 +2,8 @@
 
     python scripts/bench_dexgraspbench.py [--grasps 24] [--object box]
 
-Open-loop grasps from our verified postures (pregrasp: the open hand at the grasp's palm pose; grasp: the
-posture; squeeze: the controller's squeeze of it), each judged by both versions of the protocol in this
+Open-loop grasps from our verified postures (`dexgraspbench.open_loop_grasps`: the open hand 2 cm back, the
+posture, the controller's squeeze of it), each judged by both versions of the protocol in this
 process (one core); beside them the same number of grasps that fail at once (the hand 15 cm away), the
 kind that made up 99.8 % of DexGraspBench's one public log (8,000 grasps in about 55 s on 48 workers: about
 3 grasps per second per worker). Prints one markdown table.
@@ -19,8 +19,7 @@ import mujoco
 import numpy as np
 
 import graspmanifold as gm
-from graspmanifold.control.controller import squeezed
-from graspmanifold.control.dexgraspbench import PROTOCOLS, OpenLoopGrasp, external_force_test
+from graspmanifold.control.dexgraspbench import PROTOCOLS, OpenLoopGrasp, external_force_test, open_loop_grasps
 
 
 def main() -> None:
@@ -29,8 +28,7 @@ def main() -> None:
     parser.add_argument("--object", default="box")
     args = parser.parse_args()
     postures = gm.generate_postures(args.object, args.grasps, seed=0, workers=1, progress=False)
-    verified = [OpenLoopGrasp(np.tile(pose, (3, 1)), np.array([gm.open_posture(), p, squeezed(p, 0.15)]))
-                for pose, p in zip(postures.hand_poses, postures.postures)]
+    verified = open_loop_grasps(postures)
     away = [OpenLoopGrasp(g.poses + [0.0, 0.0, 0.15, 0, 0, 0, 0], np.tile(gm.open_posture(), (3, 1))) for g in verified]
     print(f"mujoco {mujoco.__version__}, python {platform.python_version()}, {platform.processor() or platform.machine()}"
           f"; {args.object}, {args.grasps} grasps per row, one core")

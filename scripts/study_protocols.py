@@ -72,10 +72,11 @@ def report(args: argparse.Namespace, open_loop: dict, closed: dict, seconds: flo
              "5 cm and 15°; 4 ms step, impratio 10, condim 4, noslip 2, friction 0.6 / 0.02) and its paper's "
              "(0.03 kg, within 10 cm and 180°). Rates with 95 % Wilson intervals.", "",
              "## Open loop: our verified grasps replayed as DexGraspBench replays grasps", "",
-             f"{args.postures} verified postures per object (`generate_postures`, the defaults), each replayed: the "
-             "open hand at the grasp's palm pose, the posture, its squeeze, in 10 targets of 10 steps each, the "
-             "object free; the same grasps under each protocol (McNemar against ours, Holm over the objects and "
-             "versions).", "", "| object | " + " | ".join(PROTOCOL_NAMES) + " |", "|---|" + "---|" * len(PROTOCOL_NAMES)]
+             f"{args.postures} verified postures per object (`generate_postures`, the defaults), each replayed "
+             "(`dexgraspbench.open_loop_grasps`, `replay`): the open hand with its palm 2 cm back, the posture at its "
+             "palm pose, its squeeze, in 10 targets of 10 steps each (under ours, the same seconds at our step), the "
+             "object free and unsupported, gravity off; the same grasps under each protocol (McNemar against ours, "
+             "pooled; Holm over the whole table).", "", "| object | " + " | ".join(PROTOCOL_NAMES) + " |", "|---|" + "---|" * len(PROTOCOL_NAMES)]
     for name, held in open_loop.items():
         lines.append(f"| {name} | " + " | ".join(rate_text(int(h.sum()), len(h)) for h in held.values()) + " |")
     pooled_open = {p: np.concatenate([held[p] for held in open_loop.values()]) for p in PROTOCOL_NAMES}
@@ -106,6 +107,11 @@ def report(args: argparse.Namespace, open_loop: dict, closed: dict, seconds: flo
             tests.append((f"closed loop, {controller}: {protocol} against ours, pooled (same poses)",
                           mcnemar(a[va & vb], b[va & vb])))
     adjusted = holm([t.p_value for _, t in tests])
+    lines += ["", "Trials whose physics failed (a contact deeper than 5 mm, a MuJoCo warning) are left out of the "
+              "rates and of every pair: " + "; ".join(
+                  f"{c} / {p} {sum(int((~r.valid()).sum()) for r in closed[(c, p)].values())}"
+                  for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " of "
+              f"{sum(len(r.trials) for r in closed[('heuristic', 'ours')].values())} poses."]
     lines += ["", "## Paired comparisons", "", "`+` / `-`: poses or grasps held only under the first / only under "
               "the second. Holm over the whole table.", "", "| comparison | n | + | - | difference | p | p (Holm) |",
               "|---|---|---|---|---|---|---|"]
