@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.control.controller import BLEND
+from graspmanifold.control.controller import BLEND, BatchController
 from graspmanifold.sim.hand import PHYSICS_TIMESTEP
 from graspmanifold.trials.grid import palm_pose_for
 
@@ -514,3 +514,20 @@ def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
             np.testing.assert_allclose(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"],
                                        rtol=0, atol=atol, err_msg=f"{name} {field}")
         assert np.array_equal(np.concatenate([t.winners for t in result.trials]), golden[f"{name}/winners"]), name
+
+
+def test_the_controller_recalls_what_the_experience_completes():
+    """A recall of one's own that blends postures in `complete` was silently ignored: the controller took the
+    reference row of the best match. It now recalls the experience's completion."""
+
+    class Blending(gm.PostureDatabase):
+        def complete_batch(self, X, masks=None):  # the mean of every reference, whatever the query
+            return np.tile(self.references.mean(axis=0), (len(np.atleast_2d(X)), 1))
+
+    references = np.array([gm.closed_posture() * 0.2, gm.closed_posture() * 0.6])
+    controller = BatchController(1, Blending(references))
+    open_hand = controller.initial[None]
+    for _ in range(round(controller.params.preshape_time / controller.control_period) + 1):  # into phase B
+        controller.step(open_hand, np.zeros((1, len(gm.SEGMENTS))))
+    assert controller.matches[0] > 0
+    assert np.allclose(controller._recall[0], gm.closed_posture() * 0.4)  # the blend, not a reference

@@ -497,7 +497,9 @@ class BatchController:
         if not len(worlds):
             return
         winners = self.experience.best_match_batch(joints[worlds], masks[worlds])
-        match = self.experience.references[winners]
+        # the recalled posture is the experience's completion of the query (`Experience.complete`): a reference
+        # row for ours, whatever a user's own experience makes of it (a blend, say)
+        match = np.asarray(self.experience.complete_batch(joints[worlds], masks[worlds]), dtype=float)
         if math.isfinite(p.max_match_distance):
             trusted = _rms(match - joints[worlds], masks[worlds]) <= p.max_match_distance
             worlds, match, winners = worlds[trusted], match[trusted], winners[trusted]

@@ -27,7 +27,8 @@ from .postureset import PostureSet
 class Experience(Protocol):
     """A set of reference postures answering masked best-match queries (Eq. 2 / Eq. 4): what the
     controller recalls from. `PostureDatabase` and `SOM` are two; a user's own needs only these members
-    (`trials.conformance.check_experience_contract` checks one).
+    (`trials.conformance.check_experience_contract` checks one). The controller recalls what `complete_batch`
+    returns (a recall of one's own may blend postures there) and records the rows `best_match_batch` names.
 
     The API reference shows an experience base of one's own, recalled in a trial.
     """
