@@ -75,3 +75,13 @@ def test_the_headline_numbers_trace_to_the_study_they_name():
                    "+13.7 points", "+3.1 points", "9% of the headroom beyond chance", "26.7%", "34.9%", "-8.3 points",
                    "40 % [36, 43]", "58 % [52, 63]", "38 % [33, 43]", "316 selection poses", "634 test poses"):
         assert figure in study, figure
+
+
+def test_every_name_the_readme_shows_at_gm_is_there():
+    """The README said every public name was at `graspmanifold.*`, but `compare`, `wilson_interval`, `mcnemar`,
+    `holm` and `lattice_figure` were only in subpackages."""
+    import graspmanifold as gm
+
+    shown = set(re.findall(r"\bgm\.([A-Za-z_][A-Za-z0-9_]*)", README.read_text()))
+    assert {"compare", "wilson_interval", "mcnemar", "holm", "headroom", "lattice_figure"} <= shown
+    assert [name for name in sorted(shown) if not hasattr(gm, name)] == []

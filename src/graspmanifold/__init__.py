@@ -54,6 +54,8 @@ from .manifold.som import SOM, SOMSchedule
 from .control.starts import StartingPosture, starting_postures
 from .sim.tactile import TactileReading, TactileSensor
 from .trials.trial import Noise, Recording, TrialSetup, record_trial
+from .trials.stats import headroom, holm, mcnemar, wilson_interval
+from .trials.study import compare
 from .base.progress import show_progress
 from .base.version import __version__
 
@@ -67,23 +69,30 @@ _SUBMODULES = {
 }
 
 
+#: functions reachable as attributes without importing their module up front (the plots pull in matplotlib)
+_LAZY_FUNCTIONS = {"lattice_figure": "manifold.plots"}
+
+
 def __getattr__(name: str) -> object:
-    if name in _SUBMODULES:
+    if name in _SUBMODULES or name in _LAZY_FUNCTIONS:
         import importlib
 
+        if name in _LAZY_FUNCTIONS:
+            return getattr(importlib.import_module(f".{_LAZY_FUNCTIONS[name]}", __name__), name)
         return importlib.import_module(f".{_SUBMODULES[name]}.{name}", __name__)
     raise AttributeError(f"module 'graspmanifold' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
     """The public names and the submodules reachable as attributes (so `dir(gm)` and tab completion show them)."""
-    return sorted({*__all__, *_SUBMODULES})
+    return sorted({*__all__, *_SUBMODULES, *_LAZY_FUNCTIONS})
 
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "ControllerParams", "GraspController", "Regrasp", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
+    "TactileSensor", "ControllerParams", "GraspController", "Regrasp", "compare", "headroom", "holm", "mcnemar",
+    "wilson_interval", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
     "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",
     "generate_postures", "verify_postures", "GenerationError", "get_object", "starting_postures", "load_hand", "make_object", "open_posture", "pcp_mask", "pcp_masks", "posture_to_ctrl",
