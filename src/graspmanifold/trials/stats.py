@@ -30,6 +30,14 @@ def wilson_interval(successes: int, trials: int, confidence: float = 0.95) -> tu
 
     Unlike the normal approximation it stays inside [0, 1] and behaves at 0 and n successes.
     No trials give (0, 1): nothing is known.
+
+    Args:
+        successes: k >= 0.
+        trials: n >= k.
+        confidence: the interval's coverage, in (0, 1).
+
+    Returns:
+        (low, high), rates in [0, 1].
     """
     k, n = check_int(successes, "successes", low=0), check_int(trials, "trials", low=0)
     if k > n:
@@ -69,7 +77,15 @@ class PairedComparison:
 
 
 def mcnemar(outcomes_a: object, outcomes_b: object) -> PairedComparison:
-    """McNemar's exact test on paired boolean outcomes (the same poses, in the same order)."""
+    """McNemar's exact test on paired boolean outcomes (the same poses, in the same order).
+
+    Args:
+        outcomes_a: success per pose of the first method, bool (n,).
+        outcomes_b: of the second, on the same poses.
+
+    Returns:
+        The `PairedComparison`: both, only a, only b, neither, and the exact two-sided p-value.
+    """
     a = np.asarray(outcomes_a)
     b = np.asarray(outcomes_b)
     if a.ndim != 1 or a.shape != b.shape:

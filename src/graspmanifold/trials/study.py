@@ -33,7 +33,16 @@ HARD_FOR_CONTROL = 0.8
 
 def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> PairedComparison:
     """McNemar's test of method a against method b; both must have run on the same poses. Poses
-    where either trial's physics failed (`Trial.valid`) are left out of the pairs."""
+    where either trial's physics failed (`Trial.valid`) are left out of the pairs.
+
+    Args:
+        a: the first method's result.
+        b: the second's, on the same grid poses.
+        measure: 'hold' or 'force_closure'.
+
+    Returns:
+        The paired comparison (`stats.PairedComparison`: counts, p-value, verdict).
+    """
     grid_a = np.array([t.grid_pose for t in a.trials])
     grid_b = np.array([t.grid_pose for t in b.trials])
     if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
