@@ -56,6 +56,7 @@ def test_every_promised_file_is_there(finished):
         for suffix in ("png", "pdf"):
             assert (out / "figures" / f"{figure}.{suffix}").stat().st_size > 1000, figure
     report = (out / "report.md").read_text()
+    assert report.splitlines()[2].startswith("**A smoke run: too small to be evidence.**")  # a small run says so first
     for text in ("63.45", "4220", "Resumed learning", "figures/fig3_cylinder_extract.png", "som_all", "Verdict",
                  "McNemar", "Target"):
         assert text in report

@@ -286,7 +286,12 @@ def _config_text(config: dict) -> str:
 
 def _markdown(run: RunData, summary: dict) -> str:
     objects = summary["objects"]
+    small = run.config.get("grid") != "paper" or any(
+        n < PAPER_DATASET_SIZES.get(name, 0) for name, n in run.config.get("postures", {}).items())
     parts = ["# graspmanifold: reproduction of *SOM-based experience representation for dextrous grasping*\n\n",
+             *(["**A smoke run: too small to be evidence.** Smaller datasets or a smaller grid than the paper's "
+                "(`--preset paper` runs its sizes): the verdicts below say whether the pipeline runs, not whether the "
+                "paper's claims hold.\n\n"] if small else []),
              f"Library {summary['library_version']}. Every number below comes from this run; the paper's values "
              "stand beside ours where it gives them. Configuration: "
              + _config_text(run.config) + " (all of it in run.json).\n\n",
