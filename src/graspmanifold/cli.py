@@ -402,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")
     evaluate.add_argument("--backend", choices=("cpu", "warp"), default="cpu",
                           help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
-                               "(pip install 'graspmanifold[gpu]')")
+                               "(pip install 'graspmanifold[gpu]', from a checkout '.[gpu]')")
     evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")

@@ -8,7 +8,7 @@ kernels; epsilon is computed on the host from those contacts, as for CPU trials.
 in single precision and orders its contacts differently, so its trials agree with the CPU's
 trial by trial on most poses, not bit for bit (BENCHMARKS.md measures how often).
 
-    pip install 'graspmanifold[gpu]'   # mujoco-warp and warp-lang; needs an NVIDIA GPU
+    pip install 'graspmanifold[gpu]'   # (from a checkout: '.[gpu]') mujoco-warp and warp-lang; an NVIDIA GPU
 
 A machine without a CUDA device refuses the backend; GRASPMANIFOLD_WARP_DEVICE=cpu runs Warp's
 CPU device instead (slow: for developing and testing this module without a GPU).
@@ -32,8 +32,8 @@ try:
     wp.config.log_level = wp.LOG_WARNING  # no line per loaded kernel module
     import mujoco_warp as mjw
 except ImportError as error:  # pragma: no cover - depends on the installation
-    raise ImportError("backend='warp' needs MuJoCo Warp: pip install 'graspmanifold[gpu]' "
-                      f"(mujoco-warp and warp-lang; {error})") from error
+    raise ImportError("backend='warp' needs MuJoCo Warp: pip install 'graspmanifold[gpu]' (from a checkout: "
+                      f"pip install '.[gpu]'; mujoco-warp and warp-lang; {error})") from error
 
 #: contacts and constraint rows allocated per world (a grasp has about 10 hand-object contacts)
 CONTACTS_PER_WORLD = 48
