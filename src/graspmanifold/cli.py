@@ -34,7 +34,7 @@ from .sim.posture import closed_posture, open_posture
 from .sim.scene import Scene, facing_pose
 from .trials.grid import GRID_PRESETS
 
-HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]'; "
+HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
              "menagerie: MENAGERIE_ROOT set to a Menagerie checkout) or the path of a Shadow Hand's MJCF file")
 
 

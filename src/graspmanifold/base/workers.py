@@ -218,8 +218,8 @@ def cluster_executor(address: str) -> ClusterExecutor:
     try:
         from distributed import Client, LocalCluster
     except ImportError:
-        raise ImportError("running on a Dask cluster needs dask.distributed: pip install 'graspmanifold[cluster]'"
-                          ) from None
+        raise ImportError("running on a Dask cluster needs dask.distributed: pip install 'graspmanifold[cluster]' "
+                          "(from a checkout: pip install '.[cluster]')") from None
     address = address.removeprefix("dask://")
     if address == "local":
         cluster = LocalCluster(processes=True, threads_per_worker=1)

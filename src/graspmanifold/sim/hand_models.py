@@ -50,7 +50,8 @@ def _gymnasium_assets() -> Path:
     registers environments and prints notices)."""
     spec = importlib.util.find_spec("gymnasium_robotics")
     if spec is None or not spec.submodule_search_locations:
-        raise ImportError("the Gymnasium-Robotics hand needs the package: pip install 'graspmanifold[hands]'")
+        raise ImportError("the Gymnasium-Robotics hand needs the package: pip install 'graspmanifold[hands]' (from a "
+                          "checkout: pip install '.[hands]')")
     return Path(list(spec.submodule_search_locations)[0]) / "envs" / "assets" / "hand"
 
 
