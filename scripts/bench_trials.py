@@ -77,7 +77,7 @@ def bench_agree(args: argparse.Namespace) -> None:
         start = time.perf_counter()
         warp = gm.evaluate(obj, experience, args.grid, seed=0, backend="warp")
         wall = time.perf_counter() - start
-        valid = cpu.valid() & warp.valid()
+        valid = cpu.valid & warp.valid
         n = int(valid.sum())
         a, b = cpu.outcomes("force_closure")[valid], warp.outcomes("force_closure")[valid]
         ha, hb = cpu.outcomes("hold")[valid], warp.outcomes("hold")[valid]

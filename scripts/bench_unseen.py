@@ -131,7 +131,7 @@ def main() -> None:
                          f"{s['mean_time_to_grasp']:.2f} | {versus} |")
             if method != "none":
                 tests.append((obj.name, method, c.p_value))
-        room = headroom({m: r.outcomes() for m, r in results.items()}, {m: r.valid() for m, r in results.items()})
+        room = headroom({m: r.outcomes() for m, r in results.items()}, {m: r.valid for m, r in results.items()})
         rooms.append((obj.name, room))
         print("\n".join(lines[-len(results):]), flush=True)
     lines += ["", "Headroom per object (`stats.headroom`: the per-pose oracle over the methods above against the best "

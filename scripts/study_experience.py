@@ -411,7 +411,7 @@ def run(study: Study) -> dict:
             "selection_rates": {m: rate(r) for (split, m), r in study.results.items() if split == "selection"},
             "headroom": headroom_rows, "ceiling": ceiling, "comparisons": comparisons, "checks": checks, "target_met": met,
             "verdict": verdict, "by_placement": by_placement, "mean_attempts": attempts,
-            "counts": {m: {f"{o}/{p}": [int(r[(o, p)].outcomes()[r[(o, p)].valid()].sum()), int(r[(o, p)].valid().sum())]
+            "counts": {m: {f"{o}/{p}": [int(r[(o, p)].outcomes()[r[(o, p)].valid].sum()), int(r[(o, p)].valid.sum())]
                            for (o, p) in r} for m, r in test.items()},
             "seconds": study.seconds, "wall_seconds": time.perf_counter() - study.started, "workers": study.args.workers, "reused": study.reused,
             "evaluations": study.evaluations}

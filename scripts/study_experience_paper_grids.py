@@ -306,11 +306,11 @@ def report(study: Study, info: dict) -> str:
             present = {c: results[(obj, grid, c)] for c in CONTROLS if (obj, grid, c) in results}
             if len(present) < 2:
                 continue
-            room = headroom({c: r.outcomes() for c, r in present.items()}, {c: r.valid() for c, r in present.items()})
+            room = headroom({c: r.outcomes() for c, r in present.items()}, {c: r.valid for c, r in present.items()})
             lines.append(f"| {grid} | {obj} | {room.n} | {rate_text(room.oracle, room.n)} | {room.best} "
                          f"{rate_text(room.best_successes, room.n)} | {rate_text(room.gain, room.n)} |")
             for c, r in present.items():
-                pooled.setdefault(c, []).append(r.outcomes() & r.valid())
+                pooled.setdefault(c, []).append(r.outcomes() & r.valid)
         if pooled and len({len(v) for v in pooled.values()}) == 1:
             room = headroom({c: np.concatenate(v) for c, v in pooled.items()})
             lines.append(f"| {grid} | pooled | {room.n} | {rate_text(room.oracle, room.n)} | {room.best} "

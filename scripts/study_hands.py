@@ -48,11 +48,11 @@ def finished_run(out: Path, hand: str, preset: str, workers: int) -> Path:
 
 
 def held(result: EvaluationResult) -> str:
-    return rate_text(int(result.outcomes()[result.valid()].sum()), int(result.valid().sum()))
+    return rate_text(int(result.outcomes()[result.valid].sum()), int(result.valid.sum()))
 
 
 def paired(a: EvaluationResult, b: EvaluationResult):
-    valid = a.valid() & b.valid()
+    valid = a.valid & b.valid
     return mcnemar(a.outcomes()[valid], b.outcomes()[valid])
 
 
@@ -272,7 +272,7 @@ def main() -> None:
                 lines.append(f"| {preset} | {label(hand)} | {obj} | {facts['candidates']} "
                              f"({facts['acceptance_ratio']:.1%}) | {trained} | "
                              + " | ".join(held(r) for r in rows)
-                             + f" | {' / '.join(str(int((~r.valid()).sum())) for r in rows)} |")
+                             + f" | {' / '.join(str(int((~r.valid).sum())) for r in rows)} |")
     lines += ["", "Paired comparisons (McNemar's exact test on the poses valid for both; Holm over all "
               f"{len(comparisons)}):", "",
               "| preset | comparison | object | n | only first holds | only second holds | p | Holm p |",

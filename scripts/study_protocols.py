@@ -109,7 +109,7 @@ def report(args: argparse.Namespace, open_loop: dict, closed: dict, seconds: flo
     adjusted = holm([t.p_value for _, t in tests])
     lines += ["", "Trials whose physics failed (a contact deeper than 5 mm, a MuJoCo warning) are left out of the "
               "rates and of every pair: " + "; ".join(
-                  f"{c} / {p} {sum(int((~r.valid()).sum()) for r in closed[(c, p)].values())}"
+                  f"{c} / {p} {sum(int((~r.valid).sum()) for r in closed[(c, p)].values())}"
                   for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " of "
               f"{sum(len(r.trials) for r in closed[('heuristic', 'ours')].values())} poses."]
     lines += ["", "## Paired comparisons", "", "`+` / `-`: poses or grasps held only under the first / only under "

@@ -47,7 +47,7 @@ def test_a_trial_whose_physics_failed_is_invalid_not_a_result(tmp_path):
     result = EvaluationResult(feather.params(), "none", "custom", 0, [trial, healthy])
     s = result.summary
     assert s["trials"] == 1 and s["invalid_trials"] == 1 and s["hold_rate"] == 1.0
-    assert result.rate() == 1.0 and result.valid().tolist() == [False, True]
+    assert result.rate() == 1.0 and result.valid.tolist() == [False, True]
     assert "(+1 invalid)" in result.markdown()
     loaded = EvaluationResult.load(result.save(tmp_path / "e.npz"))
     assert loaded.trials[0].fault == trial.fault and loaded.summary == s

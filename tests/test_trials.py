@@ -138,3 +138,27 @@ def test_the_margin_is_measured_only_where_it_is_asked_for(tmp_path):
     loaded = gm.EvaluationResult.load(plain.save(tmp_path / "plain.npz"))
     assert math.isnan(loaded.trials[0].margin) and loaded.trials[0].hold_time == a.hold_time
     assert loaded.summary["mean_margin"] is None
+
+
+def test_results_and_postures_leave_as_tables(tmp_path):
+    """No export of trials or posture sets to a table existed; `valid` was a method on results and a property
+    on trials."""
+    import csv
+
+    postures = gm.generate_postures("box", 3, seed=0, workers=1, progress=False)
+    result = gm.evaluate("box", None, gm.grid_preset("quick", "box")[:3], workers=1, progress=False)
+    for thing, count in ((result, 3), (postures, 3)):
+        path = thing.to_csv(tmp_path / f"{type(thing).__name__}.csv")
+        with open(path) as handle:
+            rows = list(csv.DictReader(handle))
+        assert len(rows) == count and set(rows[0]) == set(thing.rows()[0])
+        frame = thing.to_frame()
+        assert len(frame) == count and list(frame.columns) == list(thing.rows()[0])
+    assert [row["hold"] for row in result.rows()] == [t.hold for t in result.trials]
+    assert result.to_frame()["x"].tolist() == [t.grid_pose[0] for t in result.trials]
+    assert postures.to_frame()["FFJ3"].tolist() == postures.postures[:, 1].tolist()
+    assert result.valid.tolist() == [t.valid for t in result.trials]  # a property, as Trial.valid is
+    with pytest.warns(DeprecationWarning, match="a property now"):
+        assert result.valid().tolist() == result.valid.tolist()
+    with pytest.raises(ValueError, match=r"path must end in \.csv"):
+        result.to_csv(tmp_path / "trials.txt")

@@ -8,6 +8,7 @@ files get the permissions the user's umask gives.
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import os
@@ -316,3 +317,41 @@ def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int |
         raise InvalidInput(f"{path} is not a readable .npz file (truncated or corrupt?): "
                            f"{type(error).__name__}: {error}") from None
     return _Arrays(path, arrays), meta
+
+
+def write_csv(path: str | os.PathLike, rows: list[dict]) -> Path:
+    """Rows of one table (dicts with the same keys, in order) as a CSV file with a header, written atomically.
+
+    Args:
+        path: the file, ending in .csv.
+        rows: the table's rows.
+
+    Returns:
+        The path written.
+    """
+    path = Path(path)
+    if path.suffix != ".csv":
+        raise InvalidInput(f"path must end in .csv, got {str(path)!r}")
+    columns = list(rows[0]) if rows else []
+    with atomic_write(path, "w") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+def data_frame(rows: list[dict]) -> object:
+    """Rows of one table as a pandas DataFrame (pandas: the `tables` extra).
+
+    Args:
+        rows: the table's rows (dicts with the same keys).
+
+    Returns:
+        The `pandas.DataFrame`, one row per dict.
+    """
+    try:
+        import pandas
+    except ImportError as error:
+        raise ImportError("a DataFrame needs pandas: pip install 'graspmanifold[tables]' (from a checkout: pip install "
+                          "'.[tables]'); to_csv works without it") from error
+    return pandas.DataFrame(rows)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.io import load_npz, save_npz
+from ..base.io import data_frame, load_npz, save_npz, write_csv
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS
 
 
@@ -45,6 +45,40 @@ class PostureSet:
             raise InvalidInput("postures and hand_poses must be finite")
         if n and (self.start_ids.min() < 0 or self.start_ids.max() >= len(self.start_names)):
             raise InvalidInput(f"start_ids must index start_names (0 ... {len(self.start_names) - 1})")
+
+    def rows(self) -> list[dict]:
+        """One row per posture, for a table: its start, its 22 joints (rad, by `FINGER_JOINTS` name), its palm pose
+        (m; quaternion w x y z), its quality when verified, and the segments touching.
+
+        Returns:
+            A list of dicts with the same keys (`to_csv`, `to_frame`).
+        """
+        pose_names = ("palm_x", "palm_y", "palm_z", "palm_qw", "palm_qx", "palm_qy", "palm_qz")
+        return [{"start": self.start_names[int(start)], **dict(zip(FINGER_JOINTS, map(float, posture))),
+                 **dict(zip(pose_names, map(float, pose))), "epsilon": float(epsilon),
+                 "hold_displacement": float(displacement),
+                 "touching": " ".join(s for s, on in zip(SEGMENTS, contacts) if on)}
+                for posture, pose, start, contacts, epsilon, displacement in zip(
+                    self.postures, self.hand_poses, self.start_ids, self.contacts, self.epsilon, self.hold_displacement)]
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """The postures as a CSV table (`rows`), written atomically; no extra package needed.
+
+        Args:
+            path: the file, ending in .csv.
+
+        Returns:
+            The path written.
+        """
+        return write_csv(path, self.rows())
+
+    def to_frame(self) -> object:
+        """The postures as a pandas DataFrame (`rows`; pandas: the `tables` extra).
+
+        Returns:
+            The `pandas.DataFrame`, one row per posture.
+        """
+        return data_frame(self.rows())
 
     def __len__(self) -> int:
         return len(self.postures)

@@ -231,4 +231,4 @@ def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hol
     if not keys:
         raise InvalidInput("results hold none of the cells asked for")
     return (np.concatenate([results[key].outcomes(measure) for key in keys]),
-            np.concatenate([results[key].valid() for key in keys]))
+            np.concatenate([results[key].valid for key in keys]))

@@ -14,6 +14,7 @@ import functools
 import json
 import math
 import os
+import warnings
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
-from ..base.io import library_version, load_npz, save_npz
+from ..base.io import data_frame, library_version, load_npz, save_npz, write_csv
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
@@ -65,6 +66,18 @@ def _measured_mean(values: list[float]) -> float | None:
 def _number(value: float | None, digits: int) -> str:
     """A table cell: the value to `digits` decimals, or an em dash when it was not measured (None)."""
     return "—" if value is None else f"{value:.{digits}f}"
+
+
+class _Valid(np.ndarray):
+    """`EvaluationResult.valid`: a bool array that, called as the old method was, warns and gives itself."""
+
+    def __new__(cls, mask: np.ndarray) -> _Valid:
+        return np.asarray(mask, dtype=bool).view(cls)
+
+    def __call__(self) -> np.ndarray:
+        warnings.warn("EvaluationResult.valid is a property now, as Trial.valid is: write result.valid, not "
+                      "result.valid()", DeprecationWarning, stacklevel=2)
+        return np.asarray(self)
 
 
 @dataclass
@@ -126,12 +139,48 @@ class EvaluationResult:
             "max_penetration": max([t.penetration for t in valid], default=0.0),
         }
 
+    @property
     def valid(self) -> np.ndarray:
-        """Which trials' physics worked (bool, grid order)."""
-        return np.array([t.valid for t in self.trials], dtype=bool)
+        """Which trials' physics worked (bool, grid order): a property, as `Trial.valid` is. The old spelling
+        `result.valid()` still works and warns (a deprecation path: it goes in a later version)."""
+        return _Valid(np.array([t.valid for t in self.trials], dtype=bool))
+
+    def rows(self) -> list[dict]:
+        """One row per trial, for a table: the object, the method, the grid pose (m, rad) and every outcome.
+
+        Returns:
+            A list of dicts with the same keys (`to_csv`, `to_frame`).
+        """
+        return [{"object": self.object.name, "method": self.method, "grid": self.grid_name, "seed": self.seed,
+                 "x": float(t.grid_pose[0]), "z": float(t.grid_pose[1]), "gap": float(t.grid_pose[2]),
+                 "yaw": float(t.grid_pose[3]), "valid": t.valid, "hold": bool(t.hold),
+                 "force_closure": t.force_closure, "epsilon": float(t.epsilon),
+                 "hold_displacement": float(t.hold_displacement), "time_to_grasp": float(t.time_to_grasp),
+                 "matches": int(t.matches), "margin": float(t.margin), "penetration": float(t.penetration),
+                 "attempts": int(t.attempts), "touching": " ".join(s for s, on in zip(SEGMENTS, t.touching) if on),
+                 "fault": t.fault} for t in self.trials]
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """The trials as a CSV table (`rows`), written atomically; no extra package needed.
+
+        Args:
+            path: the file, ending in .csv.
+
+        Returns:
+            The path written.
+        """
+        return write_csv(path, self.rows())
+
+    def to_frame(self) -> object:
+        """The trials as a pandas DataFrame (`rows`; pandas: the `tables` extra).
+
+        Returns:
+            The `pandas.DataFrame`, one row per trial.
+        """
+        return data_frame(self.rows())
 
     def outcomes(self, measure: str = "hold") -> np.ndarray:
-        """Success per trial; an invalid trial reads False here, so pair it with `valid()` (or use `rate`).
+        """Success per trial; an invalid trial reads False here, so pair it with `valid` (or use `rate`).
 
         Args:
             measure: 'hold' or 'force_closure'.
@@ -153,7 +202,7 @@ class EvaluationResult:
         Returns:
             The rate, 0 ... 1 (NaN without a valid trial).
         """
-        keep = self.valid() if rows is None else self.valid() & np.asarray(rows, dtype=bool)
+        keep = self.valid if rows is None else self.valid & np.asarray(rows, dtype=bool)
         return float(self.outcomes(measure)[keep].mean()) if keep.any() else float("nan")
 
     def successful_postures(self, require_hold: bool = True) -> np.ndarray:
