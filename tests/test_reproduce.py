@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
+from graspmanifold.paper.reproduce import PRESETS, ReproduceConfig, reproduce
 from graspmanifold.sim import render
 
 REDUCED = ReproduceConfig(postures={"box": 12, "cylinder": 12, "sphere": 48},
@@ -57,6 +57,9 @@ def test_every_promised_file_is_there(finished):
             assert (out / "figures" / f"{figure}.{suffix}").stat().st_size > 1000, figure
     report = (out / "report.md").read_text()
     assert report.splitlines()[2].startswith("**A smoke run: too small to be evidence.**")  # a small run says so first
+    from graspmanifold.base.config_files import read_config
+
+    assert read_config(out / "config.toml", PRESETS["paper"]) == REDUCED  # the run's experiment file, custom grid too
     for text in ("63.45", "4220", "Resumed learning", "figures/fig3_cylinder_extract.png", "som_all", "Verdict",
                  "McNemar", "Target"):
         assert text in report

@@ -18,6 +18,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .base.errors import GraspManifoldError, InvalidInput
+from .base.config_files import read_config
 from .base.io import LOCK_FILE, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
@@ -301,10 +302,16 @@ def _reproduce(args: argparse.Namespace) -> int:
     config = PRESETS[args.preset]
     _check_writable_directory(Path(args.out))
     try:
+        if args.config:  # the file changes the preset; the flags below change it again where they are given
+            config = read_config(args.config, config)
         if args.objects:
             sizes = config.postures
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
-        config = replace(config, hand=args.hand, controller=CONTROLLERS[args.controller], protocol=args.protocol)
+        given = {"hand": args.hand, "controller": args.controller, "protocol": args.protocol}
+        given = {k: v for k, v in given.items() if not args.config or v != REPRODUCE_DEFAULTS[k]}
+        if "controller" in given:
+            given["controller"] = CONTROLLERS[given["controller"]]
+        config = replace(config, **given)
     except InvalidInput as error:
         raise SystemExit(f"error: {error}") from None
     _checked(args, sum(config.postures.values()))
@@ -314,6 +321,8 @@ def _reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+#: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
+REPRODUCE_DEFAULTS = {"hand": "ours", "controller": "paper", "protocol": "ours"}
 PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm) or "
                  "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
@@ -355,6 +364,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
+    reproduce.add_argument("--config", metavar="FILE.toml",
+                           help="an experiment file: the preset's configuration changed by its keys (ReproduceConfig's "
+                           "fields; [generator] and [controller] tables); a run writes the one it used to "
+                           "OUT/config.toml. --hand, --controller and --protocol change it again where given")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")

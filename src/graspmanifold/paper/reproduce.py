@@ -30,6 +30,7 @@ from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock,
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_int
 from ..base.workers import default_workers, worker_pool
+from ..base.config_files import to_toml
 from ..control.dexgraspbench import PROTOCOL_NAMES
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
@@ -237,6 +238,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
         stale.unlink()
     run_record = {"config": config.to_json(), "library_version": library_version(), "versions": software_versions()}
     write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))
+    write_text_atomic(out / "config.toml", to_toml(config))  # the experiment file of this run (`--config` reads it)
     objects = tuple(config.postures)
     verified = config.procedure == "verified"
     methods = run_methods(config.controller)
