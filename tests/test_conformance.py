@@ -59,12 +59,13 @@ def test_warp_worlds_meet_the_contract():
 
 
 def _example(heading: str) -> dict:
-    """Run the code block under a heading of the API reference page (docs/site/api.md); its names."""
+    """Run the code block under a heading of the API reference's pages (docs/site/api/); its names."""
     import re
     from pathlib import Path
 
-    page = (Path(__file__).resolve().parents[1] / "docs" / "site" / "api.md").read_text()
-    code = re.search(rf"### {re.escape(heading)}\n.*?```python\n(.*?)```", page, re.S).group(1)
+    pages = sorted((Path(__file__).resolve().parents[1] / "docs" / "site" / "api").glob("*.md"))
+    page = "\n".join(p.read_text() for p in pages)
+    code = re.search(rf"## {re.escape(heading)}\n.*?```python\n(.*?)```", page, re.S).group(1)
     names: dict = {}
     exec(code, names)  # noqa: S102 - the library's own documented example
     return names

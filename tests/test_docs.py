@@ -11,16 +11,32 @@ import graspmanifold as gm
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_the_api_reference_builds_with_warnings_as_errors(tmp_path):
+def test_the_site_builds_with_warnings_as_errors_and_opens_from_its_files(tmp_path):
+    """From site/index.html every navigation link opened a directory listing under file://, a script came from a
+    network, the API reference was one page 101,000 pixels tall, and the studies were not in the site."""
+    import re
+    from urllib.parse import urljoin, urlparse
+
     done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
                           cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
-    page = (tmp_path / "site" / "api" / "index.html").read_text()
+    site = tmp_path / "site"
+    page = (site / "api" / "manifold.html").read_text()
     assert "graspmanifold.manifold.som.SOM" in page and "masked" in page
+    pages = sorted(site.rglob("*.html"))
+    assert {"experience_study.html", "protocols.html", "structure.html", "tutorial.html"} <= {p.name for p in pages}
+    for html in (p for p in pages if p.name != "404.html"):  # a server's page, its links from the site's root
+        text = html.read_text()
+        assert not re.search(r"<script[^>]+src=\"(https?:)?//", text), f"{html.name} loads a script from a network"
+        for link in re.findall(r'href="([^"#]+)', text):
+            if urlparse(link).scheme or link.startswith("//"):
+                continue  # a link out of the site
+            target = Path(urlparse(urljoin(html.as_uri(), link)).path)
+            assert target.is_file(), f"{html.relative_to(site)} links {link}, which opens no file under file://"
 
 
 def test_every_module_is_in_the_reference_and_every_public_name_has_a_docstring():
-    api = (ROOT / "docs" / "site" / "api.md").read_text()
+    api = "\n".join(p.read_text() for p in sorted((ROOT / "docs" / "site" / "api").glob("*.md")))
     package_dir = ROOT / "src" / "graspmanifold"
     modules = {".".join(p.relative_to(package_dir).with_suffix("").parts) for p in package_dir.rglob("*.py")
                if p.name != "__init__.py"}
