@@ -3,8 +3,8 @@
     python scripts/publish_run.py RUN_DIR [--to docs/paper_run]
 
 Copies the run's report.md, summary.json, run.json and its PNG figures into one folder, replacing
-what was there, so that the README's tables and gallery (which quote and link that folder; a test
-checks every README table row against report.md) all come from one run whose configuration and
+what was there, so that the docs/results.md's tables and gallery (which quote and link that folder; a test
+checks every docs/results.md table row against report.md) all come from one run whose configuration and
 library version are recorded beside them.
 """
 
