@@ -319,6 +319,34 @@ def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int |
     return _Arrays(path, arrays), meta
 
 
+class Tabular:
+    """What leaves the library as a table: a class with `rows()` (one dict per row, the same keys) gets `to_csv`
+    and `to_frame` from this mixin."""
+
+    def rows(self) -> list[dict]:
+        """One dict per row, the same keys in the same order."""
+        raise NotImplementedError
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """The rows as a CSV table (`rows`), written atomically; no extra package needed.
+
+        Args:
+            path: the file, ending in .csv.
+
+        Returns:
+            The path written.
+        """
+        return write_csv(path, self.rows())
+
+    def to_frame(self) -> object:
+        """The rows as a pandas DataFrame (pandas: the `tables` extra).
+
+        Returns:
+            The `pandas.DataFrame`, one row per row of `rows`.
+        """
+        return data_frame(self.rows())
+
+
 def write_csv(path: str | os.PathLike, rows: list[dict]) -> Path:
     """Rows of one table (dicts with the same keys, in order) as a CSV file with a header, written atomically.
 

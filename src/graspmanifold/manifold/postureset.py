@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.io import data_frame, load_npz, save_npz, write_csv
+from ..base.io import Tabular, load_npz, save_npz
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS
 
 
 @dataclass(frozen=True)
-class PostureSet:
+class PostureSet(Tabular):
     """n grasp postures (radians) with their palm poses in the object frame (x y z, qw qx qy qz),
     the starting posture each was generated around (`start_ids` into `start_names`), which segments
     touch the object (`contacts`, columns in SEGMENTS order), each posture's grasp quality when it
@@ -47,7 +47,7 @@ class PostureSet:
             raise InvalidInput(f"start_ids must index start_names (0 ... {len(self.start_names) - 1})")
 
     def rows(self) -> list[dict]:
-        """One row per posture, for a table: its start, its 22 joints (rad, by `FINGER_JOINTS` name), its palm pose
+        """One row per posture, for a table (`to_csv`, `to_frame`): its start, its 22 joints (rad, by `FINGER_JOINTS` name), its palm pose
         (m; quaternion w x y z), its quality when verified, and the segments touching.
 
         Returns:
@@ -60,25 +60,6 @@ class PostureSet:
                  "touching": " ".join(s for s, on in zip(SEGMENTS, contacts) if on)}
                 for posture, pose, start, contacts, epsilon, displacement in zip(
                     self.postures, self.hand_poses, self.start_ids, self.contacts, self.epsilon, self.hold_displacement)]
-
-    def to_csv(self, path: str | os.PathLike) -> Path:
-        """The postures as a CSV table (`rows`), written atomically; no extra package needed.
-
-        Args:
-            path: the file, ending in .csv.
-
-        Returns:
-            The path written.
-        """
-        return write_csv(path, self.rows())
-
-    def to_frame(self) -> object:
-        """The postures as a pandas DataFrame (`rows`; pandas: the `tables` extra).
-
-        Returns:
-            The `pandas.DataFrame`, one row per posture.
-        """
-        return data_frame(self.rows())
 
     def __len__(self) -> int:
         return len(self.postures)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
-from ..base.io import data_frame, library_version, load_npz, save_npz, write_csv
+from ..base.io import Tabular, library_version, load_npz, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
@@ -81,7 +81,7 @@ class _Valid(np.ndarray):
 
 
 @dataclass
-class EvaluationResult:
+class EvaluationResult(Tabular):
     """Trials of one controller (method) on one object, with their summary.
 
     Attributes:
@@ -159,25 +159,6 @@ class EvaluationResult:
                  "matches": int(t.matches), "margin": float(t.margin), "penetration": float(t.penetration),
                  "attempts": int(t.attempts), "touching": " ".join(s for s, on in zip(SEGMENTS, t.touching) if on),
                  "fault": t.fault} for t in self.trials]
-
-    def to_csv(self, path: str | os.PathLike) -> Path:
-        """The trials as a CSV table (`rows`), written atomically; no extra package needed.
-
-        Args:
-            path: the file, ending in .csv.
-
-        Returns:
-            The path written.
-        """
-        return write_csv(path, self.rows())
-
-    def to_frame(self) -> object:
-        """The trials as a pandas DataFrame (`rows`; pandas: the `tables` extra).
-
-        Returns:
-            The `pandas.DataFrame`, one row per trial.
-        """
-        return data_frame(self.rows())
 
     def outcomes(self, measure: str = "hold") -> np.ndarray:
         """Success per trial; an invalid trial reads False here, so pair it with `valid` (or use `rate`).
