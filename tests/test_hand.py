@@ -141,3 +141,17 @@ def test_the_hand_model_describes_the_hand_in_one_object():
     assert (coupling.sum(axis=0) == 1).all()  # every finger joint is driven by one actuator
     with pytest.raises(gm.InvalidInput, match="no keyframe 'grip'"):
         hand.keyframe_posture("grip")
+
+
+def test_the_hand_alone_writes_out_as_mjcf_that_compiles(tmp_path):
+    """Writing out the hand alone had no documented function (`SHADOW_HAND.spec().to_xml()` was found with dir())."""
+    import mujoco
+
+    from graspmanifold.sim.hand_models import hand_model
+
+    text = gm.SHADOW_HAND.to_xml()
+    model = mujoco.MjModel.from_xml_string(text)
+    assert model.njnt == gm.SHADOW_HAND.model.njnt and model.nu == gm.SHADOW_HAND.model.nu
+    path = tmp_path / "my_hand.xml"
+    path.write_text(text)
+    assert hand_model(path).finger_joints == gm.SHADOW_HAND.finger_joints  # read back as a hand file

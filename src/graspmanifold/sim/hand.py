@@ -165,6 +165,15 @@ class HandModel:
         """
         return self.loader() if self.loader is not None else mujoco.MjSpec.from_file(str(asset_path(self.mjcf)))
 
+    def to_xml(self) -> str:
+        """The hand alone as MJCF text, as MuJoCo writes its spec (`spec().to_xml()`): to open it in another tool,
+        or to edit it into a hand file of one's own (`hand_models.hand_model(path)` reads one back).
+
+        Returns:
+            The XML text.
+        """
+        return self.spec().to_xml()
+
     @functools.cached_property
     def model(self) -> mujoco.MjModel:
         """The compiled hand alone (compiled once; do not change it, `spec().compile()` gives a fresh one)."""
