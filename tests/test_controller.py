@@ -269,6 +269,25 @@ def test_bad_experience_is_rejected():
     with pytest.raises(ValueError, match="experience must be None"):
         gm.evaluate("cylinder", "som")
 
+    class HalfDone:  # a user's experience that forgot the batch methods
+        dim = 22
+        references = np.zeros((3, 22))
+
+        def best_match(self, x, mask=None):
+            return 0
+
+        def complete(self, x, mask=None):
+            return self.references[0]
+
+    with pytest.raises(ValueError, match=r"Experience \(the protocol.*HalfDone lacks best_match_batch, complete_batch$"):
+        gm.GraspController(HalfDone())
+
+
+def test_the_error_lists_every_member_of_the_experience_protocol():
+    from graspmanifold.manifold import experience
+    assert experience._PROTOCOL_MEMBERS == ("dim", "references", "best_match", "best_match_batch", "complete",
+                                            "complete_batch")
+
 
 def test_a_centred_cylinder_is_grasped_and_held():
     result = gm.evaluate("cylinder", None, grid=np.array([[0.0, 0.0, 0.01, 0.0]]), margin=True)

@@ -150,6 +150,10 @@ class PostureDatabase(Recall):
         return f"PostureDatabase({len(self)} postures, dim={self.dim})"
 
 
+_PROTOCOL_MEMBERS = tuple(dict.fromkeys([*Experience.__annotations__,
+                                         *(name for name in vars(Experience) if not name.startswith("_"))]))
+
+
 def check_experience(experience: object) -> Experience | None:
     """The experience base a controller uses: None (the purely tactile controller), any `Experience`
     (a PostureDatabase, a SOM), or a PostureSet, which becomes the database of its postures."""
@@ -158,8 +162,10 @@ def check_experience(experience: object) -> Experience | None:
     if isinstance(experience, PostureSet):
         experience = PostureDatabase(experience.postures)
     if not isinstance(experience, Experience):
-        raise InvalidInput(f"experience must be None, a PostureSet, a PostureDatabase or a SOM, "
-                         f"got {type(experience).__name__}")
+        missing = [name for name in _PROTOCOL_MEMBERS if not hasattr(experience, name)]
+        raise InvalidInput(f"experience must be None, a PostureSet or an Experience (the protocol in "
+                           f"graspmanifold.manifold.experience: a PostureDatabase, a SOM or one's own class); "
+                           f"{type(experience).__name__} lacks {', '.join(missing)}")
     if experience.dim != N_FINGER_JOINTS:
         raise InvalidInput(f"experience must hold {N_FINGER_JOINTS}-joint postures, it has dim {experience.dim}")
     return experience
