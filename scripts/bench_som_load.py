@@ -14,7 +14,7 @@ import multiprocessing
 import statistics
 import time
 
-from bench_som import COLS, DIM, ROWS, synthetic_postures
+from graspmanifold.studies.som_speed import COLS, DIM, ROWS, synthetic_postures
 
 import graspmanifold as gm
 from graspmanifold.base import workers

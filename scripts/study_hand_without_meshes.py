@@ -20,7 +20,7 @@ import functools
 from pathlib import Path
 
 import mujoco
-from study_hands import ablation_rows, facts_rows  # the hands study's tables (this script's folder is on the path)
+from graspmanifold.studies.hands import ablation_rows, facts_rows
 
 import graspmanifold as gm
 from graspmanifold.sim.hand_models import check_hand_model, describe_shadow_hand, hand_file_spec

@@ -2,7 +2,6 @@
 deletes or escapes its store, no file that inflates beyond its size, no runaway worker count, and the
 catalogued command-line mistakes each in one line with nothing left behind."""
 
-import importlib.util
 import os
 import signal
 import socket
@@ -13,7 +12,7 @@ import time
 import tracemalloc
 import zipfile
 from pathlib import Path
-from types import SimpleNamespace
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -71,29 +70,23 @@ def test_a_hand_file_edited_in_place_gives_new_results_never_the_old_files(tmp_p
     assert TrialSetup("cylinder", hand=hand_model(path)).key(poses, 0) != TrialSetup("cylinder", hand=weak).key(poses, 0)
 
 
-def _load_study_script():
-    spec = importlib.util.spec_from_file_location("study_experience", ROOT / "scripts" / "study_experience.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_the_studys_experience_is_kept_under_the_key_of_what_made_it(tmp_path, monkeypatch):
     """`study_experience.py --postures 3` after a 7-posture run reused the 7-posture files, and study.json said 3."""
-    study_script = _load_study_script()
-    args = SimpleNamespace(quick=True, out=str(tmp_path), workers=1, postures=1)
-    study = study_script.Study(args)
+    from graspmanifold.studies import experience as study_module
+
+    study = study_module.ExperienceStudy(study_module.ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1,
+                                                                            postures=1))
     study.objects = ("box",)
-    union, _ = study_script.experience(study)
+    union, _ = study.experience()
     assert len(union) == 1
-    study.args.postures = 2
+    study.config = replace(study.config, postures=2)
     with pytest.warns(UserWarning, match="discarded .*experience_box.npz"):
-        union, _ = study_script.experience(study)
+        union, _ = study.experience()
     assert len(union) == 2
     ran = []
-    monkeypatch.setattr(study_script.gm, "generate_postures", lambda *a, **k: ran.append(a))
-    union, _ = study_script.experience(study)  # the same configuration: taken from --out
-    assert len(union) == 2 and ran == []
+    monkeypatch.setattr(study_module, "generate_postures", lambda *a, **k: ran.append(a))
+    union, _ = study.experience()  # the same configuration: taken from --out
+    assert len(union) == 2 and ran == [] and study.reused == 1 and study.computed == 2
 
 
 # -- names that become file names --------------------------------------------------------------------------
@@ -309,7 +302,7 @@ def test_ctrl_c_of_the_study_script_ends_in_one_line_and_its_output_is_locked(tm
     study.send_signal(signal.SIGINT)
     _, err = study.communicate(timeout=60)
     assert study.returncode == 130 and "Traceback" not in err, err
-    assert err.strip().splitlines()[-1].startswith("interrupted: finished evaluations are kept in")
+    assert err.strip().splitlines()[-1].startswith("interrupted: finished work is kept in")
 
 
 # -- input the library took without a word -----------------------------------------------------------------

@@ -50,7 +50,11 @@ def imports_of(path: Path) -> set[str]:
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.level >= 1 and id(node) not in type_only and node.module:
             base = here[: len(here) - (node.level - 1)]
-            found.add(".".join(base + tuple(node.module.split("."))))
+            target = base + tuple(node.module.split("."))
+            if (PACKAGE.joinpath(*target) / "__init__.py").exists():  # modules of a subpackage: from ..control import judge
+                found.update(".".join(target + (alias.name,)) for alias in node.names)
+            else:
+                found.add(".".join(target))
     return found
 
 

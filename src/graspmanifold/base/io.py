@@ -15,7 +15,7 @@ import os
 import tempfile
 import time
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO
@@ -345,6 +345,26 @@ class Tabular:
             The `pandas.DataFrame`, one row per row of `rows`.
         """
         return data_frame(self.rows())
+
+
+def markdown_table(header: Sequence[object], rows: Iterable[Sequence[object]]) -> list[str]:
+    """A markdown table: the one writer of every table in the library's reports.
+
+    Args:
+        header: the column names.
+        rows: the cells of each row (any values, written with `str`), as many as the header has.
+
+    Returns:
+        The table's lines: the header, its rule, a line per row.
+    """
+    header = [str(cell) for cell in header]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in rows:
+        cells = [str(cell) for cell in row]
+        if len(cells) != len(header):
+            raise InvalidInput(f"rows must have {len(header)} cells like the header, got {len(cells)}: {cells}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def write_csv(path: str | os.PathLike, rows: list[dict]) -> Path:

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.io import atomic_write, write_text_atomic
+from ..base.io import atomic_write, write_text_atomic, markdown_table
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.dexgraspbench import protocol as named_protocol
 from ..control.controller import BLEND, ControllerParams
@@ -183,9 +183,7 @@ def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = pr
 
 
 def _table(header: list[str], rows: list[list[object]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(lines) + "\n\n"
+    return "\n".join(markdown_table(header, rows)) + "\n\n"
 
 
 def write_report(out: Path, run: RunData, summary: RunSummary) -> None:

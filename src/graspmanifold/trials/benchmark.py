@@ -44,6 +44,7 @@ from ..sim.objects import GraspObject, get_object, make_object
 from .evaluation import EvaluationResult, evaluate
 from .grid import reachable
 from .trial import Noise, TrialSetup
+from .stats import PairedComparison, mcnemar, stratified_split
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
 PLACEMENTS: tuple[str, ...] = ("palm", "fingertips")
@@ -130,7 +131,6 @@ def benchmark_split(selection: float = 1 / 3, seed: int = 0) -> dict[str, dict[t
     Returns:
         {'selection': {(object, placement): poses (n, 4)}, 'test': {...}}, cells in `cells()` order.
     """
-    from .stats import stratified_split
 
     poses = {key: np.concatenate([benchmark_grid(*key, split) for split in SPLITS]) for key in cells()}
     strata = [key for key in cells() for _ in poses[key]]
@@ -232,3 +232,23 @@ def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hol
         raise InvalidInput("results hold none of the cells asked for")
     return (np.concatenate([results[key].outcomes(measure) for key in keys]),
             np.concatenate([results[key].valid for key in keys]))
+
+
+def compare_pooled(a: dict[tuple[str, str], EvaluationResult], b: dict[tuple[str, str], EvaluationResult],
+                   rows: list[tuple[str, str]] | None = None, measure: str = "hold") -> PairedComparison:
+    """McNemar's test of method a against method b pooled over the benchmark's cells, on the poses valid for both.
+
+    Args:
+        a: the first method's results ({(object, placement): EvaluationResult}, as `run_benchmark` returns).
+        b: the second's, on the same poses.
+        rows: the cells to pool (default: all of them).
+        measure: 'hold' or 'force_closure'.
+
+    Returns:
+        The paired comparison.
+    """
+    (held_a, valid_a), (held_b, valid_b) = pooled(a, measure, rows), pooled(b, measure, rows)
+    if held_a.shape != held_b.shape:
+        raise InvalidInput(f"a and b pool {len(held_a)} and {len(held_b)} trials; a paired comparison needs the same "
+                           "poses")
+    return mcnemar(held_a, held_b, valid=valid_a & valid_b)

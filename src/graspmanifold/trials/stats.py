@@ -76,12 +76,15 @@ class PairedComparison:
         return "better" if self.only_a > self.only_b else "worse"
 
 
-def mcnemar(outcomes_a: object, outcomes_b: object) -> PairedComparison:
-    """McNemar's exact test on paired boolean outcomes (the same poses, in the same order).
+def mcnemar(outcomes_a: object, outcomes_b: object, valid: object | None = None) -> PairedComparison:
+    """McNemar's exact test on paired boolean outcomes (the same poses, in the same order): the one paired
+    comparison of the library.
 
     Args:
         outcomes_a: success per pose of the first method, bool (n,).
         outcomes_b: of the second, on the same poses.
+        valid: the poses to pair, bool (n,) (those where both trials' physics held: `a.valid & b.valid`);
+            None: all.
 
     Returns:
         The `PairedComparison`: both, only a, only b, neither, and the exact two-sided p-value.
@@ -92,6 +95,12 @@ def mcnemar(outcomes_a: object, outcomes_b: object) -> PairedComparison:
         raise InvalidInput(f"outcomes_a and outcomes_b must be 1-D and of one length, got {a.shape} and {b.shape}")
     if a.dtype != bool or b.dtype != bool:
         raise InvalidInput("outcomes_a and outcomes_b must be boolean arrays (success per pose)")
+    if valid is not None:
+        keep = np.asarray(valid)
+        if keep.shape != a.shape or keep.dtype != bool:
+            raise InvalidInput(f"valid must be a boolean array of the outcomes' shape {a.shape}, got {keep.dtype} "
+                               f"{keep.shape}")
+        a, b = a[keep], b[keep]
     only_a, only_b = int(np.sum(a & ~b)), int(np.sum(~a & b))
     discordant = only_a + only_b
     p = 1.0 if discordant == 0 else float(binomtest(only_a, discordant, 0.5).pvalue)

@@ -47,8 +47,7 @@ def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> 
     grid_b = np.array([t.grid_pose for t in b.trials])
     if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
         raise InvalidInput(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
-    both = a.valid & b.valid
-    return mcnemar(a.outcomes(measure)[both], b.outcomes(measure)[both])
+    return mcnemar(a.outcomes(measure), b.outcomes(measure), valid=a.valid & b.valid)
 
 
 def train_experience_map(postures: np.ndarray, seed: int = 0, shape: tuple[int, int] = MAP_SIZE) -> SOM:

@@ -1,0 +1,88 @@
+"""Which generator mode gives data of the paper's character? Data statistics and map distances per mode.
+
+    python scripts/study_data_character.py [--modes settled recording] [--objects box cylinder sphere]
+                                           [--record-every 5] [--no-verify] [--workers 2] [--out data_character]
+                                           [--cache DIR]
+
+For each object and generator mode (`GeneratorParams.mode`), the paper preset's number of spring
+candidates (seed 0, verified as the reproduction does), the data's character (nearest-neighbour
+distances, cluster spread, distance between cluster means) and the 25 x 25 map of the paper's
+schedule trained on it: its minimum and maximum inter-node distance beside the paper's. Posture sets
+are cached in OUT (or read from `--cache`, e.g. a bench_unseen directory of settled sets). With
+`--no-verify` every candidate is kept, as the paper kept every recorded posture: it shows what the
+verification (which keeps only grasps that hold) does to the clusters and the map.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from ..base.io import write_text_atomic
+from ..base.paper_numbers import MAX_DISTANCE_DEG, MIN_DISTANCE_DEG
+from ..base.checkpoints import remove_checkpoints
+from ..control.generator import DATASET_PRESETS
+from ..manifold.analysis import nearest_neighbour_deg
+from ..trials.study import train_experience_map
+from ..control.generator import GeneratorParams, generate_postures, verify_postures
+from ..manifold.postureset import PostureSet
+
+
+def posture_set(out: Path, cache: Path | None, name: str, mode: str, record_every: int, verify: bool, workers: int
+                ) -> PostureSet:
+    label = (mode if mode == "settled" else f"{mode}{record_every}") + ("" if verify else "_unverified")
+    cached = [cache / f"{name}.npz"] if cache and mode == "settled" and verify else []
+    for path in cached + [out / f"{name}_{label}.npz"]:
+        if path.exists():
+            return PostureSet.load(path)
+    parts = out / f"{name}_{label}.parts"
+    params = GeneratorParams(mode=mode, record_every=record_every, verify=False)
+    postures = generate_postures(name, DATASET_PRESETS["paper"][name], seed=0, workers=workers, params=params,
+                                    checkpoint_dir=parts, progress=True)
+    if verify:  # the candidates of the paper's number that hold
+        postures = verify_postures(postures, name, workers)
+    postures.save(out / f"{name}_{label}.npz")
+    remove_checkpoints(parts)
+    return postures
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--modes", nargs="+", default=["settled", "recording"])
+    parser.add_argument("--objects", nargs="+", default=list(DATASET_PRESETS["paper"]))
+    parser.add_argument("--record-every", type=int, default=GeneratorParams.record_every,
+                        help="physics steps between recorded postures in recording mode")
+    parser.add_argument("--no-verify", action="store_true", help="keep every candidate, as the paper did")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", default="data_character")
+    parser.add_argument("--cache", help="a directory with settled-mode paper sets named <object>.npz")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    lines = ["| object | mode | kept postures | starting postures with data | nearest neighbour min / median / p90 (°) "
+             "| within-start (°) | between starts (°) | map min (°) | paper min | map max (°) | paper max |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name in args.objects:
+        for mode in args.modes:
+            postures = posture_set(out, Path(args.cache) if args.cache else None, name, mode, args.record_every,
+                                   not args.no_verify, args.workers)
+            near, clusters = nearest_neighbour_deg(postures.postures), postures.cluster_separation()
+            stats = train_experience_map(postures.postures).distance_stats(degrees=True)
+            label = (mode if mode == "settled" else f"{mode}, every {args.record_every} steps") + (
+                ", unverified" if args.no_verify else "")
+            lines.append(f"| {name} | {label} | {len(postures)} of {postures.metadata['candidates']} | "
+                         f"{clusters['starts']} of {len(postures.start_names)} | "
+                         f"{near['min']:.3g} / {near['median']:.3g} / {near['p90']:.3g} | "
+                         f"{clusters['within_deg']:.3g} | {clusters['between_deg']:.3g} | {stats['min']:.3g} | "
+                         f"{MIN_DISTANCE_DEG[name]} | {stats['max']:.3g} | {MAX_DISTANCE_DEG[name]} |")
+            print(lines[-1], flush=True)
+    lines += ["", f"{time.perf_counter() - started:.0f} s with {args.workers} workers."]
+    write_text_atomic(out / f"data_character_{'_'.join(args.modes)}{args.record_every}"
+                            f"{'_unverified' if args.no_verify else ''}.md", "\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

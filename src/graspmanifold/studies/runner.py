@@ -1,0 +1,186 @@
+"""What every study shares: its output folder, its log, its pool of workers, the results it keeps under their
+keys, its paired comparisons and its tables.
+
+A study is a class over `StudyRun`: the run holds the folder (locked while the study writes it), one pool of
+worker processes for the whole study, the log (each line with the seconds since the start) and the count of
+what was computed now and what was taken from an earlier run. A result is kept by `keep` under the key of what
+made it (`checkpoints.result_key`: the configuration and the code), so a rerun takes what is still valid and
+recomputes what is not, whatever the files are called. `comparison_rows` and `comparison_table` are the one way
+a study reports paired comparisons (McNemar, Holm within a family); `base.io.markdown_table` writes every table.
+`run_command` is the shell around a study's `main`: a locked folder, Ctrl-C ending in one line that says how to
+resume, a library error ending in one line.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor
+from contextlib import contextmanager
+from dataclasses import replace
+from pathlib import Path
+from typing import TypeVar
+
+from ..base.checkpoints import PartStore, remove_checkpoints
+from ..base.errors import GraspManifoldError
+from ..base.io import LOCK_FILE, markdown_table, output_lock
+from ..base.workers import worker_pool, workers_for
+from ..manifold.postureset import PostureSet
+from ..trials.evaluation import EvaluationResult
+from ..trials.stats import PairedComparison, holm
+
+Result = TypeVar("Result")
+
+
+class StudyRun:
+    """A study's output folder, log, worker pool and kept results.
+
+    Args:
+        out: the folder (made when missing).
+        workers: worker processes (capped at the machine's cores; 1 runs everything in this process).
+    """
+
+    def __init__(self, out: str | Path, workers: int = 2):
+        self.out = Path(out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.workers = workers_for(workers, 10**6, 1)  # capped at the cores: a study's trials outnumber them
+        self.executor: Executor | None = None  # the pool, while `pool()` is open
+        self.started = time.perf_counter()
+        self.computed, self.reused = 0, 0  # results computed now, and taken from an earlier run
+        self.seconds = 0.0  # spent computing results now (not counting those taken from an earlier run)
+
+    def log(self, text: str) -> None:
+        """Print one line of the study's log, with the seconds since it started."""
+        print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
+
+    @contextmanager
+    def pool(self) -> Iterator[StudyRun]:
+        """One pool of worker processes for everything the study runs inside the block (a pool per evaluation
+        costs seconds on small grids)."""
+        with worker_pool(self.workers) as pool:
+            self.executor = pool if self.workers > 1 else None
+            try:
+                yield self
+            finally:
+                self.executor = None
+
+    def keep(self, name: str, key: str, compute: Callable[[], Result], read: Callable[[Path], tuple[Result, dict]],
+             write: Callable[[Result, Path, dict], object]) -> Result:
+        """A result kept in the folder under its key: read when a file of that name holds this key, else computed
+        and written (a file of another key, or one that cannot be read, is replaced, with a warning naming it).
+
+        Args:
+            name: its file name in the folder.
+            key: what made it (`checkpoints.result_key`).
+            compute: makes it.
+            read: reads a file: the result and the file's metadata.
+            write: writes the result to a path with this metadata added to the file's own.
+
+        Returns:
+            The result.
+        """
+        store = PartStore(self.out, key, read)
+        stored = store.load(name)
+        if stored:
+            self.reused += 1
+            return stored[self.out / name]
+        start = time.perf_counter()
+        result = compute()
+        store.save(name, lambda target, meta: write(result, target, meta))
+        self.computed += 1
+        self.seconds += time.perf_counter() - start
+        return result
+
+    def postures(self, name: str, key: str, make: Callable[[Path], PostureSet]) -> PostureSet:
+        """A posture set kept as `<name>.npz` under its key; `make` gets a checkpoint folder of its own (removed
+        once the set is written), so an interrupted generation resumes too.
+
+        Args:
+            name: the set's name in the folder.
+            key: what makes it (`checkpoints.result_key`).
+            make: generates it, given its checkpoint folder.
+
+        Returns:
+            The set.
+        """
+        parts = self.out / f"{name}.parts"
+        result = self.keep(f"{name}.npz", key, lambda: make(parts), _posture_file,
+                           lambda postures, target, meta: replace(
+                               postures, metadata={**postures.metadata, **meta}).save(target))
+        remove_checkpoints(parts)
+        return result
+
+    def evaluation(self, name: str, key: str, make: Callable[[Path], EvaluationResult]) -> EvaluationResult:
+        """An evaluation kept as `<name>.npz` under its key (`TrialSetup.key`); `make` gets a checkpoint folder of
+        its own, removed once the result is written.
+
+        Args:
+            name: the result's name in the folder.
+            key: what makes it.
+            make: runs it, given its checkpoint folder.
+
+        Returns:
+            The result.
+        """
+        parts = self.out / f"{name}.parts"
+        result = self.keep(f"{name}.npz", key, lambda: make(parts), EvaluationResult.load_with_metadata,
+                           lambda result, target, meta: result.save(target, extra=meta))
+        remove_checkpoints(parts)
+        return result
+
+
+def _posture_file(path: Path) -> tuple[PostureSet, dict]:
+    postures = PostureSet.load(path)
+    return postures, postures.metadata
+
+
+def run_command(out: str | Path, body: Callable[[], None]) -> None:
+    """Run a study's body with its folder locked: Ctrl-C ends in one line that says how to resume (exit status
+    130), a library error (bad input, a folder another run writes) in one line (status 1).
+
+    Args:
+        out: the study's folder.
+        body: the study.
+    """
+    try:
+        with output_lock(Path(out) / LOCK_FILE, out):
+            body()
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished work is kept in {out}; run the same command again to resume", file=sys.stderr)
+        raise SystemExit(130) from None
+    except GraspManifoldError as error:
+        raise SystemExit(f"error: {error}") from None
+
+
+def comparison_rows(family: Sequence[tuple[str, PairedComparison]], name: str = "") -> list[dict]:
+    """A family of paired comparisons with Holm's correction within it: one row each.
+
+    Args:
+        family: (label, comparison) pairs, read together.
+        name: the family's name, kept in each row.
+
+    Returns:
+        Rows {family, label, n, only_a, only_b, both, p_value, p_holm, difference}.
+    """
+    adjusted = holm([c.p_value for _, c in family]) if family else []
+    return [{"family": name, "label": label, "n": c.n, "only_a": c.only_a, "only_b": c.only_b, "both": c.both,
+             "p_value": c.p_value, "p_holm": float(p), "difference": c.difference}
+            for (label, c), p in zip(family, adjusted)]
+
+
+def comparison_table(rows: Sequence[dict], family: bool = False) -> list[str]:
+    """The markdown table of `comparison_rows`: `+` / `-` are the pairs where only the first / only the second
+    held.
+
+    Args:
+        rows: the rows.
+        family: whether to show each row's family in a first column.
+
+    Returns:
+        The table's lines.
+    """
+    header = (["family"] if family else []) + ["comparison", "n", "+", "-", "difference", "p", "p (Holm)"]
+    return markdown_table(header, [([r["family"]] if family else []) + [
+        r["label"], r["n"], r["only_a"], r["only_b"], f"{100 * r['difference']:+.1f} pts", f"{r['p_value']:.3g}",
+        f"{r['p_holm']:.3g}"] for r in rows])
