@@ -28,7 +28,8 @@ import numpy as np
 from ..paper.reproduce import PRESETS, reproduce
 from ..sim.hand_models import hand_model, joint_agreement
 from ..trials.evaluation import EvaluationResult
-from ..trials.stats import holm, mcnemar, rate_text
+from ..trials.stats import holm, rate_text
+from ..trials.study import compare
 from ..sim.hand import HandModel, SHADOW_HAND
 from ..trials.evaluation import evaluate
 from ..trials.grid import grid_preset
@@ -51,11 +52,6 @@ def finished_run(out: Path, hand: str, preset: str, workers: int) -> Path:
 
 def held(result: EvaluationResult) -> str:
     return rate_text(int(result.outcomes()[result.valid].sum()), int(result.valid.sum()))
-
-
-def paired(a: EvaluationResult, b: EvaluationResult):
-    valid = a.valid & b.valid
-    return mcnemar(a.outcomes()[valid], b.outcomes()[valid])
 
 
 def our_finger_servo() -> tuple[float, float]:
@@ -208,7 +204,7 @@ def ablation_rows(hand: HandModel, grid: str = "quick") -> list[str]:
         poses = grid_preset(grid, obj)
         runs = [evaluate(obj, None, poses, workers=1, hand=h, progress=False) for h in steps + [SHADOW_HAND]]
         rates[obj] = [held(run) for run in runs]
-        tests += [paired(after, before).p_value for before, after in zip(runs[:-2], runs[1:-1])]
+        tests += [compare(after, before).p_value for before, after in zip(runs[:-2], runs[1:-1])]
     adjusted = iter(zip(tests, holm(tests)))
     for obj in OBJECTS:
         cells = [rates[obj][0]]
@@ -244,12 +240,12 @@ def main(argv: list[str] | None = None) -> None:
         for obj in OBJECTS:
             for hand in args.hands:
                 comparisons.append((preset, f"{label(hand)}: SOM vs heuristic", obj,
-                                    paired(results[(hand, preset, obj, "som")], results[(hand, preset, obj, "none")])))
+                                    compare(results[(hand, preset, obj, "som")], results[(hand, preset, obj, "none")])))
             first, *others = args.hands
             for method in ("none", "som"):
                 for other in others:
                     comparisons.append((preset, f"{METHODS[method]}: {label(other)} vs {label(first)}", obj,
-                                        paired(results[(other, preset, obj, method)],
+                                        compare(results[(other, preset, obj, method)],
                                                results[(first, preset, obj, method)])))
     adjusted = holm([c.p_value for *_, c in comparisons])
     lines = ["# The library on other Shadow Hand models (issue 28)", "",

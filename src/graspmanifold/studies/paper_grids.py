@@ -35,14 +35,15 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..base.io import atomic_write, write_npz, write_text_atomic
+from ..base.checkpoints import result_key
+from ..base.io import load_npz, save_npz, write_text_atomic
+from ..sim.hand import N_FINGER_JOINTS
 from ..control.controller import BLEND
-from ..base.checkpoints import remove_checkpoints
 from ..control.generator import verify_postures
 from ..control.judge import JUDGING
 from ..trials.evaluation import EvaluationResult, trial_count
@@ -62,7 +63,8 @@ from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..sim.objects import get_object
 from ..trials.evaluation import evaluate
-from ..trials.trial import Noise
+from ..trials.trial import Noise, TrialSetup
+from .runner import StudyRun, run_command
 
 OBJECTS = ("box", "cylinder", "sphere")
 CONTROLS = ("none", "none_fast", "none_preshape")
@@ -73,74 +75,71 @@ ABLATIONS = {"som_no_preshape": replace(BLEND, experience_preshape=False),
 PAPER_NOISE = Noise(position=0.01, yaw=0.2)
 
 
-class Study:
-    def __init__(self, args: argparse.Namespace):
-        self.args, self.out = args, Path(args.out)
-        (self.out / "evaluation").mkdir(parents=True, exist_ok=True)
-        self.results: dict[tuple[str, str, str], EvaluationResult] = {}
-        self.started = time.perf_counter()
-        self.computed, self.reused, self.evaluation_seconds = 0, 0, 0.0
+class Study(StudyRun):
+    """The first study's run: its evaluations and experience kept in OUT under the keys of what made them."""
 
-    def log(self, text: str) -> None:
-        print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
+    def __init__(self, args: argparse.Namespace):
+        super().__init__(args.out, args.workers)
+        self.args = args
+        self.results: dict[tuple[str, str, str], EvaluationResult] = {}
 
     def evaluate(self, obj, grid_name: str, method: str, experience, params=None, noise=None, grid=None,
-                 preshape=None):
-        """One method on one grid, reused from --out when already there."""
-        name = obj if isinstance(obj, str) else obj.name
-        path = self.out / "evaluation" / f"{name}_{grid_name}_{method}.npz"
-        result = None
-        if path.exists():
-            try:
-                result = EvaluationResult.load(path)
-                self.reused += 1
-            except ValueError as error:  # truncated, or written by an older version of the library
-                self.log(f"{path} is not reusable ({error}); running it again")
-        if result is None:
-            poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
+                 preshape=None) -> EvaluationResult:
+        """One method on one grid, taken from OUT when it holds this configuration's result."""
+        obj = get_object(obj) if isinstance(obj, str) else obj
+        poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
+        params = params or BLEND
+        key = TrialSetup(obj, experience, noise or Noise(), params, preshape=preshape, method=method,
+                         margin=True).key(poses, 0)
+
+        def compute(parts: Path) -> EvaluationResult:
             start = time.perf_counter()
-            parts = path.with_suffix(".parts")
-            result = evaluate(obj, experience, poses, seed=0, workers=self.args.workers, noise=noise,
-                                 params=params or BLEND, preshape=preshape, checkpoint_dir=parts, margin=True)
-            result.method, result.grid_name = method, grid_name
-            result.save(path)
-            remove_checkpoints(parts)
-            self.computed += 1
-            self.evaluation_seconds += time.perf_counter() - start
+            result = evaluate(obj, experience, poses, seed=0, workers=self.workers, executor=self.executor, noise=noise, params=params,
+                              preshape=preshape, checkpoint_dir=parts, margin=True, method=method)
+            result.grid_name = grid_name
             s = result.summary
-            self.log(f"{name:8s} {grid_name:12s} {method:16s} n={trial_count(s):>3s} hold {s['hold_rate']:.0%} "
+            self.log(f"{obj.name:8s} {grid_name:12s} {method:16s} n={trial_count(s):>3s} hold {s['hold_rate']:.0%} "
                      f"fc {s['force_closure_rate']:.0%} ({time.perf_counter() - start:.0f} s)")
-        self.results[(name, grid_name, method)] = result
+            return result
+
+        result = self.evaluation(f"evaluation/{obj.name}_{grid_name}_{method}", key, compute)
+        self.results[(obj.name, grid_name, method)] = result
         return result
 
 
 def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
-    """Verified spring grasps and the grown experience, cached in --out."""
-    args, out = study.args, study.out
-    spring_path = out / f"{obj}_spring.npz"
-    if not spring_path.exists():
-        candidates = generate_postures(obj, args.candidates, seed=0, workers=args.workers,
-                                          params=GeneratorParams(verify=False))
-        verify_postures(candidates, obj, workers=args.workers).save(spring_path)
-    spring = PostureSet.load(spring_path)
-    grown_path = out / f"{obj}_grown.npz"
-    curve: list[dict] = []
-    if not grown_path.exists():
+    """Verified spring grasps and the grown experience, kept in OUT under the keys of what made them."""
+    args = study.args
+    params = GeneratorParams(verify=False)
+    key = result_key({"object": get_object(obj).params(), "candidates": args.candidates, "seed": 0,
+                      "params": asdict(params)})
+    spring = study.postures(f"{obj}_spring", key, lambda parts: verify_postures(generate_postures(
+        obj, args.candidates, seed=0, workers=study.workers, executor=study.executor, params=params, checkpoint_dir=parts), obj,
+        workers=study.workers))
+    training = grid_preset("quick" if args.quick else "paper", obj)  # perturbed by TRAINING_NOISE
+    grown_key = result_key(spring.postures, training, {"rounds": args.rounds})
+
+    def grow() -> tuple[np.ndarray, list[dict]]:
+        curve: list[dict] = []
+
         def measure(r, som, postures):
             result = study.evaluate(obj, "quick", f"learning_round{r}", som)
             curve.append({"round": r, "experience": len(postures), "quick_hold": result.summary["hold_rate"],
                           "quick_hold_text": rate_text(int(result.outcomes().sum()), result.summary["trials"])})
-        training = grid_preset("quick" if args.quick else "paper", obj)  # perturbed by TRAINING_NOISE
-        grown, records = grow_experience(get_object(obj), spring.postures, training,
-                                         args.rounds, workers=args.workers, on_round=measure)
-        final = train_experience_map(grown)
-        measure(args.rounds, final, grown)
+
+        grown, records = grow_experience(get_object(obj), spring.postures, training, args.rounds,
+                                         workers=study.workers, on_round=measure)
+        measure(args.rounds, train_experience_map(grown), grown)
         for record, point in zip(records, curve):
             point.update(train_held=record["held"], train_trials=record["trials"])
-        with atomic_write(grown_path) as handle:
-            write_npz(handle, {"postures": grown, "curve": np.array(json.dumps(curve))})
-    with np.load(grown_path) as f:
-        grown, curve = f["postures"], json.loads(str(f["curve"]))
+        return grown, curve
+
+    def read(path: Path) -> tuple[tuple[np.ndarray, list[dict]], dict]:
+        arrays, meta = load_npz(path, "grown_experience", {"postures": (None, N_FINGER_JOINTS)})
+        return (arrays["postures"], meta["curve"]), meta
+
+    grown, curve = study.keep(f"{obj}_grown.npz", grown_key, grow, read, lambda made, target, meta: save_npz(
+        target, "grown_experience", {"postures": made[0]}, {"curve": made[1], **meta}))
     return {"spring": spring, "grown": grown, "curve": curve}
 
 
@@ -184,7 +183,8 @@ def run(study: Study) -> dict:
                 if method in ABLATIONS and args.quick:
                     continue
                 study.evaluate(obj, grid, method, experience, params, noise, preshape=fixed)
-        near = coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses)
+        near = coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses) if len(spring) \
+            else None  # no verified grasp: nothing to cover the grid with
         info["objects"][obj] = {
             "spring_candidates": int(spring.metadata["candidates"]), "spring_verified": len(spring),
             "verified_by_start": spring.metadata["verified_by_start"], "grown": int(len(grown) - len(spring)),
@@ -290,8 +290,8 @@ def report(study: Study, info: dict) -> str:
         r["p_holm"] = float(p)
     lines = ["# Does experience pay? The first experience study, on the paper's grids", "",
              f"Generated by `python scripts/study_experience_paper_grids.py{' --quick' if args.quick else ''} --workers "
-             f"{args.workers}` ({study.computed} evaluations run, {study.reused} reused from an earlier, "
-             f"interrupted run; {time.perf_counter() - study.started:.0f} s). "
+             f"{args.workers}` ({study.computed} results computed, {study.reused} taken from an earlier run in --out; "
+             f"{study.seconds:.0f} s of computing). "
              "Every rate is the hold test (six gravity directions, object within 2 cm) with its 95 % Wilson "
              "interval; comparisons are paired on the same poses (McNemar's exact test).", "",
              "## Verdict", "", verdict.text, "",
@@ -406,13 +406,19 @@ def main(argv: list[str] | None = None) -> None:
     args.candidates = args.candidates or (60 if args.quick else 600)
     args.rounds = args.rounds if args.rounds is not None else (1 if args.quick else 2)
     doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/experience_study_paper_grids.md"))
-    study = Study(args)
-    info = run(study)
+    run_command(args.out, lambda: write_study(Study(args), doc))
+
+
+def write_study(study: Study, doc: Path) -> None:
+    """Run the study in one pool of workers; write its report, OUT/study.json (and, for the full study, the
+    report's JSON beside it)."""
+    with study.pool():
+        info = run(study)
     text = report(study, info)
     write_text_atomic(doc, text)
     data = json.dumps(info, indent=1, default=float)
     write_text_atomic(study.out / "study.json", data)
-    if not args.quick:
+    if not study.args.quick:
         write_text_atomic(doc.with_suffix(".json"), data)
     print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {info['seconds']:.0f} s")
 

@@ -21,12 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..base.io import write_text_atomic
+from ..base.io import markdown_table, write_text_atomic
 from ..control.dexgraspbench import PROTOCOL_NAMES, open_loop_grasps, replay
-from ..trials.benchmark import OBJECTS, PLACEMENTS, pooled, run_benchmark
-from ..trials.stats import holm, mcnemar, rate_text
+from ..trials.benchmark import OBJECTS, PLACEMENTS, compare_pooled, pooled, run_benchmark
+from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
 from ..control.generator import generate_postures
+from .runner import comparison_rows, comparison_table
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -76,48 +77,39 @@ def report(args: argparse.Namespace, open_loop: dict, closed: dict, seconds: flo
              "(`dexgraspbench.open_loop_grasps`, `replay`): the open hand with its palm 2 cm back, the posture at its "
              "palm pose, its squeeze, in 10 targets of 10 steps each (under ours, the same seconds at our step), the "
              "object free and unsupported, gravity off; the same grasps under each protocol (McNemar against ours, "
-             "pooled; Holm over the whole table).", "", "| object | " + " | ".join(PROTOCOL_NAMES) + " |", "|---|" + "---|" * len(PROTOCOL_NAMES)]
-    for name, held in open_loop.items():
-        lines.append(f"| {name} | " + " | ".join(rate_text(int(h.sum()), len(h)) for h in held.values()) + " |")
+             "pooled; Holm over the whole table).", ""]
     pooled_open = {p: np.concatenate([held[p] for held in open_loop.values()]) for p in PROTOCOL_NAMES}
-    lines.append("| pooled | " + " | ".join(rate_text(int(h.sum()), len(h)) for h in pooled_open.values()) + " |")
+    lines += markdown_table(["object", *PROTOCOL_NAMES], [
+        [name, *(rate_text(int(h.sum()), len(h)) for h in held.values())]
+        for name, held in [*open_loop.items(), ("pooled", pooled_open)]])
     tests = [(f"open loop, {p} against ours, pooled", mcnemar(pooled_open[p], pooled_open["ours"]))
              for p in PROTOCOL_NAMES if p != "ours"]
     lines += ["", "## Closed loop: the plain heuristic and the paper's controller on the benchmark's poses", "",
               f"Every {args.every}th pose of the benchmark's test lattice (`benchmark_grid`, both placements); the "
               "paper's controller (`ControllerParams()`, recall='target') recalls from a 25 x 25 SOM of the object's "
-              "verified postures. Each protocol's physics from the trial's start.", "",
-              "| object | " + " | ".join(f"{c} / {p}" for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " |",
-              "|---|" + "---|" * (2 * len(PROTOCOL_NAMES))]
-    for name in list(OBJECTS) + ["pooled"]:
+              "verified postures. Each protocol's physics from the trial's start.", ""]
+
+    def closed_cells(name: str) -> list[str]:
         rows = None if name == "pooled" else [(name, p) for p in PLACEMENTS]
-        cells = []
-        for controller in ("heuristic", "paper"):
-            for protocol in PROTOCOL_NAMES:
-                held, valid = pooled(closed[(controller, protocol)], rows=rows)
-                cells.append(rate_text(int(held[valid].sum()), int(valid.sum())))
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        held_valid = [pooled(closed[(c, p)], rows=rows) for c in ("heuristic", "paper") for p in PROTOCOL_NAMES]
+        return [name, *(rate_text(int(held[valid].sum()), int(valid.sum())) for held, valid in held_valid)]
+
+    lines += markdown_table(["object", *(f"{c} / {p}" for c in ("heuristic", "paper") for p in PROTOCOL_NAMES)],
+                            [closed_cells(name) for name in [*OBJECTS, "pooled"]])
     for protocol in PROTOCOL_NAMES:
-        (a, va), (b, vb) = pooled(closed[("paper", protocol)]), pooled(closed[("heuristic", protocol)])
         tests.append((f"closed loop under {protocol}: the paper's controller against the heuristic, pooled",
-                      mcnemar(a[va & vb], b[va & vb])))
+                      compare_pooled(closed[("paper", protocol)], closed[("heuristic", protocol)])))
     for controller in ("heuristic", "paper"):
         for protocol in PROTOCOL_NAMES[1:]:
-            (a, va), (b, vb) = pooled(closed[(controller, protocol)]), pooled(closed[(controller, "ours")])
             tests.append((f"closed loop, {controller}: {protocol} against ours, pooled (same poses)",
-                          mcnemar(a[va & vb], b[va & vb])))
-    adjusted = holm([t.p_value for _, t in tests])
+                          compare_pooled(closed[(controller, protocol)], closed[(controller, "ours")])))
     lines += ["", "Trials whose physics failed (a contact deeper than 5 mm, a MuJoCo warning) are left out of the "
               "rates and of every pair: " + "; ".join(
                   f"{c} / {p} {sum(int((~r.valid).sum()) for r in closed[(c, p)].values())}"
                   for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " of "
               f"{sum(len(r.trials) for r in closed[('heuristic', 'ours')].values())} poses."]
     lines += ["", "## Paired comparisons", "", "`+` / `-`: poses or grasps held only under the first / only under "
-              "the second. Holm over the whole table.", "", "| comparison | n | + | - | difference | p | p (Holm) |",
-              "|---|---|---|---|---|---|---|"]
-    for (label, t), p in zip(tests, adjusted):
-        lines.append(f"| {label} | {t.n} | {t.only_a} | {t.only_b} | {100 * t.difference:+.1f} pts | "
-                     f"{t.p_value:.3g} | {p:.3g} |")
+              "the second. Holm over the whole table.", "", *comparison_table(comparison_rows(tests))]
     return "\n".join(lines) + "\n"
 
 

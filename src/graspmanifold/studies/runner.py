@@ -71,7 +71,7 @@ class StudyRun:
         and written (a file of another key, or one that cannot be read, is replaced, with a warning naming it).
 
         Args:
-            name: its file name in the folder.
+            name: its file name in the folder (a path under it: 'evaluation/box.npz').
             key: what made it (`checkpoints.result_key`).
             compute: makes it.
             read: reads a file: the result and the file's metadata.
@@ -80,14 +80,15 @@ class StudyRun:
         Returns:
             The result.
         """
-        store = PartStore(self.out, key, read)
-        stored = store.load(name)
+        path = self.out / name
+        store = PartStore(path.parent, key, read)
+        stored = store.load(path.name)
         if stored:
             self.reused += 1
-            return stored[self.out / name]
+            return stored[path]
         start = time.perf_counter()
         result = compute()
-        store.save(name, lambda target, meta: write(result, target, meta))
+        store.save(path.name, lambda target, meta: write(result, target, meta))
         self.computed += 1
         self.seconds += time.perf_counter() - start
         return result

@@ -34,8 +34,9 @@ def check_experience_contract(experience: Experience, *, queries: int = 20, seed
 
     Its references are a finite (k, 22) array; `best_match` gives the row nearest to the query under the
     masked distance of Eq. 2 (NaN allowed where the mask is 0), with boolean or weighted masks; the
-    batch methods equal their one-query twins; `complete` is the matched reference in full; a query
-    leaves the experience's answers unchanged (no hidden state).
+    batch methods equal their one-query twins; `complete` is a finite posture (the matched reference in full for
+    a SOM or a database; a recall of one's own may blend references there, and the controller recalls it); a
+    query leaves the experience's answers unchanged (no hidden state).
 
     Args:
         experience: the implementation to check (fitted, for a SOM).
@@ -67,15 +68,16 @@ def check_experience_contract(experience: Experience, *, queries: int = 20, seed
         hidden = np.where(mask, x, np.nan)
         assert experience.best_match(hidden, mask) == experience.best_match(x, mask), \
             "best_match reads the query where the mask is 0 (NaN there must be allowed)"
-        np.testing.assert_array_equal(experience.complete(x, mask), references[experience.best_match(x, mask)],
-                                      err_msg="complete is not the matched reference in full")
+        recalled = np.asarray(experience.complete(x, mask))
+        assert recalled.shape == (experience.dim,) and np.all(np.isfinite(recalled)), \
+            f"complete must return a finite posture ({experience.dim},), got shape {recalled.shape}"
     np.testing.assert_array_equal(before, [experience.best_match(x, m) for x, m in zip(X, masks)],
                                   err_msg="best_match_batch differs from best_match")
     np.testing.assert_array_equal(experience.best_match_batch(X, masks[0]),
                                   [experience.best_match(x, masks[0]) for x in X],
                                   err_msg="best_match_batch with one shared mask differs from best_match")
-    np.testing.assert_array_equal(experience.complete_batch(X, masks), references[before],
-                                  err_msg="complete_batch is not the matched references")
+    np.testing.assert_allclose(experience.complete_batch(X, masks), [experience.complete(x, m) for x, m in zip(X, masks)],
+                               rtol=0, atol=1e-12, err_msg="complete_batch differs from complete")
     np.testing.assert_array_equal(experience.best_match_batch(X, masks), before,
                                   err_msg="the answers changed after queries: the experience keeps hidden state")
 
