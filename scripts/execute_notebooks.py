@@ -7,7 +7,7 @@ documentation from the getting-started notebook.
 Each notebook runs from a clean kernel in a scratch directory (what it writes, a GIF, stays there) and is
 stored executed, so its outputs and pictures show on a code host. The tutorial page is the stored
 getting-started notebook as Markdown: its text, its code, its printed output and its pictures (written
-beside the page as PNG files).
+beside the page as PNG and GIF files).
 """
 
 from __future__ import annotations
@@ -55,9 +55,10 @@ def tutorial(notebook_path: Path) -> tuple[str, dict[str, bytes]]:
         parts.append(f"```python\n{cell.source}\n```")
         for k, output in enumerate(cell.get("outputs", [])):
             data = output.get("data", {})
-            if "image/png" in data:
-                name = f"cell{number:02d}_{k}.png"
-                pictures[name] = base64.b64decode(data["image/png"])
+            kind = next((kind for kind in ("png", "gif") if f"image/{kind}" in data), None)
+            if kind:  # a plot, or an animation
+                name = f"cell{number:02d}_{k}.{kind}"
+                pictures[name] = base64.b64decode(data[f"image/{kind}"])
                 parts.append(f"![output of cell {number}]({PICTURES.name}/{name})")
             elif output.get("output_type") == "stream" or "text/plain" in data:
                 text = output.get("text", "") if output.get("output_type") == "stream" else data["text/plain"]
@@ -84,7 +85,7 @@ def main() -> None:
         print("the tutorial page is up to date")
         return
     PICTURES.mkdir(parents=True, exist_ok=True)
-    for old in PICTURES.glob("*.png"):
+    for old in [*PICTURES.glob("*.png"), *PICTURES.glob("*.gif")]:
         old.unlink()
     for name, data in pictures.items():
         (PICTURES / name).write_bytes(data)

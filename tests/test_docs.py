@@ -13,7 +13,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_the_site_builds_with_warnings_as_errors_and_opens_from_its_files(tmp_path):
     """From site/index.html every navigation link opened a directory listing under file://, a script came from a
-    network, the API reference was one page 101,000 pixels tall, and the studies were not in the site."""
+    network, the API reference was one page 101,000 pixels tall, the studies were not in the site, and the
+    tutorial printed its GIF's path and had nothing on meshes, experience, comparisons or one's own code."""
     import re
     from urllib.parse import urljoin, urlparse
 
@@ -25,6 +26,12 @@ def test_the_site_builds_with_warnings_as_errors_and_opens_from_its_files(tmp_pa
     assert "graspmanifold.manifold.som.SOM" in page and "masked" in page
     pages = sorted(site.rglob("*.html"))
     assert {"experience_study.html", "protocols.html", "structure.html", "tutorial.html"} <= {p.name for p in pages}
+    tutorial = (site / "tutorial.html").read_text()
+    shown = re.findall(r'<img[^>]+src="([^"]+\.gif)"', tutorial)  # the GIF shown, not its path printed
+    assert shown and all((site / link).is_file() for link in shown), shown
+    missing = [words for words in ("epsilon is 0.000", "make_object", "PostureDatabase", "McNemar", "Blend",
+                                   "CloseUntilTouch") if words not in tutorial]
+    assert not missing, f"the tutorial lacks {missing}"
     for html in (p for p in pages if p.name != "404.html"):  # a server's page, its links from the site's root
         text = html.read_text()
         assert not re.search(r"<script[^>]+src=\"(https?:)?//", text), f"{html.name} loads a script from a network"
