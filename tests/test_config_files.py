@@ -1,10 +1,14 @@
 """Experiment files: a reproduction's configuration read from TOML into the validated dataclasses, and back."""
 
+from pathlib import Path
+
 import pytest
 
 from graspmanifold.base.config_files import read_config, to_toml
 from graspmanifold.control.controller import BLEND
 from graspmanifold.paper.reproduce import PRESETS
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_an_experiment_file_changes_the_preset_it_names(tmp_path):
@@ -40,3 +44,24 @@ def test_a_bad_experiment_file_is_named_with_what_is_wrong(tmp_path, text, messa
     assert "bad.toml" in str(caught.value)
     with pytest.raises(ValueError, match="cannot be read"):
         read_config(tmp_path / "missing.toml", PRESETS["quick"])
+
+
+def test_the_study_reads_its_configuration_from_a_file_and_renders_the_published_report(tmp_path):
+    """The experience study was configured by flags alone; its report is rendered again from study.json, as
+    published, with the folder and the report named in a TOML file."""
+    import shutil
+
+    from graspmanifold.studies.experience import ExperienceStudyConfig, main
+
+    out, doc = tmp_path / "study", tmp_path / "report.md"
+    out.mkdir()
+    shutil.copy(ROOT / "docs" / "experience_study.json", out / "study.json")
+    config = tmp_path / "study.toml"
+    config.write_text(f'out = "{out}"\ndoc = "{doc}"\n')
+    main(["--config", str(config), "--render"])
+    assert doc.read_text() == (ROOT / "docs" / "experience_study.md").read_text()
+    config.write_text("postures = 12\nobjects = ['box']\n")
+    with pytest.raises(SystemExit, match="unknown key objects in the configuration; ExperienceStudyConfig has quick"):
+        main(["--config", str(config), "--render"])
+    with pytest.raises(ValueError, match="postures"):
+        ExperienceStudyConfig(postures=-3)
