@@ -28,6 +28,7 @@ import numpy as np
 from ..paper.reproduce import PRESETS, reproduce
 from ..sim.hand_models import hand_model, joint_agreement
 from ..trials.evaluation import EvaluationResult
+from ..base.io import markdown_table
 from ..trials.stats import holm, rate_text
 from ..trials.study import compare
 from ..sim.hand import HandModel, SHADOW_HAND
@@ -44,9 +45,14 @@ def label(hand: str) -> str:
 
 
 def finished_run(out: Path, hand: str, preset: str, workers: int) -> Path:
+    """The folder of a finished `reproduce` run of a preset on a hand: read when its run.json records this very
+    configuration and its summary is written, else run (or resumed: its stages are kept under their keys)."""
     run = out / f"{label(hand)}_{preset}"
-    if not (run / "summary.json").exists():
-        reproduce(run, replace(PRESETS[preset], hand=hand), workers=workers)
+    config = replace(PRESETS[preset], hand=hand)
+    recorded = run / "run.json"
+    if not ((run / "summary.json").exists() and recorded.exists()
+            and json.loads(recorded.read_text()).get("config") == json.loads(json.dumps(config.to_json()))):
+        reproduce(run, config, workers=workers, force=True)
     return run
 
 
@@ -176,11 +182,11 @@ def hand_facts(hand: HandModel) -> list[str]:
 
 def facts_rows(hands: list[HandModel]) -> list[str]:
     lines = ["", "What the models are made of (from their compiled MJCF; finger servos, finger joints, the colliding "
-             "geoms of the segments):", "",
-             "| hand | servo kp (N m/rad) | servo force limit (N m) | joint damping / armature / friction loss | "
-             "colliding geoms | condim | solref (time; damping ratio) | solimp (d0; dwidth; width) | segment mass (kg) "
-             "| joint agreement (min cosine) | finger joint ranges unlike ours |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    return lines + ["| " + " | ".join(hand_facts(hand)) + " |" for hand in hands]
+             "geoms of the segments):", ""]
+    return lines + markdown_table(
+        ["hand", "servo kp (N m/rad)", "servo force limit (N m)", "joint damping / armature / friction loss",
+         "colliding geoms", "condim", "solref (time; damping ratio)", "solimp (d0; dwidth; width)", "segment mass (kg)",
+         "joint agreement (min cosine)", "finger joint ranges unlike ours"], [hand_facts(hand) for hand in hands])
 
 
 def ablation_rows(hand: HandModel, grid: str = "quick") -> list[str]:
@@ -196,9 +202,7 @@ def ablation_rows(hand: HandModel, grid: str = "quick") -> list[str]:
              "(one servo on J1 + J2, a soft tendon between them), then also our finger joints' damping, armature and "
              f"friction loss; the plain controller on the {grid} grid, seed 0, "
              "the same poses (McNemar: each column against the one before; p, then Holm's over the table's "
-             f"{3 * (len(steps) - 1)} tests):", "",
-             "| object | its own physics | our servos | p | and contacts | p | and coupling | p | and joints | p | our hand |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"{3 * (len(steps) - 1)} tests):", ""]
     rates, tests = {}, []
     for obj in OBJECTS:
         poses = grid_preset(grid, obj)
@@ -206,13 +210,15 @@ def ablation_rows(hand: HandModel, grid: str = "quick") -> list[str]:
         rates[obj] = [held(run) for run in runs]
         tests += [compare(after, before).p_value for before, after in zip(runs[:-2], runs[1:-1])]
     adjusted = iter(zip(tests, holm(tests)))
+    rows = []
     for obj in OBJECTS:
-        cells = [rates[obj][0]]
+        cells = [obj, rates[obj][0]]
         for rate in rates[obj][1:-1]:
             raw, corrected = next(adjusted)
             cells += [rate, f"{raw:.2g} ({corrected:.2g})"]
-        lines.append(f"| {obj} | {' | '.join(cells)} | {rates[obj][-1]} |")
-    return lines
+        rows.append(cells + [rates[obj][-1]])
+    return lines + markdown_table(["object", "its own physics", "our servos", "p", "and contacts", "p", "and coupling",
+                                   "p", "and joints", "p", "our hand"], rows)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -256,9 +262,8 @@ def main(argv: list[str] | None = None) -> None:
              "(runs read from --out not counted); the project's 2-core machine.", "",
              "Candidates: the spring generator's postures (the paper's procedure) and their acceptance; trained on: "
              "every candidate (`paper`) or those that hold when replayed with the controller's squeeze (`verified`, "
-             "with the share). Hold rates over the valid trials with 95 % Wilson intervals.", "",
-             "| preset | hand | object | candidates (acceptance) | trained on | heuristic hold | database hold | "
-             "SOM hold | invalid trials |", "|---|---|---|---|---|---|---|---|---|"]
+             "with the share). Hold rates over the valid trials with 95 % Wilson intervals.", ""]
+    table = []
     for preset in args.presets:
         for hand in args.hands:
             summary = json.loads((runs[(hand, preset)] / "summary.json").read_text())
@@ -267,17 +272,15 @@ def main(argv: list[str] | None = None) -> None:
                 trained = (rate_text(facts["dataset_size"], facts["candidates"]) if preset == "verified"
                            else str(facts["dataset_size"]))
                 rows = [results[(hand, preset, obj, m)] for m in METHODS]
-                lines.append(f"| {preset} | {label(hand)} | {obj} | {facts['candidates']} "
-                             f"({facts['acceptance_ratio']:.1%}) | {trained} | "
-                             + " | ".join(held(r) for r in rows)
-                             + f" | {' / '.join(str(int((~r.valid).sum())) for r in rows)} |")
+                table.append([preset, label(hand), obj, f"{facts['candidates']} ({facts['acceptance_ratio']:.1%})",
+                              trained, *(held(r) for r in rows), " / ".join(str(int((~r.valid).sum())) for r in rows)])
+    lines += markdown_table(["preset", "hand", "object", "candidates (acceptance)", "trained on", "heuristic hold",
+                             "database hold", "SOM hold", "invalid trials"], table)
     lines += ["", "Paired comparisons (McNemar's exact test on the poses valid for both; Holm over all "
-              f"{len(comparisons)}):", "",
-              "| preset | comparison | object | n | only first holds | only second holds | p | Holm p |",
-              "|---|---|---|---|---|---|---|---|"]
-    for (preset, what, obj, c), p_holm in zip(comparisons, adjusted):
-        lines.append(f"| {preset} | {what} | {obj} | {c.n} | {c.only_a} | {c.only_b} | {c.p_value:.3g} | "
-                     f"{p_holm:.3g} |")
+              f"{len(comparisons)}):", ""]
+    lines += markdown_table(["preset", "comparison", "object", "n", "only first holds", "only second holds", "p",
+                             "Holm p"], [[preset, what, obj, c.n, c.only_a, c.only_b, f"{c.p_value:.3g}", f"{p_holm:.3g}"]
+                                         for (preset, what, obj, c), p_holm in zip(comparisons, adjusted)])
     if args.why:
         hands = [hand_model(hand) for hand in args.hands]
         lines += facts_rows(hands)

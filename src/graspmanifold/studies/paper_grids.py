@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.io import load_npz, save_npz, write_text_atomic
+from ..base.io import load_npz, markdown_table, save_npz, write_text_atomic
 from ..sim.hand import N_FINGER_JOINTS
 from ..control.controller import BLEND
 from ..control.generator import verify_postures
@@ -60,7 +60,6 @@ from ..trials.study import (
 )
 from ..control.generator import GeneratorParams, generate_postures
 from ..manifold.experience import PostureDatabase
-from ..manifold.postureset import PostureSet
 from ..sim.objects import get_object
 from ..trials.evaluation import evaluate
 from ..trials.trial import Noise, TrialSetup
@@ -132,6 +131,8 @@ def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
         measure(args.rounds, train_experience_map(grown), grown)
         for record, point in zip(records, curve):
             point.update(train_held=record["held"], train_trials=record["trials"])
+        first, last = (study.results[(obj, "quick", f"learning_round{r}")] for r in (0, args.rounds))
+        curve[-1]["p_vs_round0"] = compare(last, first).p_value  # kept with the curve: a resumed run reports it too
         return grown, curve
 
     def read(path: Path) -> tuple[tuple[np.ndarray, list[dict]], dict]:
@@ -207,7 +208,7 @@ def friction_study(study: Study, obj: str, som, info: dict) -> None:
 def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) -> str:
     present = [m for m in methods if (obj, grid, m) in study.results]
     poses = np.array([t.grid_pose for t in study.results[(obj, grid, present[0])].trials])
-    lines = [f"| axis | value | n | {' | '.join(present)} |", f"|---|---|---|{'---|' * len(present)}"]
+    table = []
     for column, axis in enumerate(GRID_COLUMNS):
         values = np.unique(poses[:, column])
         if len(values) < 2:
@@ -215,8 +216,8 @@ def axis_breakdown(study: Study, obj: str, grid: str, methods: tuple[str, ...]) 
         for value in values:
             rows = poses[:, column] == value
             rates = [study.results[(obj, grid, m)].rate(rows=rows) for m in present]
-            lines.append(f"| {axis} | {value:+.3f} | {rows.sum()} | {' | '.join(f'{r:.0%}' for r in rates)} |")
-    return "\n".join(lines)
+            table.append([axis, f"{value:+.3f}", rows.sum(), *(f"{r:.0%}" for r in rates)])
+    return "\n".join(markdown_table(["axis", "value", "n", *present], table))
 
 
 def why(study: Study, rows: list[dict], info: dict) -> list[str]:
@@ -253,10 +254,9 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
                                                           f"{hold(o, main, 'som_no_steering')} / "
                                                           f"{hold(o, main, 'som_trust_every_match')}" for o in OBJECTS),
                                          differs, len(ablated)))
-    rounds = [(o, study.results.get((o, "quick", "learning_round0")),
-               study.results.get((o, "quick", f"learning_round{study.args.rounds}"))) for o in OBJECTS]
-    curve = "; ".join(f"{o} {a.rate():.0%} -> {b.rate():.0%} (p = {compare(b, a).p_value:.2g})"
-                      for o, a, b in rounds if a is not None and b is not None)
+    curves = {o: info["objects"][o]["learning_curve"] for o in OBJECTS if o in info["objects"]}
+    curve = "; ".join(f"{o} {c[0]['quick_hold']:.0%} -> {c[-1]['quick_hold']:.0%} (p = {c[-1]['p_vs_round0']:.2g})"
+                      for o, c in curves.items() if len(c) > 1 and "p_vs_round0" in c[-1])
     if curve:
         lines.append(f"- Growing the experience from the controller's own held grasps, round 0 against the last "
                      f"round on the quick grid: {curve}.")
@@ -302,7 +302,8 @@ def report(study: Study, info: dict) -> str:
     lines += ["## Headroom", "", "Before any comparison: how much could choosing among the controls per pose gain "
               "(`graspmanifold.trials.stats.headroom`: the per-pose oracle over the plain heuristic, the fast heuristic and "
               "the best constant preshape, against the best of them)? Below 15 points a benchmark cannot show a "
-              "recall effect.", "", "| grid | object | n | oracle | best control | headroom |", "|---|---|---|---|---|---|"]
+              "recall effect.", ""]
+    room_rows = []
     able: list[str] = []
     unable: list[str] = []
     for grid in info["grids"]:
@@ -312,79 +313,75 @@ def report(study: Study, info: dict) -> str:
             if len(present) < 2:
                 continue
             room = headroom({c: r.outcomes() for c, r in present.items()}, {c: r.valid for c, r in present.items()})
-            lines.append(f"| {grid} | {obj} | {room.n} | {rate_text(room.oracle, room.n)} | {room.best} "
-                         f"{rate_text(room.best_successes, room.n)} | {rate_text(room.gain, room.n)} |")
+            room_rows.append([grid, obj, room.n, rate_text(room.oracle, room.n),
+                              f"{room.best} {rate_text(room.best_successes, room.n)}", rate_text(room.gain, room.n)])
             for c, r in present.items():
                 pooled.setdefault(c, []).append(r.outcomes() & r.valid)
         if pooled and len({len(v) for v in pooled.values()}) == 1:
             room = headroom({c: np.concatenate(v) for c, v in pooled.items()})
-            lines.append(f"| {grid} | pooled | {room.n} | {rate_text(room.oracle, room.n)} | {room.best} "
-                         f"{rate_text(room.best_successes, room.n)} | **{rate_text(room.gain, room.n)}** |")
+            room_rows.append([grid, "pooled", room.n, rate_text(room.oracle, room.n),
+                              f"{room.best} {rate_text(room.best_successes, room.n)}",
+                              f"**{rate_text(room.gain, room.n)}**"])
             (able if room.sufficient else unable).append(grid)
-    lines += [""]
+    lines += markdown_table(["grid", "object", "n", "oracle", "best control", "headroom"], room_rows) + [""]
     if unable:
         lines += [f"Pooled headroom below {MIN_HEADROOM:.0%} on the {', '.join(unable)} grid(s): "
                   "they cannot show a recall effect, whatever the method.", ""]
     lines += ["## Why", ""] + why(study, rows, info) + [""]
-    lines += ["## Experience", "", "| object | spring candidates | verified (hold) | verified by starting posture | "
-              "grown from own grasps | grid poses: nearest experienced palm position (median) | within 5 mm |",
-              "|---|---|---|---|---|---|---|"]
-    for obj, o in info["objects"].items():
-        by_start = ", ".join(f"{k} {v:.0%}" for k, v in o["verified_by_start"].items())
-        median = "n/a" if o["coverage_median_mm"] is None else f"{o['coverage_median_mm']:.0f} mm"
-        within = "n/a" if o["coverage_within_5mm"] is None else f"{o['coverage_within_5mm']:.0%}"
-        lines.append(f"| {obj} | {o['spring_candidates']} | {o['spring_verified']} | {by_start} | {o['grown']} | "
-                     f"{median} | {within} |")
+    lines += ["## Experience", ""]
+    lines += markdown_table(
+        ["object", "spring candidates", "verified (hold)", "verified by starting posture", "grown from own grasps",
+         "grid poses: nearest experienced palm position (median)", "within 5 mm"],
+        [[obj, o["spring_candidates"], o["spring_verified"],
+          ", ".join(f"{k} {v:.0%}" for k, v in o["verified_by_start"].items()), o["grown"],
+          "n/a" if o["coverage_median_mm"] is None else f"{o['coverage_median_mm']:.0f} mm",
+          "n/a" if o["coverage_within_5mm"] is None else f"{o['coverage_within_5mm']:.0%}"]
+         for obj, o in info["objects"].items()])
     lines += ["", "Learning curve (quick grid, hold; each round grasps at noisy training poses, keeps what held "
-              f"and retrains; training noise {TRAINING_NOISE.position * 100:.0f} cm, {TRAINING_NOISE.yaw} rad):", "",
-              "| object | round | experience postures | quick-grid hold | held at training poses |", "|---|---|---|---|---|"]
-    for obj, o in info["objects"].items():
-        for point in o["learning_curve"]:
-            train = f"{point['train_held']} of {point['train_trials']}" if "train_held" in point else "-"
-            lines.append(f"| {obj} | {point['round']} | {point['experience']} | {point['quick_hold_text']} | {train} |")
+              f"and retrains; training noise {TRAINING_NOISE.position * 100:.0f} cm, {TRAINING_NOISE.yaw} rad):", ""]
+    lines += markdown_table(
+        ["object", "round", "experience postures", "quick-grid hold", "held at training poses"],
+        [[obj, point["round"], point["experience"], point["quick_hold_text"],
+          f"{point['train_held']} of {point['train_trials']}" if "train_held" in point else "-"]
+         for obj, o in info["objects"].items() for point in o["learning_curve"]])
     lines += ["", "## Hold rate per object, grid and method", ""]
     for grid in info["grids"]:
         present = [m for m in (*main_methods, *ABLATIONS) if any((o, grid, m) in results for o in OBJECTS)]
-        lines += [f"### {grid}", "", f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
-        for obj in OBJECTS:
-            cells = []
-            for m in present:
-                r = results.get((obj, grid, m))
-                cells.append("-" if r is None else f"{rate_text(int(r.outcomes().sum()), r.summary['trials'])}")
-            lines.append(f"| {obj} | {' | '.join(cells)} |")
-        lines += ["", f"Force closure (ε > {JUDGING.epsilon_threshold}) / mean margin (N) / mean time to grasp (s):", "",
-                  f"| object | {' | '.join(present)} |", f"|---|{'---|' * len(present)}"]
-        for obj in OBJECTS:
-            cells = []
-            for m in present:
-                r = results.get((obj, grid, m))
-                s = r.summary if r is not None else None
-                cells.append("-" if s is None else
-                             f"{s['force_closure_rate']:.0%} / {s['mean_margin']:.1f} / {s['mean_time_to_grasp']:.2f}")
-            lines.append(f"| {obj} | {' | '.join(cells)} |")
+        def hold(r: EvaluationResult) -> str:
+            return rate_text(int(r.outcomes().sum()), r.summary["trials"])
+
+        def closure(r: EvaluationResult) -> str:
+            s = r.summary
+            return f"{s['force_closure_rate']:.0%} / {s['mean_margin']:.1f} / {s['mean_time_to_grasp']:.2f}"
+
+        lines += [f"### {grid}", ""]
+        lines += markdown_table(["object", *present], [[obj, *("-" if (obj, grid, m) not in results else
+                                                              hold(results[(obj, grid, m)]) for m in present)]
+                                                       for obj in OBJECTS])
+        lines += ["", f"Force closure (ε > {JUDGING.epsilon_threshold}) / mean margin (N) / mean time to grasp (s):", ""]
+        lines += markdown_table(["object", *present], [[obj, *("-" if (obj, grid, m) not in results else
+                                                              closure(results[(obj, grid, m)]) for m in present)]
+                                                       for obj in OBJECTS])
         lines.append("")
     lines += ["## Paired comparisons against the strongest control", "",
               "The strongest control is, per object and grid, the control with the highest hold rate there. "
-              "`only method` / `only control`: poses where just one of the two held.", "",
-              "| object | grid | method | hold | strongest control | its hold | only method | only control | p | p (Holm) | verdict |",
-              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['object']} | {r['grid']} | {r['method']} | {r['rate_text']} | {r['control']} | "
-                     f"{r['control_text']} | {r['only_method']} | {r['only_control']} | {r['p_value']:.3g} | "
-                     f"{r['p_holm']:.3g} | {r['verdict']} |")
+              "`only method` / `only control`: poses where just one of the two held.", ""]
+    lines += markdown_table(["object", "grid", "method", "hold", "strongest control", "its hold", "only method",
+                             "only control", "p", "p (Holm)", "verdict"],
+                            [[r["object"], r["grid"], r["method"], r["rate_text"], r["control"], r["control_text"],
+                              r["only_method"], r["only_control"], f"{r['p_value']:.3g}", f"{r['p_holm']:.3g}",
+                              r["verdict"]] for r in rows])
     hard = "hard" if "hard" in info["grids"] else info["grids"][0]
     lines += ["", f"## Where each method fails: hold rate by axis of the {hard} grid", ""]
     for obj in OBJECTS:
         lines += [f"### {obj}", "", axis_breakdown(study, obj, hard, main_methods), ""]
     friction = sorted({g for _, g, _ in results if g.startswith("quick_mu")})
     if friction:
-        lines += ["## Sensitivity to friction (quick grid; experience built at μ = 0.6)", "",
-                  "| object | μ | none | som |", "|---|---|---|---|"]
-        for obj in OBJECTS:
-            for g in friction:
-                cells = [rate_text(int(results[(obj, g, m)].outcomes().sum()), results[(obj, g, m)].summary["trials"])
-                         for m in ("none", "som")]
-                lines.append(f"| {obj} | {g.removeprefix('quick_mu')} | {' | '.join(cells)} |")
+        lines += ["## Sensitivity to friction (quick grid; experience built at μ = 0.6)", ""]
+        lines += markdown_table(["object", "μ", "none", "som"], [
+            [obj, g.removeprefix("quick_mu"), *(rate_text(int(results[(obj, g, m)].outcomes().sum()),
+                                                          results[(obj, g, m)].summary["trials"]) for m in ("none", "som"))]
+            for obj in OBJECTS for g in friction])
         lines.append("")
     info.update(verdict=verdict.text, target_met=verdict.met, comparisons=rows,
                 summaries=[r.summary for r in results.values()], seconds=time.perf_counter() - study.started)

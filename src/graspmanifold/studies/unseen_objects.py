@@ -18,20 +18,21 @@ Wilson interval and every method is compared with `none` by McNemar's test on th
 Without noise a trial is a deterministic function of its grid pose (the seed then changes nothing);
 `--position-noise`/`--yaw-noise` with another `--seed` move every pose by a fresh random offset, so
 `--objects ... --seed 1 --position-noise 0.005` replicates a comparison on new poses. Writes
-`OUT/unseen.md` (`OUT/unseen_seed<S>.md` for another seed) and prints it; posture sets are cached in OUT.
+`OUT/unseen.md` (`OUT/unseen_seed<S>.md` for another seed) and prints it; posture sets are kept in OUT under the keys of
+what made them.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
+from dataclasses import asdict
 
 import numpy as np
 
 from ..control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
-from ..base.io import write_text_atomic
-from ..base.checkpoints import remove_checkpoints
+from ..base.checkpoints import result_key
+from ..base.io import markdown_table, write_text_atomic
 from ..control.generator import DATASET_PRESETS
 from ..control.starts import nearest_primitive
 from ..sim.family import SHAPES
@@ -43,17 +44,16 @@ from ..manifold.postureset import PostureSet
 from ..sim.objects import GraspObject, get_object, make_object
 from ..trials.evaluation import evaluate
 from ..trials.trial import Noise
+from .runner import StudyRun
 
 
-def posture_set(out: Path, obj: GraspObject, n: int, workers: int) -> PostureSet:
-    path = out / f"{obj.name}.npz"
-    if not path.exists():
-        parts = out / f"{obj.name}.parts"
-        candidates = generate_postures(obj, n, seed=0, workers=workers, checkpoint_dir=parts,
-                                          params=GeneratorParams(verify=False))
-        verify_postures(candidates, obj, workers).save(path)  # those of the n candidates that hold
-        remove_checkpoints(parts)
-    return PostureSet.load(path)
+def posture_set(run: StudyRun, obj: GraspObject, n: int) -> PostureSet:
+    """Those of n spring candidates of an object that hold, kept in the run's folder under the key of what made
+    them."""
+    params = GeneratorParams(verify=False)
+    key = result_key({"object": obj.params(), "n": n, "seed": 0, "params": asdict(params)})
+    return run.postures(obj.name, key, lambda parts: verify_postures(generate_postures(
+        obj, n, seed=0, workers=run.workers, checkpoint_dir=parts, params=params), obj, run.workers))
 
 
 def targets(size: str) -> list[GraspObject]:
@@ -89,11 +89,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="unseen")
     args = parser.parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    run = StudyRun(args.out, args.workers)
     noise = Noise(position=args.position_noise, yaw=args.yaw_noise)
-    started = time.perf_counter()
-    paper = {name: posture_set(out, get_object(name), n, args.workers) for name, n in DATASET_PRESETS[args.preset].items()}
+    paper = {name: posture_set(run, get_object(name), n) for name, n in DATASET_PRESETS[args.preset].items()}
     everything = PostureSet.concatenate(list(paper.values()))
     maps = {name: train_experience_map(s.postures) for name, s in paper.items()}
     maps["all"] = train_experience_map(everything.postures)
@@ -102,9 +100,8 @@ def main(argv: list[str] | None = None) -> None:
              f"Experience: {', '.join(f'{k} {len(v)}' for k, v in paper.items())} verified postures; own experience "
              f"of a family object from {args.own_candidates or DATASET_PRESETS[args.preset]['cylinder']} candidates. "
              f"{args.grid} grid, seed {args.seed}, pose noise {args.position_noise} m / {args.yaw_noise} rad; hold "
-             "[95 % Wilson CI]; McNemar against `none` on the same poses (p).", "",
-             "| object | method | trials | hold | force closure | mean ε | time to grasp (s) | vs none (hold) |",
-             "|---|---|---|---|---|---|---|---|"]
+             "[95 % Wilson CI]; McNemar against `none` on the same poses (p).", ""]
+    rows = []
     rooms, tests = [], []  # per object: the headroom over its methods; every comparison against none
     chosen = targets(args.size)
     if args.objects:
@@ -117,7 +114,7 @@ def main(argv: list[str] | None = None) -> None:
                    "som_nearest": maps[nearest_primitive(obj)]}
         own = None
         if obj.shape == "mesh":
-            own = posture_set(out, obj, args.own_candidates or DATASET_PRESETS[args.preset]["cylinder"], args.workers)
+            own = posture_set(run, obj, args.own_candidates or DATASET_PRESETS[args.preset]["cylinder"])
             if len(own):
                 methods["som_own"] = train_experience_map(own.postures)
         preshape = {}
@@ -131,24 +128,25 @@ def main(argv: list[str] | None = None) -> None:
             s, n = result.summary, result.summary["trials"]
             c = compare(result, results["none"])
             versus = "" if method == "none" else f"{c.verdict()} (+{c.only_a}/−{c.only_b}, p {c.p_value:.2f})"
-            lines.append(f"| {obj.name} | {method} | {n} | {rate_text(round(s['hold_rate'] * n), n)} | "
-                         f"{rate_text(round(s['force_closure_rate'] * n), n)} | {s['mean_epsilon']:.4f} | "
-                         f"{s['mean_time_to_grasp']:.2f} | {versus} |")
+            rows.append([obj.name, method, n, rate_text(round(s["hold_rate"] * n), n),
+                         rate_text(round(s["force_closure_rate"] * n), n), f"{s['mean_epsilon']:.4f}",
+                         f"{s['mean_time_to_grasp']:.2f}", versus])
             if method != "none":
                 tests.append((obj.name, method, c.p_value))
         room = headroom({m: r.outcomes() for m, r in results.items()}, {m: r.valid for m, r in results.items()})
         rooms.append((obj.name, room))
-        print("\n".join(lines[-len(results):]), flush=True)
+        run.log(f"{obj.name}: " + ", ".join(f"{m} {r.summary['hold_rate']:.0%}" for m, r in results.items()))
+    lines += markdown_table(["object", "method", "trials", "hold", "force closure", "mean ε", "time to grasp (s)",
+                             "vs none (hold)"], rows)
     lines += ["", "Headroom per object (`stats.headroom`: the per-pose oracle over the methods above against the best "
-              "of them; under 15 points no choice among them can show much):", "",
-              "| object | headroom |", "|---|---|"]
-    lines += [f"| {name} | {room.text()} |" for name, room in rooms]
+              "of them; under 15 points no choice among them can show much):", ""]
+    lines += markdown_table(["object", "headroom"], [[name, room.text()] for name, room in rooms])
     adjusted = holm([p for _, _, p in tests]) if tests else []
     significant = [f"{o}/{m} (adjusted p {p:.2g})" for (o, m, _), p in zip(tests, adjusted) if p < 0.05]
     lines += ["", f"Holm's correction over the {len(tests)} comparisons against `none`: "
               f"{', '.join(significant) if significant else 'none'} significant at 0.05.",
-              "", f"{time.perf_counter() - started:.0f} s on this machine with {args.workers} workers."]
-    report = out / ("unseen.md" if args.seed == 0 else f"unseen_seed{args.seed}.md")
+              "", f"{time.perf_counter() - run.started:.0f} s on this machine with {args.workers} workers."]
+    report = run.out / ("unseen.md" if args.seed == 0 else f"unseen_seed{args.seed}.md")
     write_text_atomic(report, "\n".join(lines) + "\n")
     print(f"wrote {report}")
 
