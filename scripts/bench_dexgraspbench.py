@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 import graspmanifold as gm
+from graspmanifold.base.io import markdown_row, markdown_table
 from graspmanifold.control.dexgraspbench import PROTOCOLS, OpenLoopGrasp, external_force_test, open_loop_grasps
 
 
@@ -32,8 +33,7 @@ def main() -> None:
     away = [OpenLoopGrasp(g.poses + [0.0, 0.0, 0.15, 0, 0, 0, 0], np.tile(gm.open_posture(), (3, 1))) for g in verified]
     print(f"mujoco {mujoco.__version__}, python {platform.python_version()}, {platform.processor() or platform.machine()}"
           f"; {args.object}, {args.grasps} grasps per row, one core")
-    print("| protocol | grasps | succeeded | physics steps per grasp | grasps / s / core |")
-    print("|---|---|---|---|---|")
+    print("\n".join(markdown_table(["protocol", "grasps", "succeeded", "physics steps per grasp", "grasps / s / core"], [])))
     for name, protocol in PROTOCOLS.items():
         for label, grasps in (("our verified grasps", verified), ("grasps failing at once", away)):
             scene = gm.Scene(args.object, free_object=True)
@@ -42,7 +42,7 @@ def main() -> None:
             seconds = time.perf_counter() - start
             held = sum(r.success for r in results)
             steps = np.mean([r.steps for r in results])
-            print(f"| {name} | {label} | {held} / {len(results)} | {steps:.0f} | {len(results) / seconds:.1f} |")
+            print(markdown_row([name, label, f"{held} / {len(results)}", f"{steps:.0f}", f"{len(results) / seconds:.1f}"]))
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 from graspmanifold.base.errors import GenerationError
+from graspmanifold.base.io import markdown_row, markdown_table
 from graspmanifold.control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
 
 
@@ -34,8 +35,7 @@ def main() -> None:
     if args.defaults:
         return bench_defaults(args.objects, args.n, args.workers, args.seed)
     print(f"{os.cpu_count()} cores, {args.workers} workers, preset {args.preset}\n")
-    print("| object | postures | wall (s) | postures / s / worker | acceptance | starts | within-start (°) | between starts (°) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["object", "postures", "wall (s)", "postures / s / worker", "acceptance", "starts", "within-start (°)", "between starts (°)"], [])))
     total_n, total_t = 0, 0.0
     for name, n in DATASET_PRESETS[args.preset].items():
         start = time.perf_counter()
@@ -45,31 +45,30 @@ def main() -> None:
         seconds = time.perf_counter() - start
         total_n, total_t = total_n + n, total_t + seconds
         sep = postures.cluster_separation()
-        print(f"| {name} | {n} | {seconds:.1f} | {n / seconds / args.workers:.1f} | "
-              f"{postures.metadata['acceptance_ratio']:.2f} | {sep['starts']} | {sep['within_deg']:.1f} | "
-              f"{sep['between_deg']:.1f} |", flush=True)
+        print(markdown_row([name, n, f"{seconds:.1f}", f"{n / seconds / args.workers:.1f}",
+                            f"{postures.metadata['acceptance_ratio']:.2f}", sep["starts"], f"{sep['within_deg']:.1f}",
+                            f"{sep['between_deg']:.1f}"]), flush=True)
         if args.out:
             postures.save(Path(args.out) / f"{name}.npz")
-    print(f"| all | {total_n} | {total_t:.1f} | {total_n / total_t / args.workers:.1f} | | | | |")
+    print(markdown_row(["all", total_n, f"{total_t:.1f}", f"{total_n / total_t / args.workers:.1f}", "", "", "", ""]))
 
 
 def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
     """Verified postures per second of `generate_postures(obj, n)` with its defaults, per object."""
     print(f"{os.cpu_count()} cores, {workers} workers, generate_postures(obj, {n}) with its defaults\n")
-    print("| object | postures | wall (s) | verified postures / s | candidates | verified share |")
-    print("|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["object", "postures", "wall (s)", "verified postures / s", "candidates", "verified share"], [])))
     for name in names:
         start = time.perf_counter()
         try:
             postures = generate_postures(name, n, seed=seed, workers=workers, progress=False)
         except GenerationError as error:
             seconds = time.perf_counter() - start
-            print(f"| {name} | {n} | {seconds:.1f} | – | GenerationError: {error} | |", flush=True)
+            print(markdown_row([name, n, f"{seconds:.1f}", "–", f"GenerationError: {error}", ""]), flush=True)
             continue
         seconds = time.perf_counter() - start
         meta = postures.metadata
-        print(f"| {name} | {n} | {seconds:.1f} | {n / seconds:.2f} | {meta['candidates']} | "
-              f"{meta['verified_ratio']:.0%} |", flush=True)
+        print(markdown_row([name, n, f"{seconds:.1f}", f"{n / seconds:.2f}", meta["candidates"],
+                            f"{meta['verified_ratio']:.0%}"]), flush=True)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ import trimesh
 
 import graspmanifold as gm
 from graspmanifold.control.controller import BLEND  # the controller BENCHMARKS.md's mesh rows ran
+from graspmanifold.base.io import markdown_row, markdown_table
 from graspmanifold.trials.stats import mcnemar, rate_text
 
 
@@ -45,24 +46,23 @@ def main() -> None:
                                           params=gm.GeneratorParams(verify=False))
         sets[label] = gm.verify_postures(candidates, obj, args.workers)  # the n candidates that hold
         seconds[label] = time.perf_counter() - start
-    print("| cylinder | wall (s) | ms / candidate | acceptance | verified [95 % CI] | within-start (°) | "
-          "between starts (°) |\n|---|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["cylinder", "wall (s)", "ms / candidate", "acceptance", "verified [95 % CI]", "within-start (°)", "between starts (°)"], [])))
     for label, postures in sets.items():
         sep, meta = postures.cluster_separation(), postures.metadata
-        print(f"| {label} | {seconds[label]:.1f} | {1000 * seconds[label] / args.n:.1f} | "
-              f"{meta['acceptance_ratio']:.3f} | {rate_text(len(postures), args.n)} | {sep['within_deg']:.2f} | "
-              f"{sep['between_deg']:.2f} |")
+        print(markdown_row([label, f"{seconds[label]:.1f}", f"{1000 * seconds[label] / args.n:.1f}",
+                            f"{meta['acceptance_ratio']:.3f}", rate_text(len(postures), args.n),
+                            f"{sep['within_deg']:.2f}", f"{sep['between_deg']:.2f}"]))
     print(f"\nmesh / primitive generation time: {seconds['mesh'] / seconds['primitive']:.2f}x\n")
 
-    print("| method | primitive | mesh | only primitive | only mesh | McNemar p |\n|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["method", "primitive", "mesh", "only primitive", "only mesh", "McNemar p"], [])))
     for method in ("none", "database"):
         results = {label: gm.evaluate(obj, None if method == "none" else sets[label], args.grid, seed=args.seed,
                                       workers=args.workers, params=BLEND) for label, obj in objects.items()}
         held = {label: r.outcomes("hold") for label, r in results.items()}
         test = mcnemar(held["primitive"], held["mesh"])
-        print(f"| {method} (hold) | {rate_text(held['primitive'].sum(), len(held['primitive']))} | "
-              f"{rate_text(held['mesh'].sum(), len(held['mesh']))} | {test.only_a} | {test.only_b} | "
-              f"{test.p_value:.3f} |", flush=True)
+        print(markdown_row([f"{method} (hold)", rate_text(held["primitive"].sum(), len(held["primitive"])),
+                            rate_text(held["mesh"].sum(), len(held["mesh"])), test.only_a, test.only_b,
+                            f"{test.p_value:.3f}"]), flush=True)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from graspmanifold.base.io import markdown_table
 from graspmanifold.paper.reproduce import PRESETS, reproduce
 
 
@@ -52,13 +53,12 @@ def main() -> None:
         summary = reproduce(out, args.preset, args.workers, log=lambda line: None)
         wall = time.perf_counter() - start
         print(f"{os.cpu_count()} cores, {args.workers} workers, preset {args.preset}: {wall:.1f} s wall\n")
-        print("| stage | wall (s) | throughput |\n|---|---|---|")
-        for name, seconds, rate in stage_rows(out, summary):
-            print(f"| {name} | {seconds:.1f} | {rate} |")
-        print("\n| object | method | trials | hold | force closure |\n|---|---|---|---|---|")
-        for r in summary["evaluation"]:
-            print(f"| {r['object']} | {r['method']} | {r['trials']} | {r['hold_rate']:.0%} | "
-                  f"{r['force_closure_rate']:.0%} |")
+        print("\n".join(markdown_table(["stage", "wall (s)", "throughput"], [
+            [name, f"{seconds:.1f}", rate] for name, seconds, rate in stage_rows(out, summary)])))
+        print()
+        print("\n".join(markdown_table(["object", "method", "trials", "hold", "force closure"], [
+            [r["object"], r["method"], r["trials"], f"{r['hold_rate']:.0%}", f"{r['force_closure_rate']:.0%}"]
+            for r in summary["evaluation"]])))
 
 
 if __name__ == "__main__":

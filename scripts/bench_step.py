@@ -14,6 +14,7 @@ import time
 import mujoco
 
 import graspmanifold as gm
+from graspmanifold.base.io import markdown_row, markdown_table
 
 
 def time_steps(scene: gm.Scene, seconds: float) -> float:
@@ -30,8 +31,7 @@ def main() -> None:
     args = parser.parse_args()
     print(f"mujoco {mujoco.__version__}, python {platform.python_version()}, {platform.processor() or platform.machine()}")
     print(f"timestep {gm.load_hand().opt.timestep * 1e3:.1f} ms")
-    print("| case | contacts | µs / step | × real time |")
-    print("|---|---|---|---|")
+    print("\n".join(markdown_table(["case", "contacts", "µs / step", "× real time"], [])))
     for name in ("cylinder", "box", "sphere"):
         free = gm.Scene(name)
         free.set_hand_pose([0.5, 0, 0], [1, 0, 0, 0])
@@ -45,7 +45,7 @@ def main() -> None:
             per_step = time_steps(scene, args.seconds)
             contacts = len(scene.tactile().forces)
             dt = scene.model.opt.timestep
-            print(f"| {label} | {contacts} | {per_step * 1e6:.1f} | {dt / per_step:.0f} |")
+            print(markdown_row([label, contacts, f"{per_step * 1e6:.1f}", f"{dt / per_step:.0f}"]))
 
 
 if __name__ == "__main__":

@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from graspmanifold.base.io import markdown_row, markdown_table
+from graspmanifold.studies.runner import comparison_rows, comparison_table
 from graspmanifold.trials.stats import headroom, holm, mcnemar, rate_text, wilson_interval
 from graspmanifold.trials.study import judge_target
 
@@ -31,6 +33,9 @@ def test_mcnemar_exact_test_on_a_hand_made_table():
     # 6 against 1 is not significant (p = 16 / 128 = 0.125)
     six = np.array([True] * 6 + [False]), np.array([False] * 6 + [True])
     assert mcnemar(*six).p_value == pytest.approx(0.125) and mcnemar(*six).verdict() == "no difference"
+    # poses where either trial's physics failed are left out of the pairs
+    valid = np.array([True] * 5 + [False] * 4 + [True] * 9)
+    assert mcnemar(a, b, valid=valid) == mcnemar(a[valid], b[valid]) and mcnemar(a, b, valid=valid).n == 14
 
 
 @pytest.mark.parametrize("call, message", [
@@ -39,6 +44,8 @@ def test_mcnemar_exact_test_on_a_hand_made_table():
     (lambda: wilson_interval(1, 3, confidence=1.5), "confidence"),
     (lambda: mcnemar([True, False], [True]), "one length"),
     (lambda: mcnemar([1, 0], [0, 1]), "boolean"),
+    (lambda: mcnemar(np.ones(2, bool), np.ones(2, bool), valid=[1, 0]), "valid must be a boolean array"),
+    (lambda: markdown_table(["a", "b"], [[1, 2, 3]]), "rows must have 2 cells"),
 ])
 def test_bad_statistics_input_raises(call, message):
     with pytest.raises(ValueError, match=message):
@@ -132,3 +139,17 @@ def test_stratified_splits_are_random_disjoint_and_keep_each_strata_share():
     assert not set(selection) >= set(range(0, 70, 2))  # not a lattice of every other pose
     with pytest.raises(ValueError, match=r"selection must be a share in \(0, 1\)"):
         stratified_split(strata, 1.0, seed=0)
+
+
+def test_one_table_writer_and_one_family_of_paired_comparisons():
+    assert markdown_table(["method", "hold"], [["som", "80 %"], ["none", 0.5]]) == [
+        "| method | hold |", "|---|---|", "| som | 80 % |", "| none | 0.5 |"]
+    assert markdown_row(["a", 1]) == "| a | 1 |"
+    a = np.array([True] * 9 + [False] + [True] * 5 + [False] * 3)
+    b = np.array([False] * 9 + [True] + [True] * 5 + [False] * 3)
+    rows = comparison_rows([("a vs b", mcnemar(a, b)), ("b vs a", mcnemar(b, a)), ("a vs a", mcnemar(a, a))], "demo")
+    assert [r["p_holm"] for r in rows] == pytest.approx(list(holm([22 / 1024, 22 / 1024, 1.0])))
+    assert rows[0]["family"] == "demo" and (rows[0]["only_a"], rows[0]["only_b"], rows[0]["n"]) == (9, 1, 18)
+    table = comparison_table(rows, family=True)
+    assert table[0] == "| family | comparison | n | + | - | difference | p | p (Holm) |"
+    assert table[2] == f"| demo | a vs b | 18 | 9 | 1 | +44.4 pts | 0.0215 | {rows[0]['p_holm']:.3g} |"

@@ -132,3 +132,16 @@ def test_no_module_imports_a_private_name_of_another():
 def test_no_module_imports_a_private_module_of_a_dependency():
     _, reaching = _private_imports()
     assert not reaching, f"private modules of dependencies imported: {reaching}"
+
+
+def test_the_studies_are_library_code_and_write_tables_one_way():
+    """scripts/ held 2.4k lines of experiment machinery (study classes, caches without keys, hand-written markdown
+    tables in twelve scripts, the paired comparison spelled five times); now each script is a thin command over
+    `graspmanifold.studies`, and `base.io.markdown_table` is the one writer of a table's rule."""
+    scripts = sorted((ROOT / "scripts").glob("*.py"))
+    assert sum(len(p.read_text().splitlines()) for p in scripts) < 1000
+    writers = [p for p in [*PACKAGE.rglob("*.py"), *scripts] if "---|" in p.read_text()]
+    assert writers == [PACKAGE / "base" / "io.py"], writers
+    by_hand = [p.name for p in [*PACKAGE.rglob("*.py"), *scripts] if "[va & vb]" in p.read_text()
+               or "oa[both]" in p.read_text()]
+    assert by_hand == [], f"paired comparisons spelled by hand (use stats.mcnemar(..., valid=)): {by_hand}"

@@ -357,14 +357,24 @@ def markdown_table(header: Sequence[object], rows: Iterable[Sequence[object]]) -
     Returns:
         The table's lines: the header, its rule, a line per row.
     """
-    header = [str(cell) for cell in header]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines = [markdown_row(header), "|" + "---|" * len(header)]
     for row in rows:
-        cells = [str(cell) for cell in row]
-        if len(cells) != len(header):
-            raise InvalidInput(f"rows must have {len(header)} cells like the header, got {len(cells)}: {cells}")
-        lines.append("| " + " | ".join(cells) + " |")
+        if len(row) != len(header):
+            raise InvalidInput(f"rows must have {len(header)} cells like the header, got {len(row)}: {list(row)}")
+        lines.append(markdown_row(row))
     return lines
+
+
+def markdown_row(cells: Sequence[object]) -> str:
+    """One row of a markdown table (`markdown_table`), for a table printed row by row as it is measured.
+
+    Args:
+        cells: the row's cells (any values, written with `str`).
+
+    Returns:
+        The row's line.
+    """
+    return "| " + " | ".join(str(cell) for cell in cells) + " |"
 
 
 def write_csv(path: str | os.PathLike, rows: list[dict]) -> Path:

@@ -25,6 +25,7 @@ import numba
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from ..base.io import markdown_row, markdown_table
 from ..base.workers import usable_cores
 from ..manifold import kernels
 from ..manifold.som import decay_schedule
@@ -130,10 +131,8 @@ def main(argv: list[str] | None = None) -> None:
     rows.append((f"graspmanifold online, NumPy reference ({reference_epochs} epochs timed, scaled)",
                  (time.perf_counter() - start) * args.epochs / reference_epochs, float("nan")))
 
-    print("| trainer | time (s) | µs / update | quantisation error |")
-    print("|---|---|---|---|")
-    for name, seconds, qe in rows:
-        print(f"| {name} | {seconds:.2f} | {seconds / updates * 1e6:.2f} | {qe:.4f} |")
+    print("\n".join(markdown_table(["trainer", "time (s)", "µs / update", "quantisation error"], [
+        [name, f"{seconds:.2f}", f"{seconds / updates * 1e6:.2f}", f"{qe:.4f}"] for name, seconds, qe in rows])))
     if not args.skip_minisom:
         print(f"\nonline speed-up over MiniSom: {t_peer / rows[0][1]:.1f}x")
 
@@ -148,8 +147,7 @@ def main(argv: list[str] | None = None) -> None:
     queries, masks = pcp_queries(data, 100_000)
     singles = 20_000
     print(f"\nmasked best match on the trained map ({masks.sum(axis=1).mean():.1f} of {DIM} joints masked on average)")
-    print("| engine | single query (µs) | batched (queries / s) |")
-    print("|---|---|---|")
+    print("\n".join(markdown_table(["engine", "single query (µs)", "batched (queries / s)"], [])))
     for name, compiled in (("compiled", True), ("NumPy reference", False)):
         def single() -> None:
             for q, m in zip(queries[:singles], masks[:singles]):
@@ -157,7 +155,7 @@ def main(argv: list[str] | None = None) -> None:
 
         one = median_seconds(with_engine(compiled, single), args.repeats) / singles
         many = median_seconds(with_engine(compiled, lambda: ours.best_match_batch(queries, masks)), args.repeats)
-        print(f"| {name} | {one * 1e6:.2f} | {len(queries) / many:,.0f} |")
+        print(markdown_row([name, f"{one * 1e6:.2f}", f"{len(queries) / many:,.0f}"]))
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from collections import Counter
 import mujoco
 import numpy as np
 
-from ..base.io import write_text_atomic
+from ..base.io import markdown_table, write_text_atomic
 from ..control.controller import squeezed
 from ..control.generator import GeneratorParams
 from ..control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
@@ -69,7 +69,7 @@ def replay(scene: Scene, posture: np.ndarray, pose: np.ndarray, params: Generato
     return record
 
 
-def study(name: str, n: int, workers: int, by_start: bool = False) -> list[str]:
+def study(name: str, n: int, workers: int, by_start: bool = False) -> list[list]:
     obj = get_object(name)
     params = GeneratorParams(verify=False)
     candidates = generate_postures(obj, n, seed=0, workers=workers, params=params)
@@ -81,7 +81,7 @@ def study(name: str, n: int, workers: int, by_start: bool = False) -> list[str]:
             for i in np.unique(candidates.start_ids)]
 
 
-def row(name: str, records: list[dict]) -> str:
+def row(name: str, records: list[dict]) -> list:
     """One table row: what the verifier saw of these candidates."""
     n = len(records)
     held = [r for r in records if not r["dropped_along"]]
@@ -91,10 +91,9 @@ def row(name: str, records: list[dict]) -> str:
     first_drops = ", ".join(f"{d} {drops[d]}" for d in DIRECTION_NAMES if drops[d])
     median = lambda key: float(np.nanmedian([r[key] for r in records]))  # noqa: E731
     thumb = sum(r["thumb"] for r in records)
-    return (f"| {name} | {rate_text(len(held), n)} | {rate_text(closure, n)} | {rate_text(five, n)} | "
-            f"{rate_text(thumb, n)} | {median('segments'):.0f} | "
-            f"{median('squeeze_force'):.1f} | {median('contact_height'):+.2f} | {median('axial_normal'):.2f} | "
-            f"{first_drops or '–'} |")
+    return [name, rate_text(len(held), n), rate_text(closure, n), rate_text(five, n), rate_text(thumb, n),
+            f"{median('segments'):.0f}", f"{median('squeeze_force'):.1f}", f"{median('contact_height'):+.2f}",
+            f"{median('axial_normal'):.2f}", first_drops or "–"]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -114,10 +113,9 @@ def main(argv: list[str] | None = None) -> None:
          "candidates; contact height: force-weighted mean z of the contacts over the half length (+1 top, −1 "
          "bottom); axial normal: force-weighted mean |n_z| of the contact normals (0: all normals across the long "
          "axis, 1: all along it).", "",
-         f"| {'starting posture' if args.by_start else 'object'} | held [95 % CI] | force closure | five fingertips "
-         "still touch | the thumb still touches | touching segments | squeeze force (N) | contact height | axial "
-         "normal | first drop along (count) |",
-         "|---|---|---|---|---|---|---|---|---|---|", *rows])
+         *markdown_table(["starting posture" if args.by_start else "object", "held [95 % CI]", "force closure",
+                          "five fingertips still touch", "the thumb still touches", "touching segments",
+                          "squeeze force (N)", "contact height", "axial normal", "first drop along (count)"], rows)])
     write_text_atomic(args.out, table + "\n")
     print(table)
 

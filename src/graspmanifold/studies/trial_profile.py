@@ -29,6 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..base.io import markdown_table
 from ..control import generator, judge
 from ..control.controller import BatchController
 from ..sim.objects import PAPER_SHAPES
@@ -61,9 +62,7 @@ def timed(owner: object, name: str, label: str) -> None:
 
 
 def table(rows: list[tuple], header: tuple) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(x) for x in row) + " |" for row in rows]
-    return "\n".join(lines)
+    return "\n".join(markdown_table(header, rows))
 
 
 def profile_trials(grid: str, every: int, margin: bool) -> None:

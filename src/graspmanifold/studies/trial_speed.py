@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 
+from ..base.io import markdown_row, markdown_table
 from ..base.workers import parallel_map, usable_cores
 from ..trials.grid import check_grid
 from ..trials.stats import mcnemar, rate_text
@@ -51,8 +52,7 @@ def one_by_one(obj: str, grid: str, workers: int) -> list:
 
 
 def bench_cpu(args: argparse.Namespace) -> None:
-    print("| grid | workers | trials | one by one (s) | trials / min | batched (s) | trials / min | speed-up | same |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["grid", "workers", "trials", "one by one (s)", "trials / min", "batched (s)", "trials / min", "speed-up", "same"], [])))
     for grid in args.grids:
         for workers in args.workers:
             counts, old, new, same = 0, 0.0, 0.0, True
@@ -66,13 +66,12 @@ def bench_cpu(args: argparse.Namespace) -> None:
                 counts += len(batched)
                 same &= all(np.array_equal(getattr(a, f), getattr(b, f)) for a, b in zip(reference, batched)
                             for f in FIELDS)
-            print(f"| {grid} | {workers} | {counts} | {old:.1f} | {60 * counts / old:.0f} | {new:.1f} | "
-                  f"{60 * counts / new:.0f} | {old / new:.2f}x | {'yes' if same else 'NO'} |", flush=True)
+            print(markdown_row([grid, workers, counts, f"{old:.1f}", f"{60 * counts / old:.0f}", f"{new:.1f}",
+                                f"{60 * counts / new:.0f}", f"{old / new:.2f}x", "yes" if same else "NO"]), flush=True)
 
 
 def bench_agree(args: argparse.Namespace) -> None:
-    print("| object | trials | force closure cpu | warp | same fc | hold cpu | warp | same hold | McNemar p (fc) "
-          "| warp wall (s) |\n|---|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["object", "trials", "force closure cpu", "warp", "same fc", "hold cpu", "warp", "same hold", "McNemar p (fc)", "warp wall (s)"], [])))
     total, same_fc = 0, 0
     for obj in args.objects:
         experience = None if args.som is None else SOM.load(args.som.format(object=obj))
@@ -85,10 +84,10 @@ def bench_agree(args: argparse.Namespace) -> None:
         a, b = cpu.outcomes("force_closure")[valid], warp.outcomes("force_closure")[valid]
         ha, hb = cpu.outcomes("hold")[valid], warp.outcomes("hold")[valid]
         total, same_fc = total + n, same_fc + int((a == b).sum())
-        print(f"| {obj} | {n} | {rate_text(int(a.sum()), n)} | {rate_text(int(b.sum()), n)} | "
-              f"{rate_text(int((a == b).sum()), n)} | {rate_text(int(ha.sum()), n)} | {rate_text(int(hb.sum()), n)} | "
-              f"{rate_text(int((ha == hb).sum()), n)} | {mcnemar(a, b).p_value:.2f} | "
-              f"{wall:.0f} |", flush=True)
+        print(markdown_row([obj, n, rate_text(int(a.sum()), n), rate_text(int(b.sum()), n),
+                            rate_text(int((a == b).sum()), n), rate_text(int(ha.sum()), n), rate_text(int(hb.sum()), n),
+                            rate_text(int((ha == hb).sum()), n), f"{mcnemar(a, b).p_value:.2f}", f"{wall:.0f}"]),
+              flush=True)
     print(f"\nforce closure agrees trial by trial on {rate_text(same_fc, total)} of the valid trials")
 
 
@@ -112,7 +111,7 @@ def bench_gpu(args: argparse.Namespace) -> None:
     start = time.perf_counter()
     evaluate(obj, None, paper[:8], seed=0, noise=noise, backend="warp")
     print(f"first call (8 worlds, kernel compilation included): {time.perf_counter() - start:.0f} s")
-    print("| worlds | wall (s) | trials / min | physics share | hold | force closure |\n|---|---|---|---|---|---|")
+    print("\n".join(markdown_table(["worlds", "wall (s)", "trials / min", "physics share", "hold", "force closure"], [])))
     for worlds in args.worlds:
         poses = np.resize(paper, (worlds, 4))
         physics["s"] = 0.0
@@ -120,8 +119,8 @@ def bench_gpu(args: argparse.Namespace) -> None:
         result = evaluate(obj, None, poses, seed=1, noise=noise, backend="warp", batch_size=worlds)
         wall = time.perf_counter() - start
         s = result.summary
-        print(f"| {worlds} | {wall:.1f} | {60 * worlds / wall:.0f} | {physics['s'] / wall:.0%} | "
-              f"{s['hold_rate']:.0%} | {s['force_closure_rate']:.0%} |", flush=True)
+        print(markdown_row([worlds, f"{wall:.1f}", f"{60 * worlds / wall:.0f}", f"{physics['s'] / wall:.0%}",
+                            f"{s['hold_rate']:.0%}", f"{s['force_closure_rate']:.0%}"]), flush=True)
     print(f"\nagreement with the CPU on the {args.agree_grid} grid:\n")
     bench_agree(argparse.Namespace(objects=list(PAPER_OBJECTS), grid=args.agree_grid, som=None,
                                    cpu_workers=usable_cores()))

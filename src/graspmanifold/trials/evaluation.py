@@ -23,7 +23,7 @@ import numpy as np
 
 from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
-from ..base.io import Tabular, library_version, load_npz, save_npz
+from ..base.io import Tabular, library_version, load_npz, markdown_table, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
@@ -207,11 +207,12 @@ class EvaluationResult(Tabular):
         """
         s = self.summary
         n = s["trials"]
-        return ("| object | method | trials | hold [95 % CI] | force closure [95 % CI] | mean margin (N) | mean ε "
-                "| mean time to grasp (s) |\n|---|---|---|---|---|---|---|---|\n"
-                f"| {s['object']} | {s['method']} | {trial_count(s)} | {rate_text(round(s['hold_rate'] * n), n)} | "
-                f"{rate_text(round(s['force_closure_rate'] * n), n)} | {_number(s['mean_margin'], 2)} | "
-                f"{s['mean_epsilon']:.4f} | {s['mean_time_to_grasp']:.2f} |\n")
+        return "\n".join(markdown_table(
+            ["object", "method", "trials", "hold [95 % CI]", "force closure [95 % CI]", "mean margin (N)", "mean ε",
+             "mean time to grasp (s)"],
+            [[s["object"], s["method"], trial_count(s), rate_text(round(s["hold_rate"] * n), n),
+              rate_text(round(s["force_closure_rate"] * n), n), _number(s["mean_margin"], 2), f"{s['mean_epsilon']:.4f}",
+              f"{s['mean_time_to_grasp']:.2f}"]])) + "\n"
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
         """Write the trials, their winners and the summary to an .npz file, atomically.

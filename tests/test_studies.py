@@ -1,0 +1,45 @@
+"""The studies' shared runner: results kept under the keys of what made them, reused, recomputed when the key
+changes; a study configured, and extended by subclassing, without a copied script."""
+
+import numpy as np
+import pytest
+
+from graspmanifold.base.io import load_npz, save_npz
+from graspmanifold.studies.experience import ExperienceStudy, ExperienceStudyConfig
+from graspmanifold.studies.runner import StudyRun
+
+
+def test_a_kept_result_is_reused_under_its_key_and_recomputed_under_another(tmp_path):
+    run = StudyRun(tmp_path, workers=1)
+    made = []
+
+    def compute(value):
+        def make():
+            made.append(value)
+            return np.full(3, value)
+        return make
+
+    read = lambda path: (lambda a, m: (a["x"], m))(*load_npz(path, "demo", {"x": (3,)}))  # noqa: E731
+    write = lambda x, path, meta: save_npz(path, "demo", {"x": x}, meta)  # noqa: E731
+    first = run.keep("sub/x.npz", "key-a", compute(1.0), read, write)
+    again = run.keep("sub/x.npz", "key-a", compute(2.0), read, write)
+    assert made == [1.0] and np.array_equal(first, again) and (run.computed, run.reused) == (1, 1)
+    with pytest.warns(UserWarning, match="discarded .*x.npz"):
+        other = run.keep("sub/x.npz", "key-b", compute(3.0), read, write)
+    assert made == [1.0, 3.0] and other[0] == 3.0
+    (tmp_path / "sub" / "x.npz").write_bytes(b"truncated")
+    with pytest.warns(UserWarning, match="could not be read"):
+        assert run.keep("sub/x.npz", "key-b", compute(4.0), read, write)[0] == 4.0
+
+
+def test_a_study_is_configured_and_extended_by_subclassing(tmp_path):
+    class OnlyTheHeuristic(ExperienceStudy):
+        def strategies(self, preshapes):
+            return {"none": None}
+
+    study = OnlyTheHeuristic(ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1))
+    assert study.config.postures_per_object == 7 and study.config.doc_path == tmp_path / "experience_study.md"
+    assert study.strategies({"preshape_tripod": np.zeros(22)}) == {"none": None}
+    assert study.objects == ("box", "marble")
+    with pytest.raises(ValueError, match="workers"):
+        ExperienceStudyConfig(workers=0)
