@@ -43,3 +43,14 @@ def test_a_study_is_configured_and_extended_by_subclassing(tmp_path):
     assert study.objects == ("box", "marble")
     with pytest.raises(ValueError, match="workers"):
         ExperienceStudyConfig(workers=0)
+
+
+def test_a_study_run_from_python_holds_its_folder(tmp_path):
+    """The lock was the command's: a study started from a notebook could write a folder another study writes."""
+    from graspmanifold.base.errors import OutputInUse
+    from graspmanifold.base.io import LOCK_FILE, output_lock
+
+    with output_lock(tmp_path / LOCK_FILE, tmp_path):
+        with pytest.raises(OutputInUse, match="being written by another"):
+            ExperienceStudy(ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1)).run()
+    assert not (tmp_path / "config.toml").exists()

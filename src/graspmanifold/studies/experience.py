@@ -208,15 +208,16 @@ class ExperienceStudy(StudyRun):
         return {"none": None, **preshapes}
 
     def run(self) -> dict:
-        """The whole study, in one pool of workers; writes the report, OUT/study.json and OUT/config.toml.
+        """The whole study, with OUT locked and one pool of workers; writes the report, OUT/study.json and
+        OUT/config.toml.
 
         Returns:
             What the report shows (the content of study.json).
         """
-        write_text_atomic(self.out / "config.toml", to_toml(self.config))
-        with self.pool():
+        with self.session():
+            write_text_atomic(self.out / "config.toml", to_toml(self.config))
             info = measure(self)
-        write_report(self, info)
+            write_report(self, info)
         return info
 
 

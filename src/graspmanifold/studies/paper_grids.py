@@ -409,14 +409,14 @@ def main(argv: list[str] | None = None) -> None:
 def write_study(study: Study, doc: Path) -> None:
     """Run the study in one pool of workers; write its report, OUT/study.json (and, for the full study, the
     report's JSON beside it)."""
-    with study.pool():
+    with study.session():
         info = run(study)
-    text = report(study, info)
-    write_text_atomic(doc, text)
-    data = json.dumps(info, indent=1, default=float)
-    write_text_atomic(study.out / "study.json", data)
-    if not study.args.quick:
-        write_text_atomic(doc.with_suffix(".json"), data)
+        text = report(study, info)
+        write_text_atomic(doc, text)
+        data = json.dumps(info, indent=1, default=float)
+        write_text_atomic(study.out / "study.json", data)
+        if not study.args.quick:
+            write_text_atomic(doc.with_suffix(".json"), data)
     print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {info['seconds']:.0f} s")
 
 

@@ -1,8 +1,8 @@
 """What every study shares: its output folder, its log, its pool of workers, the results it keeps under their
 keys, its paired comparisons and its tables.
 
-A study is a class over `StudyRun`: the run holds the folder (locked while the study writes it), one pool of
-worker processes for the whole study, the log (each line with the seconds since the start) and the count of
+A study is a class over `StudyRun`: the run holds the folder (locked while the study runs in its `session`), one
+pool of worker processes for the whole study, the log (each line with the seconds since the start) and the count of
 what was computed now and what was taken from an earlier run. A result is kept by `keep` under the key of what
 made it (`checkpoints.result_key`: the configuration and the code), so a rerun takes what is still valid and
 recomputes what is not, whatever the files are called. `comparison_rows` and `comparison_table` are the one way
@@ -55,10 +55,11 @@ class StudyRun:
         print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
 
     @contextmanager
-    def pool(self) -> Iterator[StudyRun]:
-        """One pool of worker processes for everything the study runs inside the block (a pool per evaluation
-        costs seconds on small grids)."""
-        with worker_pool(self.workers) as pool:
+    def session(self) -> Iterator[StudyRun]:
+        """The folder locked for this study (a second study on it is refused: `errors.OutputInUse`) and one pool
+        of worker processes for everything it runs inside the block (a pool per evaluation costs seconds on small
+        grids)."""
+        with output_lock(self.out / LOCK_FILE, self.out), worker_pool(self.workers) as pool:
             self.executor = pool if self.workers > 1 else None
             try:
                 yield self
@@ -137,16 +138,15 @@ def _posture_file(path: Path) -> tuple[PostureSet, dict]:
 
 
 def run_command(out: str | Path, body: Callable[[], None]) -> None:
-    """Run a study's body with its folder locked: Ctrl-C ends in one line that says how to resume (exit status
-    130), a library error (bad input, a folder another run writes) in one line (status 1).
+    """Run a study's body as a command: Ctrl-C ends in one line that says how to resume (exit status 130), a
+    library error (bad input, a folder another run writes) in one line (status 1).
 
     Args:
-        out: the study's folder.
+        out: the study's folder (named in the message).
         body: the study.
     """
     try:
-        with output_lock(Path(out) / LOCK_FILE, out):
-            body()
+        body()
     except KeyboardInterrupt:
         print(f"\ninterrupted: finished work is kept in {out}; run the same command again to resume", file=sys.stderr)
         raise SystemExit(130) from None
