@@ -7,8 +7,8 @@ what was computed now and what was taken from an earlier run. A result is kept b
 made it (`checkpoints.result_key`: the configuration and the code), so a rerun takes what is still valid and
 recomputes what is not, whatever the files are called. `comparison_rows` and `comparison_table` are the one way
 a study reports paired comparisons (McNemar, Holm within a family); `base.io.markdown_table` writes every table.
-`run_command` is the shell around a study's `main`: a locked folder, Ctrl-C ending in one line that says how to
-resume, a library error ending in one line.
+`run_command` is the shell around a study's `main`: Ctrl-C ending in one line that says how to resume, a library
+error (a folder another study holds among them) ending in one line.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ class StudyRun:
         self.out = Path(out)
         self.out.mkdir(parents=True, exist_ok=True)
         self.workers = workers_for(workers, 10**6, 1)  # capped at the cores: a study's trials outnumber them
-        self.executor: Executor | None = None  # the pool, while `pool()` is open
+        self.executor: Executor | None = None  # the pool, while `session()` is open
         self.started = time.perf_counter()
         self.computed, self.reused = 0, 0  # results computed now, and taken from an earlier run
         self.seconds = 0.0  # spent computing results now (not counting those taken from an earlier run)
