@@ -4,8 +4,14 @@ import numpy as np
 import pytest
 
 from graspmanifold.base.io import markdown_row, markdown_table
-from graspmanifold.studies.runner import comparison_rows, comparison_table
-from graspmanifold.trials.stats import headroom, holm, mcnemar, rate_text, wilson_interval
+from graspmanifold.studies.runner import comparison_table, holm_family
+from graspmanifold.trials.stats import (
+    headroom,
+    holm,
+    mcnemar,
+    rate_text,
+    wilson_interval,
+)
 from graspmanifold.trials.study import judge_target
 
 
@@ -147,7 +153,7 @@ def test_one_table_writer_and_one_family_of_paired_comparisons():
     assert markdown_row(["a", 1]) == "| a | 1 |"
     a = np.array([True] * 9 + [False] + [True] * 5 + [False] * 3)
     b = np.array([False] * 9 + [True] + [True] * 5 + [False] * 3)
-    rows = comparison_rows([("a vs b", mcnemar(a, b)), ("b vs a", mcnemar(b, a)), ("a vs a", mcnemar(a, a))], "demo")
+    rows = holm_family([("a vs b", mcnemar(a, b)), ("b vs a", mcnemar(b, a)), ("a vs a", mcnemar(a, a))], "demo")
     assert [r["p_holm"] for r in rows] == pytest.approx(list(holm([22 / 1024, 22 / 1024, 1.0])))
     assert rows[0]["family"] == "demo" and (rows[0]["only_a"], rows[0]["only_b"], rows[0]["n"]) == (9, 1, 18)
     table = comparison_table(rows, family=True)

@@ -57,12 +57,20 @@ from ..control.generator import GeneratorParams, generate_postures
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
-from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_split, cells, compare_pooled, pooled, run_benchmark
+from ..trials.benchmark import (
+    OBJECTS,
+    PLACEMENTS,
+    benchmark_split,
+    cells,
+    compare_pooled,
+    pooled,
+    run_benchmark,
+)
 from ..trials.selector import StrategySelector, choose_cross_validated
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
 from ..trials.study import train_experience_map
 from ..trials.trial import Noise
-from .runner import StudyRun, comparison_rows, comparison_table, run_command
+from .runner import StudyRun, comparison_table, holm_family, run_command
 
 #: the target (issue 38), pooled over the test split: two attempts each, regrasp with experience against the best
 #: fixed sequence of strategies
@@ -163,11 +171,12 @@ class ExperienceStudy(StudyRun):
         self.evaluations += len(ours)
         ledger = stored / "seconds.json"  # how long each evaluation took when it ran, for a report made from reuse
         made = json.loads(ledger.read_text()) if ledger.exists() else {}
-        if before < len(ours) or f"{method}_{split}" not in made:
+        if before < len(ours):
             self.evaluation_seconds += time.perf_counter() - start
             made[f"{method}_{split}"] = time.perf_counter() - start
             write_text_atomic(ledger, json.dumps(made, indent=1))
-        self.made_seconds[f"{method}_{split}"] = made[f"{method}_{split}"]
+        if f"{method}_{split}" in made:  # not for evaluations kept before the ledger was
+            self.made_seconds[f"{method}_{split}"] = made[f"{method}_{split}"]
         self.results[(split, method)] = results
         outcomes, valid = pooled(results)
         self.log(f"{split:9s} {method:34s} hold {rate_text(int(outcomes[valid].sum()), int(valid.sum()))} "
@@ -428,7 +437,7 @@ def measure(study: ExperienceStudy) -> dict:
             ("the heuristic retried against once", compare_pooled(test["heuristic_retried"], test["none"])),
             *((f"{m} against the shared preshape", compare_pooled(test[m], test["shared_preshape"]))
               for m in SOM_VARIANTS if m != "som_paper")]}
-    comparisons = [row for name, tests in families.items() for row in comparison_rows(tests, name)]
+    comparisons = [row for name, tests in families.items() for row in holm_family(tests, name)]
 
     # the target
     primary = [c for c in comparisons if c["family"].endswith("(primary)")]

@@ -18,14 +18,13 @@ import os
 import tempfile
 import time
 
-from ..base.io import markdown_table, write_text_atomic
-from ..control.starts import designs_for
-from ..sim.family import HELD_OUT
-from ..trials.stats import rate_text
 from ..base.errors import GenerationError
+from ..base.io import markdown_table, write_text_atomic
 from ..control.generator import generate_postures
-from ..control.starts import starting_postures
+from ..control.starts import designs_for, starting_postures
+from ..sim.family import HELD_OUT
 from ..sim.objects import get_object
+from ..trials.stats import rate_text
 
 
 def study(name: str, n: int, workers: int) -> tuple[list[list], list]:

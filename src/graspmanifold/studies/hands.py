@@ -25,15 +25,14 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..paper.reproduce import PRESETS, reproduce
-from ..sim.hand_models import hand_model, joint_agreement
-from ..trials.evaluation import EvaluationResult
 from ..base.io import markdown_table
+from ..paper.reproduce import PRESETS, reproduce
+from ..sim.hand import SHADOW_HAND, HandModel
+from ..sim.hand_models import hand_model, joint_agreement
+from ..trials.evaluation import EvaluationResult, evaluate
+from ..trials.grid import grid_preset
 from ..trials.stats import holm, rate_text
 from ..trials.study import compare
-from ..sim.hand import HandModel, SHADOW_HAND
-from ..trials.evaluation import evaluate
-from ..trials.grid import grid_preset
 
 OBJECTS = ("box", "cylinder", "sphere")
 METHODS = {"none": "heuristic", "database": "database", "som": "SOM"}

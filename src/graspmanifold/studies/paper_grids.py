@@ -42,11 +42,13 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.io import load_npz, markdown_table, save_npz, write_text_atomic
-from ..sim.hand import N_FINGER_JOINTS
 from ..control.controller import BLEND
-from ..control.generator import verify_postures
+from ..control.generator import GeneratorParams, generate_postures, verify_postures
 from ..control.judge import JUDGING
-from ..trials.evaluation import EvaluationResult, trial_count
+from ..manifold.experience import PostureDatabase
+from ..sim.hand import N_FINGER_JOINTS
+from ..sim.objects import get_object
+from ..trials.evaluation import EvaluationResult, evaluate, trial_count
 from ..trials.grid import GRID_COLUMNS, coverage, grid_preset
 from ..trials.stats import MIN_HEADROOM, headroom, holm, rate_text
 from ..trials.study import (
@@ -58,10 +60,6 @@ from ..trials.study import (
     judge_target,
     train_experience_map,
 )
-from ..control.generator import GeneratorParams, generate_postures
-from ..manifold.experience import PostureDatabase
-from ..sim.objects import get_object
-from ..trials.evaluation import evaluate
 from ..trials.trial import Noise, TrialSetup
 from .runner import StudyRun, run_command
 

@@ -23,11 +23,17 @@ import numpy as np
 
 from ..base.io import markdown_table, write_text_atomic
 from ..control.dexgraspbench import PROTOCOL_NAMES, open_loop_grasps, replay
-from ..trials.benchmark import OBJECTS, PLACEMENTS, compare_pooled, pooled, run_benchmark
+from ..control.generator import generate_postures
+from ..trials.benchmark import (
+    OBJECTS,
+    PLACEMENTS,
+    compare_pooled,
+    pooled,
+    run_benchmark,
+)
 from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
-from ..control.generator import generate_postures
-from .runner import comparison_rows, comparison_table
+from .runner import comparison_table, holm_family
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -109,7 +115,7 @@ def report(args: argparse.Namespace, open_loop: dict, closed: dict, seconds: flo
                   for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " of "
               f"{sum(len(r.trials) for r in closed[('heuristic', 'ours')].values())} poses."]
     lines += ["", "## Paired comparisons", "", "`+` / `-`: poses or grasps held only under the first / only under "
-              "the second. Holm over the whole table.", "", *comparison_table(comparison_rows(tests))]
+              "the second. Holm over the whole table.", "", *comparison_table(holm_family(tests))]
     return "\n".join(lines) + "\n"
 
 

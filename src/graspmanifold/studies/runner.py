@@ -5,7 +5,7 @@ A study is a class over `StudyRun`: the run holds the folder (locked while the s
 pool of worker processes for the whole study, the log (each line with the seconds since the start) and the count of
 what was computed now and what was taken from an earlier run. A result is kept by `keep` under the key of what
 made it (`checkpoints.result_key`: the configuration and the code), so a rerun takes what is still valid and
-recomputes what is not, whatever the files are called. `comparison_rows` and `comparison_table` are the one way
+recomputes what is not, whatever the files are called. `holm_family` and `comparison_table` are the one way
 a study reports paired comparisons (McNemar, Holm within a family); `base.io.markdown_table` writes every table.
 `run_command` is the shell around a study's `main`: Ctrl-C ending in one line that says how to resume, a library
 error (a folder another study holds among them) ending in one line.
@@ -49,6 +49,7 @@ class StudyRun:
         self.started = time.perf_counter()
         self.computed, self.reused = 0, 0  # results computed now, and taken from an earlier run
         self.seconds = 0.0  # spent computing results now (not counting those taken from an earlier run)
+        self._computing = 0  # results being computed now: one computed inside another counts its seconds once
 
     def log(self, text: str) -> None:
         """Print one line of the study's log, with the seconds since it started."""
@@ -88,10 +89,15 @@ class StudyRun:
             self.reused += 1
             return stored[path]
         start = time.perf_counter()
-        result = compute()
+        self._computing += 1
+        try:
+            result = compute()
+        finally:
+            self._computing -= 1
         store.save(path.name, lambda target, meta: write(result, target, meta))
         self.computed += 1
-        self.seconds += time.perf_counter() - start
+        if not self._computing:
+            self.seconds += time.perf_counter() - start
         return result
 
     def postures(self, name: str, key: str, make: Callable[[Path], PostureSet]) -> PostureSet:
@@ -154,7 +160,7 @@ def run_command(out: str | Path, body: Callable[[], None]) -> None:
         raise SystemExit(f"error: {error}") from None
 
 
-def comparison_rows(family: Sequence[tuple[str, PairedComparison]], name: str = "") -> list[dict]:
+def holm_family(family: Sequence[tuple[str, PairedComparison]], name: str = "") -> list[dict]:
     """A family of paired comparisons with Holm's correction within it: one row each.
 
     Args:
@@ -171,7 +177,7 @@ def comparison_rows(family: Sequence[tuple[str, PairedComparison]], name: str = 
 
 
 def comparison_table(rows: Sequence[dict], family: bool = False) -> list[str]:
-    """The markdown table of `comparison_rows`: `+` / `-` are the pairs where only the first / only the second
+    """The markdown table of `holm_family`: `+` / `-` are the pairs where only the first / only the second
     held.
 
     Args:

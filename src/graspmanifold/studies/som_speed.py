@@ -28,8 +28,7 @@ from threadpoolctl import threadpool_limits
 from ..base.io import markdown_row, markdown_table
 from ..base.workers import usable_cores
 from ..manifold import kernels
-from ..manifold.som import decay_schedule
-from ..manifold.som import SOM
+from ..manifold.som import SOM, decay_schedule
 from ..sim.hand import SEGMENTS, finger_limits
 from ..sim.posture import pcp_mask
 

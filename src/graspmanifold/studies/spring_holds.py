@@ -27,14 +27,12 @@ import numpy as np
 
 from ..base.io import markdown_table, write_text_atomic
 from ..control.controller import squeezed
-from ..control.generator import GeneratorParams
+from ..control.generator import GeneratorParams, generate_postures
 from ..control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
 from ..sim.hand import DISTAL_SEGMENTS
-from ..sim.scene import GRAVITY
-from ..trials.stats import rate_text
-from ..control.generator import generate_postures
 from ..sim.objects import get_object
-from ..sim.scene import Scene
+from ..sim.scene import GRAVITY, Scene
+from ..trials.stats import rate_text
 
 DIRECTION_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
 PERIOD = 0.02  # s, as the verifier checks

@@ -32,15 +32,14 @@ import numpy as np
 from ..base.io import markdown_table
 from ..control import generator, judge
 from ..control.controller import BatchController
-from ..sim.objects import PAPER_SHAPES
+from ..control.generator import generate_postures
+from ..sim.objects import PAPER_SHAPES, get_object
+from ..sim.posture import closed_posture, open_posture
+from ..sim.scene import facing_pose
 from ..sim.worlds import CpuWorlds
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid
 from ..trials.grid import check_grid, reachable
 from ..trials.trial import TrialSetup, run_trials
-from ..control.generator import generate_postures
-from ..sim.objects import get_object
-from ..sim.posture import closed_posture, open_posture
-from ..sim.scene import facing_pose
 
 SECONDS: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)

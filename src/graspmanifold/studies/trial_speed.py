@@ -19,19 +19,19 @@ from __future__ import annotations
 
 import argparse
 import functools
-from pathlib import Path
 import time
+from pathlib import Path
 
 import numpy as np
 
 from ..base.io import markdown_row, markdown_table
 from ..base.workers import parallel_map, usable_cores
-from ..trials.grid import check_grid
-from ..trials.stats import mcnemar, rate_text
-from ..trials.trial import Noise, TrialSetup, run_trial
 from ..manifold.som import SOM
 from ..sim.objects import PAPER_OBJECTS, get_object
 from ..trials.evaluation import evaluate
+from ..trials.grid import check_grid
+from ..trials.stats import mcnemar, rate_text
+from ..trials.trial import Noise, TrialSetup, run_trial
 
 FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
           "penetration", "fault")

@@ -30,19 +30,23 @@ from dataclasses import asdict
 
 import numpy as np
 
-from ..control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
 from ..base.checkpoints import result_key
 from ..base.io import markdown_table, write_text_atomic
-from ..control.generator import DATASET_PRESETS
+from ..control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
+from ..control.generator import (
+    DATASET_PRESETS,
+    GeneratorParams,
+    generate_postures,
+    verify_postures,
+)
 from ..control.starts import nearest_primitive
-from ..sim.family import SHAPES
-from ..trials.stats import headroom, holm, rate_text
-from ..trials.study import compare, train_experience_map
-from ..control.generator import GeneratorParams, generate_postures, verify_postures
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
+from ..sim.family import SHAPES
 from ..sim.objects import GraspObject, get_object, make_object
 from ..trials.evaluation import evaluate
+from ..trials.stats import headroom, holm, rate_text
+from ..trials.study import compare, train_experience_map
 from ..trials.trial import Noise
 from .runner import StudyRun
 
