@@ -4,15 +4,14 @@ in assets/.
     python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz]
                                              [--recompute [FAMILY ...]]
 
-Deterministic: a least-squares search from each grasp design (graspmanifold.control.starts.find_starting_postures)
-of both families for the paper's objects and the benchmark's, the five-fingertip family for the object family,
-and the grasp-types family for the medium size of each family shape that is not held out (family.HELD_OUT:
-those are searched on first use, as a new object's are; so are the family's other sizes).
+Deterministic: a least-squares search from each grasp design (graspmanifold.control.generator.search_starting_postures)
+of both families for the paper's objects, the benchmark's and the object family, but the grasp-types family of
+the members held out (family.HELD_OUT: those are searched on first use, as a new object's are).
 Starting postures already in --out are kept as they are unless their object changed or their family is
 recomputed (--recompute alone:
 every family; a search repeated on another machine can differ in the last digits, and everything generated
 from them would change with it). Objects not shipped (other sizes, the user's meshes) get theirs searched on
-first use, the same way, and kept in the user's cache (starts.cache_directory).
+first use, the same way, and kept in the user's cache (generator.cache_directory).
 """
 
 from __future__ import annotations
@@ -23,12 +22,12 @@ from pathlib import Path
 
 from graspmanifold.base.io import load_npz
 from graspmanifold.base.workers import parallel_map
+from graspmanifold.control.generator import search_starting_postures
 from graspmanifold.control.starts import (
     DESIGN_FAMILIES,
     STARTS_FILE,
     StartingPosture,
     designs_for,
-    find_starting_postures,
     save_starting_postures,
 )
 from graspmanifold.sim.family import FAMILY, HELD_OUT
@@ -63,7 +62,7 @@ def named(name: str):
 
 def search(task: tuple[str, str]) -> list[StartingPosture]:
     name, family = task
-    return find_starting_postures(named(name), family, workers=1)
+    return search_starting_postures(named(name), family, workers=1)
 
 
 def main() -> None:
@@ -76,7 +75,7 @@ def main() -> None:
     recompute = set(DESIGN_FAMILIES if args.recompute == [] else args.recompute or ())
     names = list(dict.fromkeys([*PAPER_OBJECTS, *BENCHMARK_OBJECTS, *FAMILY]))
     wanted = [(name, family) for name in names for family in DESIGN_FAMILIES
-              if family == "five_fingertip" or name not in FAMILY or (name.endswith("_m") and name not in HELD_OUT)]
+              if family == "five_fingertip" or name not in HELD_OUT]
     # an object whose parameters changed (a mesh made anew) is searched again
     kept = {key: starts for key, (params, starts) in shipped(Path(args.out)).items()
             if key[1] not in recompute and key in wanted and params == named(key[0]).params()}

@@ -93,41 +93,44 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
         thumb = geometry.pushing.index(geometry.scene.model.geom("thdistal").id)
         measured[tuple(terms)] = (geometry.pressing(start.posture, pushes)[thumb], np.linalg.norm(pushes.mean(axis=0)))
     assert measured[()][0] < 0 < PRESS_COSINE - 0.05 < measured[("press",)][0], measured
-    assert measured[("balance",)][1] < 0.5 * measured[()][1], measured
+    assert measured[("balance",)][1] < 0.75 * measured[()][1], measured
 
 
 def test_starting_postures_are_found_for_other_sizes(capsys):
+    """A new object's starts (the default family) are searched with a progress bar, each a valid grasp, and kept
+    for the next process."""
+    from graspmanifold.control.starts import is_design_grasp
+
     obj = gm.make_object("cylinder", radius=0.025, length=0.12)
     shown = gm.show_progress(True)
     try:
-        starts = gm.starting_postures(obj)
+        starts = gm.starting_postures(obj, "grasp_types")
     finally:
         gm.show_progress(shown)
-    assert f"starting postures {obj.name} (five_fingertip): 100%" in capsys.readouterr().err  # the search's bar
-    assert len(starts) >= 3
-    for start in starts:
-        assert_valid_grasp(obj, start.posture, np.concatenate([start.hand_pos, start.hand_quat]))
+    assert f"starting postures {obj.name} (grasp_types): 100%" in capsys.readouterr().err  # the search's bar
+    assert len(starts) >= 3 and len({s.grasp_type for s in starts}) >= 2
+    assert all(is_design_grasp(obj, start) for start in starts)
     # stored for the next process: a second one reads them (no search, no warning) and gets the same grasps
     import subprocess
     import sys
 
     code = ("import warnings, numpy as np, graspmanifold as gm; warnings.simplefilter('error'); "
             "obj = gm.make_object('cylinder', radius=0.025, length=0.12); "
-            "print(np.concatenate([s.posture for s in gm.starting_postures(obj)]).tolist())")
+            "print(np.concatenate([s.posture for s in gm.starting_postures(obj, 'grasp_types')]).tolist())")
     again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
     np.testing.assert_array_equal(eval(again.stdout), np.concatenate([s.posture for s in starts]))
-    from graspmanifold.control.starts import cache_directory
+    from graspmanifold.control.generator import cache_directory
 
-    stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_five_fingertip_*.npz"))
+    stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_grasp_types_*.npz"))
     assert len(stored) == 1
     # a damaged stored file is named, searched again and replaced
-    from graspmanifold.control import starts as starts_module
+    from graspmanifold.control import generator as generator_module
 
     stored[0].write_bytes(stored[0].read_bytes()[:100])
-    starts_module._starting_postures.cache_clear()
+    generator_module._starting_postures.cache_clear()
     with pytest.warns(UserWarning, match="cannot be read"):
-        searched = gm.starting_postures(obj)
+        searched = gm.starting_postures(obj, "grasp_types")
     np.testing.assert_array_equal([s.posture for s in searched], [s.posture for s in starts])
     assert gm.io.load_npz(stored[0], "starting_postures", {})[1]["objects"]
 

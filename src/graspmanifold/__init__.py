@@ -17,7 +17,7 @@ from .control.controller import ControllerParams, GraspController
 from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase
-from .control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from .control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, starting_postures, verify_postures
 from .trials.grid import grid_preset, reachable, why_unreachable
 from .sim.hand import (
     ACTUATORS,
@@ -51,7 +51,7 @@ from .manifold.postureset import PostureSet
 from .control.quality import epsilon_l1
 from .sim.scene import Scene, facing_pose
 from .manifold.som import SOM, SOMSchedule
-from .control.starts import StartingPosture, starting_postures
+from .control.starts import StartingPosture
 from .sim.tactile import TactileReading, TactileSensor
 from .trials.trial import Noise, Recording, TrialSetup, record_trial
 from .trials.stats import headroom, holm, mcnemar, wilson_interval

@@ -52,6 +52,17 @@ def rotate(vec: np.ndarray, quat: np.ndarray) -> np.ndarray:
     return out
 
 
+def rotvec_quat(rotvec: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """The quaternion (w, x, y, z) of a rotation by a rotation vector (axis times angle, radians, world
+    frame) after the rotation `quat`."""
+    angle = float(np.linalg.norm(rotvec))
+    turn, out = np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(4)
+    if angle > 0.0:
+        mujoco.mju_axisAngle2Quat(turn, np.asarray(rotvec, dtype=float) / angle, angle)
+    mujoco.mju_mulQuat(out, turn, np.asarray(quat, dtype=float))
+    return out
+
+
 def to_rotation(quat: np.ndarray) -> Rotation:
     """scipy's Rotation of a quaternion (w, x, y, z)."""
     return Rotation.from_quat(np.asarray(quat, dtype=float)[[1, 2, 3, 0]])

@@ -38,6 +38,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, replace
+from functools import lru_cache, partial
 from pathlib import Path
 
 import mujoco
@@ -67,7 +68,12 @@ from .starts import (
     StartingPosture,
     check_starting_postures,
     designs_for,
-    starting_postures,
+    find_starting_postures,
+    read_entry,
+    save_starting_postures,
+    shipped_starting_postures,
+    starts_key,
+    verified,
 )
 
 DATASET_PRESETS: dict[str, dict[str, int]] = {
@@ -347,6 +353,106 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
             "epsilon": np.array(epsilons), "hold_displacement": np.array(displacements),
             "tries": np.array(tries), "candidates": np.array(candidates), "faults": np.array(faults),
             "first_fault": np.array(first_fault), "exhausted": np.array(exhausted)}
+
+
+#: candidates the generator walks around a grasp-types start before it is kept (`holds_with_neighbours`)
+NEIGHBOURS = 6
+
+
+def holds_with_neighbours(obj: GraspObject, start: StartingPosture) -> bool:
+    """Whether a start holds its object under the verifier, the generator's walk around it finds its first
+    `NEIGHBOURS` candidates without giving up, and at least one of them holds too (a start can hold on a
+    knife-edge whose neighbours all drop, or be one the springs rarely settle near: either would give the
+    generator nothing). The check of the generator's own search for starting postures
+    (`search_starting_postures`).
+
+    Args:
+        obj: the object.
+        start: the starting posture (palm pose in the object frame, m).
+
+    Returns:
+        True when both hold.
+    """
+    if not verified(obj, start):
+        return False
+    walked = _run_job(obj, start, _Job(0, 0, NEIGHBOURS), seed=0, params=GeneratorParams(designs="grasp_types"))
+    return len(walked["postures"]) > 0 and not bool(walked["exhausted"])
+
+
+def search_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
+                             progress: bool | None = None, workers: int | None = None) -> list[StartingPosture]:
+    """Search an object's starting postures as the generator uses them: `starts.find_starting_postures`, a
+    grasp-types start kept only when it and its neighbours hold (`holds_with_neighbours`). What
+    `starting_postures` runs for an object that ships none, and what `scripts/find_starting_postures.py` ships.
+
+    Args:
+        obj: an object or its name.
+        family: a design family (`starts.DESIGN_FAMILIES`).
+        progress: show the bar (None: as `progress.show_progress` says).
+        workers: worker processes (None: `workers.default_workers()` in a main process, one inside a worker).
+
+    Returns:
+        The starting postures found, in the order of `designs_for(obj, family)`.
+    """
+    obj = get_object(obj)
+    return find_starting_postures(obj, family, check=partial(holds_with_neighbours, obj), progress=progress,
+                                  workers=workers)
+
+
+def cache_directory() -> Path:
+    """Where starting postures searched for an object that ships none are kept, so that another process
+    finds them: `$GRASPMANIFOLD_CACHE`, else `$XDG_CACHE_HOME/graspmanifold`, else `~/.cache/graspmanifold`.
+
+    Returns:
+        The folder (made when something is first stored there).
+    """
+    if os.environ.get("GRASPMANIFOLD_CACHE"):
+        return Path(os.environ["GRASPMANIFOLD_CACHE"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "graspmanifold"
+
+
+def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
+    """The starting postures of an object in a design family (`starts.DESIGN_FAMILIES`): shipped for the
+    paper's objects and the object family; else searched once (`search_starting_postures`: seconds to half a
+    minute per object, with a progress bar) and stored in `cache_directory()`, under a key of the object's
+    parameters (a mesh's digest among them) and the library's code, so that a second process reads them
+    instead of searching again.
+
+    Args:
+        obj: an object or its name.
+        family: 'five_fingertip' (the paper's kind) or 'grasp_types' (power, precision, tripod, lateral).
+
+    Returns:
+        The valid starting postures, in the order of `designs_for(obj, family)`.
+    """
+    if family not in DESIGN_FAMILIES:
+        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    return list(_starting_postures(get_object(obj), family))
+
+
+@lru_cache(maxsize=64)
+def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, ...]:
+    shipped = shipped_starting_postures(obj, family)
+    if shipped is not None:
+        return tuple(shipped)
+    key = starts_key(obj.name, family)
+    cached = cache_directory() / "starting_postures" / f"{obj.name}_{family}_{result_key(obj.params(), family)}.npz"
+    if cached.exists():
+        try:
+            arrays, meta = load_npz(cached, "starting_postures", {})
+            return tuple(read_entry(arrays, key, meta["objects"][key], obj, family))
+        except (ValueError, KeyError, OSError) as error:  # a damaged file is searched again and replaced
+            warnings.warn(f"the stored starting postures {cached} cannot be read ({error}): searching again",
+                          stacklevel=3)
+    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now (seconds to half "
+                  f"a minute); they are kept in {cached.parent} for the next process", stacklevel=3)
+    found = search_starting_postures(obj, family)
+    try:
+        save_starting_postures(cached, {(obj, family): found})
+    except OSError as error:  # a read-only home: the search is only lost for the next process
+        warnings.warn(f"the starting postures could not be stored in {cached.parent} ({error}); set "
+                      "GRASPMANIFOLD_CACHE to a writable folder to keep them", stacklevel=3)
+    return tuple(found)
 
 
 def _size_text(obj: GraspObject, hand: HandModel) -> str:

@@ -8,10 +8,11 @@ keeps every other segment out of the object and the fingers out of each other.
 
 Two families of designs (`DESIGN_FAMILIES`): `five_fingertip`, the paper's kind (all five distal
 segments touch; wraps of the object's nearest primitive shape, `GRASP_DESIGNS`), and
-`grasp_types`, ours and the generator's default: those wraps (power grasps) and one design of each
-precision grasp type (`PRECISION_DESIGNS`: a two-finger pinch of thumb and index tips, a tripod of
-thumb, index and middle tips, and a lateral grasp pressing the object between the thumb's pad and the
-side of the index finger), with the fingers that take no part curled into the palm. A design of this
+`grasp_types`, ours and the generator's default: those wraps (power grasps; on an elongated object also
+moved along its axis, `SHIFTED_WRAPS`) and one design of each precision grasp type (`PRECISION_DESIGNS`:
+a two-finger pinch of thumb and index tips, a tripod of thumb, index and middle tips, and a lateral grasp
+pressing the object between the thumb's pad and the side of the index finger, each also at the object's
+edge), with the fingers that take no part curled into the palm. A design of this
 family is kept only in a refinement whose start holds the object when the generator's verifier replays
 it (`REFINEMENTS`, `GraspVerifier`): the paper's wraps, refined to touch alone, mostly do not (their
 thumb presses sideways and slides off under the squeeze), so the family's refinements also ask the
@@ -19,8 +20,8 @@ contacts' pushes to cancel.
 
 The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
 families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object family
-its five-fingertip ones and the grasp-types ones of the medium size of each shape not held out
-(`family.HELD_OUT`); the rest is searched on first use and kept in `cache_directory()`, so that the next
+its five-fingertip ones and the grasp-types ones of every member not held out (`family.HELD_OUT`); the
+rest is searched on first use (seconds to half a minute per object) and kept in `cache_directory()`, so that the next
 process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
 each a `StartingPosture`, e.g. a rough grasp brought onto the surface by `refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
@@ -32,23 +33,20 @@ hand size gets its grasps this way.
 from __future__ import annotations
 
 import multiprocessing
-import os
-import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from functools import cache, lru_cache
-from pathlib import Path
+from functools import cache, partial
 
 import mujoco
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput, SimulationError
 from ..base.io import load_npz, save_npz
+from ..base.poses import compose, invert, rotvec_quat
 from ..base.progress import progress_bar
 from ..base.workers import default_workers, parallel_map
-from ..base.poses import to_quat, to_rotation
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, finger_of, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
@@ -59,6 +57,10 @@ from .judge import GraspVerifier
 STARTS_FILE = "starting_postures.npz"
 CONTACT_GAP = 0.001  # a contact segment "touches" within 1 mm
 MAX_PENETRATION = 0.002
+#: the search measures exactly only the distances below this (m); farther geoms are clear of each other
+CLEAR = 0.01
+#: the least-squares search's relative tolerances (`ftol`, `xtol` of `scipy.optimize.least_squares`)
+SEARCH_TOLERANCE = 1e-4
 #: `refine(press=...)` asks the squeeze's motion of each contact to make at most about 45 degrees with its push
 PRESS_COSINE = 0.7
 
@@ -99,6 +101,7 @@ class GraspDesign:
     standoff: float = 0.008
     roll: float = 0.0  # rotation of the object about its own long axis (radians)
     end_on: bool = False  # the palm faces the object's +z end instead of its side
+    edge: float = 0.0  # the object moved along the palm's z by -edge times its y half-extent: the grasp off its middle
     grasp_type: str = "power"
     contacts: tuple[str, ...] = DISTAL_SEGMENTS
     hand: tuple[tuple[str, float], ...] = ()
@@ -129,6 +132,18 @@ def _designs(shape: str) -> tuple[GraspDesign, ...]:
 
 
 GRASP_DESIGNS = {shape: _designs(shape) for shape in ("box", "cylinder", "sphere")}
+
+#: The `grasp_types` family's further grasps of an elongated object (a cylinder's or a box's designs), moved off
+#: the object's middle, where a large or tapered solid can be too wide for the fingers to close around: the mid
+#: and the tilted wrap moved along the long axis (`shifted`), and the mid wrap, the tilted wrap and the end-on
+#: grasp moved across it (`side`: `edge` -0.3, the other way from the precision grasps' edge).
+SHIFTED_WRAPS: tuple[GraspDesign, ...] = (
+    GraspDesign("wrap_shifted", (1.0, 0.0, 0.0), centre_offset=(0.035, 0.0, 0.0)),
+    GraspDesign("wrap_tilted_shifted", (np.cos(0.5), 0.0, np.sin(0.5)),
+                centre_offset=(0.02 * np.cos(0.5), 0.0, 0.02 * np.sin(0.5))),
+    *(replace(design, name=f"{design.name}_side", edge=-0.3) for design in GRASP_DESIGNS["cylinder"]
+      if design.name in ("wrap_mid", "wrap_tilted", "end_on")),
+)
 
 #: a mesh whose longest extent is at most this many times its shortest is grasped like a sphere
 ROUND_RATIO = 1.3
@@ -167,20 +182,25 @@ PRECISION_DESIGNS: tuple[GraspDesign, ...] = (
                 hand=(("FFJ3", 1.0), ("FFJ2", 1.2), ("FFJ1", 0.6), ("THJ5", 0.2), ("THJ4", 0.7), ("THJ1", 0.2),
                       *_curled("MF", "RF", "LF"))),
 )
+#: the precision designs again at the object's edge, 60 % of the way from its middle (the rim of a ring, whose
+#: middle is a hole; the edge of a plate or a box)
+PRECISION_DESIGNS += tuple(replace(design, name=f"{design.name}_edge", edge=0.6) for design in PRECISION_DESIGNS)
 
 
 def designs_for(obj: GraspObject, family: str = "five_fingertip") -> tuple[GraspDesign, ...]:
     """The grasp designs to search for an object in a family (`DESIGN_FAMILIES`).
 
     `five_fingertip`: those of its `nearest_primitive` (a cylinder's: wraps about the long axis z,
-    tilted, low, end-on; a box's add a wrap rolled 45 degrees). `grasp_types`: these power grasps
-    and the `PRECISION_DESIGNS`. The refinement then adapts each design to the actual surface;
+    tilted, low, end-on; a box's add a wrap rolled 45 degrees). `grasp_types`: these power grasps, for
+    an elongated object (not sphere-like) the `SHIFTED_WRAPS`, and the `PRECISION_DESIGNS`. The refinement then adapts each design to the actual surface;
     designs that do not fit the object (a pinch of a ball too big to pinch) find no valid grasp.
     """
     if family not in DESIGN_FAMILIES:
         raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
-    power = GRASP_DESIGNS[nearest_primitive(obj)]
-    return power if family == "five_fingertip" else power + PRECISION_DESIGNS
+    shape = nearest_primitive(obj)
+    if family == "five_fingertip":
+        return GRASP_DESIGNS[shape]
+    return GRASP_DESIGNS[shape] + (SHIFTED_WRAPS if shape != "sphere" else ()) + PRECISION_DESIGNS
 
 
 _HALF_CLOSED = dict_to_posture({
@@ -214,7 +234,7 @@ def design_pose(obj: GraspObject, design: GraspDesign) -> tuple[np.ndarray, np.n
         palm_in_object = object_in_palm.T
         extent = obj.half_extents[0]
     centre_in_palm = GRASP_CENTRE_IN_PALM + np.asarray(design.centre_offset) - [
-        0.0, PALM_HALF_THICKNESS + design.standoff + extent, 0.0]
+        0.0, PALM_HALF_THICKNESS + design.standoff + extent, design.edge * obj.half_extents[1]]
     pos = -palm_in_object @ centre_in_palm
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, palm_in_object.ravel())
@@ -241,28 +261,42 @@ class _GraspGeometry:
                       and (fingers[a] == "th" or fingers[b] == "th"
                            or abs(order.index(fingers[a]) - order.index(fingers[b])) == 1)]
         self._fromto = np.zeros(6)
-        capsule = mujoco.mjtGeom.mjGEOM_CAPSULE
-        self._capsules = [g for g in self.distal if model.geom_type[g] == capsule]
-        self._others = [g for g in self.distal if model.geom_type[g] != capsule]
+        round_cores = (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_SPHERE))
+        if any(int(model.geom_type[g]) not in round_cores for g in self.distal):
+            raise InvalidInput(f"the contact segments {contacts} must be capsules or spheres for the start search")
         #: the contact geoms in the order of the rows of `pushes` and `pressing`
-        self.pushing = self._capsules + self._others
+        self.pushing = self.distal
+        self._object = list(scene.object_geoms)
+        self._pairs = np.array(self.pairs, dtype=int).reshape(-1, 2)
+        mujoco.mj_kinematics(model, data := scene.data)  # the palm's place on the mount (the wrist does not move)
+        mount = data.mocap_pos[scene.mount_id].copy(), data.mocap_quat[scene.mount_id].copy()
+        self._palm_to_mount = compose(*invert(data.xpos[scene.palm_id], data.xquat[scene.palm_id]), *mount)
 
     def pushes(self) -> np.ndarray:
         """Unit directions (len(distal), 3) in which the contact geoms (`pushing`) press the object at the current
-        kinematics: from the point of a geom's core (a capsule's segment, another geom's centre) nearest the
-        object towards the object's closest surface point. Smooth in the hand's pose while the core stays
-        outside the object, for a mesh too (unlike its face normals)."""
-        model, data = self.scene.model, self.scene.data
-        along = np.linspace(-1.0, 1.0, 5)[None, :, None]
-        half_axes = data.geom_xmat[self._capsules].reshape(-1, 3, 3)[:, :, 2] * model.geom_size[self._capsules, 1:2]
-        cores = [data.geom_xpos[self._capsules][:, None, :] + along * half_axes[:, None, :],
-                 np.repeat(data.geom_xpos[self._others][:, None, :], along.shape[1], axis=1)]
-        points = np.concatenate(cores)  # (geoms, 5, 3); the object sits at the world origin, unrotated
-        towards = self.scene.object.closest_point(points.reshape(-1, 3)).reshape(points.shape) - points
-        gaps = np.linalg.norm(towards, axis=2)
-        nearest = np.argmin(gaps, axis=1)
-        rows = np.arange(len(points))
-        return towards[rows, nearest] / np.maximum(gaps[rows, nearest], 1e-9)[:, None]
+        kinematics: from the point of a geom's core (a capsule's segment, a sphere's centre) nearest the object
+        towards the object's nearest point, by MuJoCo's geom distance with the geom's radius set to 0 for the
+        query (on a mesh object its collision geometry: the convex parts; on a primitive the exact closest point
+        to the core's nearest point). Smooth in the hand's pose while the core stays outside the object, for a
+        mesh too (unlike its face normals)."""
+        model, data, fromto = self.scene.model, self.scene.data, self._fromto
+        radii = model.geom_size[self.pushing, 0].copy()
+        cores, surface = np.zeros((len(self.pushing), 3)), np.zeros((len(self.pushing), 3))
+        try:
+            model.geom_size[self.pushing, 0] = 0.0
+            for row, geom in enumerate(self.pushing):
+                nearest = np.inf
+                for part in self.scene.object_geoms:
+                    gap = mujoco.mj_geomDistance(model, data, geom, part, 1.0, fromto)
+                    if gap < nearest:
+                        nearest, cores[row], surface[row] = gap, fromto[:3], fromto[3:]
+        finally:
+            model.geom_size[self.pushing, 0] = radii
+        if self.scene.object.mesh is None:  # a curved primitive's nearest point from the distance's iterations is
+            # good to about a micrometre: too rough for the search's finite differences; its exact one is cheap
+            surface = self.scene.object.closest_point(cores)
+        directions = surface - cores
+        return directions / np.maximum(np.linalg.norm(directions, axis=1), 1e-9)[:, None]
 
     def pressing(self, posture: np.ndarray, pushes: np.ndarray) -> np.ndarray:
         """Cosines (len(distal),) between where the controller's squeeze moves each contact geom (a small
@@ -280,13 +314,24 @@ class _GraspGeometry:
         return np.sum(moved * pushes, axis=1) / np.maximum(np.linalg.norm(moved, axis=1), 1e-9)
 
     def distances(self, posture: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Signed distances (m) of the hand at this posture and palm pose (object frame): of each contact geom
+        to the object (`distal`), of every other geom to it (`other`) and of the geoms of neighbouring fingers
+        to each other (`pairs`). An `other` or `pairs` distance beyond `CLEAR` is only a lower bound (its
+        geoms' bounding spheres are that far apart): nothing asks more of it than that it is clear."""
         scene, model, data = self.scene, self.scene.model, self.scene.data
         data.qpos[scene.finger_qpos] = posture
-        scene.set_hand_pose(pos, quat)  # runs mj_forward: kinematics for the distances below
-        dist = lambda a, b: mujoco.mj_geomDistance(model, data, a, b, 0.3, self._fromto)  # noqa: E731
+        data.mocap_pos[scene.mount_id], data.mocap_quat[scene.mount_id] = compose(pos, quat, *self._palm_to_mount)
+        mujoco.mj_kinematics(model, data)  # the geoms' poses are all the distances below need
+        centres, radii = data.geom_xpos, model.geom_rbound
         distal = np.array([scene.distance_to_object(g, 0.3) for g in self.distal])
-        other = np.array([scene.distance_to_object(g, 0.3) for g in self.other])
-        pairs = np.array([dist(a, b) for a, b in self.pairs])
+        apart = np.linalg.norm(centres[self.other][:, None] - centres[self._object][None], axis=2)
+        other = np.min(apart - radii[self.other][:, None] - radii[self._object][None], axis=1)
+        for i in np.flatnonzero(other < CLEAR):
+            other[i] = scene.distance_to_object(self.other[i], 0.3)
+        a, b = self._pairs.T
+        pairs = np.linalg.norm(centres[a] - centres[b], axis=1) - radii[a] - radii[b]
+        for i in np.flatnonzero(pairs < CLEAR):
+            pairs[i] = mujoco.mj_geomDistance(model, data, a[i], b[i], 0.3, self._fromto)
         return distal, other, pairs
 
 
@@ -318,12 +363,10 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     geometry = _GraspGeometry(scene, contacts)
     limits = scene.hand.limits()
     lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
-    base_rotation = to_rotation(quat)
+    base_quat = np.asarray(quat, dtype=float) / np.linalg.norm(quat)
 
     def unpack(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        rotation = Rotation.from_rotvec(v[25:28]) * base_rotation
-        q = to_quat(rotation)
-        return v[:22], pos + v[22:25], q
+        return v[:22], pos + v[22:25], rotvec_quat(v[25:28], base_quat)
 
     def residuals(v: np.ndarray) -> np.ndarray:
         joints, p, q = unpack(v)
@@ -341,7 +384,10 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
 
     start = np.concatenate([np.clip(posture, lower, upper), np.zeros(6)])
     bounds = (np.concatenate([lower, [-0.03] * 3, [-0.5] * 3]), np.concatenate([upper, [0.03] * 3, [0.5] * 3]))
-    result = least_squares(residuals, start, bounds=bounds, x_scale="jac", max_nfev=400, diff_step=1e-6)
+    # a loose tolerance: the search stops once a step gains less than 0.01 % (the default 1e-8 spent most of
+    # its evaluations on the last micrometres, to no effect on which starts hold; BENCHMARKS.md, issue 37)
+    result = least_squares(residuals, start, bounds=bounds, x_scale="jac", max_nfev=400, diff_step=1e-6,
+                           ftol=SEARCH_TOLERANCE, xtol=SEARCH_TOLERANCE)
     joints, p, q = unpack(result.x)
     return StartingPosture(name, p, q, joints, tuple(contacts), grasp_type)
 
@@ -456,38 +502,54 @@ def holds(verifier: GraspVerifier, start: StartingPosture) -> bool:
         return False
 
 
-def _search_design(task: tuple[GraspObject, GraspDesign, bool]) -> StartingPosture | None:
-    """One design's start: the first of its refinements (all of `REFINEMENTS` when `checked`, else the plain
-    one) that is a valid grasp and, when `checked`, holds; None when none is."""
-    obj, design, checked = task
-    verifier = GraspVerifier(obj) if checked else None
-    for refinement in REFINEMENTS if checked else REFINEMENTS[:1]:
+def _search_design(task: tuple[GraspObject, GraspDesign, Callable[[StartingPosture], bool] | None]
+                   ) -> StartingPosture | None:
+    """One design's start: the first of its refinements (all of `REFINEMENTS` when there is a check, else the
+    plain one) that is a valid grasp and passes the check; None when none is."""
+    obj, design, check = task
+    for refinement in REFINEMENTS if check is not None else REFINEMENTS[:1]:
         if refinement.standoff is not None and design.grasp_type != "power":
             continue
         shaped = replace(design, standoff=design.standoff if refinement.standoff is None else refinement.standoff)
         pos, quat = design_pose(obj, shaped)
         start = refine(obj, pos, quat, design_posture(design), design.name, design.contacts, design.grasp_type,
                        refinement.balance, refinement.press)
-        if is_design_grasp(obj, start) and (verifier is None or holds(verifier, start)):
+        if is_design_grasp(obj, start) and (check is None or check(start)):
             return start
     return None
 
 
+def verified(obj: GraspObject, start: StartingPosture) -> bool:
+    """Whether a start holds its object under the generator's verifier (`holds` with a new `GraspVerifier`).
+
+    Args:
+        obj: the object.
+        start: the starting posture (palm pose in the object frame, m).
+
+    Returns:
+        True when the hold test passes.
+    """
+    return holds(GraspVerifier(obj), start)
+
+
 def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
+                           check: Callable[[StartingPosture], bool] | None = None,
                            progress: bool | None = None, workers: int | None = None) -> list[StartingPosture]:
     """Search every grasp design of the family for this object.
 
     `five_fingertip` (the paper's kind): each design refined once, kept when it is a valid grasp
     (`is_design_grasp`). `grasp_types`: each design refined in the ways of `REFINEMENTS` in turn and kept in
-    the first that is a valid grasp and holds the object when the generator's verifier replays it
-    (`GraspVerifier`: the controller's squeeze, then the hold test), so that every start of the family is a
-    grasp that holds; a design none of whose refinements holds is left out. A bar counts the designs
-    searched (seconds each for a primitive, a minute or more for a mesh; `progress` as
-    `progress.progress_bar` takes it); the designs are searched in parallel.
+    the first that is a valid grasp and passes `check` (by default `verified`: it holds the object when the
+    generator's verifier replays it, the controller's squeeze and then the hold test; the generator's own
+    search, `generator.search_starting_postures`, also asks its neighbours to hold), so that every start of
+    the family is a grasp that holds; a design none of whose refinements passes is left out. A bar counts the
+    designs searched (a second or a few each; `progress` as `progress.progress_bar` takes it); the designs are
+    searched in parallel.
 
     Args:
         obj: an object or its name.
         family: a design family (`DESIGN_FAMILIES`).
+        check: what a grasp-types start must pass, a picklable function of the start (None: `verified`).
         progress: show the bar (None: as `progress.show_progress` says).
         workers: worker processes (None: `workers.default_workers()` in a main process, one inside a worker).
 
@@ -498,13 +560,15 @@ def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip
     designs = designs_for(obj, family)
     if workers is None:  # a worker of a pool searches alone: no pools inside pools
         workers = min(default_workers(), len(designs)) if multiprocessing.parent_process() is None else 1
-    tasks = [(obj, design, family == "grasp_types") for design in designs]
+    if family == "grasp_types" and check is None:
+        check = partial(verified, obj)
+    tasks = [(obj, design, check if family == "grasp_types" else None) for design in designs]
     with progress_bar(len(designs), f"starting postures {obj.name} ({family})", "designs", enabled=progress) as bar:
         found = parallel_map(_search_design, tasks, workers, lambda *_: bar.update(1))
     return [start for start in found if start is not None]
 
 
-def _key(name: str, family: str) -> str:
+def starts_key(name: str, family: str) -> str:
     """The shipped file's key of an object's starts in a family (the five-fingertip ones keep the bare name)."""
     return name if family == "five_fingertip" else f"{name}@{family}"
 
@@ -514,7 +578,7 @@ def save_starting_postures(path, starts_by_object: dict[tuple[GraspObject, str],
     parameters are stored, so a changed object is never given another's starts)."""
     arrays, index = {}, {}
     for (obj, family), starts in starts_by_object.items():
-        key = _key(obj.name, family)
+        key = starts_key(obj.name, family)
         arrays[f"{key}/pos"] = np.array([s.hand_pos for s in starts]).reshape(-1, 3)
         arrays[f"{key}/quat"] = np.array([s.hand_quat for s in starts]).reshape(-1, 4)
         arrays[f"{key}/posture"] = np.array([s.posture for s in starts]).reshape(-1, len(FINGER_JOINTS))
@@ -526,83 +590,42 @@ def save_starting_postures(path, starts_by_object: dict[tuple[GraspObject, str],
 
 @cache
 def _shipped() -> tuple[dict[str, np.ndarray], dict]:
-    return load_npz(asset_path(STARTS_FILE), "starting_postures", {})
+    try:
+        return load_npz(asset_path(STARTS_FILE), "starting_postures", {})
+    except FileNotFoundError:
+        return {}, {"objects": {}}
 
 
-def cache_directory() -> Path:
-    """Where starting postures searched for an object that ships none are kept, so that another process
-    finds them: `$GRASPMANIFOLD_CACHE`, else `$XDG_CACHE_HOME/graspmanifold`, else `~/.cache/graspmanifold`.
-
-    Returns:
-        The folder (made when something is first stored there).
-    """
-    if os.environ.get("GRASPMANIFOLD_CACHE"):
-        return Path(os.environ["GRASPMANIFOLD_CACHE"])
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "graspmanifold"
-
-
-def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") -> list[StartingPosture]:
-    """The starting postures of an object in a design family (`DESIGN_FAMILIES`): shipped for the
-    paper's objects and the object family; else searched once (a few seconds per design for a
-    primitive, longer for a mesh, with a progress bar) and stored in `cache_directory()`, under a key
-    of the object's parameters (a mesh's digest among them) and the library's code, so that a second
-    process reads them instead of searching again.
+def shipped_starting_postures(obj: GraspObject, family: str) -> list[StartingPosture] | None:
+    """The starting postures `assets/starting_postures.npz` ships for an object in a design family, or for an
+    object of the same geometry (a variant with another mass or friction, `GraspObject.with_`, has the same
+    designed grasps).
 
     Args:
-        obj: an object or its name.
-        family: 'five_fingertip' (the paper's kind) or 'grasp_types' (power, precision, tripod, lateral).
+        obj: the object.
+        family: a design family (`DESIGN_FAMILIES`).
 
     Returns:
-        The valid starting postures, in the order of `designs_for(obj, family)`.
+        The starts, or None when none are shipped for it.
     """
-    if family not in DESIGN_FAMILIES:
-        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
-    return list(_starting_postures(get_object(obj), family))
-
-
-@lru_cache(maxsize=64)
-def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, ...]:
-    try:
-        arrays, meta = _shipped()
-    except FileNotFoundError:
-        arrays, meta = {}, {"objects": {}}
-    key = _key(obj.name, family)
+    arrays, meta = _shipped()
+    key = starts_key(obj.name, family)
     entry = meta["objects"].get(key)
-    if entry is None or entry["object"] != obj.params():  # a variant of a shipped object (another mass or
-        # friction, `GraspObject.with_`) has the same geometry, so the same designed grasps
+    if entry is None or entry["object"] != obj.params():
         key, entry = next(((k, e) for k, e in meta["objects"].items() if e.get("family", "five_fingertip") == family
                            and _geometry(e["object"]) == _geometry(obj.params())), (key, None))
-    if entry is not None:
-        return _read_entry(arrays, key, entry, obj, family)
-    cached = cache_directory() / "starting_postures" / f"{obj.name}_{family}_{result_key(obj.params(), family)}.npz"
-    if cached.exists():
-        try:
-            arrays, meta = load_npz(cached, "starting_postures", {})
-            return _read_entry(arrays, _key(obj.name, family), meta["objects"][_key(obj.name, family)], obj, family)
-        except (ValueError, KeyError, OSError) as error:  # a damaged file is searched again and replaced
-            warnings.warn(f"the stored starting postures {cached} cannot be read ({error}): searching again",
-                          stacklevel=3)
-    warnings.warn(f"{obj.name} has no shipped starting postures ({family}): searching them now (seconds for a "
-                  f"primitive, a minute or more for a mesh); they are kept in {cached.parent} for the next process",
-                  stacklevel=3)
-    found = find_starting_postures(obj, family)
-    try:
-        save_starting_postures(cached, {(obj, family): found})
-    except OSError as error:  # a read-only home: the search is only lost for the next process
-        warnings.warn(f"the starting postures could not be stored in {cached.parent} ({error}); set "
-                      "GRASPMANIFOLD_CACHE to a writable folder to keep them", stacklevel=3)
-    return tuple(found)
+    return None if entry is None else read_entry(arrays, key, entry, obj, family)
 
 
-def _read_entry(arrays: dict[str, np.ndarray], key: str, entry: dict, obj: GraspObject, family: str
-                ) -> tuple[StartingPosture, ...]:
+def read_entry(arrays: dict[str, np.ndarray], key: str, entry: dict, obj: GraspObject, family: str
+               ) -> list[StartingPosture]:
     """The starting postures of one object and family in a file written by `save_starting_postures`."""
     count = len(entry["names"])
     contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
     designs = {d.name: d for d in designs_for(obj, family)}
     types = entry.get("grasp_types", [designs[n].grasp_type if n in designs else "power" for n in entry["names"]])
-    return tuple(StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
-                                 tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"]))
+    return [StartingPosture(n, arrays[f"{key}/pos"][i], arrays[f"{key}/quat"][i], arrays[f"{key}/posture"][i],
+                            tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"])]
 
 
 def _geometry(params: dict) -> dict:
