@@ -21,9 +21,10 @@ contacts' pushes to cancel.
 The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
 families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object family
 its five-fingertip ones and the grasp-types ones of every member not held out (`family.HELD_OUT`); the
-rest is searched on first use (seconds to half a minute per object) and kept in `cache_directory()`, so that the next
-process reads it (a user can also give their own: `generate_postures(..., starts=...)`,
-each a `StartingPosture`, e.g. a rough grasp brought onto the surface by `refine`). A mesh object
+rest is searched on first use (`generator.starting_postures`: seconds to half a minute per object) and
+kept in `generator.cache_directory()`, so that the next process reads it (a user can also give their own:
+`generate_postures(..., starts=...)`, each a `StartingPosture`, e.g. a rough grasp brought onto the surface
+by `refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
 designs place the palm relative to the object's principal axes and its extents, and the
 least-squares refinement brings the fingertips onto the actual surface, so any watertight solid of
@@ -569,7 +570,16 @@ def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip
 
 
 def starts_key(name: str, family: str) -> str:
-    """The shipped file's key of an object's starts in a family (the five-fingertip ones keep the bare name)."""
+    """The key of an object's starts in a family in a file of `save_starting_postures` (the five-fingertip ones
+    keep the bare name).
+
+    Args:
+        name: the object's name.
+        family: a design family (`DESIGN_FAMILIES`).
+
+    Returns:
+        The key.
+    """
     return name if family == "five_fingertip" else f"{name}@{family}"
 
 
@@ -619,7 +629,18 @@ def shipped_starting_postures(obj: GraspObject, family: str) -> list[StartingPos
 
 def read_entry(arrays: dict[str, np.ndarray], key: str, entry: dict, obj: GraspObject, family: str
                ) -> list[StartingPosture]:
-    """The starting postures of one object and family in a file written by `save_starting_postures`."""
+    """The starting postures of one object and family in a file written by `save_starting_postures`.
+
+    Args:
+        arrays: the file's arrays (`io.load_npz`).
+        key: the entry's key (`starts_key`).
+        entry: the entry's metadata (names, contacts, grasp types).
+        obj: the object.
+        family: its design family.
+
+    Returns:
+        The starts, palm poses in the object frame (m).
+    """
     count = len(entry["names"])
     contacts = entry.get("contacts", [list(DISTAL_SEGMENTS)] * count)
     designs = {d.name: d for d in designs_for(obj, family)}
