@@ -269,7 +269,8 @@ class _GraspGeometry:
         self.pushing = self.distal
         self._object = list(scene.object_geoms)
         self._pairs = np.array(self.pairs, dtype=int).reshape(-1, 2)
-        mujoco.mj_kinematics(model, data := scene.data)  # the palm's place on the mount (the wrist does not move)
+        data = scene.data
+        mujoco.mj_kinematics(model, data)  # the palm's place on the mount (the wrist does not move)
         mount = data.mocap_pos[scene.mount_id].copy(), data.mocap_quat[scene.mount_id].copy()
         self._palm_to_mount = compose(*invert(data.xpos[scene.palm_id], data.xquat[scene.palm_id]), *mount)
 
