@@ -53,8 +53,15 @@ def rotate(vec: np.ndarray, quat: np.ndarray) -> np.ndarray:
 
 
 def rotvec_quat(rotvec: np.ndarray, quat: np.ndarray) -> np.ndarray:
-    """The quaternion (w, x, y, z) of a rotation by a rotation vector (axis times angle, radians, world
-    frame) after the rotation `quat`."""
+    """The rotation `quat` followed by a turn given as a rotation vector.
+
+    Args:
+        rotvec: (3,), the turn's axis times its angle (radians), in the world frame.
+        quat: (4,), the first rotation (w x y z), a unit quaternion.
+
+    Returns:
+        (4,), the composed rotation's quaternion (w x y z).
+    """
     angle = float(np.linalg.norm(rotvec))
     turn, out = np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(4)
     if angle > 0.0:

@@ -257,10 +257,10 @@ class _GraspGeometry:
         self.other = [g for g in hand_geoms if g not in self.distal and SEGMENTS[segment_of[g]] != "forearm"]
         fingers = {g: finger_of(SEGMENTS[segment_of[g]]) for g in hand_geoms}
         order = ["ff", "mf", "rf", "lf"]
-        self.pairs = [(a, b) for a in hand_geoms for b in hand_geoms if a < b and fingers[a] and fingers[b]
-                      and fingers[a] != fingers[b]
-                      and (fingers[a] == "th" or fingers[b] == "th"
-                           or abs(order.index(fingers[a]) - order.index(fingers[b])) == 1)]
+        pairs = [(a, b) for a in hand_geoms for b in hand_geoms if a < b and fingers[a] and fingers[b]
+                 and fingers[a] != fingers[b]
+                 and (fingers[a] == "th" or fingers[b] == "th"
+                      or abs(order.index(fingers[a]) - order.index(fingers[b])) == 1)]
         self._fromto = np.zeros(6)
         round_cores = (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_SPHERE))
         if any(int(model.geom_type[g]) not in round_cores for g in self.distal):
@@ -268,7 +268,7 @@ class _GraspGeometry:
         #: the contact geoms in the order of the rows of `pushes` and `pressing`
         self.pushing = self.distal
         self._object = list(scene.object_geoms)
-        self._pairs = np.array(self.pairs, dtype=int).reshape(-1, 2)
+        self._pairs = np.array(pairs, dtype=int).reshape(-1, 2)  # geoms of neighbouring fingers
         data = scene.data
         mujoco.mj_kinematics(model, data)  # the palm's place on the mount (the wrist does not move)
         mount = data.mocap_pos[scene.mount_id].copy(), data.mocap_quat[scene.mount_id].copy()
