@@ -194,6 +194,10 @@ def squeezed(posture: np.ndarray, amount: float, hand: HandModel = SHADOW_HAND) 
     makes fingers touching an object press on it. The controller and the generator's verifier squeeze
     with it.
 
+    Each flexion joint moves `amount` towards its closed angle, or to it where it is nearer: a joint at the
+    closed angle stays there (the squeeze used to push it `amount` one way or the other by the sign of a
+    difference of zero, so that a posture at the closed hand was squeezed by a last bit's choice).
+
     Args:
         posture: finger postures (..., 22), rad (one, or one per row).
         amount: how far to push each flexion joint (`FLEXION`), rad.
@@ -206,7 +210,7 @@ def squeezed(posture: np.ndarray, amount: float, hand: HandModel = SHADOW_HAND) 
 
 
 def _pressed(posture: np.ndarray, amount: float, closed: np.ndarray, limits: np.ndarray) -> np.ndarray:
-    target = posture + amount * np.sign(closed - posture) * FLEXION
+    target = posture + np.clip(closed - posture, -amount, amount) * FLEXION
     return np.clip(target, limits[:, 0], limits[:, 1])
 
 
