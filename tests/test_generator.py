@@ -78,8 +78,9 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
     """The cause of the paper's wraps that never hold (issue 37): in the cylinder's mid wrap the controller's
     squeeze draws the thumb away from the object (its motion points away from its push). The refinement's press
     term turns it in; its balance term makes the contacts' unit pushes cancel better."""
-    from graspmanifold.control.starts import (
-        PRESS_COSINE, _GraspGeometry, design_pose, design_posture, designs_for, refine)
+    from graspmanifold.control.refinement import PRESS_COSINE, refine
+    from graspmanifold.control.search_geometry import SearchGeometry
+    from graspmanifold.control.starts import design_pose, design_posture, designs_for
 
     cylinder = gm.get_object("cylinder")
     design = next(d for d in designs_for(cylinder) if d.name == "wrap_mid")
@@ -87,7 +88,7 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
     measured = {}
     for terms in ({}, {"press": 1.0}, {"balance": 2.5}):
         start = refine(cylinder, pos, quat, design_posture(design), design.name, **terms)
-        geometry = _GraspGeometry(gm.Scene(cylinder))
+        geometry = SearchGeometry(gm.Scene(cylinder))
         geometry.distances(start.posture, start.hand_pos, start.hand_quat)
         pushes = geometry.pushes()
         thumb = geometry.pushing.index(geometry.scene.model.geom("thdistal").id)

@@ -51,7 +51,7 @@ from .manifold.postureset import PostureSet
 from .control.quality import epsilon_l1
 from .sim.scene import Scene, facing_pose
 from .manifold.som import SOM, SOMSchedule
-from .control.starts import StartingPosture
+from .control.refinement import StartingPosture
 from .sim.tactile import TactileReading, TactileSensor
 from .trials.trial import Noise, Recording, TrialSetup, record_trial
 from .trials.stats import headroom, holm, mcnemar, wilson_interval

@@ -379,7 +379,7 @@ def holds_with_neighbours(obj: GraspObject, start: StartingPosture) -> bool:
     return len(walked["postures"]) > 0 and not bool(walked["exhausted"])
 
 
-def search_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *,
+def search_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *, perturbation: float = 0.0,
                              progress: bool | None = None, workers: int | None = None) -> list[StartingPosture]:
     """Search an object's starting postures as the generator uses them: `starts.find_starting_postures`, a
     grasp-types start kept only when it and its neighbours hold (`holds_with_neighbours`). What
@@ -388,6 +388,7 @@ def search_starting_postures(obj: str | GraspObject, family: str = "five_fingert
     Args:
         obj: an object or its name.
         family: a design family (`starts.DESIGN_FAMILIES`).
+        perturbation: a relative change of every design's palm position (`starts.find_starting_postures`).
         progress: show the bar (None: as `progress.show_progress` says).
         workers: worker processes (None: `workers.default_workers()` in a main process, one inside a worker).
 
@@ -395,8 +396,8 @@ def search_starting_postures(obj: str | GraspObject, family: str = "five_fingert
         The starting postures found, in the order of `designs_for(obj, family)`.
     """
     obj = get_object(obj)
-    return find_starting_postures(obj, family, check=partial(holds_with_neighbours, obj), progress=progress,
-                                  workers=workers)
+    return find_starting_postures(obj, family, check=partial(holds_with_neighbours, obj), perturbation=perturbation,
+                                  progress=progress, workers=workers)
 
 
 def cache_directory() -> Path:

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..manifold.experience import Experience
+from ..manifold.nearest import argmin_tied
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
 from ..sim.posture import SEGMENT_FINGER, pcp_masks
@@ -141,7 +142,7 @@ class Regrasp:
         if len(self.grasp_types) != len(references):
             raise InvalidInput(f"Regrasp.grasp_types has {len(self.grasp_types)} types for an experience of "
                                f"{len(references)} reference postures")
-        nearest = np.argmin(((references[None] - joints[:, None]) ** 2).sum(axis=2), axis=1)
+        nearest = argmin_tied(((references[None] - joints[:, None]) ** 2).sum(axis=2), axis=1)
         failed_type = self.grasp_types[nearest]
         masks = np.array(pcp_masks(np.asarray(forces) > 0), dtype=bool)
         masks[~masks.any(axis=1)] = True  # nothing specified (only the palm touched): the whole posture
@@ -151,7 +152,7 @@ class Regrasp:
             if not len(allowed):  # one grasp type only: the best match of any
                 allowed = np.arange(len(references))
             distances = (((references[allowed] - posture) ** 2) * mask).sum(axis=1)
-            chosen[row] = references[allowed[np.argmin(distances)]]
+            chosen[row] = references[allowed[argmin_tied(distances)]]
         return chosen
 
 
@@ -190,5 +191,5 @@ def reference_grasp_types(experience: Experience, postures: np.ndarray, types: n
         raise InvalidInput(f"postures must be (m, {N_FINGER_JOINTS}) with one type each (m >= 1), got shapes "
                            f"{data.shape} and {types.shape}")
     references = np.asarray(experience.references, dtype=float)
-    nearest = np.array([np.argmin(((data - row) ** 2).sum(axis=1)) for row in references], dtype=int)
+    nearest = np.array([argmin_tied(((data - row) ** 2).sum(axis=1)) for row in references], dtype=int)
     return types[nearest]

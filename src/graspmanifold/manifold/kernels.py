@@ -9,7 +9,7 @@ it forks afterwards; a Dask worker reads the environment) at run time.
 
 The kernels compute the masked distance directly over the masked dimensions only,
 sum_k p_k (w_k - x_k)^2 in increasing k, vectorised across points (points are stored transposed,
-(dim, n)), and take the lowest index on ties. They release the GIL, so batches are split across
+(dim, n)), and take the lowest index of a tie (distances within `TIE` of the smallest). They release the GIL, so batches are split across
 threads (not numba's own parallel layer, which is not safe in forked worker processes).
 Compiled code is cached on disk (numba's `cache=True`): the first call in a fresh environment
 compiles for a few seconds, later processes load it. Where numba finds no writable place for its cache
@@ -83,16 +83,23 @@ def _masked_distances(points_t: np.ndarray, query: np.ndarray, weights: np.ndarr
                 out[j] += p * (d * d)
 
 
+#: values within this fraction of the smallest tie with it, and the lowest index of a tie wins: a rule that the last
+#: bits of the distances (which move with the processor, the BLAS and the compiler's vector width) do not decide
+TIE = 1e-9
+
+
 @_kernel
 def _argmin(values: np.ndarray) -> int:
-    """Index of the smallest value, the lowest one on ties."""
-    best = 0
+    """Index of the smallest value: the lowest index among the values within `TIE` (relative) of it."""
     low = values[0]
     for j in range(1, values.shape[0]):
         if values[j] < low:
             low = values[j]
-            best = j
-    return best
+    bound = low + TIE * abs(low)
+    for j in range(values.shape[0]):
+        if values[j] <= bound:
+            return j
+    return 0
 
 
 @_kernel

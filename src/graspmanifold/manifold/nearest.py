@@ -10,7 +10,8 @@ query costs a few microseconds; batches are split across threads.
 The NumPy reference (`MaskedNearest.query_reference`) expands the distance as
 p.(w*w) - 2 (p*x).w + const, so one matrix product serves a whole batch of queries with different
 masks; candidates whose expanded distance lies within rounding error of the minimum are then
-re-ranked with the direct formula. Both give the brute-force argmin, the lowest index on ties.
+re-ranked with the direct formula. Both give the brute-force best match: the lowest index of a tie, distances
+within `kernels.TIE` (relative) of the smallest (`argmin_tied`), so that no last bit of a distance decides it.
 """
 
 from __future__ import annotations
@@ -21,11 +22,30 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.workers import usable_cores
-from .kernels import compiled, masked_argmin, masked_argmin_rows
+from .kernels import TIE, compiled, masked_argmin, masked_argmin_rows
 
 _CHUNK = 4096  # queries per matrix product: bounds memory at CHUNK x n distances
 _PER_THREAD = 2048  # a batch gets one thread per this many queries, up to the usable cores
 _RELATIVE_TOLERANCE = 1e-10  # far above the ~1e-14 relative rounding error of the expansion
+
+
+def argmin_tied(values: np.ndarray, axis: int | None = None) -> int | np.ndarray:
+    """The index of the smallest value, the lowest index among those within `kernels.TIE` (relative) of it: the
+    best match's rule of a tie, for any array of distances.
+
+    Args:
+        values: distances (any shape).
+        axis: the axis to search (None: the flattened array).
+
+    Returns:
+        The index (an int for axis None, else an array of them).
+    """
+    values = np.asarray(values, dtype=float)
+    if axis is None:
+        values, axis = values.ravel(), 0
+    low = values.min(axis=axis, keepdims=True)
+    index = np.argmax(values <= low + TIE * np.abs(low), axis=axis)
+    return int(index) if np.ndim(index) == 0 else index
 
 
 def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
@@ -153,13 +173,15 @@ class MaskedNearest:
         expanded = stacked @ self._expanded  # (m, n): distance minus the query's own constant
         best = expanded.argmin(axis=1)
         rows = np.arange(len(queries))
-        # |p.w^2 - 2 (p x).w| <= sum p (w_max^2 + x^2) * 2 bounds the magnitude of the rounded terms
-        tolerance = 2.0 * _RELATIVE_TOLERANCE * np.einsum("ij,ij->i", self._scale_sq + queries * queries, weights)
+        # |p.w^2 - 2 (p x).w| <= sum p (w_max^2 + x^2) * 2 bounds the magnitude of the rounded terms and of the
+        # distances, so that this window holds every candidate of a tie (within TIE of the smallest distance)
+        tolerance = 2.0 * (_RELATIVE_TOLERANCE + 2.0 * TIE) * np.einsum("ij,ij->i", self._scale_sq + queries * queries,
+                                                                       weights)
         near_tie = np.count_nonzero(expanded <= (expanded[rows, best] + tolerance)[:, None], axis=1) > 1
         for row in np.flatnonzero(near_tie):  # rare: settle with the direct formula
             candidates = np.flatnonzero(expanded[row] <= expanded[row, best[row]] + tolerance[row])
             exact = np.sum(weights[row] * (self.points[candidates] - queries[row]) ** 2, axis=1)
-            best[row] = candidates[np.argmin(exact)]
+            best[row] = candidates[argmin_tied(exact)]
         return best
 
 

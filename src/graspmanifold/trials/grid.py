@@ -20,6 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert, rotate, to_quat
+from ..manifold.nearest import argmin_tied
 from ..sim.hand import SEGMENTS, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import open_posture
@@ -219,7 +220,7 @@ def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -
     for i, grid_pose in enumerate(np.asarray(grid, dtype=float)):
         centre, axis = seen_from_palm(*palm_pose_for(obj, grid_pose))
         distances = np.linalg.norm(centres - centre, axis=1)
-        nearest = int(np.argmin(distances))
+        nearest = argmin_tied(distances)
         angle = 0.0 if obj.shape == "sphere" else float(np.arccos(min(1.0, abs(float(axes[nearest] @ axis)))))
         out[i] = distances[nearest], angle
     return out
