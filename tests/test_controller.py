@@ -3,6 +3,7 @@
 from dataclasses import replace
 
 import numpy as np
+from goldens import assert_matches_golden, blend_golden_results
 import pytest
 
 import graspmanifold as gm
@@ -506,33 +507,15 @@ def test_a_recall_of_the_closed_hand_closes_as_the_plain_heuristic():
 def test_the_blend_gives_the_trials_of_the_commit_before_the_papers_reading():
     """`BLEND` is the controller every result before the paper's reading came from: its trials, their
     postures, epsilons and per-cycle winners equal those that commit computed (tests/data/blend_trials.npz,
-    written there by the script below run on it): bit for bit on the processor that wrote it; on another, MuJoCo's
-    floating point differs in the seventh digit (measured on an AMD EPYC: postures 7e-7 rad, epsilon 6e-6), so the
-    discrete outcomes are compared exactly and the measured values to well within what any reading resolves."""
-    from pathlib import Path
-
-    from graspmanifold.trials.grid import check_grid
-
-    golden = np.load(Path(__file__).parent / "data" / "blend_trials.npz")
-    starts = np.array([s.posture for s in gm.starting_postures("cylinder")])
-    rng = np.random.default_rng(0)
-    limits = gm.finger_limits()
-    postures = np.clip(np.repeat(starts, 10, axis=0) + rng.normal(0, 0.05, (10 * len(starts), 22)),
-                       limits[:, 0], limits[:, 1])
-    database, som = gm.PostureDatabase(postures), gm.SOM(4, 4, 22, seed=0).fit(postures, epochs=5, progress=False)
-    poses = check_grid("quick", gm.get_object("cylinder"))[1][::4]
-    run = dict(seed=3, workers=1, progress=False, margin=True)
-    results = {"database": gm.evaluate("cylinder", database, poses, params=BLEND, **run),
-               "som_noise": gm.evaluate("cylinder", som, poses, noise=gm.Noise(0.004, 0.08, 0.01), params=BLEND, **run),
-               "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, restart_closure=True), **run)}
+    written by `goldens.blend_golden_results` run on it). Bit for bit only on the processor and MuJoCo that wrote it: MuJoCo
+    4.0.1 moves a hold displacement by 1.2e-4 from 4.0.0's on the same processor, and a 1e-12 change of the poses
+    flips a database recall whose two nearest postures the sensed joints find about equally near, after which that
+    trial closes to another posture (0.085 rad away; `tests/test_last_bits.py`). So what is pinned is what no last
+    bit moves: the outcomes exactly, nine in ten of each method's winners, and the measured values of every trial
+    whose recalls all equal the golden's to well within what any reading resolves."""
+    results = blend_golden_results()
     for name, result in results.items():
-        for field in ("touching", "hold", "time_to_grasp", "matches", "margin"):
-            assert np.array_equal(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"]), \
-                (name, field)
-        for field, atol in (("posture", 1e-5), ("epsilon", 1e-4), ("hold_displacement", 1e-5), ("penetration", 1e-5)):
-            np.testing.assert_allclose(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"],
-                                       rtol=0, atol=atol, err_msg=f"{name} {field}")
-        assert np.array_equal(np.concatenate([t.winners for t in result.trials]), golden[f"{name}/winners"]), name
+        assert_matches_golden(result, name)
 
 
 def test_the_controller_recalls_what_the_experience_completes():
