@@ -128,7 +128,8 @@ def test_the_verified_procedure_trains_on_the_candidates_that_hold(finished, tmp
     recorded = json.loads((out / "run.json").read_text())
     assert recorded["datasets"]["sphere"] == {"procedure": "verified", "candidates": 48,
                                               "trained_on": summary["objects"]["sphere"]["dataset_size"]}
-    assert set(recorded["versions"]) == {"graspmanifold", "code", "mujoco", "numpy", "python", "machine"}
+    assert set(recorded["versions"]) == {"graspmanifold", "code", "mujoco", "numpy", "scipy", "numba", "blas", "python",
+                                         "machine"}
     assert "only candidates that hold when replayed" in (out / "report.md").read_text()
     with pytest.raises(ValueError, match="procedure must be one of"):
         ReproduceConfig(**{**REDUCED.__dict__, "procedure": "all"})

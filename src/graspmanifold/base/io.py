@@ -36,11 +36,16 @@ def library_version() -> str:
 
 def software_versions() -> dict[str, str]:
     """What a result depends on besides its configuration: this library's version and code
-    (`version.code_fingerprint`), MuJoCo's, NumPy's and Python's versions and the machine (processor,
-    cores, system)."""
+    (`version.code_fingerprint`), the versions of MuJoCo, NumPy, SciPy, numba and Python, the BLAS NumPy calls
+    (NumPy's and SciPy's: each library, version and the processor kernels it chose) and the machine (processor, cores, system): a run
+    records them, so that a result can be traced to the arithmetic that made it (RELIABILITY.md says how far
+    results move between machines)."""
     import platform
 
     import mujoco
+    import numba
+    import scipy
+    from threadpoolctl import threadpool_info
 
     processor = platform.processor()
     try:  # Linux names the processor model here; platform.processor() is often empty
@@ -48,7 +53,13 @@ def software_versions() -> dict[str, str]:
                          if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
+    import scipy.linalg  # noqa: F401  (SciPy's own BLAS, loaded with its linear algebra)
+
+    blas = "; ".join(f"{Path(b.get('filepath', '?')).parent.name.removesuffix('.libs')}: {b.get('internal_api', '?')} "
+                     f"{b.get('version', '?')} ({b.get('architecture', '?')} kernels)"
+                     for b in threadpool_info() if b.get("user_api") == "blas") or "?"
     return {"graspmanifold": __version__, "code": code_fingerprint(), "mujoco": mujoco.__version__, "numpy": np.__version__,
+            "scipy": scipy.__version__, "numba": numba.__version__, "blas": blas,
             "python": platform.python_version(), "machine": f"{platform.machine()} {processor or '?'}, "
             f"{os.cpu_count()} cores, {platform.system()} {platform.release()}"}
 

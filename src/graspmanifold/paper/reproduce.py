@@ -30,7 +30,7 @@ from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock,
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_int
 from ..base.workers import default_workers, worker_pool
-from ..base.config_files import to_toml
+from ..base.config_files import apply_table, to_toml
 from ..control.dexgraspbench import PROTOCOL_NAMES
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
@@ -123,6 +123,26 @@ class ReproduceConfig:
         config["controller"]["max_match_distance"] = str(self.controller.max_match_distance)  # 'inf' is no JSON number
         config["grid"] = self.grid if isinstance(self.grid, str) else [list(map(float, g)) for g in self.grid]
         return config
+
+    @classmethod
+    def from_json(cls, config: dict) -> ReproduceConfig:
+        """The configuration `to_json` wrote (a run's run.json holds it under "config").
+
+        Args:
+            config: the JSON object.
+
+        Returns:
+            The configuration, checked as any is.
+        """
+        config = json.loads(json.dumps(config))  # a copy to change
+        controller = config.get("controller")
+        if isinstance(controller, dict) and isinstance(controller.get("max_match_distance"), str):
+            try:
+                controller["max_match_distance"] = float(controller["max_match_distance"])
+            except ValueError:
+                raise InvalidInput(f"ReproduceConfig.controller.max_match_distance must be a number, got "
+                                   f"{controller['max_match_distance']!r}") from None
+        return apply_table(cls(postures=dict(config.get("postures") or {"cylinder": 1})), config, "")
 
 
 #: `quick`: the paper's procedure at small sizes (CI, a first look); `paper`: the paper's procedure and dataset

@@ -50,7 +50,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, write_text_atomic
+from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import GeneratorParams, generate_postures
@@ -327,7 +327,7 @@ def write_report(study: ExperienceStudy, info: dict) -> None:
     """The report, study.json (and, for the full study, the report's JSON beside it)."""
     doc = study.config.doc_path
     write_text_atomic(doc, report(study.config, info))
-    data = json.dumps(info, indent=1, default=float)
+    data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
     write_text_atomic(study.out / "study.json", data)
     if not study.config.quick:
         write_text_atomic(doc.with_suffix(".json"), data)

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.io import load_npz, markdown_table, save_npz, write_text_atomic
+from ..base.io import load_npz, markdown_table, save_npz, software_versions, write_text_atomic
 from ..control.controller import BLEND
 from ..control.generator import GeneratorParams, generate_postures, verify_postures
 from ..control.judge import JUDGING
@@ -411,7 +411,7 @@ def write_study(study: Study, doc: Path) -> None:
         info = run(study)
         text = report(study, info)
         write_text_atomic(doc, text)
-        data = json.dumps(info, indent=1, default=float)
+        data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
         write_text_atomic(study.out / "study.json", data)
         if not study.args.quick:
             write_text_atomic(doc.with_suffix(".json"), data)
