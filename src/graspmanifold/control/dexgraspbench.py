@@ -220,6 +220,13 @@ def q1(points: np.ndarray, normals: np.ndarray, links: np.ndarray, distances: np
     return epsilon_l1(where, towards, centroid, mu=friction / 2, num_edges=8, torque_scale=radius or None)
 
 
+#: the stages of an open-loop grasp, in order
+STAGE_NAMES: tuple[str, ...] = ("pregrasp", "grasp", "squeeze")
+#: the farthest a stage's palm may lie from the object's centre (m): farther is no grasp of it (a stage moved a
+#: million metres away replayed as held: the free object waited, weightless, for the hand to come back)
+MAX_REACH = 1.0
+
+
 @dataclass(frozen=True)
 class OpenLoopGrasp:
     """A grasp as DexGraspBench replays it: the pregrasp, the grasp and the squeeze, each a palm pose in the
@@ -236,10 +243,22 @@ class OpenLoopGrasp:
     def __post_init__(self) -> None:
         for name, width in (("poses", 7), ("postures", 22)):
             value = np.asarray(getattr(self, name), dtype=float)
-            if value.shape != (3, width) or not np.all(np.isfinite(value)):
-                raise InvalidInput(f"OpenLoopGrasp.{name} must be (3, {width}) finite values (pregrasp, grasp, "
-                                   f"squeeze), got shape {value.shape}")
+            if value.shape != (3, width):
+                raise InvalidInput(f"OpenLoopGrasp.{name} must be (3, {width}) values (pregrasp, grasp, squeeze), got "
+                                   f"shape {value.shape}")
+            if not np.all(np.isfinite(value)):
+                raise InvalidInput(f"OpenLoopGrasp.{name} must be finite, got NaN or infinite values in the "
+                                   f"{', '.join(STAGE_NAMES[i] for i in np.flatnonzero(~np.isfinite(value).all(axis=1)))}")
             object.__setattr__(self, name, value)
+        reach = np.linalg.norm(self.poses[:, :3], axis=1)
+        if np.any(reach > MAX_REACH):
+            stage = int(np.argmax(reach))
+            raise InvalidInput(f"OpenLoopGrasp.poses: the {STAGE_NAMES[stage]}'s palm lies {reach[stage]:.3g} m from the "
+                               f"object's centre; a grasp's palm is within {MAX_REACH:g} m of it")
+        length = np.linalg.norm(self.poses[:, 3:], axis=1)
+        if np.any(np.abs(length - 1.0) > 1e-6):
+            raise InvalidInput(f"OpenLoopGrasp.poses: each orientation must be a unit quaternion (w x y z), got lengths "
+                               f"{np.round(length, 6).tolist()}")
 
 
 @dataclass(frozen=True)

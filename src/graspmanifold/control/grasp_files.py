@@ -6,17 +6,21 @@ pregrasp, grasp and squeeze, the hand's root pose and joint positions: either in
 root values first, then the joints) or apart, as `<stage>_pose` (7) beside `<stage>_qpos` (the joints).
 The joints are in the hand model's order (`HandModel.wrist_joints` then `finger_joints`, the order of
 Menagerie's Shadow hand, which DexGraspBench uses) and senses; the root is the body the hand hangs from
-(our `HandModel.mount`), its pose in the object frame.
+(our `HandModel.mount`), its pose in the world, as the object's (`obj_pose`) is: the reader turns both into the
+palm's pose in the object's frame. Every entry is checked (its kind of number, its count, finite values, a
+quaternion of non-zero length, a positive scale, a palm within `dexgraspbench.MAX_REACH` of the object) and a
+fault named with its file.
 
 A pickle can run any code while it is read, so `read_grasp_file` never hands one to `pickle` as it is:
 it reads the .npy header itself and unpickles with an unpickler that admits only what NumPy arrays and
-scalars need; the result must be a dict of arrays, numbers and strings. Anything else is refused, the
-file named, before any of it runs.
+scalars need, each array's declared size bounded (`MAX_ELEMENTS`) before NumPy allocates it; the result must be
+a dict of arrays, numbers and strings. Anything else is refused, the file named, before any of it runs.
 """
 
 from __future__ import annotations
 
 import io
+import math
 import os
 import pickle
 from dataclasses import dataclass
@@ -32,19 +36,38 @@ from ..sim.hand import SEGMENTS, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, make_object
 from ..sim.scene import Scene
-from .dexgraspbench import OpenLoopGrasp
+from .dexgraspbench import STAGE_NAMES, OpenLoopGrasp
 
-STAGES: tuple[str, ...] = ("pregrasp", "grasp", "squeeze")
+STAGES = STAGE_NAMES
+#: the most elements an array of a grasp file may declare: a grasp file holds a few dozen numbers per entry, and
+#: a small file can declare an array of any size (2**28 object elements took 2.2 GB before it was refused)
+MAX_ELEMENTS = 10_000
 #: the globals a pickle of NumPy arrays and scalars needs (NumPy 1 and 2 spell the module differently)
 _ADMITTED = {(module, name) for module in ("numpy.core.multiarray", "numpy._core.multiarray")
              for name in ("_reconstruct", "scalar")} | {("numpy", "ndarray"), ("numpy", "dtype")}
+
+
+class _BoundedArray(np.ndarray):
+    """An array a grasp file's pickle builds, whose declared size is checked against `MAX_ELEMENTS` and against the
+    data it brings before NumPy allocates it."""
+
+    def __setstate__(self, state: tuple) -> None:
+        shape, dtype, data = (state[1], state[2], state[4]) if len(state) == 5 else (state[0], state[1], state[3])
+        size = math.prod(int(n) for n in shape)
+        if not 0 <= size <= MAX_ELEMENTS:
+            raise pickle.UnpicklingError(f"it declares an array of {size} elements (at most {MAX_ELEMENTS})")
+        expected = size if np.dtype(dtype).hasobject else size * np.dtype(dtype).itemsize
+        if len(data) != expected:
+            raise pickle.UnpicklingError(f"an array of {size} elements brings {len(data)} "
+                                         f"{'items' if np.dtype(dtype).hasobject else 'bytes'}, not {expected}")
+        super().__setstate__(state)
 
 
 class _ArraysOnly(pickle.Unpickler):
     def find_class(self, module: str, name: str) -> object:
         if (module, name) not in _ADMITTED:
             raise pickle.UnpicklingError(f"it asks for {module}.{name}, which a file of arrays never needs")
-        return super().find_class(module, name)
+        return _BoundedArray if (module, name) == ("numpy", "ndarray") else super().find_class(module, name)
 
 
 def _plain(value: object) -> bool:
@@ -89,7 +112,32 @@ def read_grasp_file(path: str | os.PathLike) -> dict[str, object]:
     if not isinstance(content, dict) or not all(isinstance(k, str) and _plain(v) for k, v in content.items()):
         raise InvalidInput(f"grasp file {path}: refused, it must hold a dict of arrays, numbers and strings, got "
                            f"{type(content).__name__}")
-    return content
+    return {k: v.view(np.ndarray) if isinstance(v, np.ndarray) else v for k, v in content.items()}
+
+
+def _numbers(content: dict, key: str, path: Path, size: int) -> np.ndarray:
+    """A grasp file's entry as `size` finite real numbers, or a refusal naming the file, the entry and the fault."""
+    value = np.asarray(content[key])
+    kind = {"c": "complex numbers", "U": "text", "S": "text", "b": "booleans", "O": "objects"}.get(value.dtype.kind)
+    if kind is not None or value.dtype.kind not in "iuf":
+        raise InvalidInput(f"grasp file {path}: {key} must be real numbers, got {kind or value.dtype} "
+                           f"({np.array2string(value.ravel()[:3], threshold=3)[:60]})")
+    value = value.astype(float).ravel()
+    if value.size != size:
+        raise InvalidInput(f"grasp file {path}: {key} must hold {size} value{'s' if size > 1 else ''}, got "
+                           f"{value.size}")
+    if not np.all(np.isfinite(value)):
+        raise InvalidInput(f"grasp file {path}: {key} holds non-finite values (NaN or infinite) at "
+                           f"{np.flatnonzero(~np.isfinite(value))[:5].tolist()}")
+    return value
+
+
+def _pose(value: np.ndarray, key: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """A pose of 7 finite values (position m, quaternion w x y z) as position and unit quaternion."""
+    length = float(np.linalg.norm(value[3:]))
+    if length < 1e-9:
+        raise InvalidInput(f"grasp file {path}: {key}'s quaternion (its last 4 values, w x y z) has zero length")
+    return value[:3], value[3:] / length
 
 
 @dataclass(frozen=True)
@@ -142,23 +190,35 @@ def read_grasp_files(folder: str | os.PathLike, hand: str | HandModel = "ours") 
         missing = [k for k in ("obj_path", "obj_scale", "obj_pose", *(f"{s}_qpos" for s in STAGES)) if k not in content]
         if missing:
             raise InvalidInput(f"grasp file {path}: lacks {missing}")
+        object_path = content["obj_path"]
+        object_path = object_path.item() if isinstance(object_path, np.ndarray) and object_path.shape == () \
+            else object_path
+        if not isinstance(object_path, (str, np.str_)) or not str(object_path):
+            raise InvalidInput(f"grasp file {path}: obj_path must be the text of a folder, got {object_path!r:.60}")
+        scale = float(_numbers(content, "obj_scale", path, 1)[0])
+        if scale <= 0:
+            raise InvalidInput(f"grasp file {path}: obj_scale must be a positive number, got {scale}")
+        world_to_object = invert(*_pose(_numbers(content, "obj_pose", path, 7), "obj_pose", path))
         poses, postures, wrists = [], [], []
         for stage in STAGES:
-            qpos = np.asarray(content[f"{stage}_qpos"], dtype=float).ravel()
             if f"{stage}_pose" in content:
-                root, qpos = np.asarray(content[f"{stage}_pose"], dtype=float).ravel(), qpos
+                root, qpos = (_numbers(content, f"{stage}_pose", path, 7),
+                              _numbers(content, f"{stage}_qpos", path, joints))
             else:
+                qpos = _numbers(content, f"{stage}_qpos", path, 7 + joints)
                 root, qpos = qpos[:7], qpos[7:]
-            if root.shape != (7,) or qpos.shape != (joints,) or not np.all(np.isfinite(np.r_[root, qpos])):
-                raise InvalidInput(f"grasp file {path}: {stage} must give a root pose (7) and {joints} joints of the "
-                                   f"{hand.name!r} hand, got {root.size} and {qpos.size} values")
-            palm = compose(root[:3], root[3:] / np.linalg.norm(root[3:]), *palm_in_mount)
+            # the root's pose is in the world, the object's too: the palm's in the object's frame
+            palm = compose(*world_to_object, *compose(*_pose(root, f"{stage}'s root pose", path), *palm_in_mount))
             poses.append(np.r_[palm[0], palm[1]])
             wrists.append(qpos[: len(hand.wrist_joints)])
             postures.append(hand.from_model(qpos[len(hand.wrist_joints):]))
-        grasps.append(GraspFile(path, str(content["obj_path"]), float(np.asarray(content["obj_scale"]).ravel()[0]),
-                                np.asarray(content["obj_pose"], dtype=float).ravel(),
-                                OpenLoopGrasp(np.array(poses), np.array(postures)), np.array(wrists)))
+        try:
+            grasp = OpenLoopGrasp(np.array(poses), np.array(postures))
+        except InvalidInput as error:
+            raise InvalidInput(f"grasp file {path}: {error}") from None
+        obj_pose = _numbers(content, "obj_pose", path, 7)
+        grasps.append(GraspFile(path, str(object_path), scale, np.r_[obj_pose[:3], _pose(obj_pose, "", path)[1]],
+                                grasp, np.array(wrists)))
     return grasps
 
 
@@ -205,28 +265,34 @@ MESH_FILES: tuple[str, ...] = ("mesh/simplified.obj", "mesh/coacd.obj", "simplif
 
 
 def grasp_object(grasp: GraspFile, root: str | os.PathLike | None = None, mass: float = 0.1) -> GraspObject:
-    """The object a grasp file names: the mesh of its processed object folder (`obj_path`, relative to `root`
-    when it is relative), at the file's scale.
+    """The object a grasp file names: the mesh of its processed object folder (`obj_path`, relative to `root`),
+    at the file's scale. The folder must lie inside `root` (a file's `../..` or absolute path that leads elsewhere
+    is refused, not searched), and its meshes are looked for in it and the folders in it.
 
     Args:
         grasp: a grasp read by `read_grasp_files`.
-        root: the folder `obj_path` is relative to (None: as it stands, relative to the working directory).
+        root: the folder the objects are in, that `obj_path` is relative to (None: the working directory).
         mass: kg (DexGraspBench sets its objects' mass by density; `dexgraspbench.PhysicsProfile` does on a scene).
 
     Returns:
         The mesh object, named after its folder.
 
     Raises:
-        ValueError: the folder is missing, or holds no mesh; the message names it.
+        ValueError: the folder leads outside `root`, is missing, or holds no mesh; the message names it.
     """
-    folder = Path(grasp.object_path)
-    if root is not None and not folder.is_absolute():
-        folder = Path(root) / folder
+    base = Path.cwd() if root is None else Path(root)
+    folder = base / grasp.object_path
+    if not folder.resolve().is_relative_to(base.resolve()) or folder.resolve() == base.resolve():
+        raise InvalidInput(f"grasp file {grasp.path}: its obj_path {grasp.object_path!r} leads outside "
+                           f"{'the working directory' if root is None else root} ({folder.resolve()}); an object folder "
+                           "must lie inside the folder the objects are in (root)")
     if not folder.is_dir():
         raise InvalidInput(f"grasp file {grasp.path}: its object folder {folder} is missing (obj_path "
                            f"{grasp.object_path!r}{'' if root is None else f' under {root}'})")
     found = [folder / name for name in MESH_FILES if (folder / name).is_file()]
-    found += sorted(p for p in folder.rglob("*") if p.suffix.lower() in (".obj", ".stl", ".ply"))
+    # the folder and the folders in it, no deeper: a processed object keeps its meshes there
+    found += sorted(p for pattern in ("*", "*/*") for p in folder.glob(pattern)
+                    if p.suffix.lower() in (".obj", ".stl", ".ply") and p.is_file())
     if not found:
         raise InvalidInput(f"grasp file {grasp.path}: its object folder {folder} holds no mesh ({', '.join(MESH_FILES)}, "
                            "or any .obj, .stl or .ply)")

@@ -1,0 +1,123 @@
+"""The fourth hardening round (RELIABILITY.md, "Round four", issue 50): the surfaces added last, tried as an attacker
+and as a hurried user would: grasp files, experiment files, the studies' runner and locks, regrasp arguments, two
+runs on one output, a kill and a resume, a full disk. Each case failed (or misled) before its fix."""
+
+from __future__ import annotations
+
+import io
+import pickle
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+from graspmanifold.control.dexgraspbench import MAX_REACH, OpenLoopGrasp
+from graspmanifold.control.grasp_files import grasp_object, read_grasp_file, read_grasp_files, write_grasp_files
+
+
+@pytest.fixture(scope="module")
+def grasp_content(tmp_path_factory) -> dict:
+    """A valid grasp file's dict (our box grasp, written by `write_grasp_files`)."""
+    postures = gm.generate_postures("box", 1, seed=0, workers=1, progress=False)
+    pose, posture = postures.hand_poses[0], postures.postures[0]
+    grasp = OpenLoopGrasp(np.tile(pose, (3, 1)), np.array([gm.open_posture(), posture, posture]))
+    folder = tmp_path_factory.mktemp("grasp")
+    return read_grasp_file(write_grasp_files(folder, [grasp], "box_core")[0])
+
+
+def _one_file(folder: Path, content: dict) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "g.npy"
+    np.save(path, np.array(content, dtype=object), allow_pickle=True)
+    return folder
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"obj_pose": np.full(7, np.nan)}, r"obj_pose holds non-finite values"),  # was read, and replayed as held
+    ({"obj_pose": np.zeros(2)}, r"obj_pose must hold 7 values, got 2"),  # was read
+    ({"obj_pose": np.zeros(7)}, r"obj_pose's quaternion .* has zero length"),  # a divide warning, no file named
+    ({"obj_scale": np.zeros(0)}, r"obj_scale must hold 1 value, got 0"),  # a bare IndexError
+    ({"obj_scale": "large"}, r"obj_scale must be real numbers, got text"),  # 'could not convert string to float'
+    ({"obj_scale": np.nan}, r"obj_scale holds non-finite values"),  # read, refused later without the file's name
+    ({"obj_scale": -1.0}, r"obj_scale must be a positive number, got -1.0"),  # the same
+    ({"obj_path": 3.0}, r"obj_path must be the text of a folder"),
+    ("nan qpos", r"grasp_qpos holds non-finite values"),  # 'got 7 and 24 values': the right counts, no word of NaN
+    ("complex qpos", r"grasp_qpos must be real numbers, got complex numbers"),  # NumPy's warning only
+    ("zero root quaternion", r"grasp's root pose's quaternion .* has zero length"),
+    ("far grasp", r"the grasp's palm lies 1e\+06 m from the object's centre"),  # replayed as held
+])
+def test_a_grasp_file_with_a_bad_entry_is_refused_naming_the_file_and_the_entry(tmp_path, grasp_content, change,
+                                                                                  message):
+    content = dict(grasp_content)
+    if isinstance(change, dict):
+        content.update(change)
+    else:
+        qpos = np.array(content["grasp_qpos"], dtype=float)
+        if change == "nan qpos":
+            qpos[9] = np.nan
+        elif change == "complex qpos":
+            qpos = qpos + 1j
+        elif change == "zero root quaternion":
+            qpos[3:7] = 0.0
+        else:
+            qpos[:3] += [1e6, 0.0, 0.0]
+        content["grasp_qpos"] = qpos
+    with pytest.raises(ValueError, match=rf"grasp file .*g\.npy: .*{message}"):
+        read_grasp_files(_one_file(tmp_path, content))
+
+
+def test_the_objects_pose_places_the_grasp_in_its_frame(tmp_path, grasp_content):
+    """The roots' poses are in the world, as the object's is: the object and the hand moved together (a turn and a
+    shift) read as the same grasp. Before, `obj_pose` was never read."""
+    from graspmanifold.base.poses import compose
+
+    moved = dict(grasp_content)
+    shift, turn = np.array([0.1, -0.2, 0.05]), np.array([np.cos(0.3), 0.0, 0.0, np.sin(0.3)])
+    moved["obj_pose"] = np.r_[shift, turn]
+    for stage in ("pregrasp", "grasp", "squeeze"):
+        qpos = np.array(grasp_content[f"{stage}_qpos"], dtype=float)
+        qpos[:3], qpos[3:7] = compose(shift, turn, qpos[:3], qpos[3:7])
+        moved[f"{stage}_qpos"] = qpos
+    here = read_grasp_files(_one_file(tmp_path / "here", grasp_content))[0].grasp
+    there = read_grasp_files(_one_file(tmp_path / "there", moved))[0].grasp
+    assert np.allclose(here.postures, there.postures) and np.allclose(here.poses[:, :3], there.poses[:, :3], atol=1e-9)
+    assert np.allclose(np.abs(np.sum(here.poses[:, 3:] * there.poses[:, 3:], axis=1)), 1.0)
+
+
+class _Declared:
+    """A pickle of an array that declares far more elements than it brings."""
+
+    def __reduce__(self):
+        from numpy._core.multiarray import _reconstruct
+        return _reconstruct, (np.ndarray, (0,), b"b"), (1, (2**28,), np.dtype(object), False, [1.0])
+
+
+def test_a_small_file_declaring_a_huge_array_is_refused_before_it_is_built(tmp_path):
+    """A file of a few hundred bytes declaring 2**28 object elements took 2.2 GB and 3 s before it was refused."""
+    buffer = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buffer, {"descr": "|O", "fortran_order": False, "shape": ()})
+    pickle.dump({"obj_path": _Declared()}, buffer, protocol=3)
+    path = tmp_path / "bomb.npy"
+    path.write_bytes(buffer.getvalue())
+    assert path.stat().st_size < 400
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"bomb\.npy: refused.*declares an array of 268435456 elements"):
+            read_grasp_file(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 50e6
+
+
+def test_an_object_path_that_leaves_the_objects_folder_is_refused_not_searched(tmp_path, grasp_content):
+    """obj_path '../../../../..' made `grasp_object` walk the whole filesystem (19 s) and load a mesh found there."""
+    (tmp_path / "objects").mkdir()
+    for escape in ("../../../../..", str(Path("/").resolve()), "..", "."):
+        content = dict(grasp_content, obj_path=escape)
+        grasp = read_grasp_files(_one_file(tmp_path / "files", content))[0]
+        with pytest.raises(ValueError, match="leads outside"):
+            grasp_object(grasp, root=tmp_path / "objects")
+    assert MAX_REACH == 1.0
