@@ -121,3 +121,77 @@ def test_an_object_path_that_leaves_the_objects_folder_is_refused_not_searched(t
         with pytest.raises(ValueError, match="leads outside"):
             grasp_object(grasp, root=tmp_path / "objects")
     assert MAX_REACH == 1.0
+
+
+@pytest.mark.parametrize("toml, message", [
+    ("map_size = [100000, 100000]", r"map_size must have at most 250000 nodes"),  # a traceback: 149 GiB asked for
+    ("epochs = 1000000000000", r"epochs must be a whole number in 1 \.\.\. 100000"),  # a traceback: 7 TiB asked for
+    ("image_size = 100000", r"image_size \(pixels\) must be a whole number in 16 \.\.\. 4096"),  # met at the figures
+    ("seed = -1", r"seed must be a whole number >= 0"),  # met only once the first stage ran
+    ("[postures]\nbox = 100000000", r"postures\['box'\] must be a whole number in 1 \.\.\. 1000000"),  # the same
+    ("[controller]\nclosing_rate = 1e300", r"closing_rate must be at most 50"),  # taken
+    ('grid = "nowhere"', r"unknown grid preset 'nowhere'"),  # met after the maps were trained
+    ('grid = [[0.0, 0.0, 0.0, "nan"]]', r"grid poses must be finite"),  # the same
+])
+def test_an_experiment_file_out_of_bounds_is_refused_before_any_stage_runs(tmp_path, toml, message):
+    from graspmanifold.cli import main as cli
+
+    (tmp_path / "c.toml").write_text(toml + "\n")
+    with pytest.raises(SystemExit) as ended:
+        cli(["reproduce", "--config", str(tmp_path / "c.toml"), "--out", str(tmp_path / "out")])
+    assert ended.value.code != 0 and pytest.importorskip("re").search(message, str(ended.value.code))
+    assert not (tmp_path / "out").exists()  # nothing written, not even run.json
+
+
+def test_a_som_or_a_schedule_beyond_any_study_is_refused_with_its_bound():
+    with pytest.raises(ValueError, match="at most 250000"):
+        gm.SOM(1000, 1000, 22)
+    with pytest.raises(ValueError, match=r"epochs must be a whole number in 1 \.\.\. 100000"):
+        gm.SOM(4, 4, 22, epochs=10**9)
+
+
+def test_regrasp_arguments_out_of_bounds_are_refused_before_any_trial():
+    """A million attempts (each failing its probe) ran a two-pose evaluation for minutes; a preshape of 100 rad
+    was taken (the servos clip it); grasp types that do not fit the experience were met only inside a trial."""
+    with pytest.raises(ValueError, match=r"attempts must be an integer in 1 \.\.\. 10"):
+        gm.Regrasp(attempts=10**6)
+    with pytest.raises(ValueError, match=r"probe_seconds must be .* at most 5"):
+        gm.Regrasp(attempts=2, probe_seconds=1e4)
+    with pytest.raises(ValueError, match=r"min_force must be .* at most 1000"):
+        gm.Regrasp(attempts=2, min_force=1e300)
+    with pytest.raises(ValueError, match=r"within ±π rad"):
+        gm.Regrasp(attempts=2, preshapes=np.full((1, 22), 100.0))
+    outside = np.tile(gm.open_posture(), (1, 1))
+    outside[0, 1] = 3.0  # FFJ3 beyond its 1.57 rad
+    grid = gm.grid_preset("quick", "box")[:1]
+    with pytest.raises(ValueError, match=r"row 0: FFJ3 = 3 rad lies outside its range"):
+        gm.evaluate("box", None, grid, regrasp=gm.Regrasp(attempts=2, preshapes=outside), workers=1, progress=False)
+    database = gm.PostureDatabase(np.tile(gm.closed_posture(), (5, 1)))
+    with pytest.raises(ValueError, match="3 types for an experience of 5 reference postures"):
+        gm.TrialSetup("box", database, regrasp=gm.Regrasp(attempts=2, grasp_types=np.array(["power"] * 3)))
+
+
+def test_a_study_whose_report_cannot_be_written_is_refused_before_its_work(tmp_path, capsys):
+    """A report in a folder that cannot be written was refused only at the study's end, after its work."""
+    from graspmanifold.studies.experience import main as study
+
+    blocked = tmp_path / "file"
+    blocked.write_text("not a folder")
+    with pytest.raises(SystemExit, match="cannot write results to"):
+        study(["--quick", "--out", str(tmp_path / "study"), "--doc", str(blocked / "report.md")])
+    assert not list((tmp_path / "study").glob("*.npz"))
+
+
+def test_grasp_files_on_a_full_disk_leave_nothing_half_written(tmp_path, monkeypatch, grasp_content):
+    """A full disk while a grasp file was written left a '.npy.partial' behind."""
+    import os
+
+    grasp = read_grasp_files(_one_file(tmp_path / "in", grasp_content))[0].grasp
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(OSError, match=r"cannot write .*grasp_00000\.npy: No space left on device"):
+        write_grasp_files(tmp_path / "out", [grasp], "box_core")
+    assert list((tmp_path / "out").iterdir()) == []

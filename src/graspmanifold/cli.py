@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 import time
 import warnings
 from collections.abc import Sequence
@@ -19,7 +18,7 @@ from pathlib import Path
 
 from .base.errors import GraspManifoldError, InvalidInput
 from .base.config_files import read_config
-from .base.io import LOCK_FILE, output_lock
+from .base.io import LOCK_FILE, check_writable_folder, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
@@ -116,21 +115,11 @@ def _check_output(path: str, force: bool) -> Path:
 
 
 def _check_writable_directory(out: Path) -> None:
-    """Refuse an output folder that cannot be made or written, before any work that would be lost if it failed,
-    without making it (a probe file is written in the nearest folder that exists)."""
-    if out.is_symlink() and not out.exists():
-        raise SystemExit(f"error: --out {out} is a symbolic link that leads nowhere (a loop, or its target is gone)")
-    if out.exists() and not out.is_dir():
-        raise SystemExit(f"error: cannot write results to {out}: it is a file, not a directory "
-                         "(name another --out)")
-    existing = next(folder for folder in (out.absolute(), *out.absolute().parents) if folder.exists())
-    if not existing.is_dir():
-        raise SystemExit(f"error: cannot write results to {out}: {existing} is a file, not a directory")
+    """Refuse an output folder that cannot be made or written, before any work (`io.check_writable_folder`)."""
     try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as error:
-        raise SystemExit(f"error: cannot write results to {out}: {error.strerror or error}") from None
+        check_writable_folder(out, "--out")
+    except InvalidInput as error:
+        raise SystemExit(f"error: {error}") from None
 
 
 def _checked(args: argparse.Namespace, units: int) -> None:

@@ -181,6 +181,33 @@ def _unlink_if_same(path: Path, fd: int) -> None:
         pass
 
 
+def check_writable_folder(folder: str | os.PathLike, name: str) -> None:
+    """Refuse a folder that results cannot be written to, before any work that would be lost if the write failed,
+    without making it (a probe file is written in the nearest folder that exists).
+
+    Args:
+        folder: where results will go.
+        name: the argument that names it, for the message.
+
+    Raises:
+        InvalidInput: it is a file, a link that leads nowhere, or it (or the nearest folder that exists) cannot be
+            written.
+    """
+    folder = Path(folder)
+    if folder.is_symlink() and not folder.exists():
+        raise InvalidInput(f"{name} {folder} is a symbolic link that leads nowhere (a loop, or its target is gone)")
+    if folder.exists() and not folder.is_dir():
+        raise InvalidInput(f"cannot write results to {folder}: it is a file, not a directory (name another {name})")
+    existing = next(f for f in (folder.absolute(), *folder.absolute().parents) if f.exists())
+    if not existing.is_dir():
+        raise InvalidInput(f"cannot write results to {folder}: {existing} is a file, not a directory")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as error:
+        raise InvalidInput(f"cannot write results to {folder}: {error.strerror or error}") from None
+
+
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     """Write a text file atomically (see `atomic_write`)."""
     with atomic_write(path, "w") as handle:

@@ -92,6 +92,15 @@ PHASES: tuple[str, ...] = ("A", "B", "C", "done")
 REST_SPEED = 0.1
 
 
+#: the largest values of `ControllerParams` that still describe a controller (a closing rate of 1e300 was taken)
+_HIGHEST = {"closing_rate": 50.0, "follow_speed": 100.0, "timeout": 60.0, "reach_speed": 10.0, "recall_tolerance": 10.0,
+            "control_period": 1.0, "preshape_time": 60.0, "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0,
+            "reach": 0.2}
+_HIGHEST_WHY = {"closing_rate": "the hand closes in 20 ms", "follow_speed": "rad/s", "timeout": "s",
+                "reach_speed": "m/s", "recall_tolerance": "rad", "control_period": "s", "preshape_time": "s",
+                "squeeze": "rad", "release_time": "s", "stable_time": "s", "reach": "m"}
+
+
 @dataclass(frozen=True)
 class ControllerParams:
     """Timing, gains and switches of the controller (s, rad, rad/s); the defaults are the paper's reading
@@ -121,6 +130,10 @@ class ControllerParams:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
+        for name, high in _HIGHEST.items():
+            if getattr(self, name) > high:
+                raise InvalidInput(f"ControllerParams.{name} must be at most {high:g} ({_HIGHEST_WHY[name]}), got "
+                                   f"{getattr(self, name)!r}")
         steps = self.control_period / PHYSICS_TIMESTEP
         if isinstance(self.control_period, bool) or round(steps) < 1 or abs(steps - round(steps)) > 1e-6:
             raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.io import atomic_write
 from ..base.poses import compose, invert
 from ..base.validation import check_name, file_in
 from ..manifold.postureset import PostureSet
@@ -251,10 +252,8 @@ def write_grasp_files(folder: str | os.PathLike, grasps: list[OpenLoopGrasp], ob
             content[f"{stage}_qpos"] = np.concatenate([root[0], root[1], np.zeros(len(hand.wrist_joints)),
                                                        hand.to_model(posture)])
         path = file_in(folder, f"{prefix}_{k:05d}.npy", "prefix")
-        partial = path.with_suffix(".npy.partial")
-        with open(partial, "wb") as handle:
+        with atomic_write(path) as handle:  # a full disk left a '.npy.partial' behind
             np.save(handle, np.array(content, dtype=object), allow_pickle=True)
-        os.replace(partial, path)
         written.append(path)
     return written
 

@@ -44,6 +44,12 @@ PROBE_DIRECTION = np.array([0.0, 0.0, -1.0])
 _FINGER_OF_SEGMENT = np.unique(SEGMENT_FINGER, return_inverse=True)[1]
 
 
+#: the bounds of a `Regrasp`: a million attempts, each probed and failing, ran a two-pose evaluation for minutes
+MAX_ATTEMPTS = 10
+MAX_PROBE_SECONDS = 5.0
+MAX_MIN_FORCE = 1000.0  # N
+
+
 @dataclass(frozen=True, eq=False)
 class Regrasp:
     """How many attempts a trial's controller has, how it probes a grasp and how it chooses the next one
@@ -69,12 +75,15 @@ class Regrasp:
     chooser: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
-        if isinstance(self.attempts, bool) or not isinstance(self.attempts, (int, np.integer)) or self.attempts < 1:
-            raise InvalidInput(f"Regrasp.attempts must be an integer >= 1, got {self.attempts!r}")
-        for name in ("probe_seconds", "min_force"):
+        if isinstance(self.attempts, bool) or not isinstance(self.attempts, (int, np.integer)) \
+                or not 1 <= self.attempts <= MAX_ATTEMPTS:
+            raise InvalidInput(f"Regrasp.attempts must be an integer in 1 ... {MAX_ATTEMPTS}, got {self.attempts!r}")
+        for name, high in (("probe_seconds", MAX_PROBE_SECONDS), ("min_force", MAX_MIN_FORCE)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise InvalidInput(f"Regrasp.{name} must be a positive finite number, got {value!r}")
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
+                                               and 0 < value <= high):
+                raise InvalidInput(f"Regrasp.{name} must be a positive finite number of at most {high:g}, got "
+                                   f"{value!r}")
         if self.preshapes is not None:
             rows = np.asarray(self.preshapes, dtype=float)
             if rows.shape != (self.attempts - 1, N_FINGER_JOINTS):
@@ -82,6 +91,9 @@ class Regrasp:
                                    f"per attempt after the first, got shape {rows.shape}")
             if not np.all(np.isfinite(rows) | np.isnan(rows).all(axis=1, keepdims=True)):
                 raise InvalidInput("Regrasp.preshapes rows must be finite angles, or all NaN (no preshape)")
+            if np.nanmax(np.abs(rows), initial=0.0) > np.pi:  # 100 rad was taken (the servos clip it)
+                raise InvalidInput(f"Regrasp.preshapes must be joint angles within ±π rad, got one of "
+                                   f"{np.nanmax(np.abs(rows)):.3g} rad")
             object.__setattr__(self, "preshapes", rows)
         if sum(x is not None for x in (self.preshapes, self.grasp_types, self.chooser)) > 1:
             raise InvalidInput("Regrasp takes one way to choose the next attempt: preshapes (a fixed sequence), "

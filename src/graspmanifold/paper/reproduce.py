@@ -35,6 +35,7 @@ from ..control.dexgraspbench import PROTOCOL_NAMES
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
+    MAX_POSTURES,
     PRESET_PARAMS,
     GeneratorParams,
     generate_postures,
@@ -42,7 +43,7 @@ from ..control.generator import (
 )
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
-from ..manifold.som import PAPER, RESUME, SOM, check_schedule
+from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
 from ..sim.hand import N_FINGER_JOINTS, HandModel
 from ..sim.hand_models import hand_model, hand_name
 from ..sim.objects import get_object
@@ -115,6 +116,14 @@ class ReproduceConfig:
         for name in ("epochs", "image_size"):
             if not positive_int(getattr(self, name)):
                 raise InvalidInput(f"ReproduceConfig.{name} must be a positive integer, got {getattr(self, name)!r}")
+        # bounds checked here, before any stage runs (they were met only by the stage that needed them)
+        check_int(self.seed, "ReproduceConfig.seed", low=0)
+        check_int(self.image_size, "ReproduceConfig.image_size (pixels)", low=16, high=4096)
+        check_int(self.epochs, "ReproduceConfig.epochs", high=MAX_EPOCHS)
+        if self.map_size[0] * self.map_size[1] > MAX_NODES:
+            raise InvalidInput(f"ReproduceConfig.map_size must have at most {MAX_NODES} nodes, got {tuple(self.map_size)}")
+        for name, count in self.postures.items():
+            check_int(count, f"ReproduceConfig.postures[{name!r}]", high=MAX_POSTURES)
         check_schedule(self.learning_rate, "ReproduceConfig.learning_rate", upper=1.0)
         check_schedule(self.sigma, "ReproduceConfig.sigma")
 
@@ -241,6 +250,8 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     if workers is not None:
         check_int(workers, "workers")
     hand = hand_model(config.hand)  # refused here, before any file is written, when it is not a Shadow Hand
+    for name in config.postures:  # a grid no object can use was refused after the maps were trained
+        check_grid(_grid(config), get_object(name))
     out = Path(out)
     _check_output(out, config, force)
     with output_lock(out / LOCK_FILE):

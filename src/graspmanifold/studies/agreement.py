@@ -126,6 +126,7 @@ def main(argv: list[str] | None = None) -> None:
     study = StudyRun(args.out, workers=args.workers)
 
     def body() -> None:
+        study.check_writable(args.doc)
         mine = {"run": str(args.run), "sample": args.sample, "seed": args.seed, "versions": software_versions(),
                 "objects": {}}
         with study.session():

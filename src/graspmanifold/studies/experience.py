@@ -53,7 +53,7 @@ from ..base.errors import InvalidInput
 from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import BLEND, ControllerParams
-from ..control.generator import GeneratorParams, generate_postures
+from ..control.generator import MAX_POSTURES, GeneratorParams, generate_postures
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
@@ -113,7 +113,7 @@ class ExperienceStudyConfig:
             raise InvalidInput(f"quick must be true or false, got {self.quick!r}")
         check_int(self.workers, "workers")
         if self.postures != 0:
-            check_int(self.postures, "postures")
+            check_int(self.postures, "postures", high=MAX_POSTURES)
         for name in ("out", "doc"):
             if not isinstance(getattr(self, name), str):
                 raise InvalidInput(f"{name} must be a path (a string), got {getattr(self, name)!r}")
@@ -223,6 +223,7 @@ class ExperienceStudy(StudyRun):
         Returns:
             What the report shows (the content of study.json).
         """
+        self.check_writable(self.config.doc_path)
         with self.session():
             write_text_atomic(self.out / "config.toml", to_toml(self.config))
             info = measure(self)

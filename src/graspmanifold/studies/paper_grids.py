@@ -407,6 +407,7 @@ def main(argv: list[str] | None = None) -> None:
 def write_study(study: Study, doc: Path) -> None:
     """Run the study in one pool of workers; write its report, OUT/study.json (and, for the full study, the
     report's JSON beside it)."""
+    study.check_writable(doc)
     with study.session():
         info = run(study)
         text = report(study, info)

@@ -13,6 +13,7 @@ error (a folder another study holds among them) ending in one line.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -24,7 +25,7 @@ from typing import TypeVar
 
 from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import GraspManifoldError
-from ..base.io import LOCK_FILE, markdown_table, output_lock
+from ..base.io import LOCK_FILE, check_writable_folder, markdown_table, output_lock
 from ..base.workers import worker_pool, workers_for
 from ..manifold.postureset import PostureSet
 from ..trials.evaluation import EvaluationResult
@@ -54,6 +55,21 @@ class StudyRun:
     def log(self, text: str) -> None:
         """Print one line of the study's log, with the seconds since it started."""
         print(f"[{time.perf_counter() - self.started:6.0f} s] {text}", flush=True)
+
+    def check_writable(self, *reports: str | os.PathLike | None) -> None:
+        """Refuse, before any work, reports written at a study's end that could not be written there (a report
+        in a folder that cannot be written was refused only after the study's hour of work; its results were
+        kept, but the hour's report was not).
+
+        Args:
+            reports: the report files (None: none).
+
+        Raises:
+            InvalidInput: a report's folder cannot be written.
+        """
+        for report in reports:
+            if report is not None:
+                check_writable_folder(Path(report).parent, f"report {report}: its folder")
 
     @contextmanager
     def session(self) -> Iterator[StudyRun]:

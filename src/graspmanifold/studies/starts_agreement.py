@@ -157,6 +157,7 @@ def main(argv: list[str] | None = None) -> None:
     study = StudyRun(args.out, workers=1)
 
     def body() -> None:
+        study.check_writable(args.doc)
         rows = []
         with study.session():
             for name, family in entries:

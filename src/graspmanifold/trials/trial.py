@@ -160,6 +160,20 @@ class TrialSetup:
         set_field("regrasp", self.regrasp or Regrasp())
         if not isinstance(self.regrasp, Regrasp):
             raise InvalidInput(f"regrasp must be a Regrasp, got {type(self.regrasp).__name__}")
+        if self.regrasp.grasp_types is not None and self.regrasp.attempts > 1:  # checked here, before any trial
+            if self.experience is None:
+                raise InvalidInput("Regrasp.grasp_types recalls the next grasp from the experience: give an experience")
+            if len(self.regrasp.grasp_types) != len(self.experience.references):
+                raise InvalidInput(f"Regrasp.grasp_types has {len(self.regrasp.grasp_types)} types for an experience of "
+                                   f"{len(self.experience.references)} reference postures")
+        if self.regrasp.preshapes is not None:
+            limits, rows = self.hand.limits(), self.regrasp.preshapes
+            outside = np.isfinite(rows) & ((rows < limits[:, 0] - 1e-9) | (rows > limits[:, 1] + 1e-9))
+            if outside.any():
+                row, joint = np.argwhere(outside)[0]
+                raise InvalidInput(f"Regrasp.preshapes row {row}: {self.hand.finger_joints[joint]} = {rows[row, joint]:.3g} "
+                                   f"rad lies outside its range {limits[joint].round(3).tolist()} on the "
+                                   f"{self.hand.name!r} hand")
         if self.regrasp.attempts > 1 and (self.table or self.backend != "cpu"):
             raise InvalidInput("a regrasp (Regrasp.attempts > 1) runs on the spring support (table=False) and the cpu "
                                "backend: its probe re-engages the support where the object lies")
