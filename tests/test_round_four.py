@@ -195,3 +195,21 @@ def test_grasp_files_on_a_full_disk_leave_nothing_half_written(tmp_path, monkeyp
     with pytest.raises(OSError, match=r"cannot write .*grasp_00000\.npy: No space left on device"):
         write_grasp_files(tmp_path / "out", [grasp], "box_core")
     assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_the_agreement_check_resumes_and_keeps_its_folder_to_itself(tmp_path, capsys):
+    """`scripts/check_agreement.py` run again takes its kept evaluations (a kill loses only the one running), and a
+    second run on the same folder while one holds it is refused, naming it."""
+    from graspmanifold.base.io import LOCK_FILE, output_lock
+    from graspmanifold.studies.agreement import main as check
+
+    out = tmp_path / "agreement"
+    check(["--sample", "2", "--workers", "1", "--out", str(out)])
+    kept = {p.name: p.stat().st_mtime_ns for p in out.glob("*_none.npz")}
+    report = (out / "report.md").read_text()
+    assert len(kept) == 3 and "| box |" in report
+    check(["--sample", "2", "--workers", "1", "--out", str(out), "--compare", str(out / "agreement.json")])
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*_none.npz")} == kept  # nothing evaluated again
+    assert "| 0 of 2 |" in (out / "report.md").read_text()  # the same outcomes as itself
+    with output_lock(out / LOCK_FILE, out), pytest.raises(SystemExit, match="in use|being written|holds"):
+        check(["--sample", "2", "--workers", "1", "--out", str(out)])
