@@ -121,6 +121,8 @@ def bench_gpu(args: argparse.Namespace) -> None:
         s = result.summary
         print(markdown_row([worlds, f"{wall:.1f}", f"{60 * worlds / wall:.0f}", f"{physics['s'] / wall:.0%}",
                             f"{s['hold_rate']:.0%}", f"{s['force_closure_rate']:.0%}"]), flush=True)
+    if args.agree_grid == "none":
+        return
     print(f"\nagreement with the CPU on the {args.agree_grid} grid:\n")
     bench_agree(argparse.Namespace(objects=list(PAPER_OBJECTS), grid=args.agree_grid, som=None,
                                    cpu_workers=usable_cores()))
@@ -141,7 +143,7 @@ def main(argv: list[str] | None = None) -> None:
     gpu = sub.add_parser("gpu")
     gpu.add_argument("--object", default="cylinder")
     gpu.add_argument("--worlds", nargs="+", type=int, default=[1024, 4096, 16384])
-    gpu.add_argument("--agree-grid", default="quick", help="the grid of the CPU agreement that follows")
+    gpu.add_argument("--agree-grid", default="quick", help="the grid of the CPU agreement that follows ('none': none)")
     args = parser.parse_args(argv)
     print(f"graspmanifold from {Path(__file__).resolve().parents[1]}")
     {"cpu": bench_cpu, "agree": bench_agree, "gpu": bench_gpu}[args.what](args)
