@@ -36,6 +36,12 @@ def asset_path(name: str) -> Path:
     raise FileNotFoundError(f"asset {name!r} is neither in the installed package nor in {checkout.parent}")
 
 
+@functools.lru_cache(maxsize=8)
+def _read_spec(path: str) -> mujoco.MjSpec:
+    """A model file of the library's assets, read once (`HandModel.spec` copies it)."""
+    return mujoco.MjSpec.from_file(path)
+
+
 @dataclass(frozen=True, eq=False)
 class HandModel:
     """A hand model as the library sees it, in one object: which of its joints make the paper's 22-joint
@@ -158,12 +164,15 @@ class HandModel:
         return self.base_segments + tuple(s for f in FINGERS for s in self.finger_segments[f])
 
     def spec(self) -> mujoco.MjSpec:
-        """A fresh, editable MjSpec of the hand (Scene adds the object to it).
+        """A fresh, editable MjSpec of the hand (Scene adds the object to it): its loader's, or a copy of the
+        library's file read once per process (the same model bit for bit as reading the file again; a batch of a
+        thousand scenes read it a thousand times, and on the GPU machine, after the GPU's start, one of those reads
+        failed: "XML Error: unknown error in attribute 'mass'").
 
         Returns:
             The spec.
         """
-        return self.loader() if self.loader is not None else mujoco.MjSpec.from_file(str(asset_path(self.mjcf)))
+        return self.loader() if self.loader is not None else _read_spec(str(asset_path(self.mjcf))).copy()
 
     def to_xml(self) -> str:
         """The hand alone as MJCF text, as MuJoCo writes its spec (`spec().to_xml()`): to open it in another tool,
