@@ -188,9 +188,9 @@ def _polish(measure_jacobian: Callable[[np.ndarray], tuple[np.ndarray, np.ndarra
 
 
 def _trust_step(hessian: np.ndarray, gradient: np.ndarray, radius: float) -> np.ndarray:
-    """The step that minimises gradient . p + p . hessian . p / 2 with |p|_inf... (the Euclidean norm) at most
+    """The step p that minimises gradient . p + p . hessian . p / 2 with |p| (the Euclidean norm) at most
     `radius`: Newton's step where the Hessian is positive definite and the step short enough, else the step
-    (hessian + mu I)^-1 gradient whose length is the radius (mu by bisection)."""
+    -(hessian + mu I)^-1 gradient whose length is the radius (mu by bisection)."""
     values, vectors = np.linalg.eigh(hessian)
     along = vectors.T @ gradient
 
