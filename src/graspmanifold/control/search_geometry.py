@@ -50,8 +50,8 @@ class SearchGeometry:
     for a posture and a palm pose.
 
     The geometry measures on its own copy of the scene's model in which every hand geom is a core and a radius:
-    a capsule's segment or a sphere's centre and its radius; a box shrunk by `BOX_ROUNDING` on every side and
-    that much (a box with rounded edges, which the search takes for the box). Distances are measured between the
+    a capsule's segment or a sphere's centre and its radius; a box shrunk by `BOX_ROUNDING` on every side, with
+    that radius (a box with rounded edges, which the search takes for the box). Distances are measured between the
     cores and the object, where the shapes are millimetres apart even when the geoms touch, and the radius is
     subtracted: MuJoCo's convex distance is then smooth and, at `SEARCH_CCD_TOLERANCE`, good to about 1e-13 m
     (between touching shapes it was good to about 1e-10 m, with jumps where the distance changes sign), and the
