@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 from goldens import DATA, assert_matches_golden, blend_golden_results
@@ -142,3 +143,15 @@ def test_a_best_match_breaks_a_near_tie_by_the_lowest_index():
         assert argmin_tied(((points - query) ** 2).sum(axis=1)) == 1
     assert argmin_tied(np.array([1.0 + 2 * TIE, 1.0])) == 1  # beyond the tie the nearest wins
     assert list(argmin_tied(np.array([[2.0, 1.0, 1.0 + TIE / 2], [1.0 + TIE / 2, 3.0, 1.0]]), axis=1)) == [1, 0]
+
+
+def test_the_test_that_failed_on_another_processor_passes_on_its_arithmetic():
+    """`test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes_cancel` failed on another
+    x86 processor (issue 50: its press term ended with the thumb at 0.0268); on that processor's arithmetic
+    (`OTHER_PROCESSOR`, which reproduced that failure to the digit before the search was made well posed) it
+    passes, as here."""
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider",
+                           f"{Path(__file__).parent / 'test_generator.py'}::"
+                           "test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes_cancel"],
+                          capture_output=True, text=True, timeout=600, env={**os.environ, **OTHER_PROCESSOR})
+    assert done.returncode == 0 and "1 passed" in done.stdout, done.stdout[-2000:] + done.stderr[-2000:]
