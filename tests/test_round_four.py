@@ -203,13 +203,13 @@ def test_the_agreement_check_resumes_and_keeps_its_folder_to_itself(tmp_path, ca
     from graspmanifold.base.io import LOCK_FILE, output_lock
     from graspmanifold.studies.agreement import main as check
 
-    out = tmp_path / "agreement"
-    check(["--sample", "2", "--workers", "1", "--out", str(out)])
+    out, run = tmp_path / "agreement", str(Path(__file__).resolve().parents[1] / "docs" / "verified_run")
+    check(["--run", run, "--sample", "2", "--workers", "1", "--out", str(out)])
     kept = {p.name: p.stat().st_mtime_ns for p in out.glob("*_none.npz")}
     report = (out / "report.md").read_text()
     assert len(kept) == 3 and "| box |" in report
-    check(["--sample", "2", "--workers", "1", "--out", str(out), "--compare", str(out / "agreement.json")])
+    check(["--run", run, "--sample", "2", "--workers", "1", "--out", str(out), "--compare", str(out / "agreement.json")])
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*_none.npz")} == kept  # nothing evaluated again
     assert "| 0 of 2 |" in (out / "report.md").read_text()  # the same outcomes as itself
     with output_lock(out / LOCK_FILE, out), pytest.raises(SystemExit, match="in use|being written|holds"):
-        check(["--sample", "2", "--workers", "1", "--out", str(out)])
+        check(["--run", run, "--sample", "2", "--workers", "1", "--out", str(out)])

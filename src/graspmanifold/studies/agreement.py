@@ -33,8 +33,8 @@ from ..trials.grid import check_grid
 from ..trials.stats import rate_text, wilson_interval
 from .runner import StudyRun, run_command
 
-#: the published run the check samples by default (`reproduce --preset verified`, docs/results.md)
-PUBLISHED = Path(__file__).resolve().parents[3] / "docs" / "verified_run"
+#: the published run the check samples by default, in a checkout (`reproduce --preset verified`, docs/results.md)
+PUBLISHED = Path("docs") / "verified_run"
 
 
 def published_run(folder: str | Path) -> tuple[ReproduceConfig, dict, dict]:
