@@ -294,13 +294,18 @@ def test_ctrl_c_of_the_study_script_ends_in_one_line_and_its_output_is_locked(tm
         _, err = second.communicate(timeout=120)
     assert second.returncode == 1 and err.strip().startswith("error: ") and "being written by another" in err, err
     study = _command(str(ROOT / "scripts" / "study_experience.py"), "--quick", "--workers", "1", "--out", str(out),
-                     cwd=tmp_path)
+                     cwd=tmp_path, start_new_session=True)
     deadline = time.monotonic() + 60
     while not (out / LOCK_FILE).exists() and time.monotonic() < deadline:
         time.sleep(0.2)
     time.sleep(3)  # inside the work
-    study.send_signal(signal.SIGINT)
-    _, err = study.communicate(timeout=60)
+    os.killpg(study.pid, signal.SIGINT)  # as a terminal's Ctrl-C: to the whole process group
+    try:
+        _, err = study.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        study.kill()
+        _, err = study.communicate()
+        raise AssertionError(f"the study did not end within 120 s of Ctrl-C; its stderr: {err[-2000:]}") from None
     assert study.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines()[-1].startswith("interrupted: finished work is kept in")
 
