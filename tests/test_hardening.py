@@ -294,7 +294,10 @@ def test_ctrl_c_of_the_study_script_ends_in_one_line_and_its_output_is_locked(tm
         _, err = second.communicate(timeout=120)
     assert second.returncode == 1 and err.strip().startswith("error: ") and "being written by another" in err, err
     study = _command(str(ROOT / "scripts" / "study_experience.py"), "--quick", "--workers", "1", "--out", str(out),
-                     cwd=tmp_path, start_new_session=True)
+                     cwd=tmp_path, start_new_session=True,
+                     # a shell starts a background job with SIGINT ignored, and Python then never installs its
+                     # handler: the study under test gets Ctrl-C's default, as in a terminal
+                     preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while not (out / LOCK_FILE).exists() and time.monotonic() < deadline:
         time.sleep(0.2)
