@@ -290,12 +290,18 @@ class Scene:
         self.model.dof_damping[joint.dofadr[0]: joint.dofadr[0] + 6] = damping
 
     def anchor_object_support(self) -> None:
-        """Move the support's rest pose (`set_object_support`) to where the free object lies now: re-engaged,
-        the support keeps the object there instead of pulling it back to its start."""
+        """Move the support's rest pose (`set_object_support`) to where the free object lies now, and stop the
+        object there: re-engaged, the support catches the object where it is instead of pulling it back to its
+        start. It is stopped because the support's damping on a moving object is an impulse MuJoCo's contact
+        solver cannot balance: the damping acts implicitly in the integration but as a force in the solve, and on
+        a 10 g marble spinning at 3 rad/s that force is a thousand times what its inertia bears in a time step (a
+        finger touching it then flung both at tens of m/s)."""
         if not self.free_object:
             raise InvalidInput("anchor_object_support needs a Scene with free_object=True")
-        address = self.model.joint("object_free").qposadr[0]
-        self.model.qpos_spring[address: address + 7] = self.data.qpos[address: address + 7]
+        joint = self.model.joint("object_free")
+        self.model.qpos_spring[joint.qposadr[0]: joint.qposadr[0] + 7] = self.data.qpos[joint.qposadr[0]:
+                                                                                         joint.qposadr[0] + 7]
+        self.data.qvel[joint.dofadr[0]: joint.dofadr[0] + 6] = 0.0
 
     def set_table(self, present: bool) -> None:
         """Put the table back or take it away (a Scene made with table=True).

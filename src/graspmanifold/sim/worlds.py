@@ -47,7 +47,7 @@ class Worlds(Protocol):
 
     def release(self, worlds: np.ndarray) -> None: ...  # support off (and table away)
 
-    def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None: ...  # support on, where it lies
+    def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None: ...  # caught where it lies
 
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None: ...
 

@@ -395,7 +395,7 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
             probed[passed], probing[passed] = True, np.nan
             if len(again):  # gravity off, the support on where the object lies, the next attempt from there
                 worlds.set_gravity(again, np.zeros((len(again), 3)))
-                worlds.support(again, JUDGING.support_stiffness, JUDGING.support_damping)
+                worlds.support(again, setup.regrasp.support_stiffness, setup.regrasp.support_damping)
                 joints = worlds.joints(again)
                 first = again[np.isnan(failure[again, 0])]
                 failure[first] = np.column_stack([joints, forces[failing]])[np.isin(again, first)]
