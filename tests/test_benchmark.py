@@ -1,5 +1,6 @@
 """The benchmark where grasp choice matters: its grids, and that the controller never learns the object."""
 
+import dataclasses
 import inspect
 
 import numpy as np
@@ -9,7 +10,8 @@ import graspmanifold as gm
 from graspmanifold.control.controller import BatchController
 from graspmanifold.sim.objects import GraspObject
 from graspmanifold.trials import trial
-from graspmanifold.trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid, cells, pooled, run_benchmark
+from graspmanifold.trials.benchmark import (OBJECTS, PLACEMENTS, benchmark_grid, cells, compare_pooled, pooled,
+                                            run_benchmark)
 
 
 def test_the_test_and_selection_grids_share_no_value_and_hold_enough_poses():
@@ -86,3 +88,16 @@ def test_a_benchmark_run_is_kept_and_taken_up_again(tmp_path, monkeypatch):
                          (dict(every=0), "every")):
         with pytest.raises(ValueError, match=message):
             run_benchmark(None, **bad)
+
+
+def test_a_comparison_leaves_out_a_failed_physics_or_counts_it_as_a_failed_grasp():
+    grid = benchmark_grid("pen", "palm")[::25]
+    held = gm.evaluate(OBJECTS["pen"].object, None, grid, workers=1, progress=False)
+    faulted = dataclasses.replace(held, trials=[dataclasses.replace(held.trials[0], hold=True, fault="deep contact"),
+                                               *held.trials[1:]])
+    a, b = {("pen", "palm"): faulted}, {("pen", "palm"): held}
+    dropped, counted = compare_pooled(a, b), compare_pooled(a, b, invalid="fail")
+    assert dropped.n == len(grid) - 1 and counted.n == len(grid)
+    assert counted.only_b == dropped.only_b + int(held.trials[0].hold) and counted.only_a == dropped.only_a
+    with pytest.raises(ValueError, match="invalid must be one of"):
+        compare_pooled(a, b, invalid="keep")

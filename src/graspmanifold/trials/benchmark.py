@@ -234,21 +234,31 @@ def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hol
             np.concatenate([results[key].valid for key in keys]))
 
 
+#: what a paired comparison does with a trial whose physics failed: leave its pose out, or count it as a failure
+INVALID_TRIALS = ("drop", "fail")
+
+
 def compare_pooled(a: dict[tuple[str, str], EvaluationResult], b: dict[tuple[str, str], EvaluationResult],
-                   rows: list[tuple[str, str]] | None = None, measure: str = "hold") -> PairedComparison:
-    """McNemar's test of method a against method b pooled over the benchmark's cells, on the poses valid for both.
+                   rows: list[tuple[str, str]] | None = None, measure: str = "hold",
+                   invalid: str = "drop") -> PairedComparison:
+    """McNemar's test of method a against method b pooled over the benchmark's cells.
 
     Args:
         a: the first method's results ({(object, placement): EvaluationResult}, as `run_benchmark` returns).
         b: the second's, on the same poses.
         rows: the cells to pool (default: all of them).
         measure: 'hold' or 'force_closure'.
+        invalid: 'drop': pair the poses valid for both (a trial whose physics failed says nothing about its
+            controller); 'fail': pair every pose, a failed trial's physics counted as a failed grasp (the
+            sensitivity of a comparison to what was dropped).
 
     Returns:
         The paired comparison.
     """
+    if invalid not in INVALID_TRIALS:
+        raise InvalidInput(f"invalid must be one of {INVALID_TRIALS}, got {invalid!r}")
     (held_a, valid_a), (held_b, valid_b) = pooled(a, measure, rows), pooled(b, measure, rows)
     if held_a.shape != held_b.shape:
         raise InvalidInput(f"a and b pool {len(held_a)} and {len(held_b)} trials; a paired comparison needs the same "
                            "poses")
-    return mcnemar(held_a, held_b, valid=valid_a & valid_b)
+    return mcnemar(held_a, held_b, valid=valid_a & valid_b if invalid == "drop" else None)
