@@ -511,7 +511,9 @@ def reading(info: dict) -> list[str]:
     once = info["ceiling"]["once"]
     top = once["oracle"] - once["chance_oracle"] if once["chance_oracle"] is not None else 0
     invalid = {m: sum(c[1] for c in counts.values()) for m, counts in info["counts"].items()}
-    poses = by_label[REGRASP_AS_FAILURES]["n"]  # every test pose run (a quick run runs a sixth)
+    # every test pose run (a quick run runs a sixth); a study.json from before the sensitivity family has no such row
+    sensitivity = REGRASP_AS_FAILURES in by_label
+    poses = by_label[REGRASP_AS_FAILURES]["n"] if sensitivity else info["split"]["poses"]["test"]
     return [
         f"- A second attempt is what pays: the heuristic retried against once {said('the heuristic retried against once')}"
         f"; regrasp with experience against its own first attempt "
@@ -529,9 +531,9 @@ def reading(info: dict) -> list[str]:
          f"- Trials whose physics failed (a contact deeper than 5 mm) are left out of every pair: at most "
          f"{max(poses - v for v in invalid.values())} of {poses} test poses for a method ("
          + ", ".join(f"{m} {poses - v}" for m, v in invalid.items() if poses - v) + ")."
-         ) + " Counted as failed grasps (the sensitivity family), regrasp with experience against the best fixed "
-        f"sequence {said(REGRASP_AS_FAILURES)}; the paper's controller against the shared preshape "
-        f"{said(PAPER_AS_FAILURES)}.",
+         ) + (" Counted as failed grasps (the sensitivity family), regrasp with experience against the best fixed "
+              f"sequence {said(REGRASP_AS_FAILURES)}; the paper's controller against the shared preshape "
+              f"{said(PAPER_AS_FAILURES)}." if sensitivity else ""),
     ]
 
 
