@@ -375,11 +375,30 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
 PREGRASP_BACK_OFF = 0.02
 
 
+def open_loop_grasp(hand_pose: np.ndarray, posture: np.ndarray, squeeze: float = ControllerParams.squeeze,
+                    back_off: float = PREGRASP_BACK_OFF) -> OpenLoopGrasp:
+    """One posture at its palm pose as an open-loop grasp: the pregrasp the open hand with its palm `back_off`
+    further from the object's centre than the grasp's (so that no finger starts inside the object), the grasp the
+    posture at its palm pose, the squeeze that posture squeezed as the controller squeezes (`controller.squeezed`).
+
+    Args:
+        hand_pose: (7,) the palm's position (m) and orientation (w x y z) in the object frame.
+        posture: (22,) rad, the grasp's finger joints.
+        squeeze: rad past the posture on the flexion joints.
+        back_off: m.
+
+    Returns:
+        The `OpenLoopGrasp`.
+    """
+    pose = np.asarray(hand_pose, dtype=float)
+    away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
+    pregrasp = np.r_[pose[:3] + back_off * away, pose[3:]]
+    return OpenLoopGrasp(np.array([pregrasp, pose, pose]), np.array([open_posture(), posture, squeezed(posture, squeeze)]))
+
+
 def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squeeze,
                      back_off: float = PREGRASP_BACK_OFF) -> list[OpenLoopGrasp]:
-    """Our postures as open-loop grasps: the pregrasp the open hand with its palm `back_off` further from the
-    object's centre than the grasp's (so that no finger starts inside the object), the grasp the posture at its
-    palm pose, the squeeze that posture squeezed as the controller squeezes (`controller.squeezed`).
+    """Our postures as open-loop grasps (`open_loop_grasp` of each at its palm pose).
 
     Args:
         postures: a posture set (palm poses in the object frame and postures).
@@ -389,13 +408,8 @@ def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squ
     Returns:
         One `OpenLoopGrasp` per posture.
     """
-    grasps = []
-    for pose, posture in zip(postures.hand_poses, postures.postures):
-        away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
-        pregrasp = np.r_[pose[:3] + back_off * away, pose[3:]]
-        grasps.append(OpenLoopGrasp(np.array([pregrasp, pose, pose]),
-                                    np.array([open_posture(), posture, squeezed(posture, squeeze)])))
-    return grasps
+    return [open_loop_grasp(pose, posture, squeeze, back_off)
+            for pose, posture in zip(postures.hand_poses, postures.postures)]
 
 
 def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: str = "ours",

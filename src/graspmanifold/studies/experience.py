@@ -156,8 +156,12 @@ class ExperienceStudy(StudyRun):
         self.made_seconds: dict[str, float] = {}  # each evaluation's seconds when it ran, now or in an earlier run
 
     def evaluate(self, split: str, method: str, experience=None, params=None, preshape=None, noise=None,
-                 regrasp=None, seed: int = 0) -> dict:
+                 regrasp=None, seed: int = 0, poses: dict | None = None) -> dict:
         """One method on every cell of a split, kept in OUT/evaluation under its key (`run_benchmark`).
+
+        Args:
+            poses: {(object, placement): grid poses} to run instead of the split's own (every one of them, also in
+                a quick run); `split` then names the files.
 
         Returns:
             {(object, placement): EvaluationResult}.
@@ -167,9 +171,10 @@ class ExperienceStudy(StudyRun):
         ours = [key for key in cells() if key[0] in self.objects]
         before = sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in ours)
         results = run_benchmark(experience, split="test" if split == "test" else "selection", params=params,
-                                preshape=preshape, noise=noise, objects=self.objects, every=6 if self.config.quick else 1,
-                                workers=self.workers, seed=seed, store=stored, label=method,
-                                executor=self.executor, regrasp=regrasp, poses=self.split[split])
+                                preshape=preshape, noise=noise, objects=self.objects,
+                                every=6 if self.config.quick and poses is None else 1, workers=self.workers, seed=seed,
+                                store=stored, label=method, executor=self.executor, regrasp=regrasp,
+                                poses=self.split[split] if poses is None else poses)
         self.reused_evaluations += before
         self.evaluations += len(ours)
         ledger = stored / "seconds.json"  # how long each evaluation took when it ran, for a report made from reuse
