@@ -1,0 +1,296 @@
+"""The learning curve: does the hold rate grow with the experience, generated and the controller's own?
+
+    python scripts/study_learning_curve.py [--quick] [--workers 2] [--out study-learning] [--doc docs/learning_curve.md]
+
+On the experience study's benchmark and split (`studies.experience`): the experience of every grasp type is generated
+at the largest size (`--sizes`, verified postures per object, default 48, 200 and 1,000); an experience of a smaller
+size is a random subset of it (seeded, the same objects' shares). For each size, one SOM is trained on all objects'
+postures and the paper's literal controller, the blend and regrasp with experience (the blend's, two attempts) run
+on the test split. Then the paper's resumed learning, from the smallest experience: each round the blend grasps
+every pose of the selection split, the final postures of the grasps that held (the sensed joints when the grasp
+was done: `EvaluationResult.successful_postures`) join the experience, and the map is trained again; after every
+round the three controllers run on the test split. Nothing of the test split ever joins the experience.
+
+The comparisons (McNemar, Holm within the family): per controller, the largest experience against the smallest, and
+the last round against the smallest. Writes `--out/study.json`, the report `--doc` and its figure beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..base.config_files import read_config, to_toml
+from ..base.errors import InvalidInput
+from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.validation import check_int
+from ..control.generator import MAX_POSTURES
+from ..control.controller import BLEND, ControllerParams
+from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
+from ..manifold.postureset import PostureSet
+from ..trials.benchmark import cells, compare_pooled, pooled
+from ..trials.stats import rate_text
+from ..trials.study import train_experience_map
+from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
+from .runner import comparison_table, holm_family, run_command
+
+#: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
+TARGET_P = 0.01
+#: the controllers of the curve: (label, parameters, with a regrasp)
+CONTROLLERS: tuple[tuple[str, ControllerParams, bool], ...] = (
+    ("som_paper", ControllerParams(), False), ("som_blend", BLEND, False), ("regrasp_som_blend", BLEND, True))
+
+
+@dataclass(frozen=True)
+class LearningCurveConfig(ExperienceStudyConfig):
+    """How the learning-curve study runs (a TOML file of these keys: `--config`).
+
+    Args:
+        quick: a smoke run: two objects, a sixth of the poses, sizes 3 and 7, one round (too small to be evidence).
+        workers: worker processes.
+        out: the folder of kept results ('': study-learning, or study-learning-quick).
+        doc: the markdown report ('': docs/learning_curve.md, or OUT/learning_curve.md for a quick run).
+        postures: unused (the largest of `sizes` is generated).
+        sizes: verified postures per object, ascending (empty: 48, 200, 1000; quick: 3, 7).
+        rounds: rounds of the controller's own grasps on the selection split (-1: 2; quick: 1).
+    """
+
+    sizes: tuple[int, ...] = field(default_factory=tuple)
+    rounds: int = -1
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        sizes = tuple(self.sizes)
+        if any(isinstance(n, bool) or not isinstance(n, int) or not 0 < n <= MAX_POSTURES for n in sizes) \
+                or list(sizes) != sorted(set(sizes)):
+            raise InvalidInput(f"sizes must be ascending postures per object in 1 ... {MAX_POSTURES}, got {self.sizes!r}")
+        object.__setattr__(self, "sizes", sizes)
+        if self.rounds != -1:
+            check_int(self.rounds, "rounds", low=0)
+
+    @property
+    def out_dir(self) -> Path:
+        """The folder of kept results."""
+        return Path(self.out or ("study-learning-quick" if self.quick else "study-learning"))
+
+    @property
+    def doc_path(self) -> Path:
+        """The markdown report."""
+        return Path(self.doc or (self.out_dir / "learning_curve.md" if self.quick else "docs/learning_curve.md"))
+
+    @property
+    def experience_sizes(self) -> tuple[int, ...]:
+        """Verified postures per object of each experience."""
+        return self.sizes or ((3, 7) if self.quick else (48, 200, 1000))
+
+    @property
+    def postures_per_object(self) -> int:
+        """The largest size: what is generated."""
+        return self.experience_sizes[-1]
+
+    @property
+    def own_rounds(self) -> int:
+        """Rounds of the controller's own grasps."""
+        return self.rounds if self.rounds != -1 else (1 if self.quick else 2)
+
+
+def subset(sets: dict[str, PostureSet], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """n postures of each object's set, drawn at random (seeded by n), and their grasp types.
+
+    Args:
+        sets: {object: verified postures}, each of at least n.
+        n: postures per object.
+
+    Returns:
+        (postures (m, 22) rad, grasp types (m,)), objects in the order of `sets`.
+    """
+    rows, types = [], []
+    for postures in sets.values():
+        keep = np.sort(np.random.default_rng([0, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
+        rows.append(postures.postures[keep])
+        types.append(grasp_types_of(postures)[keep])
+    return np.concatenate(rows), np.concatenate(types)
+
+
+def own_grasps(results: dict) -> np.ndarray:
+    """The held final grasps of a benchmark run: what a round adds to the experience.
+
+    Args:
+        results: {(object, placement): EvaluationResult}.
+
+    Returns:
+        (m, 22) rad, in `cells()` order.
+    """
+    return np.concatenate([results[key].successful_postures() for key in cells() if key in results])
+
+
+class LearningCurveStudy(ExperienceStudy):
+    """The learning-curve study (the module's docstring says what it measures); `run` runs it.
+
+    Args:
+        config: how it runs.
+    """
+
+    def __init__(self, config: LearningCurveConfig = LearningCurveConfig()):
+        super().__init__(config)
+        self.config: LearningCurveConfig = config
+
+    def test(self, tag: str, postures: np.ndarray, types: np.ndarray) -> dict[str, dict]:
+        """The three controllers on the test split with one experience (a SOM of these postures).
+
+        Returns:
+            {controller: {(object, placement): EvaluationResult}}.
+        """
+        som = train_experience_map(postures)
+        som_types = reference_grasp_types(som, postures[:len(types)], types)  # own grasps carry no design's type
+        return {name: self.evaluate("test", f"{name}_{tag}", som, params,
+                                    regrasp=Regrasp(ATTEMPTS, grasp_types=som_types) if retry else None)
+                for name, params, retry in CONTROLLERS}
+
+    def run(self) -> dict:
+        """The whole study; writes the report, its figure, OUT/study.json and OUT/config.toml.
+
+        Returns:
+            What the report shows (the content of study.json).
+        """
+        self.check_writable(self.config.doc_path)
+        with self.session():
+            write_text_atomic(self.out / "config.toml", to_toml(self.config))
+            info = measure(self)
+            doc = self.config.doc_path
+            info["figure"] = plot(info, doc.with_suffix(".png"))
+            write_text_atomic(doc, report(self.config, info))
+            data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)
+            write_text_atomic(self.out / "study.json", data)
+            if not self.config.quick:
+                write_text_atomic(doc.with_suffix(".json"), data)
+            print(f"\n{info['verdict']}\nwrote {doc} and {self.out / 'study.json'} in {info['wall_seconds']:.0f} s")
+        return info
+
+
+def measure(study: LearningCurveStudy) -> dict:
+    """Every step of the study, in order (the module's docstring); what the report shows."""
+    _, sets = study.experience()
+    sizes = study.config.experience_sizes
+    by_size = {}
+    for n in sizes:
+        postures, types = subset(sets, n)
+        by_size[n] = study.test(f"n{n}", postures, types)
+    grown, types = subset(sets, sizes[0])
+    by_round, added = {0: by_size[sizes[0]]}, []
+    for r in range(1, study.config.own_rounds + 1):
+        som = train_experience_map(grown)
+        selection = study.evaluate("selection", f"own_round{r}", som, BLEND)
+        held = own_grasps(selection)
+        added.append(int(len(held)))
+        grown = np.concatenate([grown, held])
+        study.log(f"round {r}: {len(held)} held grasps of the selection split join the experience ({len(grown)})")
+        by_round[r] = study.test(f"n{sizes[0]}_round{r}", grown, types)
+
+    def counts(results: dict) -> list[int]:
+        held, valid = pooled(results)
+        return [int(held[valid].sum()), int(valid.sum())]
+
+    family = []
+    for name, _, _ in CONTROLLERS:
+        family.append((f"{name}: {sizes[-1]} against {sizes[0]} per object",
+                       compare_pooled(by_size[sizes[-1]][name], by_size[sizes[0]][name])))
+        if study.config.own_rounds:
+            family.append((f"{name}: round {study.config.own_rounds} of own grasps against {sizes[0]} per object",
+                           compare_pooled(by_round[study.config.own_rounds][name], by_size[sizes[0]][name])))
+    comparisons = holm_family(family, "the largest experience, and the grown one, against the smallest")
+    rises = [c for c in comparisons if " against " in c["label"] and "round" not in c["label"]
+             and c["p_holm"] < TARGET_P and c["difference"] > 0]
+    own = [c for c in comparisons if "round" in c["label"] and c["p_holm"] < 0.05 and c["difference"] > 0]
+    verdict = (f"Target {'met' if rises else 'not met'}: " + "; ".join(
+        f"{c['label']} {100 * c['difference']:+.1f} points (n = {c['n']}, Holm p = {c['p_holm']:.2g})"
+        for c in comparisons) + f". Own grasps add significantly for {len(own)} of {len(CONTROLLERS)} controllers.")
+    return {"objects": list(study.objects), "quick": study.config.quick, "sizes": list(sizes),
+            "rounds": study.config.own_rounds, "added": added,
+            "by_size": {str(n): {m: counts(r) for m, r in runs.items()} for n, runs in by_size.items()},
+            "by_round": {str(k): {m: counts(r) for m, r in runs.items()} for k, runs in by_round.items()},
+            "comparisons": comparisons, "target_met": bool(rises), "verdict": verdict,
+            "wall_seconds": time.perf_counter() - study.started, "workers": study.workers}
+
+
+def plot(info: dict, path: Path) -> str:
+    """Hold rate against experience size and against rounds, per controller, 95 % Wilson intervals."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..trials.stats import wilson_interval
+
+    figure, axes = plt.subplots(1, 2, figsize=(9, 3.8), sharey=True)
+    for ax, (key, xlabel) in zip(axes, (("by_size", "verified postures per object"), ("by_round", "rounds of own grasps"))):
+        xs = list(info[key])
+        for name, _, _ in CONTROLLERS:
+            rows = [info[key][x][name] for x in xs]
+            rate = np.array([h / n if n else np.nan for h, n in rows])
+            low, high = np.array([wilson_interval(h, n) for h, n in rows]).T
+            ax.errorbar([float(x) for x in xs], 100 * rate, yerr=np.nan_to_num(100 * np.clip([rate - low, high - rate], 0, None)),
+                        fmt="o-", capsize=2, label=name)
+        ax.set_xlabel(xlabel)
+        if key == "by_size":
+            ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("hold rate on the test split (%)")
+    axes[0].legend(fontsize=8)
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path.name
+
+
+def report(config: LearningCurveConfig, info: dict) -> str:
+    """The markdown report of a run (`info`: what `measure` returned, or study.json)."""
+    lines = ["# Does more experience hold more? The learning curve", ""]
+    if config.quick:
+        lines += ["**A smoke run: too small to be evidence.**", ""]
+    lines += [f"Generated by `python scripts/study_learning_curve.py{' --quick' if config.quick else ''} --workers "
+              f"{info['workers']}`: {info['wall_seconds']:.0f} s. Hold test rates on the test split with 95 % Wilson "
+              "intervals; paired comparisons (McNemar), Holm within the family.", "", "## Verdict", "", info["verdict"], "",
+              f"![learning curve]({info['figure']})", "", "## Hold rate by experience size (test split)", ""]
+    names = [name for name, _, _ in CONTROLLERS]
+    lines += markdown_table(["postures per object", *names],
+                            [[n, *(rate_text(*info["by_size"][n][m]) for m in names)] for n in info["by_size"]])
+    lines += ["", f"## Rounds of own grasps (from {info['sizes'][0]} per object)", "",
+              f"Held grasps added per round: {info['added']}.", ""]
+    lines += markdown_table(["round", *names],
+                            [[r, *(rate_text(*info["by_round"][r][m]) for m in names)] for r in info["by_round"]])
+    lines += ["", "## Paired comparisons (test split)", "", *comparison_table(info["comparisons"], family=False), ""]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The study's command: `python scripts/study_learning_curve.py --help`."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default=None, help="a TOML file of LearningCurveConfig's keys")
+    parser.add_argument("--quick", action="store_true", default=None, help="a smoke run")
+    parser.add_argument("--workers", type=int, default=None, help="worker processes (default 2)")
+    parser.add_argument("--out", default=None, help="data directory (default: study-learning[-quick])")
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/learning_curve.md)")
+    parser.add_argument("--sizes", type=int, nargs="+", default=None, help="postures per object, ascending "
+                        "(default 48 200 1000)")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds of own grasps (default 2)")
+    args = parser.parse_args(argv)
+    flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "rounds") if getattr(args, k) is not None}
+    if args.sizes is not None:
+        flags["sizes"] = tuple(args.sizes)
+    try:
+        config = read_config(args.config, LearningCurveConfig()) if args.config else LearningCurveConfig()
+        config = replace(config, **flags)
+    except InvalidInput as error:
+        raise SystemExit(f"error: {error}") from None
+    run_command(config.out_dir, lambda: LearningCurveStudy(config).run())
+
+
+if __name__ == "__main__":
+    main()
