@@ -533,3 +533,24 @@ def test_the_controller_recalls_what_the_experience_completes():
         controller.step(open_hand, np.zeros((1, len(gm.SEGMENTS))))
     assert controller.matches[0] > 0
     assert np.allclose(controller._recall[0], gm.closed_posture() * 0.4)  # the blend, not a reference
+
+
+def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
+    """`CLOSING_RECALL`: the recall of a free finger is kept no more open than its target, joint by joint; the
+    literal reading (the default) sends it wherever the recalled posture is, the open hand included."""
+    from graspmanifold.control.controller import CLOSING_RECALL, BatchController
+
+    opened, closed = gm.open_posture(), gm.closed_posture()
+    half = opened + 0.5 * (closed - opened)
+    recalled = opened + np.where(np.arange(len(opened)) % 2 == 0, 0.2, 0.8) * (closed - opened)  # some back, some on
+    for params, expected in ((gm.ControllerParams(), recalled),
+                             (CLOSING_RECALL, np.where((recalled - half) * np.sign(closed - opened) < 0, half, recalled))):
+        controller = BatchController(1, gm.PostureDatabase(recalled[None]), params)
+        controller._target[0] = half
+        controller._recall_for(np.array([0]), np.array([1]), recalled[None])
+        np.testing.assert_allclose(controller._recall[0], expected)
+    assert np.any(expected != recalled) and np.all((expected - half) * np.sign(closed - opened) >= 0)
+    with pytest.raises(ValueError, match="recall_closes_only works with recall='target'"):
+        gm.ControllerParams(recall="base", recall_closes_only=True)
+    with pytest.raises(ValueError, match="recall_closes_only must be True or False"):
+        gm.ControllerParams(recall_closes_only=1)

@@ -121,6 +121,7 @@ class ControllerParams:
     max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
     recall: str = "target"  # what a best match does: 'target' (the paper's) or 'base' (the blend), see the module doc
     recall_tolerance: float = 0.05  # rad: 'target' takes a finger on once every joint is this close to its recall
+    recall_closes_only: bool = False  # 'target': a recall moves a joint only towards the closed hand (CLOSING_RECALL)
     restart_closure: bool = False  # 'base': the first trusted match after a contact restarts the free fingers' closure
     reach: float = 0.0  # m, 'base': that match may also move the palm by up to this much (0: the palm stays)
     reach_speed: float = 0.1  # m/s, how fast the palm moves then
@@ -153,6 +154,11 @@ class ControllerParams:
             raise InvalidInput(f"ControllerParams.recall must be one of {RECALLS}, got {self.recall!r}")
         if not isinstance(self.restart_closure, bool):
             raise InvalidInput(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
+        if not isinstance(self.recall_closes_only, bool):
+            raise InvalidInput(f"ControllerParams.recall_closes_only must be True or False, got {self.recall_closes_only!r}")
+        if self.recall_closes_only and self.recall != "target":
+            raise InvalidInput("ControllerParams.recall_closes_only works with recall='target' only: the blend's recall "
+                               "is the closing heuristic's base, not a target")
         for name in ("restart_closure", "reach"):
             if getattr(self, name) and self.recall != "base":
                 raise InvalidInput(f"ControllerParams.{name} works with recall='base' (the blend) only: with "
@@ -169,8 +175,17 @@ BLEND = ControllerParams(recall="base", max_match_distance=0.2)
 """Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
 within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/experience_study_paper_grids.md)."""
 
-CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND}
-"""The controllers by name (`graspmanifold reproduce --controller NAME`): the paper's reading, and the blend."""
+CLOSING_RECALL = ControllerParams(recall_closes_only=True)
+"""The paper's reading ("the resulting posture then acts as the target posture for the current control cycle") with
+one detail it leaves open read the other way: a recall moves each joint of a free finger only towards the closed
+hand, never back towards the open one (each joint's recall kept no more open than its target). The literal reading
+(the default) lets a recall open a finger; traced, that is how it loses the pen near the palm
+(`scripts/trace_literal_controller.py`)."""
+
+CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND,
+                                            "closing-recall": CLOSING_RECALL}
+"""The controllers by name (`graspmanifold reproduce --controller NAME`): the paper's reading, the blend, and the
+paper's reading with recalls that only close."""
 
 
 @runtime_checkable
@@ -546,6 +561,9 @@ class BatchController:
         new = (self._steered_finger & ~self._held[worlds] & ~np.isin(visits, self._visited)
                & ~(self._approaching[worlds] & (self._heading[worlds] == keys[:, None])))
         recalled = np.clip(np.where(self._steered, postures, self._target[worlds]), *self.limits.T)  # any hand's
+        if self.params.recall_closes_only:  # no joint sent back towards the open hand
+            now = self._target[worlds]
+            recalled = np.where((recalled - now) * np.sign(self.closed - self.initial) < 0, now, recalled)
         self._recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, self._recall[worlds])
         self._approaching[worlds] |= new
         self._heading[worlds] = np.where(new, keys[:, None], self._heading[worlds])
