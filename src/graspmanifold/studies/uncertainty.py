@@ -8,7 +8,8 @@ pose error (`trials.uncertainty.pose_errors`: 0, 1, 2, 3, 5 cm in the palm's pla
 degrees of yaw, each nominal pose at every level). The tactile controllers run where the object really is; they
 sense joints and touch only. The open-loop baseline executes, where the hand was sent for the nominal pose, the
 grasp planned for that pose: the first of the tactile methods' held final grasps at the nominal pose (zero error)
-whose open-loop replay there holds, in a fixed order (the heuristic, the paper's controller, the blend);
+whose open-loop replay there holds, in a fixed order (the heuristic, the paper's controller, the blend, the
+heuristic retried, regrasp with experience);
 `trials.uncertainty.plan`, `open_loop`). With two attempts the open loop executes the second such plan where the
 first dropped its object, each from the object's undisturbed true pose (an upper bound on an open-loop retry).
 
@@ -52,8 +53,9 @@ TARGET_POINTS, TARGET_P, TARGET_POSES = 0.20, 0.01, 600
 LARGE_ERRORS = (0.02, 0.03, 0.05)
 #: the one-attempt SOM controllers the selection chooses between (the restart variant left to the experience study)
 ONE_ATTEMPT = ("som_paper", "som_blend")
-#: the order in which the tactile methods' held grasps at the nominal pose are offered as the open loop's plans
-PLAN_ORDER = ("none", "som_paper", "som_blend")
+#: the order in which the tactile methods' held grasps at the nominal pose are offered as the open loop's plans (the
+#: regrasp method's name is filled in when the selection has chosen its controller)
+PLAN_ORDER = ("none", "som_paper", "som_blend", "heuristic_retried", "regrasp")
 
 
 @dataclass(frozen=True)
@@ -66,7 +68,7 @@ class UncertaintyStudyConfig(ExperienceStudyConfig):
         out: the folder of kept results ('': study-uncertainty, or study-uncertainty-quick).
         doc: the markdown report ('': docs/uncertainty_study.md, or OUT/uncertainty_study.md for a quick run).
         postures: verified postures per object (0: 48, or 7 for a quick run).
-        every: run every k-th nominal pose of each split (0: 2, or 6 for a quick run).
+        every: run every k-th nominal pose of each split (0: every one, or every sixth for a quick run).
     """
 
     every: int = 0
@@ -89,7 +91,7 @@ class UncertaintyStudyConfig(ExperienceStudyConfig):
     @property
     def stride(self) -> int:
         """Every k-th nominal pose of each split is run."""
-        return self.every or (6 if self.quick else 2)
+        return self.every or (6 if self.quick else 1)
 
 
 class UncertaintyStudy(ExperienceStudy):
@@ -138,7 +140,8 @@ class UncertaintyStudy(ExperienceStudy):
         for key, e in self.errors["test"].items():
             zero = np.flatnonzero(e.level == 0.0)
             candidates = np.full((len(PLAN_ORDER), len(zero), N_FINGER_JOINTS), np.nan)
-            for k, method in enumerate(PLAN_ORDER):
+            order = [next(m for m in runs if m.startswith("regrasp")) if m == "regrasp" else m for m in PLAN_ORDER]
+            for k, method in enumerate(order):
                 trials = [runs[method][key].trials[i] for i in zero]
                 for i, t in enumerate(trials):
                     if t.valid and t.hold:
@@ -359,8 +362,8 @@ def report(config: UncertaintyStudyConfig, info: dict) -> str:
               + ", ".join(f"{k} {'yes' if v else 'no'}" for k, v in info["checks"].items()) + ".", "",
               f"![hold rate against pose error]({info['figure']})", ""]
     lines += ["## Hold rate against pose error (test split)", "",
-              f"{info['nominal_poses']['test']} nominal test poses (every {info['stride']}. of the experience study's "
-              f"test split), each at every level; the open loop's rates are over the poses with a plan "
+              f"{info['nominal_poses']['test']} nominal test poses (" + ("all" if info["stride"] == 1 else
+              f"every {info['stride']}. of those") + " of the experience study's test split), each at every level; the open loop's rates are over the poses with a plan "
               f"({info['plans']['with_plan']} of {info['plans']['poses']}; a second plan for {info['plans']['second_plan']}).", ""]
     levels = info["levels_cm"]
     lines += markdown_table(["method (attempts)", *(f"{v:.0f} cm" for v in levels)],
@@ -381,8 +384,8 @@ def report(config: UncertaintyStudyConfig, info: dict) -> str:
               "Pose errors: `trials.uncertainty.pose_errors` (seed 1), each nominal pose moved by exactly the level's "
               "distance in the palm's plane in a random direction, turned by a yaw drawn uniformly within +-6 degrees "
               "per cm; a draw that would put the object inside the open hand is drawn again. The plan of a nominal pose: "
-              "the first held final grasp at zero error of the heuristic, the paper's controller and the blend, in that "
-              "order, whose open-loop replay at the nominal pose holds (`trials.uncertainty.plan`); the open loop "
+              "the first held final grasp at zero error of the heuristic, the paper's controller, the blend, the heuristic "
+              "retried and regrasp with experience, in that order, whose open-loop replay at the nominal pose holds (`trials.uncertainty.plan`); the open loop "
               "replays it (pregrasp 2 cm back, grasp, squeeze; `dexgraspbench.replay`, our hold test) with the hand "
               "where the plan sent it and the object where it is. The open loop with two attempts holds where either "
               "of two such plans holds, each replayed from the undisturbed true pose: more than a real retry gets.", ""]
@@ -402,7 +405,7 @@ def main(argv: list[str] | None = None) -> None:
                         "--quick: OUT/uncertainty_study.md)")
     parser.add_argument("--postures", type=int, default=None, help="verified postures per object (default 48; "
                         "quick: 7)")
-    parser.add_argument("--every", type=int, default=None, help="every k-th nominal pose (default 2; quick: 6)")
+    parser.add_argument("--every", type=int, default=None, help="every k-th nominal pose (default 1; quick: 6)")
     args = parser.parse_args(argv)
     flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "postures", "every")
              if getattr(args, k) is not None}
