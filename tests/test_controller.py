@@ -554,3 +554,29 @@ def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
         gm.ControllerParams(recall="base", recall_closes_only=True)
     with pytest.raises(ValueError, match="recall_closes_only must be True or False"):
         gm.ControllerParams(recall_closes_only=1)
+
+
+def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
+    """`recall_trace.TracedController` around ours: one log entry per control cycle, the same trials as untraced."""
+    from graspmanifold.control.controller import CLOSING_RECALL, BatchController
+    from graspmanifold.studies.recall_trace import TracedController
+    from graspmanifold.trials.trial import TrialSetup, run_trials
+
+    obj = gm.get_object("cylinder")
+    som = gm.SOM(4, 4, 22, seed=0).fit(gm.open_posture() + np.linspace(0.1, 0.9, 30)[:, None]
+                                         * (gm.closed_posture() - gm.open_posture()))
+    poses = gm.grid_preset("quick", obj)[:2]
+    made = []
+
+    def traced(n, hand):
+        made.append(TracedController(BatchController(n, som, CLOSING_RECALL, hand=hand)))
+        return made[-1]
+
+    plain = run_trials(TrialSetup(obj, som, params=CLOSING_RECALL), poses, [np.random.default_rng(i) for i in range(2)])
+    logged = run_trials(TrialSetup(obj, controller=traced, method="traced"), poses,
+                        [np.random.default_rng(i) for i in range(2)])
+    assert [t.hold for t in plain] == [t.hold for t in logged]
+    assert all(np.array_equal(a.posture, b.posture) for a, b in zip(plain, logged))
+    times = [entry[0] for entry in made[0].log]
+    assert len(times) > 10 and np.allclose(np.diff(times), CLOSING_RECALL.control_period)
+    assert all(entry[3].shape == (2, 5) and entry[2].shape == (2, 22) for entry in made[0].log)
