@@ -15,7 +15,14 @@ from graspmanifold.trials import uncertainty
 from graspmanifold.trials.benchmark import OBJECTS, benchmark_split
 from graspmanifold.trials.evaluation import evaluate
 from graspmanifold.trials.grid import palm_pose_for, reachable
-from graspmanifold.trials.uncertainty import MAX_YAW_ERROR, POSITION_ERRORS, carried, open_loop, plan, pose_errors
+from graspmanifold.trials.uncertainty import (
+    MAX_YAW_ERROR,
+    POSITION_ERRORS,
+    carried,
+    open_loop,
+    plan,
+    pose_errors,
+)
 
 BOX = OBJECTS["box"].object
 MARBLE = OBJECTS["marble"].object
@@ -120,7 +127,10 @@ def test_the_open_loop_replays_the_nominal_plan_at_the_true_pose(monkeypatch):
 
 
 def test_the_uncertainty_study_runs_and_reports_every_method_at_every_level(tmp_path):
-    from graspmanifold.studies.uncertainty import UncertaintyStudy, UncertaintyStudyConfig
+    from graspmanifold.studies.uncertainty import (
+        UncertaintyStudy,
+        UncertaintyStudyConfig,
+    )
 
     config = UncertaintyStudyConfig(quick=True, workers=1, every=40, postures=3, out=str(tmp_path / "out"))
     info = UncertaintyStudy(config).run()
@@ -138,38 +148,3 @@ def test_the_uncertainty_study_runs_and_reports_every_method_at_every_level(tmp_
             assert {n for _, n in counts.values()} <= {info["plans"]["with_plan"]}
     assert info["selected"]["chosen"] in info["curve"]
 
-
-def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split(tmp_path, monkeypatch):
-    from graspmanifold.studies import learning_curve
-    from graspmanifold.studies.learning_curve import LearningCurveConfig, LearningCurveStudy, subset
-
-    given, rounds = [], []
-    real_test, real_evaluate = LearningCurveStudy.test, LearningCurveStudy.evaluate
-
-    def test(self, tag, postures, types):
-        given.append((tag, postures.copy()))
-        return real_test(self, tag, postures, types)
-
-    def evaluate(self, split, method, *args, **kwargs):
-        results = real_evaluate(self, split, method, *args, **kwargs)
-        if method.startswith("own_round"):
-            rounds.append((split, results))
-        return results
-
-    monkeypatch.setattr(LearningCurveStudy, "test", test)
-    monkeypatch.setattr(LearningCurveStudy, "evaluate", evaluate)
-    study = LearningCurveStudy(LearningCurveConfig(quick=True, sizes=(3,), rounds=1, workers=1, out=str(tmp_path)))
-    info = study.run()
-    (split, selection), = rounds
-    assert split == "selection"
-    for key, result in selection.items():  # the round grasped selection poses only, none of the test split
-        poses = np.array([t.grid_pose for t in result.trials])
-        assert all(any(np.array_equal(p, q) for q in study.split["selection"][key]) for p in poses)
-        assert not any(np.array_equal(p, q) for p in poses for q in study.split["test"][key])
-    (_, start), (_, grown) = given
-    _, sets = study.experience()
-    assert np.array_equal(start, subset(sets, 3)[0])
-    held = [t.posture for key in selection for t in selection[key].trials if t.valid and t.hold]
-    assert np.array_equal(grown, np.concatenate([start, np.array(held).reshape(-1, N_FINGER_JOINTS)]))
-    assert info["added"] == [len(held)] and set(info["by_round"]) == {"0", "1"}
-    assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)

@@ -44,13 +44,14 @@ import json
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import MAX_POSTURES, GeneratorParams, generate_postures
@@ -70,7 +71,7 @@ from ..trials.selector import StrategySelector, choose_cross_validated
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
 from ..trials.study import train_experience_map
 from ..trials.trial import Noise
-from .runner import StudyRun, comparison_table, holm_family, run_command
+from .runner import StudyRun, comparison_table, holm_family, publish, run_command
 
 #: the target (issue 38), pooled over the test split: two attempts each, regrasp with experience against the best
 #: fixed sequence of strategies
@@ -105,6 +106,10 @@ class ExperienceStudyConfig:
         postures: verified postures per object (0: 48, or 7 for a quick run).
     """
 
+    #: the folder of kept results (with '-quick' for a quick run) and the report's name, when not given
+    FOLDER: ClassVar[str] = "study"
+    REPORT: ClassVar[str] = "experience_study"
+
     quick: bool = False
     workers: int = 2
     out: str = ""
@@ -124,12 +129,12 @@ class ExperienceStudyConfig:
     @property
     def out_dir(self) -> Path:
         """The folder of kept results."""
-        return Path(self.out or ("study-quick" if self.quick else "study"))
+        return Path(self.out or (f"{self.FOLDER}-quick" if self.quick else self.FOLDER))
 
     @property
     def doc_path(self) -> Path:
         """The markdown report."""
-        return Path(self.doc or (self.out_dir / "experience_study.md" if self.quick else "docs/experience_study.md"))
+        return Path(self.doc or (self.out_dir / f"{self.REPORT}.md" if self.quick else f"docs/{self.REPORT}.md"))
 
     @property
     def postures_per_object(self) -> int:
@@ -334,13 +339,7 @@ def main(argv: list[str] | None = None) -> None:
 
 def write_report(study: ExperienceStudy, info: dict) -> None:
     """The report, study.json (and, for the full study, the report's JSON beside it)."""
-    doc = study.config.doc_path
-    write_text_atomic(doc, report(study.config, info))
-    data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
-    write_text_atomic(study.out / "study.json", data)
-    if not study.config.quick:
-        write_text_atomic(doc.with_suffix(".json"), data)
-    print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {info['seconds']:.0f} s")
+    publish(study, study.config.doc_path, study.config.quick, info, lambda shown: report(study.config, shown))
 
 
 def measure(study: ExperienceStudy) -> dict:
@@ -645,7 +644,19 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
         [name, e["candidates"], ", ".join(f"{d} ({e['grasp_types'][d]}) {v:.0%} ({e['kept_by_start'].get(d, 0)})"
                                           for d, v in e["verified_by_start"].items())]
         for name, e in info["experience"].items()])
-    lines += ["", "## The first study, on the paper's grids", ""]
+    lines += ["", "## Under pose error, and with more experience", ""]
+    for name, command, what in (("uncertainty_study", "study_uncertainty.py", "the object off the pose the plan "
+                                 "assumed: the tactile controllers against the open-loop replay of the nominal grasp"),
+                                ("learning_curve", "study_learning_curve.py", "hold rate against the experience's size "
+                                 "and against rounds of the controller's own grasps")):
+        later = Path(f"docs/{name}.md")
+        if later.exists():  # its verdict and its figure, quoted from its report
+            verdict = later.read_text().split("## Verdict", 1)[-1].split("\n## ", 1)[0].strip()
+            lines += [f"`python scripts/{command}` ([its report]({name}.md)): {what}.", "", verdict.split("\n\n")[0],
+                      "", f"![{name}]({name}.png)", ""]
+        else:
+            lines += [f"`python scripts/{command}` ({what}) has not been run here.", ""]
+    lines += ["## The first study, on the paper's grids", ""]
     old = Path("docs/experience_study_paper_grids.md")
     if old.exists():  # its verdict and its headroom table, quoted from its report
         text = old.read_text()

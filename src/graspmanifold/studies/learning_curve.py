@@ -18,26 +18,33 @@ the last round against the smallest. Writes `--out/study.json`, the report `--do
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
 from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
-from ..control.generator import MAX_POSTURES
 from ..control.controller import BLEND, ControllerParams
+from ..control.generator import MAX_POSTURES
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.postureset import PostureSet
 from ..trials.benchmark import cells, compare_pooled, pooled
 from ..trials.stats import rate_text
 from ..trials.study import train_experience_map
 from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
-from .runner import comparison_table, holm_family, run_command
+from .runner import (
+    comparison_table,
+    holm_family,
+    publish,
+    rate_curve,
+    run_command,
+    save_figure,
+)
 
 #: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
 TARGET_P = 0.01
@@ -60,6 +67,9 @@ class LearningCurveConfig(ExperienceStudyConfig):
         rounds: rounds of the controller's own grasps on the selection split (-1: 2; quick: 1).
     """
 
+    FOLDER: ClassVar[str] = "study-learning"
+    REPORT: ClassVar[str] = "learning_curve"
+
     sizes: tuple[int, ...] = field(default_factory=tuple)
     rounds: int = -1
 
@@ -73,15 +83,6 @@ class LearningCurveConfig(ExperienceStudyConfig):
         if self.rounds != -1:
             check_int(self.rounds, "rounds", low=0)
 
-    @property
-    def out_dir(self) -> Path:
-        """The folder of kept results."""
-        return Path(self.out or ("study-learning-quick" if self.quick else "study-learning"))
-
-    @property
-    def doc_path(self) -> Path:
-        """The markdown report."""
-        return Path(self.doc or (self.out_dir / "learning_curve.md" if self.quick else "docs/learning_curve.md"))
 
     @property
     def experience_sizes(self) -> tuple[int, ...]:
@@ -162,14 +163,7 @@ class LearningCurveStudy(ExperienceStudy):
         with self.session():
             write_text_atomic(self.out / "config.toml", to_toml(self.config))
             info = measure(self)
-            doc = self.config.doc_path
-            info["figure"] = plot(info, doc.with_suffix(".png"))
-            write_text_atomic(doc, report(self.config, info))
-            data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)
-            write_text_atomic(self.out / "study.json", data)
-            if not self.config.quick:
-                write_text_atomic(doc.with_suffix(".json"), data)
-            print(f"\n{info['verdict']}\nwrote {doc} and {self.out / 'study.json'} in {info['wall_seconds']:.0f} s")
+            publish(self, self.config.doc_path, self.config.quick, info, lambda shown: report(self.config, shown), plot)
         return info
 
 
@@ -187,7 +181,7 @@ def measure(study: LearningCurveStudy) -> dict:
         som = train_experience_map(grown)
         selection = study.evaluate("selection", f"own_round{r}", som, BLEND)
         held = own_grasps(selection)
-        added.append(int(len(held)))
+        added.append(len(held))
         grown = np.concatenate([grown, held])
         study.log(f"round {r}: {len(held)} held grasps of the selection split join the experience ({len(grown)})")
         by_round[r] = study.test(f"n{sizes[0]}_round{r}", grown, types)
@@ -225,17 +219,11 @@ def plot(info: dict, path: Path) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..trials.stats import wilson_interval
-
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.8), sharey=True)
     for ax, (key, xlabel) in zip(axes, (("by_size", "verified postures per object"), ("by_round", "rounds of own grasps"))):
         xs = list(info[key])
         for name, _, _ in CONTROLLERS:
-            rows = [info[key][x][name] for x in xs]
-            rate = np.array([h / n if n else np.nan for h, n in rows])
-            low, high = np.array([wilson_interval(h, n) for h, n in rows]).T
-            ax.errorbar([float(x) for x in xs], 100 * rate, yerr=np.nan_to_num(100 * np.clip([rate - low, high - rate], 0, None)),
-                        fmt="o-", capsize=2, label=name)
+            rate_curve(ax, [float(x) for x in xs], [info[key][x][name] for x in xs], fmt="o-", label=name)
         ax.set_xlabel(xlabel)
         if key == "by_size":
             ax.set_xscale("log")
@@ -243,10 +231,7 @@ def plot(info: dict, path: Path) -> str:
     axes[0].set_ylabel("hold rate on the test split (%)")
     axes[0].legend(fontsize=8)
     figure.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path.name
+    return save_figure(figure, path)
 
 
 def report(config: LearningCurveConfig, info: dict) -> str:

@@ -13,6 +13,7 @@ error (a folder another study holds among them) ending in one line.
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -23,13 +24,22 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TypeVar
 
+import numpy as np
+
 from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import GraspManifoldError
-from ..base.io import LOCK_FILE, check_writable_folder, markdown_table, output_lock
+from ..base.io import (
+    LOCK_FILE,
+    check_writable_folder,
+    markdown_table,
+    output_lock,
+    software_versions,
+    write_text_atomic,
+)
 from ..base.workers import worker_pool, workers_for
 from ..manifold.postureset import PostureSet
 from ..trials.evaluation import EvaluationResult
-from ..trials.stats import PairedComparison, holm
+from ..trials.stats import PairedComparison, holm, wilson_interval
 
 Result = TypeVar("Result")
 
@@ -174,6 +184,55 @@ def run_command(out: str | Path, body: Callable[[], None]) -> None:
         raise SystemExit(130) from None
     except GraspManifoldError as error:
         raise SystemExit(f"error: {error}") from None
+
+
+def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callable[[dict], str],
+            figure: Callable[[dict, Path], str] | None = None) -> None:
+    """A study's results written out: its figure beside the report (`figure(info, path)` returns the file's name,
+    kept as info['figure']), the report, OUT/study.json with the software versions and, for a full run, that JSON
+    beside the report; the verdict printed.
+
+    Args:
+        study: the run.
+        doc: the markdown report.
+        quick: a smoke run (its JSON is not put beside a report in docs/).
+        info: what the report shows; it must hold 'verdict'.
+        report: the report's text from info.
+        figure: draws the report's figure, or None.
+    """
+    if figure is not None:
+        info["figure"] = figure(info, doc.with_suffix(".png"))
+    write_text_atomic(doc, report(info))
+    data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
+    write_text_atomic(study.out / "study.json", data)
+    if not quick:
+        write_text_atomic(doc.with_suffix(".json"), data)
+    print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {time.perf_counter() - study.started:.0f} s")
+
+
+def rate_curve(ax: object, xs: Sequence[float], counts: Sequence[Sequence[int]], **style: object) -> None:
+    """Rates in percent with their 95 % Wilson intervals as error bars, on a matplotlib axis.
+
+    Args:
+        ax: the axis.
+        xs: where each rate is drawn.
+        counts: (successes, trials) per point; no trials: no point.
+        style: `Axes.errorbar`'s keywords (label, fmt, ...).
+    """
+    rates = np.array([held / n if n else np.nan for held, n in counts])
+    low, high = np.array([wilson_interval(held, n) for held, n in counts]).T
+    bars = np.nan_to_num(100 * np.clip([rates - low, high - rates], 0, None))  # a rate at 0 or 1 is its own bound
+    ax.errorbar(np.asarray(xs, dtype=float), 100 * rates, yerr=bars, capsize=2, **style)
+
+
+def save_figure(figure: object, path: Path) -> str:
+    """Write a matplotlib figure (its folder made) and close it; returns the file's name."""
+    import matplotlib.pyplot as plt
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path.name
 
 
 def holm_family(family: Sequence[tuple[str, PairedComparison]], name: str = "") -> list[dict]:

@@ -26,26 +26,45 @@ Writes `--out/study.json`, the report `--doc` and its figure beside it (hold rat
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
+from ..base.checkpoints import result_key
 from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, save_npz, load_npz, software_versions, write_text_atomic
-from ..base.checkpoints import result_key
+from ..base.io import (
+    load_npz,
+    markdown_table,
+    save_npz,
+    write_text_atomic,
+)
 from ..base.validation import check_int
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..sim.hand import N_FINGER_JOINTS
-from ..trials.benchmark import OBJECTS, cells
+from ..trials.benchmark import OBJECTS, cells, pooled
 from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
 from ..trials.uncertainty import POSITION_ERRORS, open_loop, plan, pose_errors
-from .experience import ATTEMPTS, SOM_DESCRIPTIONS, SOM_VARIANTS, ExperienceStudy, ExperienceStudyConfig
-from .runner import comparison_table, holm_family, run_command
+from .experience import (
+    ATTEMPTS,
+    SOM_DESCRIPTIONS,
+    SOM_VARIANTS,
+    ExperienceStudy,
+    ExperienceStudyConfig,
+    rate,
+)
+from .runner import (
+    comparison_table,
+    holm_family,
+    publish,
+    rate_curve,
+    run_command,
+    save_figure,
+)
 
 #: the target (issue 51): under 2-5 cm of error, the tactile controller with experience against the open loop
 TARGET_POINTS, TARGET_P, TARGET_POSES = 0.20, 0.01, 600
@@ -71,6 +90,9 @@ class UncertaintyStudyConfig(ExperienceStudyConfig):
         every: run every k-th nominal pose of each split (0: every one, or every sixth for a quick run).
     """
 
+    FOLDER: ClassVar[str] = "study-uncertainty"
+    REPORT: ClassVar[str] = "uncertainty_study"
+
     every: int = 0
 
     def __post_init__(self) -> None:
@@ -78,15 +100,6 @@ class UncertaintyStudyConfig(ExperienceStudyConfig):
         if self.every != 0:
             check_int(self.every, "every")
 
-    @property
-    def out_dir(self) -> Path:
-        """The folder of kept results."""
-        return Path(self.out or ("study-uncertainty-quick" if self.quick else "study-uncertainty"))
-
-    @property
-    def doc_path(self) -> Path:
-        """The markdown report."""
-        return Path(self.doc or (self.out_dir / "uncertainty_study.md" if self.quick else "docs/uncertainty_study.md"))
 
     @property
     def stride(self) -> int:
@@ -171,14 +184,7 @@ class UncertaintyStudy(ExperienceStudy):
         with self.session():
             write_text_atomic(self.out / "config.toml", to_toml(self.config))
             info = measure(self)
-            doc = self.config.doc_path
-            info["figure"] = plot(info, doc.with_suffix(".png"))
-            write_text_atomic(doc, report(self.config, info))
-            data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)
-            write_text_atomic(self.out / "study.json", data)
-            if not self.config.quick:
-                write_text_atomic(doc.with_suffix(".json"), data)
-            print(f"\n{info['verdict']}\nwrote {doc} and {self.out / 'study.json'} in {info['wall_seconds']:.0f} s")
+            publish(self, self.config.doc_path, self.config.quick, info, lambda shown: report(self.config, shown), plot)
         return info
 
 
@@ -200,12 +206,6 @@ def _write_plans(plans: np.ndarray, path: Path, meta: dict) -> None:
     save_npz(path, "open_loop_plans", {"plans": plans}, meta)
 
 
-def _held(results: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(held, valid) per row, pooled over the cells in `cells()` order."""
-    keys = [key for key in cells() if key in results]
-    return (np.concatenate([results[k].outcomes() for k in keys]), np.concatenate([results[k].valid for k in keys]))
-
-
 def _pooled(arrays: dict) -> np.ndarray:
     return np.concatenate([arrays[key] for key in cells() if key in arrays])
 
@@ -221,12 +221,12 @@ def measure(study: UncertaintyStudy) -> dict:
     # selection, at 2-5 cm of error only
     large = study.true_poses("selection", LARGE_ERRORS)
     selection = {m: study.evaluate("selection", f"err_{m}", som, SOM_VARIANTS[m], poses=large) for m in ONE_ATTEMPT}
-    rates = {m: float(_held(r)[0][_held(r)[1]].mean()) for m, r in selection.items()}
+    rates = {m: rate(r) for m, r in selection.items()}
     once = max(ONE_ATTEMPT, key=lambda m: (rates[m], -ONE_ATTEMPT.index(m)))
     regrasp_name = f"regrasp_{once}"
     selection[regrasp_name] = study.evaluate("selection", f"err_{regrasp_name}", som, SOM_VARIANTS[once],
                                              regrasp=with_experience, poses=large)
-    rates[regrasp_name] = float(_held(selection[regrasp_name])[0][_held(selection[regrasp_name])[1]].mean())
+    rates[regrasp_name] = rate(selection[regrasp_name])
     chosen = max(selection, key=lambda m: (rates[m], m == once))  # a tie goes to the one-attempt controller
     study.log(f"selected at 2-5 cm: one attempt {once}; with experience {chosen}")
 
@@ -246,7 +246,7 @@ def measure(study: UncertaintyStudy) -> dict:
     cell = np.array([f"{k[0]}/{k[1]}" for k in cells() if k in study.errors["test"]
                      for _ in study.errors["test"][k].level])
     has_plan = _pooled({k: np.isfinite(p).all(axis=1) for k, p in first.items()})
-    held = {m: _held(r) for m, r in runs.items()}
+    held = {m: pooled(r) for m, r in runs.items()}
     one = _pooled(plan_one)
     held["open_loop"] = (one, has_plan)
     held["open_loop_retried"] = (one | _pooled(plan_two), has_plan)
@@ -320,18 +320,12 @@ def plot(info: dict, path: Path) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..trials.stats import wilson_interval
-
     figure, ax = plt.subplots(figsize=(7, 4.2))
     levels = info["levels_cm"]
     for k, (method, counts) in enumerate(info["curve"].items()):
-        rows = [counts[f"{v:.0f}"] for v in levels]
-        rate = np.array([h / n if n else np.nan for h, n in rows])
-        low, high = np.array([wilson_interval(h, n) for h, n in rows]).T
-        x = np.array(levels) + 0.06 * (k - len(info["curve"]) / 2)
-        style = "--" if method.startswith("open_loop") else "-"
-        ax.errorbar(x, 100 * rate, yerr=np.nan_to_num(100 * np.clip([rate - low, high - rate], 0, None)), fmt="o" + style, capsize=2,
-                    label=LABELS.get(method, method), linewidth=2.2 if method == info["selected"]["chosen"] else 1.2)
+        rate_curve(ax, np.array(levels) + 0.06 * (k - len(info["curve"]) / 2), [counts[f"{v:.0f}"] for v in levels],
+                   fmt="o--" if method.startswith("open_loop") else "o-", label=LABELS.get(method, method),
+                   linewidth=2.2 if method == info["selected"]["chosen"] else 1.2)
     ax.set_xlabel("position error (cm), with yaw error up to 6 degrees per cm")
     ax.set_ylabel("hold rate (%), 95 % Wilson interval")
     ax.set_xticks(levels)
@@ -340,10 +334,7 @@ def plot(info: dict, path: Path) -> str:
     ax.legend(fontsize=8, loc="upper right")
     ax.set_title("Test split: hold rate against pose error (attempts in brackets)", fontsize=10)
     figure.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path.name
+    return save_figure(figure, path)
 
 
 def report(config: UncertaintyStudyConfig, info: dict) -> str:

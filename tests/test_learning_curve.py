@@ -1,0 +1,46 @@
+"""The learning curve: the rounds of the controller's own grasps add only the held final grasps of the selection
+split."""
+
+import numpy as np
+
+from graspmanifold.sim.hand import N_FINGER_JOINTS
+
+
+def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split(tmp_path, monkeypatch):
+    from graspmanifold.studies import learning_curve
+    from graspmanifold.studies.learning_curve import (
+        LearningCurveConfig,
+        LearningCurveStudy,
+        subset,
+    )
+
+    given, rounds = [], []
+    real_test, real_evaluate = LearningCurveStudy.test, LearningCurveStudy.evaluate
+
+    def test(self, tag, postures, types):
+        given.append((tag, postures.copy()))
+        return real_test(self, tag, postures, types)
+
+    def evaluate(self, split, method, *args, **kwargs):
+        results = real_evaluate(self, split, method, *args, **kwargs)
+        if method.startswith("own_round"):
+            rounds.append((split, results))
+        return results
+
+    monkeypatch.setattr(LearningCurveStudy, "test", test)
+    monkeypatch.setattr(LearningCurveStudy, "evaluate", evaluate)
+    study = LearningCurveStudy(LearningCurveConfig(quick=True, sizes=(3,), rounds=1, workers=1, out=str(tmp_path)))
+    info = study.run()
+    (split, selection), = rounds
+    assert split == "selection"
+    for key, result in selection.items():  # the round grasped selection poses only, none of the test split
+        poses = np.array([t.grid_pose for t in result.trials])
+        assert all(any(np.array_equal(p, q) for q in study.split["selection"][key]) for p in poses)
+        assert not any(np.array_equal(p, q) for p in poses for q in study.split["test"][key])
+    (_, start), (_, grown) = given
+    _, sets = study.experience()
+    assert np.array_equal(start, subset(sets, 3)[0])
+    held = [t.posture for key in selection for t in selection[key].trials if t.valid and t.hold]
+    assert np.array_equal(grown, np.concatenate([start, np.array(held).reshape(-1, N_FINGER_JOINTS)]))
+    assert info["added"] == [len(held)] and set(info["by_round"]) == {"0", "1"}
+    assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)
