@@ -1,4 +1,4 @@
-"""An MkDocs hook: the studies and the architecture page, which live in docs/ beside the site's own pages
+"""An MkDocs hook: the studies (with their figures) and the architecture page, which live in docs/ beside the site's own pages
 (docs/site/), join the site, so its navigation reaches them (`mkdocs.yml` names this file under `hooks`)."""
 
 from pathlib import Path
@@ -9,7 +9,9 @@ DOCS = Path(__file__).resolve().parent
 #: the pages of docs/ that the site shows, by the section of its navigation
 PAGES = ("structure.md", "experience_study.md", "experience_study_paper_grids.md", "protocols.md",
          "generator_defaults.md", "generator_defaults_held_out.md", "hands.md", "hands_menagerie_without_meshes.md",
-         "unseen_objects_paper.md", "unseen_objects_quick.md", "data_character.md", "spring_holds_by_design.md")
+         "unseen_objects_paper.md", "unseen_objects_quick.md", "data_character.md", "spring_holds_by_design.md",
+         "uncertainty_study.md", "uncertainty_study.png", "learning_curve.md", "learning_curve.png",
+         "literal_controller.md")
 
 
 def on_files(files, config):
