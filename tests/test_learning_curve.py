@@ -2,6 +2,7 @@
 split."""
 
 import numpy as np
+import pytest
 
 from graspmanifold.sim.hand import N_FINGER_JOINTS
 
@@ -44,3 +45,15 @@ def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split(tmp_pa
     assert np.array_equal(grown, np.concatenate([start, np.array(held).reshape(-1, N_FINGER_JOINTS)]))
     assert info["added"] == [len(held)] and set(info["by_round"]) == {"0", "1"}
     assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)
+
+
+@pytest.mark.parametrize("field, value", [("sizes", (200, 48)), ("sizes", (0, 48)), ("sizes", (True,)),
+                                          ("rounds", -2), ("every", -1)])
+def test_bad_study_settings_are_refused_by_name(field, value):
+    from graspmanifold.base.errors import InvalidInput
+    from graspmanifold.studies.learning_curve import LearningCurveConfig
+    from graspmanifold.studies.uncertainty import UncertaintyStudyConfig
+
+    config = UncertaintyStudyConfig if field == "every" else LearningCurveConfig
+    with pytest.raises(InvalidInput, match=field):
+        config(**{field: value})

@@ -229,9 +229,21 @@ class ExperienceStudy(StudyRun):
         """
         return {"none": None, **preshapes}
 
+    def measure(self) -> dict:
+        """Every step of the study, in order; what its report shows (a subclass that asks another question
+        measures its own)."""
+        return measure(self)
+
+    def report(self, info: dict) -> str:
+        """The markdown report of what `measure` returned."""
+        return report(self.config, info)
+
+    #: draws the report's figure beside it (`runner.publish`), or None: this study's report has none
+    figure = None
+
     def run(self) -> dict:
-        """The whole study, with OUT locked and one pool of workers; writes the report, OUT/study.json and
-        OUT/config.toml.
+        """The whole study, with OUT locked and one pool of workers; writes the report (and its figure),
+        OUT/study.json and OUT/config.toml.
 
         Returns:
             What the report shows (the content of study.json).
@@ -239,8 +251,8 @@ class ExperienceStudy(StudyRun):
         self.check_writable(self.config.doc_path)
         with self.session():
             write_text_atomic(self.out / "config.toml", to_toml(self.config))
-            info = measure(self)
-            write_report(self, info)
+            info = self.measure()
+            publish(self, self.config.doc_path, self.config.quick, info, self.report, self.figure)
         return info
 
 
@@ -335,11 +347,6 @@ def main(argv: list[str] | None = None) -> None:
         print(f"wrote {config.doc_path} from {stored}")
         return
     run_command(config.out_dir, lambda: ExperienceStudy(config).run())
-
-
-def write_report(study: ExperienceStudy, info: dict) -> None:
-    """The report, study.json (and, for the full study, the report's JSON beside it)."""
-    publish(study, study.config.doc_path, study.config.quick, info, lambda shown: report(study.config, shown))
 
 
 def measure(study: ExperienceStudy) -> dict:

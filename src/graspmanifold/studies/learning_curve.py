@@ -25,9 +25,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..base.config_files import read_config, to_toml
+from ..base.config_files import read_config
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, write_text_atomic
+from ..base.io import markdown_table
 from ..base.validation import check_int
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import MAX_POSTURES
@@ -40,7 +40,6 @@ from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
 from .runner import (
     comparison_table,
     holm_family,
-    publish,
     rate_curve,
     run_command,
     save_figure,
@@ -153,18 +152,17 @@ class LearningCurveStudy(ExperienceStudy):
                                     regrasp=Regrasp(ATTEMPTS, grasp_types=som_types) if retry else None)
                 for name, params, retry in CONTROLLERS}
 
-    def run(self) -> dict:
-        """The whole study; writes the report, its figure, OUT/study.json and OUT/config.toml.
+    def measure(self) -> dict:
+        """Every step of the study, in order (the module's docstring)."""
+        return measure(self)
 
-        Returns:
-            What the report shows (the content of study.json).
-        """
-        self.check_writable(self.config.doc_path)
-        with self.session():
-            write_text_atomic(self.out / "config.toml", to_toml(self.config))
-            info = measure(self)
-            publish(self, self.config.doc_path, self.config.quick, info, lambda shown: report(self.config, shown), plot)
-        return info
+    def report(self, info: dict) -> str:
+        """The markdown report of what `measure` returned."""
+        return report(self.config, info)
+
+    def figure(self, info: dict, path: Path) -> str:
+        """Draws the report's figure (`plot`); returns its file's name."""
+        return plot(info, path)
 
 
 def measure(study: LearningCurveStudy) -> dict:

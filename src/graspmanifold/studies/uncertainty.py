@@ -34,13 +34,12 @@ from typing import ClassVar
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.config_files import read_config, to_toml
+from ..base.config_files import read_config
 from ..base.errors import InvalidInput
 from ..base.io import (
     load_npz,
     markdown_table,
     save_npz,
-    write_text_atomic,
 )
 from ..base.validation import check_int
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
@@ -60,7 +59,6 @@ from .experience import (
 from .runner import (
     comparison_table,
     holm_family,
-    publish,
     rate_curve,
     run_command,
     save_figure,
@@ -173,19 +171,17 @@ class UncertaintyStudy(ExperienceStudy):
             first[key], second[key] = (np.repeat(both[j], levels, axis=0) for j in (0, 1))
         return first, second
 
-    def run(self) -> dict:
-        """The whole study, with OUT locked and one pool of workers; writes the report, its figure, OUT/study.json
-        and OUT/config.toml.
+    def measure(self) -> dict:
+        """Every step of the study, in order (the module's docstring)."""
+        return measure(self)
 
-        Returns:
-            What the report shows (the content of study.json).
-        """
-        self.check_writable(self.config.doc_path)
-        with self.session():
-            write_text_atomic(self.out / "config.toml", to_toml(self.config))
-            info = measure(self)
-            publish(self, self.config.doc_path, self.config.quick, info, lambda shown: report(self.config, shown), plot)
-        return info
+    def report(self, info: dict) -> str:
+        """The markdown report of what `measure` returned."""
+        return report(self.config, info)
+
+    def figure(self, info: dict, path: Path) -> str:
+        """Draws the report's figure (`plot`); returns its file's name."""
+        return plot(info, path)
 
 
 def _read_held(path: Path) -> tuple[np.ndarray, dict]:
