@@ -2,8 +2,8 @@
 
     python scripts/bench_dexgraspbench.py [--grasps 24] [--object box]
 
-Open-loop grasps from our verified postures (`dexgraspbench.open_loop_grasps`: the open hand 2 cm back, the
-posture, the controller's squeeze of it), each judged by both versions of the protocol in this
+Open-loop grasps from our verified postures (`dexgraspbench.open_loop_grasps`: the stages they were verified with,
+by default the touching segments 2 cm out along the object's normals, the posture, 1 cm in), each judged by both versions of the protocol in this
 process (one core); beside them the same number of grasps that fail at once (the hand 15 cm away), the
 kind that made up 99.8 % of DexGraspBench's one public log (8,000 grasps in about 55 s on 48 workers: about
 3 grasps per second per worker). Prints one markdown table.
@@ -29,7 +29,7 @@ def main() -> None:
     parser.add_argument("--object", default="box")
     args = parser.parse_args()
     postures = gm.generate_postures(args.object, args.grasps, seed=0, workers=1, progress=False)
-    verified = open_loop_grasps(postures)
+    verified = open_loop_grasps(postures, obj=args.object)
     away = [OpenLoopGrasp(g.poses + [0.0, 0.0, 0.15, 0, 0, 0, 0], np.tile(gm.open_posture(), (3, 1))) for g in verified]
     print(f"mujoco {mujoco.__version__}, python {platform.python_version()}, {platform.processor() or platform.machine()}"
           f"; {args.object}, {args.grasps} grasps per row, one core")

@@ -43,9 +43,22 @@ def test_a_grasp_that_holds_passes_every_direction(box_grasps):
     held = [r for r in results if r.success]
     assert held, [r.translation for r in results]
     for r in held:
-        assert r.steps == 6 * (2 * 10 * 10 + 10 * 50) and not r.fault
+        assert r.steps == 2 * 10 * 10 + 6 * 10 * 50 and not r.fault  # one approach, then six pushes
         assert (r.translation <= DEXGRASPBENCH.translation_limit).all()
         assert (r.rotation <= DEXGRASPBENCH.angle_limit).all()
+
+
+def test_every_direction_starts_from_the_approachs_end_as_a_replay_of_it_would(box_grasps):
+    """The approach runs once and each push starts from its saved end: the same as DexGraspBench's replay of the
+    approach for each direction (a test of that one direction alone)."""
+    from dataclasses import replace
+
+    for grasp in box_grasps:
+        whole = external_force_test(gm.Scene("box", free_object=True), grasp)
+        for k in np.flatnonzero(np.isfinite(whole.translation)):
+            alone = external_force_test(gm.Scene("box", free_object=True), grasp,
+                                        replace(DEXGRASPBENCH, directions=(DEXGRASPBENCH.directions[k],)))
+            assert alone.translation[0] == whole.translation[k] and alone.rotation[0] == whole.rotation[k]
 
 
 def test_a_grasp_that_drops_fails_in_its_first_direction_and_stops_early(box_grasps):
@@ -164,13 +177,14 @@ def test_closed_loop_trials_take_either_protocol_by_name():
 
 
 def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
-    from graspmanifold.control.dexgraspbench import open_loop_grasps, replay
+    from graspmanifold.control.dexgraspbench import GRASP_STAGES, open_loop_grasps, replay
 
     postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
-    grasps = open_loop_grasps(postures)
+    grasps = open_loop_grasps(postures)  # the stages the set was verified with: from its contacts
     assert np.allclose(grasps[0].postures[1], postures.postures[0])
-    assert np.allclose(grasps[0].poses[1], postures.hand_poses[0])
-    assert np.linalg.norm(grasps[0].poses[0, :3]) == pytest.approx(np.linalg.norm(grasps[0].poses[1, :3]) + 0.02)
+    assert np.allclose(grasps[0].poses, postures.hand_poses[0])  # the palm stays, the fingers move
+    opened = open_loop_grasps(postures, GRASP_STAGES["open"])
+    assert np.linalg.norm(opened[0].poses[0, :3]) == pytest.approx(np.linalg.norm(opened[0].poses[1, :3]) + 0.02)
     for name in ("ours", "dexgraspbench"):
         held, faults = replay("box", grasps, name)
         assert held.dtype == bool and held.shape == (2,) and len(faults) == 2
@@ -200,3 +214,80 @@ def test_a_grasp_files_object_folder_is_found_or_named(tmp_path, box_grasps):
     postures = posture_set(files)
     assert len(postures) == 3 and np.allclose(postures.postures, [g.grasp.postures[1] for g in files])
     assert np.allclose(postures.metadata["squeeze"], [g.grasp.postures[2] for g in files])
+
+
+@pytest.mark.parametrize("protocol_name", ["ours", "dexgraspbench"])
+def test_the_verifier_is_the_replay(protocol_name):
+    """The generator's verifier and `replay` are one procedure (`replay_grasp`): on candidates that hold and
+    candidates that drop, the verifier's outcome is the replay's, grasp by grasp."""
+    from graspmanifold.control.dexgraspbench import GraspVerifier, open_loop_grasps, replay
+    from graspmanifold.control.judge import JUDGING
+
+    candidates = gm.generate_postures("cylinder", 6, seed=1, workers=1, progress=False,
+                                      params=gm.GeneratorParams(verify=False, designs="grasp_types"))
+    verifier = GraspVerifier(gm.get_object("cylinder"), hold_seconds=JUDGING.hold_seconds, protocol_name=protocol_name)
+    verified = [verifier(p, h[:3], h[3:]).hold for p, h in zip(candidates.postures, candidates.hand_poses)]
+    held, _ = replay("cylinder", open_loop_grasps(candidates), protocol_name)
+    assert verified == list(held) and 0 < sum(verified) < len(verified)
+
+
+@pytest.mark.parametrize("name, protocol_name, stages", [
+    ("box", "ours", "open"), ("cylinder", "ours", "contacts"), ("cube", "ours", "contacts"),
+    ("marble", "ours", "open"), ("cylinder", "dexgraspbench", "contacts"), ("pen", "ours", "contacts"),
+])
+def test_a_verified_posture_replays_to_a_hold_under_the_protocol_it_was_verified_with(name, protocol_name, stages):
+    """What the generator keeps holds when replayed open loop (`replay`, a new scene) under its verifier's
+    protocol, with its stages."""
+    from graspmanifold.control.dexgraspbench import open_loop_grasps, replay
+    from graspmanifold.trials.benchmark import OBJECTS
+
+    obj = OBJECTS[name].object
+    params = gm.GeneratorParams(verify_protocol=protocol_name, stages=stages,
+                                verify_hold_seconds=0.5 if protocol_name == "ours" else 0.25)
+    postures = gm.generate_postures(obj, 2, seed=0, workers=1, progress=False, params=params)
+    held, faults = replay(obj, open_loop_grasps(postures, params.grasp_stages, obj), protocol_name)
+    assert held.all() and not any(faults), faults
+
+
+def test_stages_made_from_the_contacts_move_the_touching_segments_along_the_normals():
+    """`offset_along_normals`: the touching fingertips end `depth` further along the object's inward normal (out
+    for a pregrasp, in for a squeeze), the touching segments on average most of it; a finger that touches nothing
+    keeps its joints."""
+    from graspmanifold.control.contact_offset import CONTACT_REACH, offset_along_normals
+    from graspmanifold.control.dexgraspbench import GRASP_STAGES, GraspStages, open_loop_grasp
+    from graspmanifold.sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, segment_of_geoms
+
+    start = next(s for s in gm.starting_postures("cylinder", "grasp_types") if s.name == "tripod")
+    scene = gm.Scene("cylinder")
+    pose = np.r_[start.hand_pos, start.hand_quat]
+    segment_of = segment_of_geoms(scene.model, scene.hand)
+    fingers = scene.hand.segments[len(scene.hand.base_segments):]
+
+    def gaps(posture):
+        scene.set_posture(posture)
+        scene.set_hand_pose(pose[:3], pose[3:])
+        return np.array([min(scene.distance_to_object(int(g)) for g in np.flatnonzero(segment_of == i))
+                         for i in range(len(scene.hand.base_segments), len(scene.hand.segments))])
+
+    before = gaps(start.posture)
+    touching = before <= CONTACT_REACH
+    tips = touching & np.isin(fingers, DISTAL_SEGMENTS)
+    assert tips.sum() >= 2
+    for depth in (-0.01, 0.005):
+        moved = offset_along_normals(scene, pose, start.posture, depth)
+        change = before - gaps(moved)  # m further in
+        assert np.allclose(change[tips], depth, atol=0.003), (depth, change)
+        assert abs(change[touching].mean() - depth) < 0.5 * abs(depth)
+    backed = offset_along_normals(scene, pose, start.posture, -0.01)
+    idle = [f for f in ("ff", "mf", "rf", "lf", "th") if not any(
+        touching[i] for i, s in enumerate(fingers) if s.startswith(f))]
+    columns = [j for j, name in enumerate(FINGER_JOINTS) if name[:2].lower() in idle]
+    assert np.allclose(backed[columns], start.posture[columns], atol=1e-3)
+    grasp = open_loop_grasp(pose, start.posture, GRASP_STAGES["contacts"], scene)
+    assert np.allclose(grasp.poses, pose) and np.allclose(grasp.postures[1], start.posture)
+    with pytest.raises(ValueError, match="need the object's scene"):
+        open_loop_grasp(pose, start.posture, GRASP_STAGES["contacts"])
+    with pytest.raises(ValueError, match="GraspStages.squeeze must be one of"):
+        GraspStages(squeeze="fist")
+    with pytest.raises(ValueError, match="GeneratorParams.stages must be one of"):
+        gm.GeneratorParams(stages="closed")

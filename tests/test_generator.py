@@ -51,7 +51,7 @@ def test_shipped_starting_postures_are_five_fingertip_grasps(name):
 def test_every_grasp_type_start_is_a_valid_grasp_that_holds(name):
     """The grasp-types family (the default): at least three designs of at least two grasp types, each start a
     valid grasp that holds its object when the verifier replays it (shipped, like the five-fingertip ones)."""
-    from graspmanifold.control.judge import GraspVerifier
+    from graspmanifold.control.dexgraspbench import GraspVerifier
     from graspmanifold.control.starts import holds, is_design_grasp
 
     starts = gm.starting_postures(name, "grasp_types")

@@ -22,7 +22,7 @@ from .base.io import LOCK_FILE, check_writable_folder, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
-from .control.dexgraspbench import PROTOCOL_NAMES
+from .control.dexgraspbench import GRASP_STAGES, PROTOCOL_NAMES, VERIFY_STAGES
 from .control.controller import CONTROLLERS
 from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
@@ -162,7 +162,7 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path
 
     checkpoints = out.with_name(out.name + ".parts")
     params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify, designs=args.designs,
-                     **({"mode": args.mode} if args.mode else {}))
+                     verify_protocol=args.protocol, stages=args.stages, **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
@@ -370,6 +370,12 @@ def build_parser() -> argparse.ArgumentParser:
                           "hold the object, unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every candidate without replaying it as a grasp (the paper's procedure)")
+    generate.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours",
+                          help="the protocol a candidate's open-loop replay must pass to be kept: ours (the hold "
+                          "test) or DexGraspBench's (its physics and pushes)")
+    generate.add_argument("--stages", choices=tuple(GRASP_STAGES), default=VERIFY_STAGES,
+                          help="the replay's pregrasp and squeeze: made from the contacts (the default) or the open "
+                          "hand's and the controller's squeeze")
     generate.add_argument("--designs", choices=DESIGN_FAMILIES,
                           help="the starting postures: every grasp type (power, precision pinch, tripod, lateral), "
                           "each start one that holds (the default), or the paper's five-fingertip grasps (the "

@@ -29,13 +29,15 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from ..base.errors import InvalidInput
-from ..sim.scene import Scene
+from ..base.errors import InvalidInput, SimulationError
 from ..manifold.postureset import PostureSet
-from ..sim.objects import GraspObject
+from ..sim.hand import SHADOW_HAND, HandModel
+from ..sim.objects import GraspObject, object_from_params
 from ..sim.posture import open_posture
+from ..sim.scene import Scene
+from .contact_offset import offset_along_normals
 from .controller import ControllerParams, squeezed
-from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules, judge_scene
+from .judge import HOLD_DIRECTIONS, JUDGING, VERIFY_HOLD_SECONDS, Judgement, JudgingRules, judge_scene, reading_epsilon
 from .quality import epsilon_l1
 
 
@@ -220,6 +222,8 @@ def q1(points: np.ndarray, normals: np.ndarray, links: np.ndarray, distances: np
     return epsilon_l1(where, towards, centroid, mu=friction / 2, num_edges=8, torque_scale=radius or None)
 
 
+#: the state an approach's end is saved in and restored from (MuJoCo's whole integration state)
+_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 #: the stages of an open-loop grasp, in order
 STAGE_NAMES: tuple[str, ...] = ("pregrasp", "grasp", "squeeze")
 #: the farthest a stage's palm may lie from the object's centre (m): farther is no grasp of it (a stage moved a
@@ -272,6 +276,8 @@ class ForceTest:
         penetration: m, how deep the hand was inside the object at the pregrasp.
         steps: physics steps simulated.
         fault: why the test could not judge ('' when it could): a penetrating pregrasp, or failed physics.
+        epsilon: `quality.epsilon_l1` of the contacts at the squeeze's end, about the object's centre of mass, at
+            the simulation's friction (NaN: the test did not get that far).
     """
 
     success: bool
@@ -280,6 +286,7 @@ class ForceTest:
     penetration: float
     steps: int
     fault: str = ""
+    epsilon: float = float("nan")
 
 
 def _turned(a: np.ndarray, b: np.ndarray) -> float:
@@ -326,7 +333,9 @@ def _approach(scene: Scene, grasp: OpenLoopGrasp, mounts: list, protocol: DexGra
 def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
                         protocol: DexGraspBenchProtocol = DEXGRASPBENCH) -> ForceTest:
     """Judge an open-loop grasp as DexGraspBench does (see the module doc); the directions run in turn and the
-    test ends at the first that fails (no later one can change the outcome).
+    test ends at the first that fails (no later one can change the outcome). DexGraspBench replays the approach
+    for every direction; the physics being deterministic, the approach runs once here and every direction
+    starts from its saved end state (MuJoCo's whole integration state: the same steps as a replay).
 
     Args:
         scene: a scene with a free object (`Scene(obj, free_object=True)`); the protocol's physics profile is
@@ -342,15 +351,19 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
     protocol.physics.apply(scene)
     model, data = scene.model, scene.data
     translation, rotation = np.full(len(protocol.directions), np.nan), np.full(len(protocol.directions), np.nan)
-    steps, depth = 0, 0.0
+    mounts = _start(scene, grasp)
+    depth = scene.penetration()
+    if depth > protocol.max_penetration:
+        return ForceTest(False, translation, rotation, depth, 0, f"the pregrasp starts {depth * 1000:.1f} mm "
+                         f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
+    start_position, start_quat = scene.object_pose()
+    steps = _approach(scene, grasp, mounts, protocol)
+    epsilon = reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body],
+                              float(model.geom_friction[scene.object_geoms[0], 0]))
+    squeezed_state = np.empty(mujoco.mj_stateSize(model, _STATE))
+    mujoco.mj_getState(model, data, squeezed_state, _STATE)
     for k, direction in enumerate(protocol.directions):
-        mounts = _start(scene, grasp)
-        depth = scene.penetration()
-        if depth > protocol.max_penetration:
-            return ForceTest(False, translation, rotation, depth, steps, f"the pregrasp starts {depth * 1000:.1f} mm "
-                             f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
-        start_position, start_quat = scene.object_pose()
-        steps += _approach(scene, grasp, mounts, protocol)
+        mujoco.mj_setState(model, data, squeezed_state, _STATE)
         data.xfrc_applied[scene.object_body, :3] = protocol.push * np.asarray(direction)
         moved = turned = 0.0
         for _ in range(protocol.hold_chunks):
@@ -358,7 +371,7 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
             steps += protocol.steps_per_chunk
             if data.warning.number.any() or not np.all(np.isfinite(data.qpos)):
                 return ForceTest(False, translation, rotation, depth, steps, "the physics failed (a MuJoCo warning or "
-                                 "a non-finite state)")
+                                 "a non-finite state)", epsilon)
             position, quat = scene.object_pose()
             moved = max(moved, float(np.linalg.norm(position - start_position)))
             turned = max(turned, _turned(quat, start_quat))
@@ -367,57 +380,182 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
         data.xfrc_applied[scene.object_body, :3] = 0.0
         translation[k], rotation[k] = moved, turned
         if moved > protocol.translation_limit or turned > protocol.angle_limit:
-            return ForceTest(False, translation, rotation, depth, steps)
-    return ForceTest(True, translation, rotation, depth, steps)
+            return ForceTest(False, translation, rotation, depth, steps, epsilon=epsilon)
+    return ForceTest(True, translation, rotation, depth, steps, epsilon=epsilon)
 
 
 #: m the pregrasp's palm stands back from the grasp's, away from the object's centre
 PREGRASP_BACK_OFF = 0.02
 
 
-def open_loop_grasp(hand_pose: np.ndarray, posture: np.ndarray, squeeze: float = ControllerParams.squeeze,
-                    back_off: float = PREGRASP_BACK_OFF) -> OpenLoopGrasp:
-    """One posture at its palm pose as an open-loop grasp: the pregrasp the open hand with its palm `back_off`
-    further from the object's centre than the grasp's (so that no finger starts inside the object), the grasp the
-    posture at its palm pose, the squeeze that posture squeezed as the controller squeezes (`controller.squeezed`).
+@dataclass(frozen=True)
+class GraspStages:
+    """How a posture at its palm pose becomes an open-loop grasp (`open_loop_grasp`): its pregrasp and squeeze.
+
+    Attributes:
+        pregrasp: 'open' (the open hand with its palm `back_off` further from the object's centre) or 'contacts'
+            (the grasp with every touching finger segment `back_off` out along the object's normal, the palm at
+            the grasp's pose: an approach along the normals that does not sweep the object;
+            `contact_offset.offset_along_normals`).
+        squeeze: 'flexion' (the flexion joints `squeeze_angle` further towards the closed hand, as the
+            controller squeezes: `controller.squeezed`) or 'contacts' (every touching segment `squeeze_depth` into
+            the object along its normal, so that each servo presses its contact inwards).
+        back_off: m.
+        squeeze_angle: rad.
+        squeeze_depth: m.
+    """
+
+    pregrasp: str = "open"
+    squeeze: str = "flexion"
+    back_off: float = PREGRASP_BACK_OFF
+    squeeze_angle: float = ControllerParams.squeeze
+    squeeze_depth: float = 0.01
+
+    def __post_init__(self) -> None:
+        for name, choices in (("pregrasp", ("open", "contacts")), ("squeeze", ("flexion", "contacts"))):
+            if getattr(self, name) not in choices:
+                raise InvalidInput(f"GraspStages.{name} must be one of {choices}, got {getattr(self, name)!r}")
+        for name in ("back_off", "squeeze_angle", "squeeze_depth"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 0.5:
+                raise InvalidInput(f"GraspStages.{name} must be a number in [0, 0.5), got {value!r}")
+
+    @property
+    def from_contacts(self) -> bool:
+        """Whether a stage is made from the grasp's contacts (it then needs a scene of the object)."""
+        return "contacts" in (self.pregrasp, self.squeeze)
+
+
+#: the stages of open-loop grasps by name: the open hand and the controller's squeeze ('open'), and those made from
+#: the contacts ('contacts', the generator's default: more of its candidates hold when replayed, docs/protocols.md)
+GRASP_STAGES: dict[str, GraspStages] = {"open": GraspStages(),
+                                        "contacts": GraspStages(pregrasp="contacts", squeeze="contacts")}
+#: the stages the generator verifies with unless told otherwise (`GeneratorParams.stages`)
+VERIFY_STAGES = "contacts"
+
+
+def open_loop_grasp(hand_pose: np.ndarray, posture: np.ndarray, stages: GraspStages = GRASP_STAGES["open"],
+                    scene: Scene | None = None) -> OpenLoopGrasp:
+    """One posture at its palm pose as an open-loop grasp: the pregrasp, the grasp (the posture at its palm pose)
+    and the squeeze, as `stages` says.
 
     Args:
         hand_pose: (7,) the palm's position (m) and orientation (w x y z) in the object frame.
         posture: (22,) rad, the grasp's finger joints.
-        squeeze: rad past the posture on the flexion joints.
-        back_off: m.
+        stages: how the pregrasp and the squeeze are made (`GRASP_STAGES`).
+        scene: a scene of the object and the hand: its hand's open and closed postures; needed for stages made
+            from the contacts (its state is changed). None: our hand, flexion stages only.
 
     Returns:
         The `OpenLoopGrasp`.
     """
-    pose = np.asarray(hand_pose, dtype=float)
-    away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
-    pregrasp = np.r_[pose[:3] + back_off * away, pose[3:]]
-    return OpenLoopGrasp(np.array([pregrasp, pose, pose]), np.array([open_posture(), posture, squeezed(posture, squeeze)]))
+    pose, posture = np.asarray(hand_pose, dtype=float), np.asarray(posture, dtype=float)
+    if stages.from_contacts and scene is None:
+        raise InvalidInput("open_loop_grasp: stages made from the contacts need the object's scene (scene=)")
+    hand = SHADOW_HAND if scene is None else scene.hand
+    if stages.pregrasp == "open":
+        away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
+        pregrasp = np.r_[pose[:3] + stages.back_off * away, pose[3:]], open_posture(hand)
+    else:
+        pregrasp = pose, offset_along_normals(scene, pose, posture, -stages.back_off)
+    squeeze = (squeezed(posture, stages.squeeze_angle, hand) if stages.squeeze == "flexion"
+               else offset_along_normals(scene, pose, posture, stages.squeeze_depth))
+    return OpenLoopGrasp(np.array([pregrasp[0], pose, pose]), np.array([pregrasp[1], posture, squeeze]))
 
 
-def open_loop_grasps(postures: PostureSet, squeeze: float = ControllerParams.squeeze,
-                     back_off: float = PREGRASP_BACK_OFF) -> list[OpenLoopGrasp]:
+def open_loop_grasps(postures: PostureSet, stages: GraspStages | None = None,
+                     obj: str | GraspObject | None = None) -> list[OpenLoopGrasp]:
     """Our postures as open-loop grasps (`open_loop_grasp` of each at its palm pose).
 
     Args:
         postures: a posture set (palm poses in the object frame and postures).
-        squeeze: rad past the posture on the flexion joints.
-        back_off: m.
+        stages: how the pregrasp and the squeeze are made (`GRASP_STAGES`); None: those the set was verified with
+            (its metadata's `generator.stages` and `squeeze`; 'open' for a set made without them).
+        obj: the set's object, or its name (for stages made from the contacts; None: the object its metadata
+            names); the set's hand is its metadata's.
 
     Returns:
         One `OpenLoopGrasp` per posture.
     """
-    return [open_loop_grasp(pose, posture, squeeze, back_off)
+    if stages is None:
+        made = postures.metadata.get("generator", {})
+        stages = replace(GRASP_STAGES[made.get("stages", "open")], squeeze_angle=made.get("squeeze", GraspStages.squeeze_angle))
+    if obj is None and stages.from_contacts:
+        if "object" not in postures.metadata:
+            raise InvalidInput("open_loop_grasps: stages made from the contacts need the set's object (obj=): its "
+                               "metadata names none")
+        obj = object_from_params(postures.metadata["object"])
+    scene = None if obj is None else Scene(obj, hand=postures.metadata.get("hand", "ours"))
+    return [open_loop_grasp(pose, posture, stages, scene)
             for pose, posture in zip(postures.hand_poses, postures.postures)]
+
+
+@dataclass(frozen=True)
+class Replay:
+    """One open-loop grasp replayed and judged (`replay_grasp`).
+
+    Attributes:
+        judgement: the judging's `Judgement` (for DexGraspBench's test: hold = its success, displacement its
+            largest translation, epsilon at the squeeze's end); its `fault` says why the physics failed.
+        refused: why the grasp was refused before it ran ('' when it ran): a pregrasp inside the object.
+    """
+
+    judgement: Judgement
+    refused: str = ""
+
+    @property
+    def held(self) -> bool:
+        """Held, judged without a fault, not refused."""
+        return self.judgement.hold and not self.judgement.fault and not self.refused
+
+    @property
+    def fault(self) -> str:
+        """Why the grasp could not be judged ('' when it could)."""
+        return self.refused or self.judgement.fault
+
+
+def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol_name: str | DexGraspBenchProtocol = "ours",
+                 hold_seconds: float = JUDGING.hold_seconds) -> Replay:
+    """The one replay of an open-loop grasp: the scene reset to the pregrasp (the object free and unsupported,
+    gravity off; a pregrasp deeper than DexGraspBench's `max_penetration` inside the object is refused, whatever
+    judges), pregrasp -> grasp -> squeeze in DexGraspBench's interpolated targets, then the protocol's judging:
+    DexGraspBench's external-force test (`external_force_test`, its physics), or ours (our physics, the same
+    targets over the same seconds, then the hold test of `judge.JUDGING` with `hold_seconds` per direction).
+    `replay` runs it over many grasps; the generator's verifier (`GraspVerifier`) runs it on each candidate.
+
+    Args:
+        scene: a scene of the object, free (`Scene(obj, free_object=True)`); a DexGraspBench protocol applies
+            its physics profile to it for good.
+        grasp: the grasp.
+        protocol_name: one of `PROTOCOL_NAMES`, or a DexGraspBench protocol itself (a version of one changed, for
+            an ablation).
+        hold_seconds: s per direction of our hold test (DexGraspBench's has its own).
+
+    Returns:
+        The `Replay`.
+    """
+    if protocol_name != "ours":
+        test = external_force_test(scene, grasp, protocol_name if isinstance(protocol_name, DexGraspBenchProtocol)
+                                   else protocol(protocol_name))
+        if test.fault and test.steps == 0:
+            return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=test.penetration), test.fault)
+        return Replay(Judgement(test.epsilon, test.success, float(np.nanmax(test.translation, initial=0.0)), np.nan,
+                                penetration=test.penetration, fault=test.fault))
+    timed = replace(DEXGRASPBENCH, steps_per_target=round(
+        DEXGRASPBENCH.steps_per_target * DEXGRASPBENCH.physics.timestep / scene.model.opt.timestep))
+    mounts = _start(scene, grasp)
+    depth = scene.penetration()
+    if depth > DEXGRASPBENCH.max_penetration:  # its rule for a pregrasp, whatever judges the grasp
+        return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=depth),
+                      f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
+    _approach(scene, grasp, mounts, timed)  # its targets and their seconds, our physics
+    return Replay(judge_scene(scene, replace(JUDGING, hold_seconds=hold_seconds)))
 
 
 def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: str = "ours",
            hand: str = "ours") -> tuple[np.ndarray, list[str]]:
-    """Open-loop grasps executed as DexGraspBench executes them (pregrasp -> grasp -> squeeze in interpolated
-    targets, the object free and unsupported), judged by the protocol named: DexGraspBench's external-force test
-    (its physics), or ours (our physics, the same targets over the same seconds, then the hold test of
-    `judge.JUDGING`).
+    """Open-loop grasps executed as DexGraspBench executes them and judged by the protocol named
+    (`replay_grasp` of each).
 
     Args:
         obj: the object, or its name.
@@ -428,24 +566,55 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: s
     Returns:
         (held (n,) bool, faults: why a grasp could not be judged, '' where it could).
     """
+    if protocol_name != "ours":
+        protocol(protocol_name)  # refused by name before anything runs
     scene = Scene(obj, free_object=True, hand=hand)
-    held, faults = np.zeros(len(grasps), dtype=bool), []
-    timed = replace(DEXGRASPBENCH, steps_per_target=round(
-        DEXGRASPBENCH.steps_per_target * DEXGRASPBENCH.physics.timestep / scene.model.opt.timestep))
-    for k, grasp in enumerate(grasps):
-        if protocol_name != "ours":
-            result = external_force_test(scene, grasp, protocol(protocol_name))
-            held[k] = result.success
-            faults.append(result.fault)
-            continue
-        mounts = _start(scene, grasp)
-        depth = scene.penetration()
-        if depth > DEXGRASPBENCH.max_penetration:  # its rule for a pregrasp, whatever judges the grasp
-            held[k] = False
-            faults.append(f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
-            continue
-        _approach(scene, grasp, mounts, timed)  # its targets and their seconds, our physics
-        judged = judge_scene(scene, JUDGING)
-        held[k] = judged.hold and not judged.fault
-        faults.append(judged.fault)
-    return held, faults
+    replays = [replay_grasp(scene, grasp, protocol_name) for grasp in grasps]
+    return np.array([r.held for r in replays], dtype=bool), [r.fault for r in replays]
+
+
+class GraspVerifier:
+    """The generator's verifier: a grasp at its palm pose replayed open loop (`replay_grasp`: from its pregrasp,
+    the object free) and judged by the protocol named. The generator verifies its candidates with it, and the
+    starting-posture search keeps a design's start only when the start itself passes it.
+
+    Args:
+        obj: the object (palm poses are in its frame).
+        stages: how the pregrasp and squeeze are made (`GRASP_STAGES`).
+        hold_seconds: s per direction of our hold test.
+        hand: the hand model, or its name.
+        protocol_name: one of `PROTOCOL_NAMES`.
+    """
+
+    def __init__(self, obj: GraspObject, stages: GraspStages = GRASP_STAGES[VERIFY_STAGES],
+                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours",
+                 protocol_name: str = "ours"):
+        if protocol_name not in PROTOCOL_NAMES:
+            raise InvalidInput(f"protocol_name must be one of {PROTOCOL_NAMES}, got {protocol_name!r}")
+        self.scene = Scene(obj, free_object=True, hand=hand)
+        self._shaping = Scene(obj, hand=hand) if stages.from_contacts else None
+        self.stages, self.hold_seconds, self.protocol_name = stages, hold_seconds, protocol_name
+
+    def grasp(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> OpenLoopGrasp:
+        """The open-loop grasp the verifier replays for a posture at a palm pose (see `__call__`)."""
+        return open_loop_grasp(np.r_[hand_pos, hand_quat], posture, self.stages, self._shaping or None)
+
+    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
+        """Judge one grasp.
+
+        Args:
+            posture: (22,) rad, the grasp's finger joints.
+            hand_pos: (3,) m, the palm's position in the object frame.
+            hand_quat: (4,) the palm's orientation (w x y z) in the object frame.
+
+        Returns:
+            The replay's `Judgement` (a refused pregrasp: not held).
+
+        Raises:
+            SimulationError: the replay's physics failed.
+        """
+        replayed = replay_grasp(self.scene, self.grasp(posture, hand_pos, hand_quat), self.protocol_name,
+                                self.hold_seconds)
+        if replayed.judgement.fault:
+            raise SimulationError(replayed.judgement.fault)
+        return replayed.judgement

@@ -16,10 +16,12 @@ another segment at its point nearest the object) and must touch, while the finge
 stay curled; or the paper's five-fingertip grasps (the presets of `reproduce`, the paper's procedure).
 
 Our extension of the paper's procedure verifies every candidate as a grasp
-(`GeneratorParams.verify`, on by default): the hand is put at the candidate's palm pose in front of
-the free object, the fingers press with the controller's squeeze, the support is released and the
-hold test runs (`judge.judge_scene`, six gravity directions of `verify_hold_seconds` each); only
-candidates that hold are kept, with their epsilon (at the object's friction) and largest
+(`GeneratorParams.verify`, on by default) by the one open-loop replay of the library
+(`dexgraspbench.replay_grasp`, the replay DexGraspBench's protocol judges grasps by): from a pregrasp (the open
+hand 2 cm back, or the fingers backed off along the contacts' normals: `GeneratorParams.stages`) the hand moves
+to the candidate and its squeeze on the free, unsupported object, and the protocol named by
+`GeneratorParams.verify_protocol` judges it (ours: six gravity directions of `verify_hold_seconds` each;
+DexGraspBench's: its physics and external-force test); only candidates that hold are kept, with their epsilon (at the object's friction) and largest
 displacement recorded in the set. `generate_postures(obj, n)` returns n postures either way: with
 verification it draws candidates in waves until n hold, at most `max_candidates_per_posture` times
 n of them, and names the yield when that is not enough (`GenerationError`).
@@ -59,8 +61,8 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams
-from .dexgraspbench import PROTOCOL_NAMES, judging_rules, protocol
-from .judge import VERIFY_HOLD_SECONDS, GraspVerifier
+from .dexgraspbench import GRASP_STAGES, PROTOCOL_NAMES, VERIFY_STAGES, GraspStages, GraspVerifier
+from .judge import VERIFY_HOLD_SECONDS
 from .starts import (
     CONTACT_GAP,
     DESIGN_FAMILIES,
@@ -116,12 +118,16 @@ class GeneratorParams:
     mode: str = "settled"
     record_every: int = 5  # physics steps between recorded postures in "recording" mode
     max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
-    verify: bool = True  # keep only candidates that hold when replayed with the controller's squeeze
+    verify: bool = True  # keep only candidates that hold when replayed open loop (`dexgraspbench.replay_grasp`)
     verify_hold_seconds: float = VERIFY_HOLD_SECONDS  # s per gravity direction of the verifying hold test
     #: the verifier's judging protocol (`dexgraspbench.PROTOCOL_NAMES`): "ours" (the hold test of
     #: `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
     verify_protocol: str = "ours"
-    squeeze: float = ControllerParams.squeeze  # rad, as the controller presses
+    #: how the replay's pregrasp and squeeze are made (`dexgraspbench.GRASP_STAGES`): "contacts" (the touching
+    #: segments 2 cm out along the object's normals, then 1 cm in) or "open" (the open hand 2 cm back, the
+    #: flexion joints squeezed by `squeeze` rad)
+    stages: str = VERIFY_STAGES
+    squeeze: float = ControllerParams.squeeze  # rad, as the controller presses (the "open" stages' squeeze)
     #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
     max_candidates_per_posture: int = 50
     #: the family of starting postures (starts.DESIGN_FAMILIES); None (the default): with verification every
@@ -137,10 +143,12 @@ class GeneratorParams:
         if self.verify_protocol not in PROTOCOL_NAMES:
             raise InvalidInput(f"GeneratorParams.verify_protocol must be one of {PROTOCOL_NAMES}, "
                                f"got {self.verify_protocol!r}")
+        if self.stages not in GRASP_STAGES:
+            raise InvalidInput(f"GeneratorParams.stages must be one of {tuple(GRASP_STAGES)}, got {self.stages!r}")
         if self.designs not in DESIGN_FAMILIES:
             raise InvalidInput(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
         for name, value in asdict(self).items():
-            if name in ("verify", "mode", "designs", "verify_protocol"):
+            if name in ("verify", "mode", "designs", "verify_protocol", "stages"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
                 raise InvalidInput(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
@@ -150,6 +158,11 @@ class GeneratorParams:
                 raise InvalidInput(f"GeneratorParams.{name} must be a positive integer, got {getattr(self, name)!r}")
         if self.verify_hold_seconds <= 0:  # 0 marked every candidate verified without a hold test
             raise InvalidInput(f"GeneratorParams.verify_hold_seconds must be > 0 s, got {self.verify_hold_seconds!r}")
+
+    @property
+    def grasp_stages(self) -> GraspStages:
+        """The replay's stages (`stages`), the open hand's squeeze by `squeeze` rad."""
+        return replace(GRASP_STAGES[self.stages], squeeze_angle=self.squeeze)
 
 
 #: The generator settings of each preset, the paper's procedure: every candidate with its five fingertips
@@ -472,11 +485,9 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
 
 
 def _verifier(obj: GraspObject, params: GeneratorParams, hand: str) -> GraspVerifier:
-    """The verifier of a candidate: the controller's squeeze and hold test of `params`."""
-    if params.verify_protocol == "ours":
-        return GraspVerifier(obj, params.squeeze, params.verify_hold_seconds, hand)
-    return GraspVerifier(obj, params.squeeze, hand=hand, rules=judging_rules(params.verify_protocol),
-                         physics=protocol(params.verify_protocol).physics)
+    """The verifier of a candidate: its open-loop replay (`dexgraspbench.replay_grasp`) with the stages, the
+    protocol and the hold of `params`."""
+    return GraspVerifier(obj, params.grasp_stages, params.verify_hold_seconds, hand, params.verify_protocol)
 
 
 def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
@@ -719,9 +730,8 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
                     progress: bool | None = None) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
-    Each posture is replayed at its palm pose in front of the free object, the fingers press with
-    the controller's squeeze, the support is released and the hold test runs (`verify_hold_seconds`
-    per gravity direction). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
+    Each posture is replayed open loop at its palm pose as the generator verifies a candidate
+    (`dexgraspbench.replay_grasp` with the stages, protocol and hold of `params`). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
     by this keeps exactly the candidates that the generator with verification keeps among its first
     n (the walk does not depend on the verification).
 
@@ -729,7 +739,8 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
         postures: the set to verify (its palm poses are in the object frame of `obj`).
         obj: the object the set was generated on, or its name.
         workers: worker processes (None: `workers.default_workers()`, one for fewer than `VERIFY_PER_WORKER`).
-        params: the verification's settings (`verify_hold_seconds`, `squeeze`); the defaults otherwise.
+        params: the verification's settings (`verify_protocol`, `stages`, `verify_hold_seconds`, `squeeze`); the
+            defaults otherwise.
         executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
 
@@ -755,7 +766,9 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
                       stacklevel=2)
     names = [name.split(":", 1)[-1] for name in postures.start_names]
     by_start = {names[i]: float(held[postures.start_ids == i].mean()) for i in np.unique(postures.start_ids)}
-    metadata = {**postures.metadata, "verified": True, "candidates": len(postures),
+    made = {**postures.metadata.get("generator", {}), "verify": True, "verify_protocol": params.verify_protocol,
+            "stages": params.stages, "squeeze": params.squeeze, "verify_hold_seconds": params.verify_hold_seconds}
+    metadata = {**postures.metadata, "generator": made, "verified": True, "candidates": len(postures),
                 "verified_ratio": float(held.mean()) if len(held) else float("nan"), "verified_by_start": by_start,
                 "verify_hold_seconds": params.verify_hold_seconds}
     return PostureSet(kept.postures, kept.hand_poses, kept.start_ids, kept.contacts, kept.start_names, metadata,

@@ -50,7 +50,7 @@ from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, seg
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
-from .judge import GraspVerifier
+from .dexgraspbench import GraspVerifier
 from .refinement import REFINEMENTS, Refiner, StartingPosture
 from .search_geometry import SearchGeometry
 

@@ -30,7 +30,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..base.io import markdown_table
-from ..control import generator, judge
+from ..control import dexgraspbench, generator, judge
 from ..control.controller import BatchController
 from ..control.generator import generate_postures
 from ..sim.objects import PAPER_SHAPES, get_object
@@ -124,7 +124,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
 
 
 def profile_generator(name: str, n: int) -> None:
-    rig, verifier = generator._SpringRig, judge.GraspVerifier
+    rig, verifier = generator._SpringRig, dexgraspbench.GraspVerifier
     counts: dict[str, int] = defaultdict(int)
     context = ["walk"]
     original_simulate = rig.simulate
@@ -148,14 +148,14 @@ def profile_generator(name: str, n: int) -> None:
         setattr(rig, method, phase)
     timed(rig, "accepted_posture", "candidate test")
     timed(verifier, "__call__", "verification")
-    original_judge = judge.judge_scene
+    original_judge = dexgraspbench.judge_scene
 
-    def judge_scene(scene, rules, period):
+    def judge_scene(scene, rules, period=0.02):
         judged = original_judge(scene, rules, period)
-        counts["verification"] += round((0.2 + judged.hold_time) / scene.model.opt.timestep)
+        counts["verification"] += round(scene.time / scene.model.opt.timestep)  # the approach and the hold
         return judged
 
-    judge.judge_scene = judge_scene
+    dexgraspbench.judge_scene = judge_scene
     started = time.perf_counter()
     generate_postures(name, n, seed=0, workers=1, progress=False)
     wall = time.perf_counter() - started
