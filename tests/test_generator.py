@@ -174,20 +174,12 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
 
 
 def replay_holds(obj, posture, pose) -> bool:
-    """The generator's verification by hand: the hand at its palm pose, the fingers pressing with the
-    controller's squeeze on the free object, gravity in six directions."""
-    from dataclasses import replace
+    """The generator's verification by hand: the open-loop grasp made from the posture's contacts (the pregrasp
+    2 cm out along the normals, the squeeze 1 cm in) replayed on the free object, gravity in six directions."""
+    from graspmanifold.control.dexgraspbench import GRASP_STAGES, open_loop_grasp, replay
 
-    from graspmanifold.control.controller import squeezed
-    from graspmanifold.control.judge import JUDGING, judge_scene
-
-    scene = gm.Scene(obj, free_object=True)
-    scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
-    scene.set_hand_pose(pose[:3], pose[3:])
-    scene.set_posture(posture)
-    scene.set_target(squeezed(posture, gm.ControllerParams().squeeze))
-    scene.run(0.2)
-    return judge_scene(scene, replace(JUDGING, hold_seconds=gm.GeneratorParams().verify_hold_seconds, margin=False)).hold
+    grasp = open_loop_grasp(pose, posture, GRASP_STAGES["contacts"], gm.Scene(obj))
+    return bool(replay(obj, [grasp], "ours")[0][0])
 
 
 def test_a_stored_experience_posture_is_a_verified_grasp():
@@ -236,10 +228,13 @@ def test_a_precision_grasp_of_a_small_ball_is_generated_and_holds():
     assert {"pinch", "tripod", "lateral"} <= set(starts)
     assert starts["pinch"].grasp_type == "precision" and starts["pinch"].contacts == ("ffdistal", "thdistal")
     params = gm.GeneratorParams(designs="grasp_types", job_size=4)
-    postures = gm.generate_postures(marble, 6, seed=0, params=params)
+    postures = gm.generate_postures(marble, 6, seed=0, params=params)  # one of each grasp type first
     assert len(postures) == 6 and postures.metadata["grasp_types"]["pinch"] == "precision"
-    pinch = postures.start_ids == postures.start_names.index("marble:pinch")
-    assert pinch.any()
+    kept = {postures.metadata["grasp_types"][name] for name, k in postures.metadata["kept_by_start"].items() if k}
+    assert kept == {"precision", "tripod", "lateral"}
+    postures = gm.generate_postures(marble, 3, seed=0, params=params, starts=[starts["pinch"]])
+    pinch = postures.start_ids == 0
+    assert pinch.all() and postures.start_names == ("marble:pinch",)
     for posture, pose, touching in zip(postures.postures[pinch], postures.hand_poses[pinch], postures.contacts[pinch]):
         assert touching[gm.SEGMENTS.index("ffdistal")] and touching[gm.SEGMENTS.index("thdistal")]
         assert replay_holds(marble, posture, pose)

@@ -103,8 +103,9 @@ def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold
     """Outcomes of the commit before the early stop (tests/data/hold_outcomes.npz: the plain heuristic on every
     third pose of the quick grid, a benchmark sample, and the verifier on twelve cylinder candidates). Its epsilons
     were made again where the squeeze stopped overshooting the closed hand (issue 50: one box trial's moved by
-    1e-3; no outcome changed). The outcomes are compared exactly and epsilon to 1e-4: a 1e-12 change of the poses
-    moves these epsilons by at most 1.2e-5 and no outcome (`tests/test_last_bits.py`)."""
+    1e-3; no outcome changed), and the verifier's made again when verification became the open-loop replay (issue
+    52). The outcomes are compared exactly and epsilon to 1e-4: a 1e-12 change of the poses moves these epsilons
+    by at most 1.2e-5 and no outcome (`tests/test_last_bits.py`)."""
     from graspmanifold.control.generator import GeneratorParams, verify_postures
     from graspmanifold.trials.benchmark import OBJECTS, benchmark_grid
     from graspmanifold.trials.grid import check_grid

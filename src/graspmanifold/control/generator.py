@@ -495,10 +495,10 @@ def _bounded(v: np.ndarray, radius: float) -> np.ndarray:
     return v if norm <= radius else v * (radius / norm)
 
 
-def _allocate(n: int, capacity: list[int | None]) -> list[int]:
+def _allocate(n: int, capacity: list[int | None], order: list[int] | None = None) -> list[int]:
     """Split n postures over the starting postures as evenly as their capacity allows: a start with a
-    capacity (it can give no more than that) gets at most that, the others share the rest evenly, the
-    first of them one more where it does not divide."""
+    capacity (it can give no more than that) gets at most that, the others share the rest evenly, one more
+    each where it does not divide, taken in `order` (None: the starts' order)."""
     allocation = [0] * len(capacity)
     open_starts, remaining = list(range(len(capacity))), n
     while open_starts:
@@ -512,9 +512,22 @@ def _allocate(n: int, capacity: list[int | None]) -> list[int]:
             open_starts.remove(s)
     if open_starts:
         share, extra = divmod(remaining, len(open_starts))
-        for k, s in enumerate(open_starts):
+        ranked = sorted(open_starts, key=(order or list(range(len(capacity)))).index)
+        for k, s in enumerate(ranked):
             allocation[s] = share + (1 if k < extra else 0)
     return allocation
+
+
+def _round_robin(kinds: Sequence[str]) -> list[int]:
+    """Indices in the order that takes one of each kind in turn (first-seen kind first): the first of each kind,
+    then the second of each, ..."""
+    rank = {kind: k for k, kind in enumerate(dict.fromkeys(kinds))}
+    seen: dict[str, int] = {}
+    place = []
+    for i, kind in enumerate(kinds):
+        seen[kind] = seen.get(kind, -1) + 1
+        place.append((seen[kind], rank[kind], i))
+    return [i for *_, i in sorted(place)]
 
 
 def _chunks(start: int, first_chunk: int, candidates: int, job_size: int) -> Iterator[_Job]:
@@ -611,12 +624,13 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         saved = {(job.start_index, job.chunk): arrays for job, arrays in stored}
     results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
     budget = params.max_candidates_per_posture * n if params.verify else None
+    spread = _round_robin([s.grasp_type for s in starts])  # fewer postures than starts: every grasp type first
     held = lambda s: sum(len(r["postures"]) for r in results[s])  # noqa: E731
     drawn = lambda s: sum(int(r["candidates"]) for r in results[s])  # noqa: E731
     given_up = [False] * len(starts)
     with progress_bar(n, f"generate {obj.name}", "postures", enabled=progress) as report:
         while True:
-            allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+            allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))], spread)
             short = [s for s in range(len(starts)) if not given_up[s] and held(s) < allocation[s]]
             if not short:
                 break
@@ -664,7 +678,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
                 results[job.start_index].append(result)
                 if bool(result.get("exhausted", False)):
                     given_up[job.start_index] = True
-    allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))])
+    allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))], spread)
     kept = [min(held(s), allocation[s]) for s in range(len(starts))]
     candidates = sum(drawn(s) for s in range(len(starts)))
     tries = sum(int(r["tries"]) for rs in results for r in rs)
