@@ -125,13 +125,16 @@ def test_starting_postures_are_found_for_other_sizes(capsys):
 
     stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_grasp_types_*.npz"))
     assert len(stored) == 1
-    # a damaged stored file is named, searched again and replaced
+    # a damaged stored file is named, searched again and replaced (the paper's family: four designs, a short search)
     from graspmanifold.control import generator as generator_module
 
+    with pytest.warns(UserWarning, match="no shipped starting postures"):
+        starts = gm.starting_postures(obj, "five_fingertip")
+    stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_five_fingertip_*.npz"))
     stored[0].write_bytes(stored[0].read_bytes()[:100])
     generator_module._starting_postures.cache_clear()
     with pytest.warns(UserWarning, match="cannot be read"):
-        searched = gm.starting_postures(obj, "grasp_types")
+        searched = gm.starting_postures(obj, "five_fingertip")
     np.testing.assert_array_equal([s.posture for s in searched], [s.posture for s in starts])
     assert gm.io.load_npz(stored[0], "starting_postures", {})[1]["objects"]
 

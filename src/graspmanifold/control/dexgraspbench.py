@@ -597,7 +597,7 @@ class GraspVerifier:
 
     def grasp(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> OpenLoopGrasp:
         """The open-loop grasp the verifier replays for a posture at a palm pose (see `__call__`)."""
-        return open_loop_grasp(np.r_[hand_pos, hand_quat], posture, self.stages, self._shaping or None)
+        return open_loop_grasp(np.r_[hand_pos, hand_quat], posture, self.stages, self._shaping)
 
     def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
         """Judge one grasp.

@@ -112,7 +112,8 @@ def verify_object(task: tuple[str, str, int]) -> dict[str, np.ndarray]:
     names = [start.split(":", 1)[-1] for start in postures.start_names]
     return {"seconds": np.array(seconds), "candidates": np.array(postures.metadata["candidates"]),
             **{f"held_{p}": held[p] for p in VERIFYING}, "q1": measures[:, 0], "penetration": measures[:, 1],
-            "grasp_type": np.array([types[names[i]] for i in postures.start_ids])}
+            "grasp_type": np.array([types[names[i]] for i in postures.start_ids]),
+            "design": np.array([names[i] for i in postures.start_ids])}
 
 
 def ablations() -> dict[str, tuple]:
@@ -233,6 +234,7 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     rows, tests = [], []
     pooled: dict[str, dict[str, list]] = {p: {q: [] for q in VERIFYING} for p in VERIFYING}
     by_type: dict[tuple[str, str], dict[str, list]] = {}
+    by_design: dict[tuple[str, str, str], dict[str, list]] = {}
     speed = {p: [0.0, 0] for p in VERIFYING}
     for name in names + held_out:
         row = [name + (" (held out)" if name in held_out else "")]
@@ -247,11 +249,12 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
             if name in BENCHMARK_OBJECTS:
                 for q in VERIFYING:
                     pooled[p][q].append(result[f"held_{q}"])
-            for kind in np.unique(result["grasp_type"]):
-                chosen = result["grasp_type"] == kind
-                cell = by_type.setdefault((p, str(kind)), {q: [] for q in VERIFYING})
-                for q in VERIFYING:
-                    cell[q].append(result[f"held_{q}"][chosen])
+            for kind, design in set(zip(result["grasp_type"].tolist(), result["design"].tolist())):
+                chosen = (result["grasp_type"] == kind) & (result["design"] == design)
+                for cell in (by_type.setdefault((p, kind), {q: [] for q in VERIFYING}),
+                             by_design.setdefault((p, kind, design), {q: [] for q in VERIFYING})):
+                    for q in VERIFYING:
+                        cell[q].append(result[f"held_{q}"][chosen])
             row += [f"{n / int(result['candidates']):.0%}", f"{n / float(result['seconds']):.2f}",
                     *(rate_text(int(result[f"held_{q}"].sum()), n) for q in VERIFYING),
                     f"{np.median(result['q1']):.3f} / {1000 * np.max(result['penetration']):.1f}"]
@@ -286,6 +289,13 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
         held = {q: np.concatenate(cell[q]) for q in VERIFYING}
         type_rows.append([kind, p, *(rate_text(int(h.sum()), len(h)) for h in held.values())])
     lines += markdown_table(["grasp type", "verified under", *(f"held under {q}" for q in VERIFYING)], type_rows)
+    design_rows = []
+    for (p, kind, design), cell in sorted(by_design.items()):
+        held = {q: np.concatenate(cell[q]) for q in VERIFYING}
+        design_rows.append([design, kind, p, *(rate_text(int(h.sum()), len(h)) for h in held.values())])
+    lines += ["", "### By design (every object where the design gave postures)", "",
+              *markdown_table(["design", "grasp type", "verified under", *(f"held under {q}" for q in VERIFYING)],
+                              design_rows)]
     base_label = "the protocol as it is"
     base = np.concatenate([ablated[(name, base_label)] for name in BENCHMARK_OBJECTS])
     ablation_rows = []
