@@ -3,7 +3,7 @@
 An open-loop grasp needs, besides the grasp, a pregrasp it approaches from and a squeeze it presses with. Both can
 be made from the grasp's own contacts, as grasp synthesisers make them: the contact point of every finger segment
 within `CONTACT_REACH` of the object is moved by a stated depth along the object's inward normal at its nearest
-surface point (a negative depth: away from the object, a pregrasp that approaches along the normals without
+surface point (the gradient of its signed distance, `NORMAL_STEP` wide: continuous at an edge) (a negative depth: away from the object, a pregrasp that approaches along the normals without
 sweeping the object; a positive depth: into it, a squeeze whose servos press every contact inwards). The joints
 that do it are found by damped least squares on the contacts' Jacobians (MuJoCo's `mj_jac`; the motion along
 the normal counts fully, a slide along the surface less, `SLIDE_WEIGHT`; joints no contact needs stay), a few Gauss-Newton steps with the kinematics
@@ -22,6 +22,8 @@ from ..sim.scene import Scene
 
 #: m: a segment this near the object counts as a contact to be moved
 CONTACT_REACH = 0.003
+#: m, half the width of the central differences that give the object's normal at a contact
+NORMAL_STEP = 0.001
 #: Gauss-Newton steps of the offset's solve
 ITERATIONS = 6
 #: the weight of a contact's slide along the surface against its motion along the normal (a free slide lets a
@@ -54,20 +56,16 @@ def offset_along_normals(scene: Scene, hand_pose: np.ndarray, posture: np.ndarra
     scene.set_hand_pose(hand_pose[:3], hand_pose[3:])
     segment_of = segment_of_geoms(model, scene.hand)
     fingers = set(range(len(scene.hand.base_segments), len(scene.hand.segments)))
-    anchors = []  # (body, the contact point in the body's frame, where it is in the world, the inward normal)
+    found = []  # (body, the contact point on the hand, its nearest point on the object), both in the world
     fromto = np.zeros(6)
     for segment in sorted(fingers):
         geoms = np.flatnonzero(segment_of == segment)
         nearest = min(((mujoco.mj_geomDistance(model, data, int(g), o, 0.05, fromto), fromto.copy())
-                       for g in geoms for o in scene.object_geoms), key=lambda found: found[0], default=None)
-        if nearest is None or nearest[0] > CONTACT_REACH:
-            continue
-        body = int(model.geom_bodyid[geoms[0]])
-        on_hand, on_object = nearest[1][:3], nearest[1][3:]
-        inward = -scene.object.surface_normal(_in_object_frame(scene, on_object))
-        inward = _object_rotation(scene) @ inward
-        local = data.xmat[body].reshape(3, 3).T @ (on_hand - data.xpos[body])
-        anchors.append((body, local, on_hand, inward))
+                       for g in geoms for o in scene.object_geoms), key=lambda pair: pair[0], default=None)
+        if nearest is not None and nearest[0] <= CONTACT_REACH:
+            found.append((int(model.geom_bodyid[geoms[0]]), nearest[1][:3], nearest[1][3:]))
+    anchors = [(body, data.xmat[body].reshape(3, 3).T @ (on_hand - data.xpos[body]), on_hand, inward)
+               for (body, on_hand, _), inward in zip(found, _inward_normals(scene, [f[2] for f in found]))]
     if not anchors:
         return posture.copy()
     dofs, signs, limits = scene.hand_dofs[2:], scene.hand.to_model(np.ones(22)), scene.hand.limits()
@@ -90,9 +88,17 @@ def offset_along_normals(scene: Scene, hand_pose: np.ndarray, posture: np.ndarra
     return moved
 
 
-def _object_rotation(scene: Scene) -> np.ndarray:
-    return scene.data.xmat[scene.object_body].reshape(3, 3)
-
-
-def _in_object_frame(scene: Scene, point: np.ndarray) -> np.ndarray:
-    return _object_rotation(scene).T @ (point - scene.data.xpos[scene.object_body])
+def _inward_normals(scene: Scene, points: list[np.ndarray]) -> np.ndarray:
+    """The object's inward normals (k, 3) at points on its surface (world frame): the gradient of its signed
+    distance by central differences `NORMAL_STEP` wide, so that a point on an edge gets a normal between its faces'
+    that moves continuously with it (a face's normal there flipped from one face to the other with the last bit of
+    the point)."""
+    if not points:
+        return np.zeros((0, 3))
+    rotation = scene.data.xmat[scene.object_body].reshape(3, 3)
+    local = (np.array(points) - scene.data.xpos[scene.object_body]) @ rotation  # into the object's frame
+    steps = NORMAL_STEP * np.vstack([np.eye(3), -np.eye(3)])
+    distance = scene.object.signed_distance((local[:, None, :] + steps[None]).reshape(-1, 3)).reshape(len(local), 6)
+    gradient = distance[:, :3] - distance[:, 3:]
+    outward = gradient / np.maximum(np.linalg.norm(gradient, axis=1, keepdims=True), 1e-12)
+    return -outward @ rotation.T
