@@ -291,3 +291,17 @@ def test_stages_made_from_the_contacts_move_the_touching_segments_along_the_norm
         GraspStages(squeeze="fist")
     with pytest.raises(ValueError, match="GeneratorParams.stages must be one of"):
         gm.GeneratorParams(stages="closed")
+
+
+def test_a_verifiers_outcome_does_not_depend_on_what_it_judged_before():
+    """On a mesh (whose edges once gave a contact the normal of one face or the other by the last bit) the verifier
+    judges each verified posture the same in either order, and `replay` holds every one."""
+    from graspmanifold.control.dexgraspbench import GraspVerifier, open_loop_grasps, replay
+
+    obj = gm.get_object("frustum_s")
+    postures = gm.generate_postures(obj, 6, seed=0, workers=1, progress=False)
+    verifier = GraspVerifier(obj)
+    forward = [verifier(p, h[:3], h[3:]).hold for p, h in zip(postures.postures, postures.hand_poses)]
+    backward = [verifier(p, h[:3], h[3:]).hold for p, h in zip(postures.postures[::-1], postures.hand_poses[::-1])]
+    assert all(forward) and backward == forward[::-1]
+    assert replay(obj, open_loop_grasps(postures), "ours")[0].all()

@@ -3,12 +3,14 @@
 An open-loop grasp needs, besides the grasp, a pregrasp it approaches from and a squeeze it presses with. Both can
 be made from the grasp's own contacts, as grasp synthesisers make them: the contact point of every finger segment
 within `CONTACT_REACH` of the object is moved by a stated depth along the object's inward normal at its nearest
-surface point (the gradient of its signed distance, `NORMAL_STEP` wide: continuous at an edge) (a negative depth: away from the object, a pregrasp that approaches along the normals without
-sweeping the object; a positive depth: into it, a squeeze whose servos press every contact inwards). The joints
-that do it are found by damped least squares on the contacts' Jacobians (MuJoCo's `mj_jac`; the motion along
-the normal counts fully, a slide along the surface less, `SLIDE_WEIGHT`; joints no contact needs stay), a few Gauss-Newton steps with the kinematics
-recomputed, within the joint ranges; a contact whose joints cannot move it that far (a proximal segment against
-the palm) moves as far as the least squares allows. The palm stays.
+surface point (a negative depth: away from the object, a pregrasp that approaches along the normals without
+sweeping the object; a positive depth: into it, a squeeze whose servos press every contact inwards). The normal
+is the gradient of the object's signed distance by central differences `NORMAL_STEP` wide, so that it moves
+continuously with the point, across an edge too. The joints that do it are found by damped least squares on the
+contacts' Jacobians (MuJoCo's `mj_jac`; the motion along the normal counts fully, a slide along the surface less,
+`SLIDE_WEIGHT`; joints no contact needs stay), a few Gauss-Newton steps with the kinematics recomputed, within the
+joint ranges; a contact whose joints cannot move it that far (a proximal segment against the palm) moves as far
+as the least squares allows. The palm stays.
 """
 
 from __future__ import annotations
