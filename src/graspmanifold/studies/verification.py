@@ -43,7 +43,7 @@ from ..control.dexgraspbench import (
     replay,
     replay_grasp,
 )
-from ..control.generator import GeneratorParams, generate_postures
+from ..control.generator import GeneratorParams, generate_postures, starting_postures
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.hand import DISTAL_SEGMENTS, segment_of_geoms
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
@@ -96,6 +96,7 @@ def verify_object(task: tuple[str, str, int]) -> dict[str, np.ndarray]:
     under both protocols, with its Q1, penetration and grasp type."""
     name, protocol_name, n = task
     obj = named(name)
+    starting_postures(obj, "grasp_types")  # a held-out member's are searched on first use: not timed
     started = time.perf_counter()
     try:
         postures = generate_postures(obj, n, seed=0, workers=1, progress=False,
@@ -210,7 +211,8 @@ def measure(study: StudyRun, postures: int, held_out: bool) -> Verification:
     """
     names = list(dict.fromkeys([*BENCHMARK_OBJECTS, *PAPER_OBJECTS, *test_family()]))
     extra = list(HELD_OUT) if held_out else []
-    tasks = [(name, p, postures) for name in names + extra for p in VERIFYING]
+    tasks = [(name, p, postures) for p in VERIFYING for name in names + extra]  # a protocol at a time: a held-out
+    # member's starts are searched once, under the first, and taken from the cache under the second
     verified = kept_map(study, "verified", tasks, verify_object, lambda task, r: (
         f"{task[0]} verified under {task[1]}: " + (str(r["error"])[:120] if "error" in r else
         f"{len(r['q1'])} in {float(r['seconds']):.0f} s, held under ours {r['held_ours'].mean():.0%}, "
@@ -235,7 +237,8 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     pooled: dict[str, dict[str, list]] = {p: {q: [] for q in VERIFYING} for p in VERIFYING}
     by_type: dict[tuple[str, str], dict[str, list]] = {}
     by_design: dict[tuple[str, str, str], dict[str, list]] = {}
-    speed = {p: [0.0, 0] for p in VERIFYING}
+    speed = {p: [0.0, 0] for p in VERIFYING}  # s and postures, the objects whose starts ship
+    yields = {p: [0, 0] for p in VERIFYING}  # candidates and postures, every object
     for name in names + held_out:
         row = [name + (" (held out)" if name in held_out else "")]
         for p in VERIFYING:
@@ -244,8 +247,11 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
                 row += ["no set", "-", "-", "-", "-"]
                 continue
             n = len(result["q1"])
-            speed[p][0] += float(result["seconds"])
-            speed[p][1] += n
+            yields[p][0] += int(result["candidates"])
+            yields[p][1] += n
+            if name not in held_out:
+                speed[p][0] += float(result["seconds"])
+                speed[p][1] += n
             if name in BENCHMARK_OBJECTS:
                 for q in VERIFYING:
                     pooled[p][q].append(result[f"held_{q}"])
@@ -265,13 +271,14 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     for p in VERIFYING:
         cells = {q: np.concatenate(pooled[p][q]) if pooled[p][q] else np.zeros(0, dtype=bool) for q in VERIFYING}
         pooled_rows.append([f"verified under {p}", *(rate_text(int(c.sum()), len(c)) for c in cells.values()),
-                            f"{speed[p][1] / max(speed[p][0], 1e-9):.2f}"])
+                            f"{speed[p][1] / max(speed[p][0], 1e-9):.2f}", f"{yields[p][1] / max(yields[p][0], 1):.0%}"])
         if len(cells["ours"]):
             other = [q for q in VERIFYING if q != p][0]
             tests.append((f"verified under {p}: held under {other} against under {p} (same grasps, benchmark pooled)",
                           mcnemar(cells[other], cells[p])))
     lines += ["### The benchmark's seven objects, pooled", "",
-              *markdown_table(["grasps", *(f"held under {q}" for q in VERIFYING), "verified / s / core (all objects)"],
+              *markdown_table(["grasps", *(f"held under {q}" for q in VERIFYING),
+                               "verified / s / core (benchmark and test family)", "yield (every object)"],
                               pooled_rows), "",
               f"BODex (its paper, with DexGraspBench) passes its protocol with over {BODEX_SUCCESS:.0%} of its Shadow-hand "
               f"grasps, at more than {BODEX_GRASPS_PER_SECOND:.0f} grasps per second on one GPU. Not like for like: its "
