@@ -2,12 +2,15 @@
 
     python scripts/bench_generate.py [--workers 2] [--preset paper] [--out DIR]
     python scripts/bench_generate.py --defaults [--n 40] [--workers 1] [--objects box cylinder sphere]
+    python scripts/bench_generate.py --replay-floor [--n 40] [--objects box cylinder]
 
 Generates the box, cylinder and sphere sets, and reports wall time, accepted postures per second
 per worker, the acceptance ratio and how clustered the data is around its starting postures.
 `--defaults`: `generate_postures(obj, n)` with the library's defaults (verified postures), the verified
 postures per second, the candidates drawn and their verified share; it runs against any version of the
 library (PYTHONPATH=OTHER/src) for a before/after pair.
+`--replay-floor`: generates as `--defaults` does on one core, then times the verifier (`GraspVerifier`) replaying
+the kept postures alone: the verification's cost of the grasps that are kept, a floor under the generation's time.
 """
 
 from __future__ import annotations
@@ -31,7 +34,11 @@ def main() -> None:
     parser.add_argument("--defaults", action="store_true", help="verified postures with the defaults instead")
     parser.add_argument("--n", type=int, default=40, help="postures per object with --defaults")
     parser.add_argument("--objects", nargs="+", default=list(DATASET_PRESETS["paper"]), help="with --defaults")
+    parser.add_argument("--replay-floor", action="store_true",
+                        help="time the verifier's replays of the kept postures alone")
     args = parser.parse_args()
+    if args.replay_floor:
+        return bench_replay_floor(args.objects, args.n, args.seed)
     if args.defaults:
         return bench_defaults(args.objects, args.n, args.workers, args.seed)
     print(f"{os.cpu_count()} cores, {args.workers} workers, preset {args.preset}\n")
@@ -69,6 +76,26 @@ def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
         meta = postures.metadata
         print(markdown_row([name, n, f"{seconds:.1f}", f"{n / seconds:.2f}", meta["candidates"],
                             f"{meta['verified_ratio']:.0%}"]), flush=True)
+
+
+
+def bench_replay_floor(names: list[str], n: int, seed: int) -> None:
+    """Seconds the generator's verifier takes to replay the postures it kept, per object, on one core."""
+    from graspmanifold.control.dexgraspbench import GraspVerifier
+    from graspmanifold.sim.objects import get_object
+
+    print(f"generate_postures(obj, {n}) on one core, then its verifier replaying the kept postures alone\n")
+    print("\n".join(markdown_table(["object", "postures", "held again", "replay wall (s)", "verified / s at most"], [])))
+    total_n, total_t = 0, 0.0
+    for name in names:
+        postures = generate_postures(name, n, seed=seed, workers=1, progress=False)
+        verifier = GraspVerifier(get_object(name), hand=postures.metadata.get("hand", "ours"))
+        start = time.perf_counter()
+        held = [verifier(posture, pose[:3], pose[3:]).hold for posture, pose in zip(postures.postures, postures.hand_poses)]
+        seconds = time.perf_counter() - start
+        total_n, total_t = total_n + n, total_t + seconds
+        print(markdown_row([name, n, sum(held), f"{seconds:.1f}", f"{n / seconds:.2f}"]), flush=True)
+    print(markdown_row(["all", total_n, "", f"{total_t:.1f}", f"{total_n / total_t:.2f}"]))
 
 
 if __name__ == "__main__":
