@@ -20,7 +20,8 @@ import numpy as np
 
 import graspmanifold as gm
 from graspmanifold.base.io import markdown_row, markdown_table
-from graspmanifold.control.dexgraspbench import PROTOCOLS, OpenLoopGrasp, external_force_test, open_loop_grasps
+from graspmanifold.control.dexgraspbench import OpenLoopGrasp, external_force_test, open_loop_grasps
+from graspmanifold.control.protocols import PROTOCOLS
 
 
 def main() -> None:
@@ -34,7 +35,7 @@ def main() -> None:
     print(f"mujoco {mujoco.__version__}, python {platform.python_version()}, {platform.processor() or platform.machine()}"
           f"; {args.object}, {args.grasps} grasps per row, one core")
     print("\n".join(markdown_table(["protocol", "grasps", "succeeded", "physics steps per grasp", "grasps / s / core"], [])))
-    for name, protocol in PROTOCOLS.items():
+    for name, protocol in ((name, p.push_test) for name, p in PROTOCOLS.items() if p.push_test is not None):
         for label, grasps in (("our verified grasps", verified), ("grasps failing at once", away)):
             scene = gm.Scene(args.object, free_object=True)
             start = time.perf_counter()

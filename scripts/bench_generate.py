@@ -2,15 +2,15 @@
 
     python scripts/bench_generate.py [--workers 2] [--preset paper] [--out DIR]
     python scripts/bench_generate.py --defaults [--n 40] [--workers 1] [--objects box cylinder sphere]
-    python scripts/bench_generate.py --replay-floor [--n 40] [--objects box cylinder]
+    python scripts/bench_generate.py --defaults --replay-floor [--n 40] [--workers 1] [--objects box cylinder]
 
 Generates the box, cylinder and sphere sets, and reports wall time, accepted postures per second
 per worker, the acceptance ratio and how clustered the data is around its starting postures.
 `--defaults`: `generate_postures(obj, n)` with the library's defaults (verified postures), the verified
 postures per second, the candidates drawn and their verified share; it runs against any version of the
 library (PYTHONPATH=OTHER/src) for a before/after pair.
-`--replay-floor`: generates as `--defaults` does on one core, then times the verifier (`GraspVerifier`) replaying
-the kept postures alone: the verification's cost of the grasps that are kept, a floor under the generation's time.
+`--replay-floor` adds the seconds the verifier (`GraspVerifier`) takes to replay the kept postures alone: the
+verification's cost of the grasps that are kept, a floor under the generation's time.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pathlib import Path
 from graspmanifold.base.errors import GenerationError
 from graspmanifold.base.io import markdown_row, markdown_table
 from graspmanifold.control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from graspmanifold.sim.objects import get_object
 
 
 def main() -> None:
@@ -37,10 +38,8 @@ def main() -> None:
     parser.add_argument("--replay-floor", action="store_true",
                         help="time the verifier's replays of the kept postures alone")
     args = parser.parse_args()
-    if args.replay_floor:
-        return bench_replay_floor(args.objects, args.n, args.seed)
-    if args.defaults:
-        return bench_defaults(args.objects, args.n, args.workers, args.seed)
+    if args.defaults or args.replay_floor:
+        return bench_defaults(args.objects, args.n, args.workers, args.seed, args.replay_floor)
     print(f"{os.cpu_count()} cores, {args.workers} workers, preset {args.preset}\n")
     print("\n".join(markdown_table(["object", "postures", "wall (s)", "postures / s / worker", "acceptance", "starts", "within-start (°)", "between starts (°)"], [])))
     total_n, total_t = 0, 0.0
@@ -60,10 +59,12 @@ def main() -> None:
     print(markdown_row(["all", total_n, f"{total_t:.1f}", f"{total_n / total_t / args.workers:.1f}", "", "", "", ""]))
 
 
-def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
-    """Verified postures per second of `generate_postures(obj, n)` with its defaults, per object."""
+def bench_defaults(names: list[str], n: int, workers: int, seed: int, replay_floor: bool = False) -> None:
+    """Verified postures per second of `generate_postures(obj, n)` with its defaults, per object; with
+    `replay_floor`, the seconds of replaying the kept postures alone (one core)."""
     print(f"{os.cpu_count()} cores, {workers} workers, generate_postures(obj, {n}) with its defaults\n")
-    print("\n".join(markdown_table(["object", "postures", "wall (s)", "verified postures / s", "candidates", "verified share"], [])))
+    print("\n".join(markdown_table(["object", "postures", "wall (s)", "verified postures / s", "candidates", "verified share",
+                                   *(["kept replayed (s)"] if replay_floor else [])], [])))
     for name in names:
         start = time.perf_counter()
         try:
@@ -72,31 +73,14 @@ def bench_defaults(names: list[str], n: int, workers: int, seed: int) -> None:
             seconds = time.perf_counter() - start
             print(markdown_row([name, n, f"{seconds:.1f}", "–", f"GenerationError: {error}", ""]), flush=True)
             continue
-        seconds = time.perf_counter() - start
-        meta = postures.metadata
+        seconds, meta, floor = time.perf_counter() - start, postures.metadata, []
+        if replay_floor:  # imported here: --defaults runs on versions without it
+            from graspmanifold.control.dexgraspbench import GraspVerifier
+            verifier, start = GraspVerifier(get_object(name)), time.perf_counter()
+            assert all(verifier(q, pose[:3], pose[3:]).hold for q, pose in zip(postures.postures, postures.hand_poses))
+            floor = [f"{time.perf_counter() - start:.1f}"]
         print(markdown_row([name, n, f"{seconds:.1f}", f"{n / seconds:.2f}", meta["candidates"],
-                            f"{meta['verified_ratio']:.0%}"]), flush=True)
-
-
-
-def bench_replay_floor(names: list[str], n: int, seed: int) -> None:
-    """Seconds the generator's verifier takes to replay the postures it kept, per object, on one core."""
-    from graspmanifold.control.dexgraspbench import GraspVerifier
-    from graspmanifold.sim.objects import get_object
-
-    print(f"generate_postures(obj, {n}) on one core, then its verifier replaying the kept postures alone\n")
-    print("\n".join(markdown_table(["object", "postures", "held again", "replay wall (s)", "verified / s at most"], [])))
-    total_n, total_t = 0, 0.0
-    for name in names:
-        postures = generate_postures(name, n, seed=seed, workers=1, progress=False)
-        verifier = GraspVerifier(get_object(name), hand=postures.metadata.get("hand", "ours"))
-        start = time.perf_counter()
-        held = [verifier(posture, pose[:3], pose[3:]).hold for posture, pose in zip(postures.postures, postures.hand_poses)]
-        seconds = time.perf_counter() - start
-        total_n, total_t = total_n + n, total_t + seconds
-        print(markdown_row([name, n, sum(held), f"{seconds:.1f}", f"{n / seconds:.2f}"]), flush=True)
-    print(markdown_row(["all", total_n, "", f"{total_t:.1f}", f"{total_n / total_t:.2f}"]))
-
+                            f"{meta['verified_ratio']:.0%}", *floor]), flush=True)
 
 if __name__ == "__main__":
     main()

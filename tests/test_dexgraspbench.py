@@ -8,9 +8,8 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.control.controller import squeezed
-from graspmanifold.control.dexgraspbench import (
-    DEXGRASPBENCH, DEXGRASPBENCH_PAPER, OpenLoopGrasp, external_force_test, protocol, q1,
-)
+from graspmanifold.control.dexgraspbench import OpenLoopGrasp, external_force_test, q1
+from graspmanifold.control.protocols import DEXGRASPBENCH, DEXGRASPBENCH_PAPER, get_protocol
 from graspmanifold.control.grasp_files import read_grasp_file, read_grasp_files, write_grasp_files
 from graspmanifold.control.quality import epsilon_l1
 
@@ -33,9 +32,9 @@ def test_the_physics_profile_sets_the_options_listed(version, mass):
     assert np.allclose(scene.model.geom_friction[:, :2], [0.6, 0.02]) and not opt.gravity.any()
     assert math.isclose(scene.model.body_mass[scene.object_body], mass)
     assert version.push == pytest.approx(10 * mass)
-    assert protocol(version.name) is version
+    assert get_protocol(version.name).push_test is version and get_protocol(version.name).physics is version.physics
     with pytest.raises(ValueError, match="protocol must be one of"):
-        protocol("dexgraspbench-v9")
+        get_protocol("dexgraspbench-v9")
 
 
 def test_a_grasp_that_holds_passes_every_direction(box_grasps):
@@ -225,7 +224,7 @@ def test_the_verifier_is_the_replay(protocol_name):
 
     candidates = gm.generate_postures("cylinder", 6, seed=1, workers=1, progress=False,
                                       params=gm.GeneratorParams(verify=False, designs="grasp_types"))
-    verifier = GraspVerifier(gm.get_object("cylinder"), hold_seconds=JUDGING.hold_seconds, protocol_name=protocol_name)
+    verifier = GraspVerifier(gm.get_object("cylinder"), hold_seconds=JUDGING.hold_seconds, protocol=protocol_name)
     verified = [verifier(p, h[:3], h[3:]).hold for p, h in zip(candidates.postures, candidates.hand_poses)]
     held, _ = replay("cylinder", open_loop_grasps(candidates), protocol_name)
     assert verified == list(held) and 0 < sum(verified) < len(verified)
@@ -305,3 +304,37 @@ def test_a_verifiers_outcome_does_not_depend_on_what_it_judged_before():
     backward = [verifier(p, h[:3], h[3:]).hold for p, h in zip(postures.postures[::-1], postures.hand_poses[::-1])]
     assert all(forward) and backward == forward[::-1]
     assert replay(obj, open_loop_grasps(postures), "ours")[0].all()
+
+
+def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_a_name_does():
+    """The registry holds our hold test and DexGraspBench's two versions; a protocol of one's own (here a lift: a
+    pull of 1 N along +z only, gravity off, 0.3 s) is a `Protocol` value that `evaluate` and `replay_grasp` run
+    without any change to the trial loop or the replay, and that keys its results apart from ours."""
+    from dataclasses import replace as changed
+
+    from graspmanifold.control.dexgraspbench import GRASP_STAGES, open_loop_grasps, replay_grasp
+    from graspmanifold.control.judge import JUDGING
+    from graspmanifold.control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol
+    from graspmanifold.trials.trial import TrialSetup
+
+    assert PROTOCOLS[DEFAULT_PROTOCOL].rules == JUDGING and PROTOCOLS[DEFAULT_PROTOCOL].physics is None
+    assert {name for name, p in PROTOCOLS.items() if p.push_test is not None} == {"dexgraspbench", "dexgraspbench-paper"}
+    lift = Protocol("lift", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
+    with pytest.raises(ValueError, match="protocol must be one of .* or a Protocol"):
+        TrialSetup("box", protocol="lift")
+    from graspmanifold.trials.grid import check_grid
+
+    poses = check_grid("quick", gm.get_object("box"))[1][:4]
+    ours = gm.evaluate("box", None, poses, seed=0, workers=1, progress=False)
+    lifted = gm.evaluate("box", None, poses, seed=0, workers=1, progress=False, protocol=lift)
+    assert np.array_equal(ours.outcomes("force_closure"), lifted.outcomes("force_closure"))  # the same grasps
+    assert ours.outcomes("hold").any() and lifted.outcomes("hold")[ours.outcomes("hold")].all()  # six hold one
+    times = np.array([t.hold_time for t in lifted.trials])[lifted.outcomes("hold")]
+    assert np.allclose(times, 0.3)  # one direction of 0.3 s, not six of 0.5 s
+    assert TrialSetup("box", protocol=lift).key(poses, 0) != TrialSetup("box").key(poses, 0)
+    assert TrialSetup("box", protocol=DEFAULT_PROTOCOL).key(poses, 0) == TrialSetup("box").key(poses, 0)
+    postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
+    scene = gm.Scene("box", free_object=True)
+    for grasp in open_loop_grasps(postures, GRASP_STAGES["contacts"], "box"):
+        replayed = replay_grasp(scene, grasp, lift)
+        assert replayed.held and replayed.judgement.hold_time == pytest.approx(0.3)

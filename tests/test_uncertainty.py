@@ -109,9 +109,9 @@ def test_the_open_loop_replays_the_nominal_plan_at_the_true_pose(monkeypatch):
     replayed = []
     real = uncertainty.replay
 
-    def spy(obj, grasps, protocol_name="ours", hand="ours"):
+    def spy(obj, grasps, protocol="ours", hand="ours"):
         replayed.extend(grasps)
-        return real(obj, grasps, protocol_name, hand)
+        return real(obj, grasps, protocol, hand)
 
     monkeypatch.setattr(uncertainty, "replay", spy)
     true = np.array([BOX_POSE, BOX_POSE + np.array([0.05, 0.0, 0.0, 0.0])])

@@ -22,7 +22,8 @@ from .base.io import LOCK_FILE, check_writable_folder, output_lock
 from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
-from .control.dexgraspbench import GRASP_STAGES, PROTOCOL_NAMES, VERIFY_STAGES
+from .control.dexgraspbench import GRASP_STAGES, VERIFY_STAGES
+from .control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from .control.controller import CONTROLLERS
 from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
@@ -311,7 +312,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
-REPRODUCE_DEFAULTS = {"hand": "ours", "controller": "paper", "protocol": "ours"}
+REPRODUCE_DEFAULTS = {"hand": "ours", "controller": "paper", "protocol": DEFAULT_PROTOCOL}
 PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm) or "
                  "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
@@ -353,7 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--hand", default="ours", help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
-    reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
+    reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
     reproduce.add_argument("--config", metavar="FILE.toml",
                            help="an experiment file: the preset's configuration changed by its keys (ReproduceConfig's "
                            "fields; [generator] and [controller] tables); a run writes the one it used to "
@@ -370,7 +371,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "hold the object, unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every candidate without replaying it as a grasp (the paper's procedure)")
-    generate.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours",
+    generate.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL,
                           help="the protocol a candidate's open-loop replay must pass to be kept: ours (the hold "
                           "test) or DexGraspBench's (its physics and pushes)")
     generate.add_argument("--stages", choices=tuple(GRASP_STAGES), default=VERIFY_STAGES,
@@ -413,7 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
                                "(pip install 'graspmanifold[gpu]', from a checkout '.[gpu]')")
     evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
-    evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default="ours", help=PROTOCOL_HELP)
+    evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

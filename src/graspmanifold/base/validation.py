@@ -8,6 +8,7 @@ import os
 import re
 import stat
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,31 @@ def check_int(value: object, name: str, low: int = 1, high: int | None = None) -
                     else "a positive whole number" if low == 1 else f"a whole number >= {low}")
         raise InvalidInput(f"{name} must be {expected}, got {value!r}")
     return int(value)
+
+
+def check_choice(value: object, choices: Iterable[object], name: str, also: str = "") -> object:
+    """`value` when it is one of `choices`; an error naming `name`, the choices and what was given otherwise.
+
+    Args:
+        value: the value given.
+        choices: the values allowed (a registry's keys, a tuple of names).
+        name: the argument's name, for the message (e.g. 'GeneratorParams.mode').
+        also: what else is allowed, said after the choices (e.g. 'or a Protocol'), checked by the caller.
+
+    Returns:
+        The value.
+
+    Raises:
+        InvalidInput: not one of them.
+    """
+    allowed = tuple(choices)
+    try:
+        found = value in allowed
+    except (TypeError, ValueError):  # an unhashable or incomparable value (an array) is none of them
+        found = False
+    if not found:
+        raise InvalidInput(f"{name} must be one of {allowed}{' ' + also if also else ''}, got {value!r}")
+    return value
 
 
 def check_data(X: object, dim: int, name: str = "X") -> np.ndarray:

@@ -58,6 +58,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.validation import check_choice
 from ..manifold.experience import Experience, check_experience
 from ..sim.hand import (
     FINGER_JOINTS,
@@ -147,11 +148,8 @@ class ControllerParams:
         if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
             raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
                                f"got {self.max_match_distance!r}")
-        if self.steered_joints not in STEERED_JOINTS:
-            raise InvalidInput(f"ControllerParams.steered_joints must be one of {tuple(STEERED_JOINTS)}, "
-                               f"got {self.steered_joints!r}")
-        if self.recall not in RECALLS:
-            raise InvalidInput(f"ControllerParams.recall must be one of {RECALLS}, got {self.recall!r}")
+        check_choice(self.steered_joints, STEERED_JOINTS, "ControllerParams.steered_joints")
+        check_choice(self.recall, RECALLS, "ControllerParams.recall")
         if not isinstance(self.restart_closure, bool):
             raise InvalidInput(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
         if not isinstance(self.recall_closes_only, bool):

@@ -1,4 +1,5 @@
-"""DexGraspBench's judging protocol, as data, beside our hold test (`judge.JUDGING`).
+"""DexGraspBench's way of judging grasps: open-loop grasps replayed (`replay_grasp`, the one replay, which the
+generator's verifier runs too) and its external-force test (`external_force_test`); its Q1 metric.
 
 DexGraspBench (with BODex, ICRA 2025) judges *open-loop* grasps, each a pregrasp, a grasp and a squeeze
 (a hand root pose and joint angles): once per direction of +x, -x, +y, -y, +z and -z it resets the scene
@@ -8,12 +9,7 @@ physics steps each (the root by its mocap body, the joints by their servos), pus
 external force of `force_per_kg` x the direction x its mass (gravity off), and simulates `hold_chunks` x
 `steps_per_chunk` steps, stopping early once the object has moved more than `translation_limit` or turned
 more than `angle_limit` from where it began. A grasp succeeds when it stays within both in every direction.
-Its values changed between versions, so the version is part of the protocol (`PROTOCOLS`): `main` (0.1 kg,
-0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg, 0.10 m, 180 degrees). The physics it needs is
-a named profile of the scene (`PhysicsProfile`): a 4 ms step, implicitfast, elliptic cones with impratio 10,
-condim 4, two noslip iterations, friction 0.6 sliding and 0.02 torsional, gravity off, the object's mass
-set by rescaling its density. Our hand keeps its own servos (DexGraspBench's Menagerie hand has kp 5 on
-main): the protocol judges the grasp, the hand is the one under test.
+Its versions and its physics profile are protocols of `protocols` (`DexGraspBenchProtocol`, `PROTOCOLS`).
 
 `q1` is its analytic force-closure metric in its convention (fingertip contacts within 5 mm, one point per
 link, an 8-edge pyramid at half the friction, torques about the contacts' centroid scaled by their mean
@@ -30,6 +26,7 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput, SimulationError
+from ..base.validation import check_choice
 from ..manifold.postureset import PostureSet
 from ..sim.hand import SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject, object_from_params
@@ -37,151 +34,9 @@ from ..sim.posture import open_posture
 from ..sim.scene import Scene
 from .contact_offset import offset_along_normals
 from .controller import ControllerParams, squeezed
-from .judge import HOLD_DIRECTIONS, JUDGING, VERIFY_HOLD_SECONDS, Judgement, JudgingRules, judge_scene, reading_epsilon
+from .judge import VERIFY_HOLD_SECONDS, Judgement, judge_scene, reading_epsilon
+from .protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, DexGraspBenchProtocol, Protocol, get_protocol
 from .quality import epsilon_l1
-
-
-@dataclass(frozen=True)
-class PhysicsProfile:
-    """The physics options a protocol needs of a scene (`apply` sets them on a compiled scene).
-
-    Attributes:
-        name: the profile's name.
-        timestep: s per physics step.
-        integrator: MuJoCo's integrator, by name ('implicitfast').
-        cone: the friction cone ('elliptic').
-        impratio: the ratio of frictional to normal constraint impedance.
-        condim: contact dimensionality of every geom (4: sliding and torsional friction).
-        noslip_iterations: MuJoCo's noslip solver iterations.
-        friction: (sliding, torsional) coefficients of every geom.
-        gravity: gravity on (False: off, as during DexGraspBench's test).
-        object_mass: kg, the object's mass, set by rescaling its density (its inertia scales alike).
-    """
-
-    name: str
-    timestep: float
-    integrator: str
-    cone: str
-    impratio: float
-    condim: int
-    noslip_iterations: int
-    friction: tuple[float, float]
-    gravity: bool
-    object_mass: float
-
-    def apply(self, scene: Scene) -> None:
-        """Set these options on a scene's compiled model (its data keeps its state; call before simulating).
-
-        Args:
-            scene: a scene (`Scene`), its object free or welded.
-        """
-        model = scene.model
-        model.opt.timestep = self.timestep
-        model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{self.integrator.upper()}")
-        model.opt.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.cone.upper()}")
-        model.opt.impratio = self.impratio
-        model.opt.noslip_iterations = self.noslip_iterations
-        model.geom_condim[:] = self.condim
-        model.geom_friction[:, 0], model.geom_friction[:, 1] = self.friction
-        scene.set_gravity(self.gravity)
-        body = scene.object_body
-        scale = self.object_mass / float(model.body_mass[body])
-        model.body_mass[body] *= scale
-        model.body_inertia[body] *= scale
-        mujoco.mj_setConst(model, scene.data)
-
-
-def _profile(mass: float) -> PhysicsProfile:
-    return PhysicsProfile(name=f"dexgraspbench-{mass * 1000:.0f}g", timestep=0.004, integrator="implicitfast",
-                          cone="elliptic", impratio=10.0, condim=4, noslip_iterations=2, friction=(0.6, 0.02),
-                          gravity=False, object_mass=mass)
-
-
-@dataclass(frozen=True)
-class DexGraspBenchProtocol:
-    """DexGraspBench's external-force test, one version of it (see the module doc).
-
-    Attributes:
-        version: 'main' or 'paper'.
-        physics: the scene's physics profile.
-        translation_limit: m the object may move and still be held.
-        angle_limit: rad it may turn.
-        force_per_kg: N of external force per kg of object (10: about its weight, along each direction).
-        max_penetration: m, a pregrasp deeper than this inside the object fails outright.
-        approach_targets: interpolated targets of each move (pregrasp -> grasp, grasp -> squeeze).
-        steps_per_target: physics steps per target.
-        hold_chunks: chunks of the push, checked after each (the early stop).
-        steps_per_chunk: physics steps per chunk.
-        directions: the external force's unit directions, in turn.
-    """
-
-    version: str
-    physics: PhysicsProfile
-    translation_limit: float
-    angle_limit: float
-    force_per_kg: float = 10.0
-    max_penetration: float = 0.01
-    approach_targets: int = 10
-    steps_per_target: int = 10
-    hold_chunks: int = 10
-    steps_per_chunk: int = 50
-    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
-
-    @property
-    def name(self) -> str:
-        """Its name in `PROTOCOLS`."""
-        return "dexgraspbench" if self.version == "main" else f"dexgraspbench-{self.version}"
-
-    @property
-    def push(self) -> float:
-        """N, the external force on the object."""
-        return self.force_per_kg * self.physics.object_mass
-
-
-DEXGRASPBENCH = DexGraspBenchProtocol("main", _profile(0.1), translation_limit=0.05, angle_limit=math.radians(15))
-"""DexGraspBench's main branch: 0.1 kg, the object within 5 cm and 15 degrees."""
-DEXGRASPBENCH_PAPER = DexGraspBenchProtocol("paper", _profile(0.03), translation_limit=0.10,
-                                            angle_limit=math.radians(180))
-"""The BODex paper's version: 0.03 kg, within 10 cm and 180 degrees."""
-PROTOCOLS: dict[str, DexGraspBenchProtocol] = {p.name: p for p in (DEXGRASPBENCH, DEXGRASPBENCH_PAPER)}
-"""DexGraspBench's protocols by name; our own hold test is 'ours' (`judge.JUDGING`)."""
-
-
-#: every judging protocol by name: our hold test, and DexGraspBench's versions
-PROTOCOL_NAMES: tuple[str, ...] = ("ours", *PROTOCOLS)
-
-
-def judging_rules(name: str) -> JudgingRules:
-    """The rules of the one judging loop (`judge.judge_worlds`) for a protocol: ours (`JUDGING`), or DexGraspBench's
-    external-force test after a grasp (a push of `push` N per direction, gravity off, each direction from the
-    state at the grasp's end, `hold_chunks` x `steps_per_chunk` steps, the translation and angle limits).
-
-    Args:
-        name: one of `PROTOCOL_NAMES`.
-
-    Returns:
-        The rules (checked every control period, not every chunk of 50 steps: an early stop is found sooner).
-    """
-    if name == "ours":
-        return JUDGING
-    p = protocol(name)
-    return replace(JUDGING, hold_seconds=p.hold_chunks * p.steps_per_chunk * p.physics.timestep,
-                   hold_limit=p.translation_limit, push=p.push, angle_limit=p.angle_limit, from_grasp=True,
-                   physics=p.physics.name)
-
-
-def protocol(name: str) -> DexGraspBenchProtocol:
-    """A DexGraspBench protocol by name.
-
-    Args:
-        name: a key of `PROTOCOLS`.
-
-    Returns:
-        The protocol.
-    """
-    if name not in PROTOCOLS:
-        raise InvalidInput(f"protocol must be one of {PROTOCOL_NAMES}, got {name!r}")
-    return PROTOCOLS[name]
 
 
 #: m: contacts farther from the object than this do not count for `q1`
@@ -341,7 +196,7 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
         scene: a scene with a free object (`Scene(obj, free_object=True)`); the protocol's physics profile is
             applied to it (its model changes for good).
         grasp: the pregrasp, grasp and squeeze.
-        protocol: the protocol's version (`PROTOCOLS`).
+        protocol: the test, one version of it (`protocols.DEXGRASPBENCH`, `protocols.DEXGRASPBENCH_PAPER`).
 
     Returns:
         The `ForceTest`.
@@ -413,8 +268,7 @@ class GraspStages:
 
     def __post_init__(self) -> None:
         for name, choices in (("pregrasp", ("open", "contacts")), ("squeeze", ("flexion", "contacts"))):
-            if getattr(self, name) not in choices:
-                raise InvalidInput(f"GraspStages.{name} must be one of {choices}, got {getattr(self, name)!r}")
+            check_choice(getattr(self, name), choices, f"GraspStages.{name}")
         for name in ("back_off", "squeeze_angle", "squeeze_depth"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 0.5:
@@ -485,7 +339,7 @@ def open_loop_grasps(postures: PostureSet, stages: GraspStages | None = None,
             raise InvalidInput("open_loop_grasps: stages made from the contacts need the set's object (obj=): its "
                                "metadata names none")
         obj = object_from_params(postures.metadata["object"])
-    scene = None if obj is None else Scene(obj, hand=postures.metadata.get("hand", "ours"))
+    scene = None if obj is None else Scene(obj, hand=postures.metadata.get("hand", SHADOW_HAND.name))
     return [open_loop_grasp(pose, posture, stages, scene)
             for pose, posture in zip(postures.hand_poses, postures.postures)]
 
@@ -514,29 +368,29 @@ class Replay:
         return self.refused or self.judgement.fault
 
 
-def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol_name: str | DexGraspBenchProtocol = "ours",
-                 hold_seconds: float = JUDGING.hold_seconds) -> Replay:
+def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = DEFAULT_PROTOCOL,
+                 hold_seconds: float | None = None) -> Replay:
     """The one replay of an open-loop grasp: the scene reset to the pregrasp (the object free and unsupported,
     gravity off; a pregrasp deeper than DexGraspBench's `max_penetration` inside the object is refused, whatever
     judges), pregrasp -> grasp -> squeeze in DexGraspBench's interpolated targets, then the protocol's judging:
-    DexGraspBench's external-force test (`external_force_test`, its physics), or ours (our physics, the same
-    targets over the same seconds, then the hold test of `judge.JUDGING` with `hold_seconds` per direction).
+    its external-force test (`external_force_test`, its physics) where it has one, else its rules' hold test
+    (the scene's own physics, the same targets over the same seconds, then `judge.judge_scene`).
     `replay` runs it over many grasps; the generator's verifier (`GraspVerifier`) runs it on each candidate.
 
     Args:
-        scene: a scene of the object, free (`Scene(obj, free_object=True)`); a DexGraspBench protocol applies
-            its physics profile to it for good.
+        scene: a scene of the object, free (`Scene(obj, free_object=True)`); a protocol with its own physics
+            applies it to the scene for good.
         grasp: the grasp.
-        protocol_name: one of `PROTOCOL_NAMES`, or a DexGraspBench protocol itself (a version of one changed, for
-            an ablation).
-        hold_seconds: s per direction of our hold test (DexGraspBench's has its own).
+        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol` (one changed for an ablation, or one's own).
+        hold_seconds: s per direction of a hold test by rules (None: the protocol's rules'); an external-force
+            test has its own.
 
     Returns:
         The `Replay`.
     """
-    if protocol_name != "ours":
-        test = external_force_test(scene, grasp, protocol_name if isinstance(protocol_name, DexGraspBenchProtocol)
-                                   else protocol(protocol_name))
+    protocol = get_protocol(protocol)
+    if protocol.push_test is not None:
+        test = external_force_test(scene, grasp, protocol.push_test)
         if test.fault and test.steps == 0:
             return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=test.penetration), test.fault)
         return Replay(Judgement(test.epsilon, test.success, float(np.nanmax(test.translation, initial=0.0)), np.nan,
@@ -548,28 +402,28 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol_name: str | DexGra
     if depth > DEXGRASPBENCH.max_penetration:  # its rule for a pregrasp, whatever judges the grasp
         return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=depth),
                       f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
-    _approach(scene, grasp, mounts, timed)  # its targets and their seconds, our physics
-    return Replay(judge_scene(scene, replace(JUDGING, hold_seconds=hold_seconds)))
+    _approach(scene, grasp, mounts, timed)  # its targets and their seconds, the scene's physics
+    rules = protocol.rules if hold_seconds is None else replace(protocol.rules, hold_seconds=hold_seconds)
+    return Replay(judge_scene(scene, rules))
 
 
-def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol_name: str = "ours",
-           hand: str = "ours") -> tuple[np.ndarray, list[str]]:
+def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | Protocol = DEFAULT_PROTOCOL,
+           hand: str = SHADOW_HAND.name) -> tuple[np.ndarray, list[str]]:
     """Open-loop grasps executed as DexGraspBench executes them and judged by the protocol named
     (`replay_grasp` of each).
 
     Args:
         obj: the object, or its name.
         grasps: the grasps.
-        protocol_name: one of `PROTOCOL_NAMES`.
+        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol`.
         hand: the hand model's name.
 
     Returns:
         (held (n,) bool, faults: why a grasp could not be judged, '' where it could).
     """
-    if protocol_name != "ours":
-        protocol(protocol_name)  # refused by name before anything runs
+    protocol = get_protocol(protocol)  # refused by name before anything runs
     scene = Scene(obj, free_object=True, hand=hand)
-    replays = [replay_grasp(scene, grasp, protocol_name) for grasp in grasps]
+    replays = [replay_grasp(scene, grasp, protocol) for grasp in grasps]
     return np.array([r.held for r in replays], dtype=bool), [r.fault for r in replays]
 
 
@@ -583,17 +437,16 @@ class GraspVerifier:
         stages: how the pregrasp and squeeze are made (`GRASP_STAGES`).
         hold_seconds: s per direction of our hold test.
         hand: the hand model, or its name.
-        protocol_name: one of `PROTOCOL_NAMES`.
+        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol`.
     """
 
     def __init__(self, obj: GraspObject, stages: GraspStages = GRASP_STAGES[VERIFY_STAGES],
-                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = "ours",
-                 protocol_name: str = "ours"):
-        if protocol_name not in PROTOCOL_NAMES:
-            raise InvalidInput(f"protocol_name must be one of {PROTOCOL_NAMES}, got {protocol_name!r}")
+                 hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = SHADOW_HAND.name,
+                 protocol: str | Protocol = DEFAULT_PROTOCOL):
+        self.protocol = get_protocol(protocol)
         self.scene = Scene(obj, free_object=True, hand=hand)
         self._shaping = Scene(obj, hand=hand) if stages.from_contacts else None
-        self.stages, self.hold_seconds, self.protocol_name = stages, hold_seconds, protocol_name
+        self.stages, self.hold_seconds = stages, hold_seconds
 
     def grasp(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> OpenLoopGrasp:
         """The open-loop grasp the verifier replays for a posture at a palm pose (see `__call__`)."""
@@ -613,7 +466,7 @@ class GraspVerifier:
         Raises:
             SimulationError: the replay's physics failed.
         """
-        replayed = replay_grasp(self.scene, self.grasp(posture, hand_pos, hand_quat), self.protocol_name,
+        replayed = replay_grasp(self.scene, self.grasp(posture, hand_pos, hand_quat), self.protocol,
                                 self.hold_seconds)
         if replayed.judgement.fault:
             raise SimulationError(replayed.judgement.fault)

@@ -53,7 +53,7 @@ from ..base.io import library_version, load_npz, save_npz
 from ..base.paper_numbers import DATASET_SIZES
 from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
-from ..base.validation import check_int
+from ..base.validation import check_choice, check_int
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, HandModel, segment_of_geoms
@@ -61,7 +61,8 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
 from .controller import ControllerParams
-from .dexgraspbench import GRASP_STAGES, PROTOCOL_NAMES, VERIFY_STAGES, GraspStages, GraspVerifier
+from .dexgraspbench import GRASP_STAGES, VERIFY_STAGES, GraspStages, GraspVerifier
+from .protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from .judge import VERIFY_HOLD_SECONDS
 from .starts import (
     CONTACT_GAP,
@@ -120,9 +121,9 @@ class GeneratorParams:
     max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
     verify: bool = True  # keep only candidates that hold when replayed open loop (`dexgraspbench.replay_grasp`)
     verify_hold_seconds: float = VERIFY_HOLD_SECONDS  # s per gravity direction of the verifying hold test
-    #: the verifier's judging protocol (`dexgraspbench.PROTOCOL_NAMES`): "ours" (the hold test of
-    #: `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
-    verify_protocol: str = "ours"
+    #: the verifier's judging protocol, by name (`protocols.PROTOCOLS`): ours (`protocols.DEFAULT_PROTOCOL`, the
+    #: hold test of `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
+    verify_protocol: str = DEFAULT_PROTOCOL
     #: how the replay's pregrasp and squeeze are made (`dexgraspbench.GRASP_STAGES`): "contacts" (the touching
     #: segments 2 cm out along the object's normals, then 1 cm in) or "open" (the open hand 2 cm back, the
     #: flexion joints squeezed by `squeeze` rad)
@@ -138,15 +139,10 @@ class GeneratorParams:
     def __post_init__(self) -> None:
         if self.designs is None:
             object.__setattr__(self, "designs", "grasp_types" if self.verify else "five_fingertip")
-        if self.mode not in MODES:
-            raise InvalidInput(f"GeneratorParams.mode must be one of {MODES}, got {self.mode!r}")
-        if self.verify_protocol not in PROTOCOL_NAMES:
-            raise InvalidInput(f"GeneratorParams.verify_protocol must be one of {PROTOCOL_NAMES}, "
-                               f"got {self.verify_protocol!r}")
-        if self.stages not in GRASP_STAGES:
-            raise InvalidInput(f"GeneratorParams.stages must be one of {tuple(GRASP_STAGES)}, got {self.stages!r}")
-        if self.designs not in DESIGN_FAMILIES:
-            raise InvalidInput(f"GeneratorParams.designs must be one of {DESIGN_FAMILIES}, got {self.designs!r}")
+        check_choice(self.mode, MODES, "GeneratorParams.mode")
+        check_choice(self.verify_protocol, PROTOCOL_NAMES, "GeneratorParams.verify_protocol")
+        check_choice(self.stages, GRASP_STAGES, "GeneratorParams.stages")
+        check_choice(self.designs, DESIGN_FAMILIES, "GeneratorParams.designs")
         for name, value in asdict(self).items():
             if name in ("verify", "mode", "designs", "verify_protocol", "stages"):
                 continue
@@ -439,9 +435,7 @@ def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") ->
     Returns:
         The valid starting postures, in the order of `designs_for(obj, family)`.
     """
-    if family not in DESIGN_FAMILIES:
-        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
-    return list(_starting_postures(get_object(obj), family))
+    return list(_starting_postures(get_object(obj), check_choice(family, DESIGN_FAMILIES, "family")))
 
 
 @lru_cache(maxsize=64)

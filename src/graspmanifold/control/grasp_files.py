@@ -271,7 +271,7 @@ def grasp_object(grasp: GraspFile, root: str | os.PathLike | None = None, mass: 
     Args:
         grasp: a grasp read by `read_grasp_files`.
         root: the folder the objects are in, that `obj_path` is relative to (None: the working directory).
-        mass: kg (DexGraspBench sets its objects' mass by density; `dexgraspbench.PhysicsProfile` does on a scene).
+        mass: kg (DexGraspBench sets its objects' mass by density; `protocols.PhysicsProfile` does on a scene).
 
     Returns:
         The mesh object, named after its folder.

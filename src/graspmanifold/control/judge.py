@@ -64,7 +64,8 @@ class JudgingRules:
         angle_limit: rad the object may turn from where it was grasped and still be held (inf: any).
         from_grasp: every direction starts again from the state at the grasp's end (DexGraspBench replays its
             grasp for each); False (ours): the directions follow one another.
-        physics: the name of the scene's physics profile (`dexgraspbench.PhysicsProfile`), '' for ours.
+        physics: the name of the scene's physics profile (`protocols.PhysicsProfile`), '' for ours.
+        directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
     """
 
     hold_seconds: float = 0.5
@@ -79,6 +80,7 @@ class JudgingRules:
     angle_limit: float = math.inf
     from_grasp: bool = False
     physics: str = ""
+    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
@@ -180,14 +182,15 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
     hold_cycles = rules.cycles(rules.hold_seconds, period)
     margin_cycles = rules.cycles(rules.margin_seconds, period)
     stage = np.full(n, _GRASP)
-    direction = np.zeros(n, dtype=int)  # which of HOLD_DIRECTIONS the judging is at
+    directions = np.asarray(rules.directions, dtype=float).reshape(-1, 3)
+    direction = np.zeros(n, dtype=int)  # which of the directions the judging is at
     count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
     start = np.zeros((n, 3))
     start_quat = np.zeros((n, 4))
     saved: dict[int, object] = {}  # the state at each grasp's end, where every direction starts (`from_grasp`)
     turning = math.isfinite(rules.angle_limit)
     worst = np.zeros(n)
-    hold_time = np.full(n, len(HOLD_DIRECTIONS) * rules.hold_seconds)
+    hold_time = np.full(n, len(directions) * rules.hold_seconds)
     held_force = np.zeros(n) if rules.margin else np.full(n, np.nan)
     judged: list[Judgement | None] = [None] * n
     grasped: dict[int, tuple] = {}
@@ -201,7 +204,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
 
     def disturb(chosen: np.ndarray) -> None:
         """The disturbance of each chosen world's direction: gravity along it, or a push with gravity off."""
-        along = HOLD_DIRECTIONS[direction[chosen]]
+        along = directions[direction[chosen]]
         if rules.push > 0:
             worlds.set_gravity(chosen, np.zeros((len(chosen), 3)))
             worlds.push(chosen, rules.push * along)
@@ -241,7 +244,7 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         turn = np.flatnonzero((stage == _HOLD) & (count == hold_cycles))
         direction[turn] += 1
         count[turn] = 0
-        done_holding = turn[direction[turn] == len(HOLD_DIRECTIONS)]
+        done_holding = turn[direction[turn] == len(directions)]
         held = done_holding[worst[done_holding] <= rules.hold_limit] if rules.margin else done_holding[:0]
         for world in np.setdiff1d(done_holding, held):  # a grasp that held, when no margin is asked for
             finish(world)
@@ -256,12 +259,12 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
         turn = ramp[count[ramp] > margin_cycles]
         direction[turn] += 1
         count[turn] = 1
-        for world in turn[direction[turn] == len(HOLD_DIRECTIONS)]:
+        for world in turn[direction[turn] == len(directions)]:
             worlds.push(np.array([world]), np.zeros((1, 3)))
             finish(world)
         ramp = ramp[stage[ramp] == _MARGIN]
-        worlds.set_gravity(ramp, GRAVITY * HOLD_DIRECTIONS[direction[ramp]])
-        pushes = (rules.margin_force * count[ramp] / margin_cycles)[:, None] * HOLD_DIRECTIONS[direction[ramp]]
+        worlds.set_gravity(ramp, GRAVITY * directions[direction[ramp]])
+        pushes = (rules.margin_force * count[ramp] / margin_cycles)[:, None] * directions[direction[ramp]]
         worlds.push(ramp, pushes)
 
         live = np.flatnonzero(stage != _FINISHED)

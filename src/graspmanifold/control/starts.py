@@ -45,6 +45,7 @@ from scipy.spatial.transform import Rotation
 from ..base.errors import InvalidInput, SimulationError
 from ..base.io import load_npz, save_npz
 from ..base.progress import progress_bar
+from ..base.validation import check_choice
 from ..base.workers import default_workers, parallel_map
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
@@ -175,8 +176,7 @@ def designs_for(obj: GraspObject, family: str = "five_fingertip") -> tuple[Grasp
     an elongated object (not sphere-like) the `SHIFTED_WRAPS`, and the `PRECISION_DESIGNS`. The refinement then adapts each design to the actual surface;
     designs that do not fit the object (a pinch of a ball too big to pinch) find no valid grasp.
     """
-    if family not in DESIGN_FAMILIES:
-        raise InvalidInput(f"family must be one of {DESIGN_FAMILIES}, got {family!r}")
+    check_choice(family, DESIGN_FAMILIES, "family")
     shape = nearest_primitive(obj)
     if family == "five_fingertip":
         return GRASP_DESIGNS[shape]
@@ -271,9 +271,7 @@ def check_starting_postures(starts: object, obj: str | GraspObject) -> list[Star
         if not start.contacts or unknown:
             raise InvalidInput(f"starts[{i}] ({start.name!r}).contacts must name segments of {SEGMENTS}, got "
                                f"{start.contacts!r}")
-        if start.grasp_type not in GRASP_TYPES:
-            raise InvalidInput(f"starts[{i}] ({start.name!r}).grasp_type must be one of {GRASP_TYPES}, got "
-                               f"{start.grasp_type!r}")
+        check_choice(start.grasp_type, GRASP_TYPES, f"starts[{i}] ({start.name!r}).grasp_type")
         start = StartingPosture(str(start.name), arrays["hand_pos"], arrays["hand_quat"] / np.linalg.norm(
             arrays["hand_quat"]), arrays["posture"], tuple(start.contacts), start.grasp_type)
         if not is_design_grasp(obj, start):

@@ -48,7 +48,7 @@ from ..base.errors import InvalidInput, NotFittedError
 from ..base.io import fingerprint, load_npz, save_npz
 from ..base.paper_numbers import RESUME_SCHEDULE, TRAINING_SCHEDULE
 from ..base.progress import progress_bar
-from ..base.validation import check_data, check_int
+from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import free_cores
 from .kernels import compiled, online_epoch
 from .nearest import MaskedNearest, Recall
@@ -111,9 +111,7 @@ def _schedule(epochs: object, learning_rate: object, sigma: object, algorithm: o
 
 
 def _algorithm(value: object) -> str:
-    if value not in ALGORITHMS:
-        raise InvalidInput(f"algorithm must be one of {ALGORITHMS}, got {value!r}")
-    return str(value)
+    return str(check_choice(value, ALGORITHMS, "algorithm"))
 
 
 def online_epoch_reference(flat: np.ndarray, data: np.ndarray, order: np.ndarray, table: np.ndarray) -> None:

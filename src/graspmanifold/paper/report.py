@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import json
 import os
 from collections.abc import Callable
@@ -16,7 +15,7 @@ from scipy.spatial import cKDTree
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import atomic_write, write_text_atomic, markdown_table
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
-from ..control.dexgraspbench import protocol as named_protocol
+from ..control.protocols import DEFAULT_PROTOCOL, get_protocol
 from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
@@ -246,7 +245,7 @@ def _choices(run: RunData) -> list[list[str]]:
          "generic closing heuristic finalises the grasp"],
         ["object support while the hand closes", f"a spring-damper, {JUDGING.support_stiffness:g} N/m and {JUDGING.support_damping:g} "
          "N s/m, released before judging", "not described"],
-        ["success", _success_text(config.get("protocol", "ours")), "force closure: ε > 0"],
+        ["success", get_protocol(config.get("protocol", DEFAULT_PROTOCOL)).summary(), "force closure: ε > 0"],
         ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
         ["hand", HANDS.get(run.config.get("hand", "ours"), f"the Shadow Hand of the MJCF file {run.config.get('hand')}"),
          "a model of the Shadow hand in Vortex, coarse geometry"],
@@ -259,18 +258,6 @@ def _controller_params(stored: dict | None) -> ControllerParams:
         return BLEND
     return ControllerParams(**{**stored, "steered_fingers": tuple(stored.get("steered_fingers", BLEND.steered_fingers)),
                                "max_match_distance": float(stored.get("max_match_distance", BLEND.max_match_distance))})
-
-
-def _success_text(protocol: str) -> str:
-    """How the run's trials were judged, in a sentence (`dexgraspbench.PROTOCOL_NAMES`)."""
-    epsilon = f"force closure: ε > {JUDGING.epsilon_threshold}"
-    if protocol == "ours":
-        return (f"hold: gravity along ±x, ±y, ±z for {JUDGING.hold_seconds} s each, the object within "
-                f"{100 * JUDGING.hold_limit:.0f} cm; {epsilon}")
-    p = named_protocol(protocol)
-    return (f"DexGraspBench's external-force test ({p.version} version, its physics profile): a push of {p.push:g} N "
-            f"along ±x, ±y, ±z, each from the state at the grasp's end, the object within "
-            f"{100 * p.translation_limit:.0f} cm and {math.degrees(p.angle_limit):.0f}°; {epsilon}")
 
 
 def _config_text(config: dict) -> str:

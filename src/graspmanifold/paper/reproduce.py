@@ -28,10 +28,10 @@ from ..base.checkpoints import remove_checkpoints, result_key
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
-from ..base.validation import check_int
+from ..base.validation import check_choice, check_int
 from ..base.workers import default_workers, worker_pool
 from ..base.config_files import apply_table, to_toml
-from ..control.dexgraspbench import PROTOCOL_NAMES
+from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES, get_protocol
 from ..control.controller import BLEND, ControllerParams
 from ..control.generator import (
     DATASET_PRESETS,
@@ -65,7 +65,7 @@ class ReproduceConfig:
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
     the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
     `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`);
-    `protocol` how the trials are judged (`dexgraspbench.PROTOCOL_NAMES`: our hold test, with the margin the report
+    `protocol` how the trials are judged (`protocols.PROTOCOLS`: our hold test, with the margin the report
     shows, or a DexGraspBench version, without it)."""
 
     postures: dict[str, int]
@@ -80,17 +80,15 @@ class ReproduceConfig:
     procedure: str = "paper"
     hand: str = "ours"
     controller: ControllerParams = field(default_factory=ControllerParams)
-    protocol: str = "ours"
+    protocol: str = DEFAULT_PROTOCOL
 
     def __post_init__(self) -> None:
-        if self.protocol not in PROTOCOL_NAMES:
-            raise InvalidInput(f"ReproduceConfig.protocol must be one of {PROTOCOL_NAMES}, got {self.protocol!r}")
+        check_choice(self.protocol, PROTOCOL_NAMES, "ReproduceConfig.protocol")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
         if not isinstance(self.controller, ControllerParams):
             raise InvalidInput(f"ReproduceConfig.controller must be ControllerParams (controller.CONTROLLERS names "
                                f"two), got {self.controller!r}")
-        if self.procedure not in PROCEDURES:
-            raise InvalidInput(f"ReproduceConfig.procedure must be one of {PROCEDURES}, got {self.procedure!r}")
+        check_choice(self.procedure, PROCEDURES, "ReproduceConfig.procedure")
         if self.procedure == "verified" and self.generator.verify:
             raise InvalidInput("ReproduceConfig: procedure 'verified' verifies the generator's candidates itself; "
                              "leave generator.verify False")
@@ -331,7 +329,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
                               checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
-                              margin=config.protocol == "ours", protocol=config.protocol)  # the report's margin
+                              margin=get_protocol(config.protocol).physics is None, protocol=config.protocol)  # the report's margin
             result.save(path)
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name

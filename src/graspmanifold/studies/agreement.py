@@ -26,6 +26,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.validation import check_input_file
+from ..control.protocols import get_protocol
 from ..paper.reproduce import ReproduceConfig
 from ..sim.objects import get_object
 from ..trials.evaluation import evaluate
@@ -136,7 +137,7 @@ def main(argv: list[str] | None = None) -> None:
                 result = study.evaluation(f"{name}_none", key, lambda parts: evaluate(
                     name, None, poses, seed=config.seed, workers=study.workers, executor=study.executor,
                     checkpoint_dir=parts, progress=False, method="none", hand=config.hand, params=config.controller,
-                    margin=config.protocol == "ours", protocol=config.protocol))
+                    margin=get_protocol(config.protocol).physics is None, protocol=config.protocol))
                 mine["objects"][name] = {
                     "poses": poses.tolist(), "hold": result.outcomes("hold").astype(int).tolist(),
                     "force_closure": result.outcomes("force_closure").astype(int).tolist(),

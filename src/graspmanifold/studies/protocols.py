@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ..base.io import markdown_table, write_text_atomic
-from ..control.dexgraspbench import PROTOCOL_NAMES, open_loop_grasps, replay
+from ..control.dexgraspbench import open_loop_grasps, replay
+from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from ..control.generator import generate_postures
 from ..trials.benchmark import (
     OBJECTS,
@@ -108,8 +109,8 @@ def report(args: argparse.Namespace, verification: Verification, open_loop: dict
     lines += markdown_table(["object", *PROTOCOL_NAMES], [
         [name, *(rate_text(int(h.sum()), len(h)) for h in held.values())]
         for name, held in [*open_loop.items(), ("pooled", pooled_open)]])
-    tests = [(f"open loop, {p} against ours, pooled", mcnemar(pooled_open[p], pooled_open["ours"]))
-             for p in PROTOCOL_NAMES if p != "ours"]
+    tests = [(f"open loop, {p} against {DEFAULT_PROTOCOL}, pooled", mcnemar(pooled_open[p], pooled_open[DEFAULT_PROTOCOL]))
+             for p in PROTOCOL_NAMES if p != DEFAULT_PROTOCOL]
     lines += ["", "## Closed loop: the plain heuristic and the paper's controller on the benchmark's poses", "",
               f"Every {args.every}th pose of the benchmark's test lattice (`benchmark_grid`, both placements); the "
               "paper's controller (`ControllerParams()`, recall='target') recalls from a 25 x 25 SOM of the object's "
@@ -126,9 +127,9 @@ def report(args: argparse.Namespace, verification: Verification, open_loop: dict
         tests.append((f"closed loop under {protocol}: the paper's controller against the heuristic, pooled",
                       compare_pooled(closed[("paper", protocol)], closed[("heuristic", protocol)])))
     for controller in ("heuristic", "paper"):
-        for protocol in PROTOCOL_NAMES[1:]:
+        for protocol in (p for p in PROTOCOL_NAMES if p != DEFAULT_PROTOCOL):
             tests.append((f"closed loop, {controller}: {protocol} against ours, pooled (same poses)",
-                          compare_pooled(closed[(controller, protocol)], closed[(controller, "ours")])))
+                          compare_pooled(closed[(controller, protocol)], closed[(controller, DEFAULT_PROTOCOL)])))
     lines += ["", "Trials whose physics failed (a contact deeper than 5 mm, a MuJoCo warning) are left out of the "
               "rates and of every pair: " + "; ".join(
                   f"{c} / {p} {sum(int((~r.valid).sum()) for r in closed[(c, p)].values())}"

@@ -35,7 +35,6 @@ from ..base.errors import GenerationError
 from ..base.io import load_npz, markdown_table, save_npz
 from ..base.workers import parallel_map
 from ..control.dexgraspbench import (
-    DEXGRASPBENCH,
     GRASP_STAGES,
     Q1_CONTACT_DISTANCE,
     open_loop_grasps,
@@ -44,6 +43,7 @@ from ..control.dexgraspbench import (
     replay_grasp,
 )
 from ..control.generator import GeneratorParams, generate_postures, starting_postures
+from ..control.protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, pushed
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.hand import DISTAL_SEGMENTS, segment_of_geoms
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
@@ -53,7 +53,7 @@ from ..trials.stats import PairedComparison, mcnemar, rate_text
 from .runner import StudyRun
 
 #: the verifying protocols compared
-VERIFYING = ("ours", "dexgraspbench")
+VERIFYING = (DEFAULT_PROTOCOL, "dexgraspbench")
 #: BODex's published figures on the Shadow hand (its paper, with DexGraspBench): success under the protocol,
 #: grasps synthesised per second on one GPU
 BODEX_SUCCESS, BODEX_GRASPS_PER_SECOND = 0.75, 49.0
@@ -139,6 +139,7 @@ def ablate(task: tuple[str, str, int]) -> np.ndarray:
     protocol, servo_scale, stages = ablations()[label]
     if protocol is None:
         protocol = replace(DEXGRASPBENCH, physics=replace(DEXGRASPBENCH.physics, object_mass=obj.mass))
+    protocol = pushed(protocol, label)
     postures = generate_postures(obj, n, seed=0, workers=1, progress=False)
     grasps = open_loop_grasps(postures, GRASP_STAGES[stages], obj)
     scene = Scene(obj, free_object=True)
@@ -272,7 +273,7 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
         cells = {q: np.concatenate(pooled[p][q]) if pooled[p][q] else np.zeros(0, dtype=bool) for q in VERIFYING}
         pooled_rows.append([f"verified under {p}", *(rate_text(int(c.sum()), len(c)) for c in cells.values()),
                             f"{speed[p][1] / max(speed[p][0], 1e-9):.2f}", f"{yields[p][1] / max(yields[p][0], 1):.0%}"])
-        if len(cells["ours"]):
+        if len(cells[DEFAULT_PROTOCOL]):
             other = [q for q in VERIFYING if q != p][0]
             tests.append((f"verified under {p}: held under {other} against under {p} (same grasps, benchmark pooled)",
                           mcnemar(cells[other], cells[p])))

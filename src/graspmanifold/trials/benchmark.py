@@ -36,8 +36,9 @@ import numpy as np
 
 from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import InvalidInput
-from ..base.validation import check_int, check_name, file_in
+from ..base.validation import check_choice, check_int, check_name, file_in
 from ..control.controller import ControllerFactory, ControllerParams
+from ..control.protocols import DEFAULT_PROTOCOL, Protocol
 from ..control.regrasp import Regrasp
 from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
@@ -103,10 +104,8 @@ def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray
     """
     if name not in OBJECTS:
         raise InvalidInput(f"unknown benchmark object {name!r}; expected one of {tuple(OBJECTS)}")
-    if placement not in PLACEMENTS:
-        raise InvalidInput(f"placement must be one of {PLACEMENTS}, got {placement!r}")
-    if split not in SPLITS:
-        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
+    check_choice(placement, PLACEMENTS, "placement")
+    check_choice(split, SPLITS, "split")
     obj = OBJECTS[name].object
     ball = obj.shape == "sphere"
     gaps = _BALL_GAPS[placement] if ball else _GAPS[placement]
@@ -154,7 +153,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                   label: str = "", progress: bool | None = None, executor: Executor | None = None,
                   controller: ControllerFactory | None = None, regrasp: Regrasp | None = None,
                   poses: dict[tuple[str, str], np.ndarray] | None = None,
-                  protocol: str = "ours") -> dict[tuple[str, str], EvaluationResult]:
+                  protocol: str | Protocol = DEFAULT_PROTOCOL) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
     Args:
@@ -184,8 +183,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
     unknown = [name for name in names if name not in OBJECTS]
     if unknown or not names:
         raise InvalidInput(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
-    if split not in SPLITS:
-        raise InvalidInput(f"split must be one of {SPLITS}, got {split!r}")
+    check_choice(split, SPLITS, "split")
     every = check_int(every, "every")
     if store is not None:  # the label becomes part of the stored files' names
         check_name(label or "method", "label")
@@ -255,8 +253,7 @@ def compare_pooled(a: dict[tuple[str, str], EvaluationResult], b: dict[tuple[str
     Returns:
         The paired comparison.
     """
-    if invalid not in INVALID_TRIALS:
-        raise InvalidInput(f"invalid must be one of {INVALID_TRIALS}, got {invalid!r}")
+    check_choice(invalid, INVALID_TRIALS, "invalid")
     (held_a, valid_a), (held_b, valid_b) = pooled(a, measure, rows), pooled(b, measure, rows)
     if held_a.shape != held_b.shape:
         raise InvalidInput(f"a and b pool {len(held_a)} and {len(held_b)} trials; a paired comparison needs the same "

@@ -30,6 +30,7 @@ from ..base.workers import parallel_map, workers_for
 from ..control.regrasp import Regrasp
 from ..control.controller import ControllerFactory, ControllerParams
 from ..control.judge import JUDGING
+from ..control.protocols import DEFAULT_PROTOCOL, Protocol
 from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.objects import GraspObject, object_from_params
@@ -325,7 +326,7 @@ def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | 
              progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
              batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
              controller: ControllerFactory | None = None, margin: bool = False,
-             regrasp: Regrasp | None = None, protocol: str = "ours") -> EvaluationResult:
+             regrasp: Regrasp | None = None, protocol: str | Protocol = DEFAULT_PROTOCOL) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table

@@ -31,10 +31,10 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
-from ..base.validation import check_int
+from ..base.validation import check_choice, check_int
 from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
-from ..control.dexgraspbench import PROTOCOL_NAMES, judging_rules, protocol
+from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
 from ..control.regrasp import PROBE_DIRECTION, Regrasp
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
@@ -109,9 +109,9 @@ class TrialSetup:
             (`experience`, `preshape`, `params` stay at their defaults), and `method` names it.
         margin: measure the disturbance margin of every grasp that holds (`judge` module doc; up to 1.8 s more
             simulation per held grasp); False: `Trial.margin` is NaN.
-        protocol: how the grasps are judged: 'ours' (the hold test, `judge.JUDGING`) or DexGraspBench's
-            ('dexgraspbench', 'dexgraspbench-paper': its physics profile from the start, its external-force test
-            after the grasp; `dexgraspbench.judging_rules`).
+        protocol: how the grasps are judged (`protocols.Protocol`, a registered name is looked up): our hold test
+            (`protocols.DEFAULT_PROTOCOL`, `judge.JUDGING`) or DexGraspBench's ('dexgraspbench',
+            'dexgraspbench-paper': its physics profile from the start, its external-force test after the grasp).
         regrasp: the controller's attempts, its lift probe and how it chooses the next attempt (`regrasp.Regrasp`;
             the default: one attempt, the paper's). A user's own controller with more attempts needs `attempt` and
             `restart` (as `BatchController` has them).
@@ -129,7 +129,7 @@ class TrialSetup:
     controller: ControllerFactory | None = None
     margin: bool = False
     regrasp: Regrasp = Regrasp()
-    protocol: str = "ours"
+    protocol: Protocol = DEFAULT_PROTOCOL
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -146,8 +146,7 @@ class TrialSetup:
         if not isinstance(self.noise, Noise) or not isinstance(self.params, ControllerParams):
             raise InvalidInput(f"noise must be a Noise and params ControllerParams, got {type(self.noise).__name__} "
                                f"and {type(self.params).__name__}")
-        if self.backend not in BACKENDS:
-            raise InvalidInput(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        check_choice(self.backend, BACKENDS, "backend")
         if not isinstance(self.method, str):
             raise InvalidInput(f"method must be a label (a string), got {self.method!r}")
         if self.controller is not None and not (callable(self.controller) and self.method):
@@ -177,11 +176,11 @@ class TrialSetup:
         if self.regrasp.attempts > 1 and (self.table or self.backend != "cpu"):
             raise InvalidInput("a regrasp (Regrasp.attempts > 1) runs on the spring support (table=False) and the cpu "
                                "backend: its probe re-engages the support where the object lies")
-        if self.protocol not in PROTOCOL_NAMES:
-            raise InvalidInput(f"protocol must be one of {PROTOCOL_NAMES}, got {self.protocol!r}")
-        if self.protocol != "ours" and (self.table or self.backend != "cpu" or self.margin):
-            raise InvalidInput(f"protocol {self.protocol!r} judges on the spring support with the cpu backend and "
-                               "without our disturbance margin (table=False, backend='cpu', margin=False)")
+        set_field("protocol", get_protocol(self.protocol))
+        if self.protocol.physics is not None and (self.table or self.backend != "cpu" or self.margin):
+            raise InvalidInput(f"protocol {self.protocol.name!r} (its own physics) judges on the spring support with "
+                               "the cpu backend and without our disturbance margin (table=False, backend='cpu', "
+                               "margin=False)")
         set_field("method", self.method or method_name(self.experience))
         set_field("table", bool(self.table))
         set_field("margin", bool(self.margin))
@@ -190,7 +189,7 @@ class TrialSetup:
     def rules(self) -> JudgingRules:
         """The judging rules of these trials: their protocol's (`JUDGING` for ours), with the margin where it is
         asked for."""
-        return replace(judging_rules(self.protocol), margin=self.margin)
+        return replace(self.protocol.rules, margin=self.margin)
 
     def key(self, poses: np.ndarray, seed: int) -> str:
         """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
@@ -212,10 +211,18 @@ class TrialSetup:
                            "hand": self.hand.digest, "controller": None if custom is None else
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}",
                            **({"regrasp": self.regrasp.description()} if self.regrasp.attempts > 1 else {}),
-                           **({"protocol": self.protocol} if self.protocol != "ours" else {})},
+                           **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
                           np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
+
+    def _protocol_key(self) -> dict:
+        """The protocol's part of `key`: nothing for the default (keys made before protocols stay valid), the
+        name of a registered one, the whole value of one's own."""
+        protocol = self.protocol
+        if PROTOCOLS.get(protocol.name) == protocol:
+            return {} if protocol.name == DEFAULT_PROTOCOL else {"protocol": protocol.name}
+        return {"protocol": asdict(protocol)}
 
     def make_controller(self, n: int) -> Controller:
         """A fresh controller of this set-up.
@@ -303,8 +310,7 @@ def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generat
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
     support (`judge.supported_scene`), and the open hand at rest in `initial`."""
     scene = supported_scene(setup.object, setup.table, setup.hand)
-    if setup.protocol != "ours":  # its physics from the start: the grasp is made under it too
-        protocol(setup.protocol).physics.apply(scene)
+    setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
     scene.set_posture(initial)

@@ -30,6 +30,7 @@ from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
 from ..base.workers import parallel_map
 from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasp, replay
+from ..control.protocols import DEFAULT_PROTOCOL
 from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND
 from ..sim.objects import GraspObject, get_object
 from .grid import palm_pose_for, reachable
@@ -136,7 +137,7 @@ def _replay_task(task: tuple[np.ndarray, np.ndarray, np.ndarray], obj: GraspObje
     postures, nominal, true = task
     grasps = [carried(obj, open_loop_grasp(np.concatenate(palm_pose_for(obj, n)), p), n, t)
               for p, n, t in zip(postures, nominal, true)]
-    return replay(obj, grasps, "ours")
+    return replay(obj, grasps, DEFAULT_PROTOCOL)
 
 
 def open_loop(obj: str | GraspObject, postures: np.ndarray, nominal: np.ndarray, true: np.ndarray, *,

@@ -1,0 +1,230 @@
+"""How a grasp is judged, one value per protocol (`Protocol`), and the registry of them by name (`PROTOCOLS`).
+
+A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
+closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop
+replay (`dexgraspbench.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
+`DexGraspBenchProtocol`). Three are registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`) and
+DexGraspBench's two versions, `main` (0.1 kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg,
+0.10 m, 180 degrees). The physics DexGraspBench needs is a named profile: a 4 ms step, implicitfast, elliptic
+cones with impratio 10, condim 4, two noslip iterations, friction 0.6 sliding and 0.02 torsional, gravity off,
+the object's mass set by rescaling its density. Our hand keeps its own servos (DexGraspBench's Menagerie hand
+has kp 5 on main): the protocol judges the grasp, the hand is the one under test.
+
+A protocol of one's own is a `Protocol` value: `TrialSetup(protocol=...)`, `replay_grasp` and the generator's
+verifier take one as they take a registered name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import mujoco
+
+from ..base.errors import InvalidInput
+from ..base.validation import check_choice
+from ..sim.scene import Scene
+from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules
+
+
+@dataclass(frozen=True)
+class PhysicsProfile:
+    """The physics options a protocol needs of a scene (`apply` sets them on a compiled scene).
+
+    Attributes:
+        name: the profile's name.
+        timestep: s per physics step.
+        integrator: MuJoCo's integrator, by name ('implicitfast').
+        cone: the friction cone ('elliptic').
+        impratio: the ratio of frictional to normal constraint impedance.
+        condim: contact dimensionality of every geom (4: sliding and torsional friction).
+        noslip_iterations: MuJoCo's noslip solver iterations.
+        friction: (sliding, torsional) coefficients of every geom.
+        gravity: gravity on (False: off, as during DexGraspBench's test).
+        object_mass: kg, the object's mass, set by rescaling its density (its inertia scales alike).
+    """
+
+    name: str
+    timestep: float
+    integrator: str
+    cone: str
+    impratio: float
+    condim: int
+    noslip_iterations: int
+    friction: tuple[float, float]
+    gravity: bool
+    object_mass: float
+
+    def apply(self, scene: Scene) -> None:
+        """Set these options on a scene's compiled model (its data keeps its state; call before simulating).
+
+        Args:
+            scene: a scene (`Scene`), its object free or welded.
+        """
+        model = scene.model
+        model.opt.timestep = self.timestep
+        model.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{self.integrator.upper()}")
+        model.opt.cone = getattr(mujoco.mjtCone, f"mjCONE_{self.cone.upper()}")
+        model.opt.impratio = self.impratio
+        model.opt.noslip_iterations = self.noslip_iterations
+        model.geom_condim[:] = self.condim
+        model.geom_friction[:, 0], model.geom_friction[:, 1] = self.friction
+        scene.set_gravity(self.gravity)
+        body = scene.object_body
+        scale = self.object_mass / float(model.body_mass[body])
+        model.body_mass[body] *= scale
+        model.body_inertia[body] *= scale
+        mujoco.mj_setConst(model, scene.data)
+
+
+def _profile(mass: float) -> PhysicsProfile:
+    return PhysicsProfile(name=f"dexgraspbench-{mass * 1000:.0f}g", timestep=0.004, integrator="implicitfast",
+                          cone="elliptic", impratio=10.0, condim=4, noslip_iterations=2, friction=(0.6, 0.02),
+                          gravity=False, object_mass=mass)
+
+
+@dataclass(frozen=True)
+class DexGraspBenchProtocol:
+    """DexGraspBench's external-force test, one version of it (see the module doc).
+
+    Attributes:
+        version: 'main' or 'paper'.
+        physics: the scene's physics profile.
+        translation_limit: m the object may move and still be held.
+        angle_limit: rad it may turn.
+        force_per_kg: N of external force per kg of object (10: about its weight, along each direction).
+        max_penetration: m, a pregrasp deeper than this inside the object fails outright.
+        approach_targets: interpolated targets of each move (pregrasp -> grasp, grasp -> squeeze).
+        steps_per_target: physics steps per target.
+        hold_chunks: chunks of the push, checked after each (the early stop).
+        steps_per_chunk: physics steps per chunk.
+        directions: the external force's unit directions, in turn.
+    """
+
+    version: str
+    physics: PhysicsProfile
+    translation_limit: float
+    angle_limit: float
+    force_per_kg: float = 10.0
+    max_penetration: float = 0.01
+    approach_targets: int = 10
+    steps_per_target: int = 10
+    hold_chunks: int = 10
+    steps_per_chunk: int = 50
+    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+
+    @property
+    def name(self) -> str:
+        """The name of its `Protocol` in `PROTOCOLS`."""
+        return "dexgraspbench" if self.version == "main" else f"dexgraspbench-{self.version}"
+
+    @property
+    def push(self) -> float:
+        """N, the external force on the object."""
+        return self.force_per_kg * self.physics.object_mass
+
+
+DEXGRASPBENCH = DexGraspBenchProtocol("main", _profile(0.1), translation_limit=0.05, angle_limit=math.radians(15))
+"""DexGraspBench's main branch: 0.1 kg, the object within 5 cm and 15 degrees."""
+DEXGRASPBENCH_PAPER = DexGraspBenchProtocol("paper", _profile(0.03), translation_limit=0.10,
+                                            angle_limit=math.radians(180))
+"""The BODex paper's version: 0.03 kg, within 10 cm and 180 degrees."""
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """How a grasp is judged: the physics, the judging after a closed-loop grasp, the judging of a replay.
+
+    Attributes:
+        name: its name (the registry's key for a registered one; part of a trial's key otherwise).
+        rules: the rules of the judging loop after a trial's grasp (`judge.judge_worlds`), and of our hold test
+            after an open-loop replay.
+        push_test: DexGraspBench's external-force test (one version), which judges an open-loop replay in place of
+            `rules` and brings its physics profile; None: the scene's own physics, a replay judged by `rules`.
+    """
+
+    name: str
+    rules: JudgingRules = JUDGING
+    push_test: DexGraspBenchProtocol | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidInput(f"Protocol.name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.rules, JudgingRules):
+            raise InvalidInput(f"Protocol.rules must be a JudgingRules, got {type(self.rules).__name__}")
+        if self.push_test is not None and not isinstance(self.push_test, DexGraspBenchProtocol):
+            raise InvalidInput(f"Protocol.push_test must be a DexGraspBenchProtocol or None, got "
+                               f"{type(self.push_test).__name__}")
+
+    @property
+    def physics(self) -> PhysicsProfile | None:
+        """The physics profile the scene runs under from the start (None: the scene's own)."""
+        return None if self.push_test is None else self.push_test.physics
+
+    def apply(self, scene: Scene) -> None:
+        """Set the protocol's physics on a scene (nothing for one that keeps the scene's own).
+
+        Args:
+            scene: the scene; its model changes for good.
+        """
+        if self.physics is not None:
+            self.physics.apply(scene)
+
+    def summary(self) -> str:
+        """How it judges a trial's grasp, in a sentence (the reproduction report's)."""
+        rules = self.rules
+        epsilon = f"force closure: ε > {rules.epsilon_threshold}"
+        if self.push_test is None:
+            return (f"hold: gravity along ±x, ±y, ±z for {rules.hold_seconds} s each, the object within "
+                    f"{100 * rules.hold_limit:.0f} cm; {epsilon}")
+        p = self.push_test
+        return (f"DexGraspBench's external-force test ({p.version} version, its physics profile): a push of {p.push:g} N "
+                f"along ±x, ±y, ±z, each from the state at the grasp's end, the object within "
+                f"{100 * p.translation_limit:.0f} cm and {math.degrees(p.angle_limit):.0f}°; {epsilon}")
+
+
+def pushed(test: DexGraspBenchProtocol, name: str | None = None) -> Protocol:
+    """The protocol of a DexGraspBench external-force test: its physics, its push test for a replay, and for a
+    trial's grasp the rules of the one judging loop that do the same (a push of `push` N per direction, gravity
+    off, each direction from the state at the grasp's end, `hold_chunks` x `steps_per_chunk` steps, the
+    translation and angle limits; checked every control period, not every chunk: an early stop is found sooner).
+
+    Args:
+        test: the test (a registered version, or one changed for an ablation).
+        name: the protocol's name (None: the test's).
+
+    Returns:
+        The `Protocol`.
+    """
+    rules = replace(JUDGING, hold_seconds=test.hold_chunks * test.steps_per_chunk * test.physics.timestep,
+                    hold_limit=test.translation_limit, push=test.push, angle_limit=test.angle_limit, from_grasp=True,
+                    physics=test.physics.name)
+    return Protocol(name or test.name, rules, test)
+
+
+#: our hold test (`judge.JUDGING`): the default everywhere
+OURS = Protocol("ours")
+#: every registered protocol by name: our hold test and DexGraspBench's versions
+PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, pushed(DEXGRASPBENCH), pushed(DEXGRASPBENCH_PAPER))}
+#: the registered protocols' names
+PROTOCOL_NAMES: tuple[str, ...] = tuple(PROTOCOLS)
+#: the name of the protocol used where none is named
+DEFAULT_PROTOCOL: str = OURS.name
+
+
+def get_protocol(protocol: str | Protocol, argument: str = "protocol") -> Protocol:
+    """A protocol by name, or one given as a value (returned as it is).
+
+    Args:
+        protocol: a name in `PROTOCOLS`, or a `Protocol`.
+        argument: the argument's name, for the error.
+
+    Returns:
+        The `Protocol`.
+
+    Raises:
+        InvalidInput: an unknown name or another type.
+    """
+    if isinstance(protocol, Protocol):
+        return protocol
+    return PROTOCOLS[check_choice(protocol, PROTOCOL_NAMES, argument, also="or a Protocol")]
