@@ -28,7 +28,7 @@ def test_evaluation_and_generation_on_a_cluster_equal_the_local_run(cluster):
                                   executor=executor)
     assert remote.postures.tobytes() == postures.postures.tobytes()
     here = gm.evaluate("cylinder", postures, GRID, seed=0)
-    there = gm.evaluate("cylinder", postures, GRID, seed=0, executor=executor)
+    there = gm.evaluate("cylinder", postures, GRID, seed=0, workers=executor)
     assert [t.grid_pose.tolist() for t in there.trials] == [t.grid_pose.tolist() for t in here.trials]
     assert there.summary == here.summary
     for a, b in zip(here.trials, there.trials):

@@ -138,7 +138,7 @@ def test_warp_buffers_hold_a_closed_hand_on_every_object(name, monkeypatch):
 
     obj = OBJECTS[name].object
     poses = check_grid("quick", obj)[1][:2] if name in gm.PAPER_OBJECTS else np.array([[0.0, 0.0, 0.01, 0.0]])
-    scenes = [trial_scene(TrialSetup(obj), pose, np.random.default_rng(0), gm.open_posture()) for pose in poses]
+    scenes = [trial_scene(TrialSetup(object=obj), pose, np.random.default_rng(0), gm.open_posture()) for pose in poses]
     worlds = warp_worlds.WarpWorlds(scenes)
     everyone = np.arange(worlds.n)
     worlds.set_targets(everyone, np.tile(gm.closed_posture(), (worlds.n, 1)))  # the whole hand, squeezing

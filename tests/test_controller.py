@@ -496,8 +496,8 @@ def test_a_recall_of_the_closed_hand_closes_as_the_plain_heuristic():
     closed = gm.PostureDatabase(gm.closed_posture()[None])
     obj = gm.get_object("cylinder")
     for pose in gm.grid_preset("quick", obj)[::10]:
-        plain = run_trial(TrialSetup(obj), pose, np.random.default_rng(0))
-        recalled = run_trial(TrialSetup(obj, closed), pose, np.random.default_rng(0))
+        plain = run_trial(TrialSetup(object=obj), pose, np.random.default_rng(0))
+        recalled = run_trial(TrialSetup(object=obj, experience=closed), pose, np.random.default_rng(0))
         assert recalled.matches > 0 and plain.matches == 0
         assert recalled.hold == plain.hold and np.array_equal(recalled.touching, plain.touching)
         assert recalled.time_to_grasp == pytest.approx(plain.time_to_grasp)
@@ -572,8 +572,8 @@ def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
         made.append(TracedController(BatchController(n, som, CLOSING_RECALL, hand=hand)))
         return made[-1]
 
-    plain = run_trials(TrialSetup(obj, som, params=CLOSING_RECALL), poses, [np.random.default_rng(i) for i in range(2)])
-    logged = run_trials(TrialSetup(obj, controller=traced, method="traced"), poses,
+    plain = run_trials(TrialSetup(object=obj, experience=som, params=CLOSING_RECALL), poses, [np.random.default_rng(i) for i in range(2)])
+    logged = run_trials(TrialSetup(object=obj, controller=traced, method="traced"), poses,
                         [np.random.default_rng(i) for i in range(2)])
     assert [t.hold for t in plain] == [t.hold for t in logged]
     assert all(np.array_equal(a.posture, b.posture) for a, b in zip(plain, logged))

@@ -165,11 +165,11 @@ def test_closed_loop_trials_take_either_protocol_by_name():
         assert trial.valid and trial.hold_time <= 6 * 2.0 + 1e-9
         assert trial.hold_time == pytest.approx(12.0) if trial.hold else trial.hold_time < 12.0
     assert max(t.hold_time for t in ours.trials) <= 6 * 0.5 + 1e-9
-    assert gm.TrialSetup("box").key(grid, 0) != gm.TrialSetup("box", protocol="dexgraspbench").key(grid, 0)
+    assert gm.TrialSetup(object="box").key(grid, 0) != gm.TrialSetup(object="box", protocol="dexgraspbench").key(grid, 0)
     with pytest.raises(ValueError, match="protocol must be one of"):
         gm.evaluate("box", None, grid, protocol="dexgraspbench-v0")
     with pytest.raises(ValueError, match="without our disturbance margin"):
-        gm.TrialSetup("box", protocol="dexgraspbench", margin=True)
+        gm.TrialSetup(object="box", protocol="dexgraspbench", margin=True)
     verified = gm.generate_postures("box", 2, seed=0, workers=1, progress=False,
                                     params=gm.GeneratorParams(verify_protocol="dexgraspbench-paper"))
     assert len(verified) == 2
@@ -321,7 +321,7 @@ def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_
     assert {name for name, p in PROTOCOLS.items() if p.push_test is not None} == {"dexgraspbench", "dexgraspbench-paper"}
     lift = Protocol("lift", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
     with pytest.raises(ValueError, match="protocol must be one of .* or a Protocol"):
-        TrialSetup("box", protocol="lift")
+        TrialSetup(object="box", protocol="lift")
     from graspmanifold.trials.grid import check_grid
 
     poses = check_grid("quick", gm.get_object("box"))[1][:4]
@@ -331,8 +331,8 @@ def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_
     assert ours.outcomes("hold").any() and lifted.outcomes("hold")[ours.outcomes("hold")].all()  # six hold one
     times = np.array([t.hold_time for t in lifted.trials])[lifted.outcomes("hold")]
     assert np.allclose(times, 0.3)  # one direction of 0.3 s, not six of 0.5 s
-    assert TrialSetup("box", protocol=lift).key(poses, 0) != TrialSetup("box").key(poses, 0)
-    assert TrialSetup("box", protocol=DEFAULT_PROTOCOL).key(poses, 0) == TrialSetup("box").key(poses, 0)
+    assert TrialSetup(object="box", protocol=lift).key(poses, 0) != TrialSetup(object="box").key(poses, 0)
+    assert TrialSetup(object="box", protocol=DEFAULT_PROTOCOL).key(poses, 0) == TrialSetup(object="box").key(poses, 0)
     postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
     scene = gm.Scene("box", free_object=True)
     for grasp in open_loop_grasps(postures, GRASP_STAGES["contacts"], "box"):

@@ -217,7 +217,7 @@ def test_a_controller_on_another_hand_drives_that_hand_and_never_commands_a_join
         controller = BatchController(2, experience, params, hand=hand)
         np.testing.assert_array_equal(controller.initial, hand.keyframe_posture("open"))
         np.testing.assert_array_equal(controller.closed, hand.keyframe_posture("closed"))
-        setup = TrialSetup("cylinder", hand=hand, method="watched",
+        setup = TrialSetup(object="cylinder", hand=hand, method="watched",
                            controller=lambda n, hand, params=params: Watched(n, experience, params, hand=hand))
         trials = run_trials(setup, gm.grid_preset("quick", "cylinder")[:2], [np.random.default_rng(k) for k in range(2)])
         assert all(t.valid for t in trials) and sum(t.matches for t in trials) > 0

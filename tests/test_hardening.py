@@ -67,7 +67,7 @@ def test_a_hand_file_edited_in_place_gives_new_results_never_the_old_files(tmp_p
 
     _hand_file(tmp_path, servo_gain=1 / 40, marker=2.0)  # only the included file changes
     assert hand_model(path).digest != weak.digest
-    assert TrialSetup("cylinder", hand=hand_model(path)).key(poses, 0) != TrialSetup("cylinder", hand=weak).key(poses, 0)
+    assert TrialSetup(object="cylinder", hand=hand_model(path)).key(poses, 0) != TrialSetup(object="cylinder", hand=weak).key(poses, 0)
 
 
 def test_the_studys_experience_is_kept_under_the_key_of_what_made_it(tmp_path, monkeypatch):

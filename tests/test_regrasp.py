@@ -47,7 +47,7 @@ def spy(monkeypatch):
 
 
 def test_the_probe_reads_only_touch_and_the_regrasp_starts_where_the_object_lies(spy):
-    setup = TrialSetup(MARBLE, regrasp=Regrasp(attempts=2))
+    setup = TrialSetup(object=MARBLE, regrasp=Regrasp(attempts=2))
     result = run_trial(setup, FAILING_POSE, np.random.default_rng([0, 0]))
     assert result.attempts == 2 and result.valid
     # nothing read the object's pose before the judge's one hold test, after the last attempt
@@ -64,7 +64,7 @@ def test_the_probe_reads_only_touch_and_the_regrasp_starts_where_the_object_lies
 
 
 def test_one_attempt_never_probes(spy):
-    result = run_trial(TrialSetup(MARBLE), FAILING_POSE, np.random.default_rng([0, 0]))
+    result = run_trial(TrialSetup(object=MARBLE), FAILING_POSE, np.random.default_rng([0, 0]))
     assert result.attempts == 1 and "support" not in spy.calls and np.isnan(result.failure).all()
 
 
@@ -156,6 +156,6 @@ def test_second_attempts_that_faulted_on_the_stiff_support_run_on_the_soft_one()
 
 def test_a_regrasp_needs_the_spring_support_and_an_experience_to_recall_from():
     with pytest.raises(ValueError, match="spring support"):
-        TrialSetup(MARBLE, table=True, regrasp=Regrasp(2))
+        TrialSetup(object=MARBLE, table=True, regrasp=Regrasp(2))
     with pytest.raises(ValueError, match="give an experience"):
         BatchController(1, regrasp=Regrasp(2, grasp_types=["power"]))

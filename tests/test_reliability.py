@@ -38,10 +38,10 @@ def test_a_healthy_grasp_has_no_faults_and_shallow_contacts():
 def test_a_trial_whose_physics_failed_is_invalid_not_a_result(tmp_path):
     feather = gm.make_object("cylinder", radius=0.03, length=0.16, mass=1e-6, name="feather")
     pose = np.array([0.0, 0.0, 0.01, 0.0])
-    trial = run_trial(TrialSetup(feather), pose, np.random.default_rng(0))
+    trial = run_trial(TrialSetup(object=feather), pose, np.random.default_rng(0))
     assert not trial.valid and "penetrates" in trial.fault and trial.penetration > PENETRATION_LIMIT
     assert not trial.force_closure and not trial.hold
-    healthy = run_trial(TrialSetup("cylinder"), pose, np.random.default_rng(0))
+    healthy = run_trial(TrialSetup(object="cylinder"), pose, np.random.default_rng(0))
     assert healthy.valid and healthy.penetration < PENETRATION_LIMIT and healthy.hold
 
     result = EvaluationResult(feather.params(), "none", "custom", 0, [trial, healthy])
@@ -524,8 +524,8 @@ def test_a_checkpoint_key_survives_a_best_match_call_on_the_som(rng):
 
     som = gm.SOM(4, 4, 22, seed=0).fit(rng.uniform(-0.2, 1.2, (60, 22)), epochs=2)
     poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, 0.0, 0.02, 0.1]])
-    before = TrialSetup("cylinder", som).key(poses, 0)
+    before = TrialSetup(object="cylinder", experience=som).key(poses, 0)
     som.best_match(np.full(22, 0.5), mask=np.arange(22) < 11)
-    assert TrialSetup("cylinder", som).key(poses, 0) == before
+    assert TrialSetup(object="cylinder", experience=som).key(poses, 0) == before
     other = gm.SOM(4, 4, 22, seed=1).fit(rng.uniform(-0.2, 1.2, (60, 22)), epochs=2)
-    assert TrialSetup("cylinder", other).key(poses, 0) != before
+    assert TrialSetup(object="cylinder", experience=other).key(poses, 0) != before

@@ -168,7 +168,7 @@ def test_regrasp_arguments_out_of_bounds_are_refused_before_any_trial():
         gm.evaluate("box", None, grid, regrasp=gm.Regrasp(attempts=2, preshapes=outside), workers=1, progress=False)
     database = gm.PostureDatabase(np.tile(gm.closed_posture(), (5, 1)))
     with pytest.raises(ValueError, match="3 types for an experience of 5 reference postures"):
-        gm.TrialSetup("box", database, regrasp=gm.Regrasp(attempts=2, grasp_types=np.array(["power"] * 3)))
+        gm.TrialSetup(object="box", experience=database, regrasp=gm.Regrasp(attempts=2, grasp_types=np.array(["power"] * 3)))
 
 
 def test_a_study_whose_report_cannot_be_written_is_refused_before_its_work(tmp_path, capsys):

@@ -54,7 +54,7 @@ def test_worlds_run_together_give_the_trials_each_gives_alone(experience, kind, 
     _, poses = check_grid("quick", obj)
     poses = poses[::5]
     rngs = [np.random.default_rng([3, i]) for i in range(len(poses))]
-    setup = TrialSetup(obj, experience[kind], noise, params, margin=True)
+    setup = TrialSetup(object=obj, experience=experience[kind], noise=noise, params=params, margin=True)
     batched = run_trials(setup, poses, rngs)
     for i, (pose, trial) in enumerate(zip(poses, batched)):
         single = run_trial(setup, pose, np.random.default_rng([3, i]))
@@ -166,3 +166,27 @@ def test_results_and_postures_leave_as_tables(tmp_path):
         assert result.valid().tolist() == result.valid.tolist()
     with pytest.raises(ValueError, match=r"path must end in \.csv"):
         result.to_csv(tmp_path / "trials.txt")
+
+
+def slower_closing(n, hand):
+    """A controller of one's own for the recording test: ours, closing at half the speed."""
+    return BatchController(n, None, replace(gm.ControllerParams(), closing_rate=gm.ControllerParams().closing_rate / 2),
+                           hand=hand)
+
+
+@pytest.mark.parametrize("fields", [{"protocol": "dexgraspbench"}, {"regrasp": gm.Regrasp(attempts=2)},
+                                    {"controller": slower_closing, "method": "slower"}],
+                         ids=["dexgraspbench", "regrasp", "own-controller"])
+def test_a_recording_is_the_trial_that_evaluate_runs_whatever_the_set_up(fields):
+    """`record_trial` takes every field `evaluate` takes (one `TrialSetup`), and records the trial evaluate runs."""
+    pose = (0.0, 0.0, 0.01, 0.0)
+    result = gm.evaluate("cylinder", None, np.array([pose]), seed=3, workers=1, progress=False, **fields)
+    recording = gm.record_trial("cylinder", None, pose, seed=3, every=10, margin=False, **fields)
+    ran, recorded = result.trials[0], recording.trial
+    assert (recorded.hold, recorded.force_closure, recorded.attempts, recorded.fault) == \
+        (ran.hold, ran.force_closure, ran.attempts, ran.fault)
+    assert recorded.epsilon == pytest.approx(ran.epsilon, abs=1e-9) and len(recording.states) > 2
+    with pytest.raises(ValueError, match="unknown trial set-up field"):
+        gm.record_trial("cylinder", proto="dexgraspbench")
+    with pytest.raises(ValueError, match="given whole"):
+        gm.evaluate(gm.TrialSetup(object="cylinder"), None, np.array([pose]), noise=gm.Noise())

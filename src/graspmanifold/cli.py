@@ -249,8 +249,8 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
         remove_checkpoints(checkpoints)
     experience = _experience(args, files)
     start = time.perf_counter()
-    result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.workers, noise=noise,
-                      table=args.table, checkpoint_dir=checkpoints, progress=True, executor=args.cluster,
+    result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.cluster or args.workers, noise=noise,
+                      table=args.table, checkpoint_dir=checkpoints, progress=True,
                       backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller],
                       margin=args.margin, protocol=args.protocol)
     result.save(out / "trials.npz")

@@ -327,7 +327,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             experience = {"none": None, "database": PostureDatabase(sets[name].postures),
                           "som": maps[name], "som_all": maps["all"]}[kind]
             parts = path.with_name(path.stem + ".parts")
-            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=workers, executor=executor,
+            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=executor or workers,
                               checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
                               margin=get_protocol(config.protocol).physics is None, protocol=config.protocol)  # the report's margin
             result.save(path)

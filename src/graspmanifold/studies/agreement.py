@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> None:
                 poses = sample(config, name, args.sample, args.seed)
                 key = result_key(config.to_json(), name, poses, "none")
                 result = study.evaluation(f"{name}_none", key, lambda parts: evaluate(
-                    name, None, poses, seed=config.seed, workers=study.workers, executor=study.executor,
+                    name, None, poses, seed=config.seed, workers=study.executor or study.workers,
                     checkpoint_dir=parts, progress=False, method="none", hand=config.hand, params=config.controller,
                     margin=get_protocol(config.protocol).physics is None, protocol=config.protocol))
                 mine["objects"][name] = {

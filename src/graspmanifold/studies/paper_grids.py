@@ -86,12 +86,12 @@ class Study(StudyRun):
         obj = get_object(obj) if isinstance(obj, str) else obj
         poses = grid if grid is not None else grid_preset(grid_name.removesuffix("_noisy"), obj)
         params = params or BLEND
-        key = TrialSetup(obj, experience, noise or Noise(), params, preshape=preshape, method=method,
+        key = TrialSetup(object=obj, experience=experience, noise=noise or Noise(), params=params, preshape=preshape, method=method,
                          margin=True).key(poses, 0)
 
         def compute(parts: Path) -> EvaluationResult:
             start = time.perf_counter()
-            result = evaluate(obj, experience, poses, seed=0, workers=self.workers, executor=self.executor, noise=noise, params=params,
+            result = evaluate(obj, experience, poses, seed=0, workers=self.executor or self.workers, noise=noise, params=params,
                               preshape=preshape, checkpoint_dir=parts, margin=True, method=method)
             result.grid_name = grid_name
             s = result.summary

@@ -90,7 +90,7 @@ def trace_cell(som: SOM, name: str, placement: str) -> tuple[list[str], dict[str
             made.append(TracedController(BatchController(n, som, params, hand=hand)))
             return made[-1]
 
-        trials = run_trials(TrialSetup(OBJECTS[name].object, controller=factory, method=label), poses,
+        trials = run_trials(TrialSetup(object=OBJECTS[name].object, controller=factory, method=label), poses,
                             [np.random.default_rng([0, i]) for i in range(len(poses))])
         log = made[0].log
         times = np.array([entry[0] for entry in log])

@@ -91,7 +91,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
     trials, wall, judged_held = 0, 0.0, 0
     for obj, poses in cells:
         poses = poses[reachable(obj, poses)][::every]
-        setup = TrialSetup(obj, margin=margin)
+        setup = TrialSetup(object=obj, margin=margin)
         per_world[:] = [[] for _ in poses]
         period = setup.params.control_period
         nstep = round(period / 0.002)

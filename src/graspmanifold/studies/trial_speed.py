@@ -39,7 +39,7 @@ FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_t
 
 def _one_by_one(task: tuple[list[int], np.ndarray], *, obj: str) -> list:
     indices, poses = task
-    setup = TrialSetup(obj)
+    setup = TrialSetup(object=obj)
     return [run_trial(setup, pose, np.random.default_rng([0, i])) for i, pose in zip(indices, poses)]
 
 

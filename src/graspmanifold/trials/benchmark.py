@@ -193,7 +193,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
             continue
         path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "label")
         grid = (benchmark_grid(name, placement, split) if poses is None else poses[(name, placement)])[::every]
-        key = TrialSetup(OBJECTS[name].object, experience, noise, params, preshape=preshape, method=label,
+        key = TrialSetup(object=OBJECTS[name].object, experience=experience, noise=noise, params=params, preshape=preshape, method=label,
                          controller=controller, regrasp=regrasp or Regrasp(), protocol=protocol).key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
@@ -202,8 +202,8 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                 results[(name, placement)] = stored[path]
                 continue
         parts = None if path is None else path.with_suffix(".parts")
-        result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=workers, noise=noise,
-                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress, executor=executor,
+        result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=executor or workers, noise=noise,
+                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress,
                           method=label or "", controller=controller, regrasp=regrasp, protocol=protocol)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:

@@ -158,7 +158,7 @@ def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObjec
     poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.005, 0.0, 0.02, 0.1]])
 
     def scenes() -> list[Scene]:
-        return [trial_scene(TrialSetup(obj), pose, np.random.default_rng(k), open_posture())
+        return [trial_scene(TrialSetup(object=obj), pose, np.random.default_rng(k), open_posture())
                 for k, pose in enumerate(poses)]
 
     worlds, reference = make(scenes()), scenes()

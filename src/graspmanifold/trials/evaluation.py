@@ -27,12 +27,9 @@ from ..base.io import Tabular, library_version, load_npz, markdown_table, save_n
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
-from ..control.regrasp import Regrasp
-from ..control.controller import ControllerFactory, ControllerParams
 from ..control.judge import JUDGING
-from ..control.protocols import DEFAULT_PROTOCOL, Protocol
 from ..manifold.experience import Experience
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, object_from_params
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
@@ -303,8 +300,6 @@ def trial_count(summary: dict) -> str:
 
 #: trials per checkpoint part of an evaluation at most (the unit of parallel work and of resuming)
 CHECKPOINT_TRIALS = 16
-#: trials the warp backend runs at once by default (worlds on the GPU)
-WARP_BATCH = 16384
 
 
 def _run_chunk(task: tuple[list[int], np.ndarray, int], setup: TrialSetup) -> list[Trial]:
@@ -319,66 +314,55 @@ def _read_part(path: Path) -> tuple[tuple[int, list[Trial]], dict]:
     return (int(meta.get("first", -1)), part.trials), meta
 
 
-def evaluate(obj: str | GraspObject, experience: Experience | None, grid: str | np.ndarray = "quick",
-             seed: int = 0, workers: int | None = None, *, noise: Noise | None = None,
-             params: ControllerParams | None = None,
-             table: bool = False, preshape: np.ndarray | None = None, checkpoint_dir: str | os.PathLike | None = None,
-             progress: bool | None = None, executor: Executor | None = None, backend: str = "cpu",
-             batch_size: int = WARP_BATCH, method: str = "", hand: str | HandModel = "ours",
-             controller: ControllerFactory | None = None, margin: bool = False,
-             regrasp: Regrasp | None = None, protocol: str | Protocol = DEFAULT_PROTOCOL) -> EvaluationResult:
+def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
+             grid: str | np.ndarray = "quick", seed: int = 0, workers: int | Executor | None = None, *,
+             checkpoint_dir: str | os.PathLike | None = None, progress: bool | None = None,
+             **setup: object) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
-    with gravity on), then released and judged: the hold test, epsilon at the object's friction, and the
-    disturbance margin where `margin` asks for it. With `checkpoint_dir`, every CHECKPOINT_TRIALS finished
-    trials are saved there and a rerun
-    with the same arguments (and the same library code) picks them up; parts of another configuration are
-    discarded with a warning. The same seed gives the same trials, whatever the number of workers, the
-    executor or interruptions (on one backend).
+    with gravity on), then released and judged by the set-up's protocol (ours: the hold test, epsilon at the
+    object's friction, and the disturbance margin where `margin` asks for it). What a trial is, is one
+    `TrialSetup`: give it whole (`evaluate(setup, grid=...)`), or its fields by name beside the object and the
+    experience (`evaluate("box", som, noise=..., protocol="dexgraspbench")`). With `checkpoint_dir`, every
+    CHECKPOINT_TRIALS finished trials are saved there and a rerun with the same arguments (and the same library
+    code) picks them up; parts of another configuration are discarded with a warning. The same seed gives the
+    same trials, whatever the number of workers, the executor or interruptions (on one backend).
 
     Args:
-        obj: the object, or its name.
+        obj: the object, or its name; or a whole `TrialSetup`.
         experience: None (the plain tactile controller), a PostureDatabase, a SOM or a PostureSet.
         grid: a preset name (`GRID_PRESETS`), or poses (n, 4) or one pose (4,): x, z, gap in m, yaw in rad.
         seed: trial i draws its noise from the generator seeded [seed, i].
         workers: worker processes (None: `workers.default_workers()`, at most two, but this process alone
-            for up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start).
-        noise: object pose and sensed joint noise (`Noise`).
-        params: controller parameters (`ControllerParams`).
-        table: the object stands on a table with gravity on while the hand closes (grid poses where the
-            open hand would touch the table are left out of presets and refused in a custom grid).
-        preshape: a constant phase-B posture (22,), rad (see `BatchController`).
+            for up to CHECKPOINT_TRIALS poses, which do not pay for a pool's start), or an executor that runs
+            the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
         checkpoint_dir: where finished trials are kept until the end.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
-        executor: run the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
-        backend: 'cpu' runs each chunk of trials as one batch (`trial.run_trials`) in worker processes;
-            'warp' runs up to `batch_size` trials at once on the GPU with MuJoCo Warp (the `gpu` extra;
-            `warp_worlds.py`), in this process.
-        batch_size: trials at once on the GPU.
-        method: the method's label in the result (empty: 'none', 'database' or 'som', from the experience).
-        hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`).
-        controller: a user's own controller instead of ours (`TrialSetup.controller`: `controller(n, hand)`
-            returns a `controller.Controller`); give it a `method` label, and no experience, preshape or params.
-        margin: measure the disturbance margin of every grasp that holds (N; up to 1.8 s more simulation per
-            held grasp); False: not measured, the trials' margin is NaN and the summary's mean margin None.
-        regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt, the paper's).
-        protocol: how the grasps are judged, by name (`TrialSetup.protocol`): 'ours', 'dexgraspbench' or
-            'dexgraspbench-paper'; a result's `hold` is that protocol's success.
+        **setup: the `TrialSetup` fields by name: noise (`Noise`), params (`ControllerParams`), table (the object
+            on a table with gravity on; poses where the open hand would touch it are left out of presets and
+            refused in a custom grid), preshape ((22,) rad), backend ('cpu': each chunk of trials one batch in
+            worker processes; 'warp': `batch_size` trials at once on the GPU with MuJoCo Warp, the `gpu` extra),
+            method (the result's label; empty: 'none', 'database' or 'som'), hand (a model, its name or an MJCF
+            path), controller (a user's own factory `controller(n, hand)`, with a method label), margin (N of
+            disturbance a held grasp resists, up to 1.8 s more simulation each; False: NaN), regrasp
+            (`regrasp.Regrasp`), protocol (a name in `protocols.PROTOCOLS` or a `Protocol`; a result's `hold` is
+            its success), batch_size.
 
     Returns:
         The result: one `Trial` per pose, in grid order, and its summary.
 
     Raises:
-        ValueError: an unknown object or grid, a pose no trial can start from (`why_unreachable`), a bad
-            argument.
+        ValueError: an unknown object, grid or set-up field, a pose no trial can start from
+            (`why_unreachable`), a bad argument.
     """
-    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, backend,
-                       method, hand, controller, margin, regrasp or Regrasp(), protocol)
+    setup = TrialSetup.build(obj, experience, **setup)
+    executor = workers if isinstance(workers, Executor) else None
+    workers = None if executor is not None else workers
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
-    batch_size = check_int(batch_size, "batch_size")
-    grid_name, poses = check_grid(grid, obj, table)
+    batch_size, backend = setup.batch_size, setup.backend
+    grid_name, poses = check_grid(grid, obj, setup.table)
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]

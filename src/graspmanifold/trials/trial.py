@@ -20,6 +20,7 @@ keeps its states for pictures and animations.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import os
@@ -74,6 +75,8 @@ MAX_GRASP_SECONDS = 600.0
 
 #: the physics engines trials run on: CPU MuJoCo, or MuJoCo Warp on an NVIDIA GPU (`warp_worlds.py`)
 BACKENDS = ("cpu", "warp")
+#: trials the warp backend runs at once by default (worlds on the GPU)
+WARP_BATCH = 16384
 
 
 def method_name(experience: Experience | None) -> str:
@@ -88,7 +91,7 @@ def method_name(experience: Experience | None) -> str:
     return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class TrialSetup:
     """Everything a trial depends on besides its grid pose and its random stream, in one frozen value:
     what `evaluate`, the batched trials, `record_trial` and the checkpoint key share.
@@ -115,6 +118,11 @@ class TrialSetup:
         regrasp: the controller's attempts, its lift probe and how it chooses the next attempt (`regrasp.Regrasp`;
             the default: one attempt, the paper's). A user's own controller with more attempts needs `attempt` and
             `restart` (as `BatchController` has them).
+        batch_size: trials at once on the GPU with the 'warp' backend (not part of the trials' key: it changes
+            no outcome).
+
+    Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
+    what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
     """
 
     object: GraspObject
@@ -130,6 +138,7 @@ class TrialSetup:
     margin: bool = False
     regrasp: Regrasp = Regrasp()
     protocol: Protocol = DEFAULT_PROTOCOL
+    batch_size: int = WARP_BATCH
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -184,6 +193,36 @@ class TrialSetup:
         set_field("method", self.method or method_name(self.experience))
         set_field("table", bool(self.table))
         set_field("margin", bool(self.margin))
+        set_field("batch_size", check_int(self.batch_size, "batch_size"))
+
+    @classmethod
+    def build(cls, obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
+              **fields: object) -> TrialSetup:
+        """The set-up a keyword convenience describes: one given whole, or one of the object, the experience and
+        the fields named.
+
+        Args:
+            obj: the object, its name, or a whole `TrialSetup` (then nothing else may be given).
+            experience: the experience base (None: the plain tactile controller).
+            **fields: any other field by name (None for noise, params or regrasp: its default).
+
+        Returns:
+            The `TrialSetup`.
+
+        Raises:
+            InvalidInput: a field that a set-up does not have, or fields beside a whole set-up.
+        """
+        if isinstance(obj, TrialSetup):
+            if experience is not None or fields:
+                raise InvalidInput(f"a TrialSetup is given whole: give no experience or fields beside it (got "
+                                   f"{sorted(fields) + (['experience'] if experience is not None else [])}); "
+                                   "dataclasses.replace(setup, ...) changes one")
+            return obj
+        names = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(fields) - set(names))
+        if unknown:
+            raise InvalidInput(f"unknown trial set-up field(s) {unknown}; a TrialSetup has {names}")
+        return cls(object=obj, experience=experience, **fields)
 
     @property
     def rules(self) -> JudgingRules:
@@ -473,37 +512,40 @@ class Recording:
         return save_animation(self.frames(camera, width, height), path, fps=speed / self.period)
 
 
-def record_trial(obj: str | GraspObject, experience: Experience | None = None,
+def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
                  grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
-                 noise: Noise | None = None, params: ControllerParams | None = None, table: bool = False,
-                 preshape: np.ndarray | None = None, hand: str | HandModel = "ours", margin: bool = True) -> Recording:
-    """Run one trial as `evaluate(..., margin=True)` would at a grid pose; keep the scene's state along the way.
+                 **setup: object) -> Recording:
+    """Run one trial as `evaluate` runs it at a grid pose (any `TrialSetup`: a protocol, a regrasp, one's own
+    controller); keep the scene's state along the way.
 
     `record_trial("box").save_gif("grasp.gif")` animates it; `recording.scene.render()` draws its final state.
 
     Args:
-        obj: the object, or its name.
+        obj: the object, or its name; or a whole `TrialSetup`.
         experience: the experience base (None: the plain tactile controller), as `evaluate` takes it.
         grid_pose: (x, z, gap, yaw) in m and rad; refused as `evaluate` refuses it (`why_unreachable` says why).
         seed: the trial's seed (trial 0 of `evaluate` with this seed).
         every: keep the state every this many control periods.
-        noise: pose and joint noise (`Noise`).
-        params: controller parameters.
-        table: the object stands on a table with gravity on.
-        preshape: a constant phase-B posture (22,), rad.
-        hand: the hand model, or its name.
-        margin: measure the disturbance margin too (`TrialSetup.margin`; on by default: a recording shows the
-            whole judging, the pushes included).
+        **setup: the `TrialSetup` fields by name, as `evaluate` takes them; `margin` is on unless given (a
+            recording shows the whole judging, the pushes included) where the protocol allows it (ours).
 
     Returns:
         The recording: the trial's outcome, its scene and the kept states.
+
+    Raises:
+        ValueError: a bad pose or set-up; the 'warp' backend (a recording runs on the CPU).
     """
-    obj = get_object(obj)
+    if not isinstance(obj, TrialSetup) and "margin" not in setup:
+        setup["margin"] = get_protocol(setup.get("protocol", DEFAULT_PROTOCOL)).physics is None
+    setup = TrialSetup.build(obj, experience, **setup)
+    if setup.backend != "cpu":
+        raise InvalidInput(f"record_trial runs on the cpu backend (it keeps the scene's states), not {setup.backend!r}")
+    obj = setup.object
     check_int(every, "every (control periods)")
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
-    check_grid(grid_pose, obj, table)  # the poses `evaluate` would refuse are refused here too
+    check_grid(grid_pose, obj, setup.table)  # the poses `evaluate` would refuse are refused here too
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}
 
@@ -512,8 +554,6 @@ def record_trial(obj: str | GraspObject, experience: Experience | None = None,
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
-    setup = TrialSetup(obj, experience, noise or Noise(), params or ControllerParams(), table, preshape, hand=hand,
-                       margin=margin)
     period = setup.params.control_period
     trial = run_trial(setup, grid_pose, np.random.default_rng([seed, 0]), observer=observe)
     return Recording(trial, seen["scene"], np.array(states), every * period)
