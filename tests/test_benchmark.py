@@ -65,14 +65,14 @@ def test_the_controller_is_never_told_the_object(monkeypatch):
 
 
 def test_a_benchmark_run_is_kept_and_taken_up_again(tmp_path, monkeypatch):
-    first = run_benchmark(None, objects=("pen",), every=25, store=tmp_path, label="none")
+    first = run_benchmark(None, objects=("pen",), every=25, store=tmp_path, method="none")
     assert sorted(p.name for p in tmp_path.glob("*.npz")) == ["none_test_pen_fingertips.npz", "none_test_pen_palm.npz"]
 
     def no_trials(*args, **kwargs):
         raise AssertionError("a stored cell ran again")
 
     monkeypatch.setattr(gm.benchmark, "evaluate", no_trials)
-    again = run_benchmark(None, objects=("pen",), every=25, store=tmp_path, label="none")
+    again = run_benchmark(None, objects=("pen",), every=25, store=tmp_path, method="none")
     for key in first:
         assert np.array_equal(first[key].outcomes(), again[key].outcomes())
     outcomes, valid = pooled(again)
@@ -82,7 +82,7 @@ def test_a_benchmark_run_is_kept_and_taken_up_again(tmp_path, monkeypatch):
     ran = []
     monkeypatch.setattr(gm.benchmark, "evaluate", lambda *args, **kwargs: ran.append(kwargs["seed"]) or first[
         ("pen", "palm")])
-    run_benchmark(None, objects=("pen",), every=25, store=tmp_path, label="none", seed=1)
+    run_benchmark(None, objects=("pen",), every=25, store=tmp_path, method="none", seed=1)
     assert ran == [1, 1]  # another seed under the same label is run, not taken from the store
     for bad, message in ((dict(objects=("teapot",)), "benchmark objects"), (dict(split="train"), "split"),
                          (dict(every=0), "every")):

@@ -100,8 +100,8 @@ def test_a_benchmark_label_that_would_glob_or_escape_its_store_is_refused(tmp_pa
     others = [store / "none_test_pen_palm.npz", store / "soma_test_pen_palm.npz"]
     for other in others:
         other.write_bytes(b"another label's cell")
-    with pytest.raises(ValueError, match="label becomes part of a file name"):
-        run_benchmark(None, objects=("pen",), every=25, store=store, label=label)
+    with pytest.raises(ValueError, match="method becomes part of a file name"):
+        run_benchmark(None, objects=("pen",), every=25, store=store, method=label)
     assert all(other.read_bytes() == b"another label's cell" for other in others)
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["none_test_pen_palm.npz", "soma_test_pen_palm.npz", "store"]
 

@@ -177,8 +177,8 @@ class ExperienceStudy(StudyRun):
         before = sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in ours)
         results = run_benchmark(experience, split="test" if split == "test" else "selection", params=params,
                                 preshape=preshape, noise=noise, objects=self.objects,
-                                every=6 if self.config.quick and poses is None else 1, workers=self.workers, seed=seed,
-                                store=stored, label=method, executor=self.executor, regrasp=regrasp,
+                                every=6 if self.config.quick and poses is None else 1, workers=self.executor or self.workers, seed=seed,
+                                store=stored, method=method, regrasp=regrasp,
                                 poses=self.split[split] if poses is None else poses)
         self.reused_evaluations += before
         self.evaluations += len(ours)

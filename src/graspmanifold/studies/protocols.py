@@ -73,13 +73,13 @@ def _run(args: argparse.Namespace, study: StudyRun) -> None:
             f"{p} {held.sum()}/{len(held)}" for p, held in open_loop[name].items()), flush=True)
     for protocol in PROTOCOL_NAMES:
         closed[("heuristic", protocol)] = run_benchmark(None, every=args.every, workers=args.workers, store=out,
-                                                        label=f"heuristic_{protocol}", protocol=protocol,
+                                                        method=f"heuristic_{protocol}", protocol=protocol,
                                                         progress=False)
         closed[("paper", protocol)] = {}
         for name in OBJECTS:  # the paper's controller recalls from the object's own SOM, as in the paper
             closed[("paper", protocol)].update(run_benchmark(
                 soms[name], objects=(name,), every=args.every, workers=args.workers, store=out,
-                label=f"paper_{name}_{protocol}", protocol=protocol, progress=False))
+                method=f"paper_{name}_{protocol}", protocol=protocol, progress=False))
         print(f"[{time.perf_counter() - started:5.0f} s] closed loop under {protocol}", flush=True)
     write_text_atomic(Path(args.doc), report(args, verification, open_loop, closed, time.perf_counter() - started))
     print(f"wrote {args.doc}")

@@ -37,14 +37,11 @@ import numpy as np
 from ..base.checkpoints import PartStore, remove_checkpoints
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice, check_int, check_name, file_in
-from ..control.controller import ControllerFactory, ControllerParams
-from ..control.protocols import DEFAULT_PROTOCOL, Protocol
-from ..control.regrasp import Regrasp
 from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
 from .evaluation import EvaluationResult, evaluate
 from .grid import reachable
-from .trial import Noise, TrialSetup
+from .trial import TrialSetup
 from .stats import PairedComparison, mcnemar, stratified_split
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points
@@ -147,34 +144,28 @@ def cells() -> list[tuple[str, str]]:
     return [(name, placement) for name in OBJECTS for placement in PLACEMENTS]
 
 
-def run_benchmark(experience: Experience | None, *, split: str = "test", params: ControllerParams | None = None,
-                  preshape: np.ndarray | None = None, noise: Noise | None = None, objects: tuple[str, ...] | None = None,
-                  every: int = 1, workers: int | None = None, seed: int = 0, store: str | os.PathLike | None = None,
-                  label: str = "", progress: bool | None = None, executor: Executor | None = None,
-                  controller: ControllerFactory | None = None, regrasp: Regrasp | None = None,
-                  poses: dict[tuple[str, str], np.ndarray] | None = None,
-                  protocol: str | Protocol = DEFAULT_PROTOCOL) -> dict[tuple[str, str], EvaluationResult]:
+def run_benchmark(experience: Experience | None = None, *, split: str = "test", objects: tuple[str, ...] | None = None,
+                  every: int = 1, poses: dict[tuple[str, str], np.ndarray] | None = None, seed: int = 0,
+                  workers: int | Executor | None = None, store: str | os.PathLike | None = None,
+                  progress: bool | None = None, **setup: object) -> dict[tuple[str, str], EvaluationResult]:
     """One controller on every (object, placement) of the benchmark, the object never told to it.
 
     Args:
         experience: None (the plain heuristic), a PostureDatabase or a SOM: one for all objects.
         split: 'test' or 'selection'.
-        params: controller parameters; `preshape`: a constant phase-B posture (see `BatchController`).
-        noise: trial noise (`Noise`), none by default.
         objects: the benchmark objects to run (default: all of `OBJECTS`).
         every: keep every k-th pose of each grid (a smaller, CI-sized run).
-        workers: worker processes; `seed`: the trials' seed.
-        store: a directory where each finished (object, placement) is kept as `<label>_<split>_<object>_<placement>.npz`
-            and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
-        label: the method's name, for the stored files and `EvaluationResult.method` (with a `store`: letters,
-            digits and `_ . + -`, `validation.SAFE_NAME`).
-        progress: show progress bars (None: as `progress.show_progress` says, on by default).
-        executor: run the trials there (any `concurrent.futures.Executor`) instead of in new worker processes.
-        controller: a user's own controller instead of ours (`evaluate(controller=...)`; give a `label`).
-        regrasp: the controller's attempts and lift probe (`regrasp.Regrasp`; None: one attempt).
-        protocol: how the grasps are judged, by name (`TrialSetup.protocol`).
         poses: the grid poses of each (object, placement) instead of `benchmark_grid(object, placement, split)`
             (a random split, `benchmark_split`); `split` then only names the stored files.
+        seed: the trials' seed.
+        workers: worker processes, or an executor that runs the trials (as `evaluate` takes it).
+        store: a directory where each finished (object, placement) is kept as `<method>_<split>_<object>_<placement>.npz`
+            and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
+        progress: show progress bars (None: as `progress.show_progress` says, on by default).
+        **setup: the `TrialSetup` fields by name, as `evaluate` takes them (the object is the benchmark's):
+            params, preshape, noise, controller (a user's own; give a `method`), regrasp, protocol, and method
+            (the method's name, for the stored files and `EvaluationResult.method`; with a `store`: letters,
+            digits and `_ . + -`, `validation.SAFE_NAME`).
 
     Returns:
         {(object, placement): EvaluationResult} in `cells()` order.
@@ -185,16 +176,17 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
         raise InvalidInput(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
     check_choice(split, SPLITS, "split")
     every = check_int(every, "every")
+    label = str(setup.get("method") or "")
     if store is not None:  # the label becomes part of the stored files' names
-        check_name(label or "method", "label")
+        check_name(label or "method", "method")
     results = {}
     for name, placement in cells():
         if name not in names:
             continue
-        path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "label")
+        path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "method")
         grid = (benchmark_grid(name, placement, split) if poses is None else poses[(name, placement)])[::every]
-        key = TrialSetup(object=OBJECTS[name].object, experience=experience, noise=noise, params=params, preshape=preshape, method=label,
-                         controller=controller, regrasp=regrasp or Regrasp(), protocol=protocol).key(grid, seed)
+        trial_setup = TrialSetup.build(OBJECTS[name].object, experience, **setup)
+        key = trial_setup.key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
         if cell is not None:  # a result stored under this label by another configuration (or code) runs again
             stored = cell.load(path.name)
@@ -202,9 +194,7 @@ def run_benchmark(experience: Experience | None, *, split: str = "test", params:
                 results[(name, placement)] = stored[path]
                 continue
         parts = None if path is None else path.with_suffix(".parts")
-        result = evaluate(OBJECTS[name].object, experience, grid, seed=seed, workers=executor or workers, noise=noise,
-                          params=params, preshape=preshape, checkpoint_dir=parts, progress=progress,
-                          method=label or "", controller=controller, regrasp=regrasp, protocol=protocol)
+        result = evaluate(trial_setup, grid=grid, seed=seed, workers=workers, checkpoint_dir=parts, progress=progress)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
