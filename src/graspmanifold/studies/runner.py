@@ -26,7 +26,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..base.checkpoints import PartStore, remove_checkpoints
+from ..base.checkpoints import PartStore, remove_checkpoints, result_key
 from ..base.errors import GraspManifoldError
 from ..base.io import (
     LOCK_FILE,
@@ -36,7 +36,7 @@ from ..base.io import (
     software_versions,
     write_text_atomic,
 )
-from ..base.workers import worker_pool, workers_for
+from ..base.workers import parallel_map, worker_pool, workers_for
 from ..manifold.postureset import PostureSet
 from ..trials.evaluation import EvaluationResult
 from ..trials.stats import PairedComparison, holm, wilson_interval
@@ -125,6 +125,47 @@ class StudyRun:
         if not self._computing:
             self.seconds += time.perf_counter() - start
         return result
+
+    def keep_each(self, folder: str, tasks: Sequence[tuple], compute: Callable[[tuple], Result],
+                  read: Callable[[Path], tuple[Result, dict]], write: Callable[[Result, Path, dict], object],
+                  describe: Callable[[tuple, Result], str] | None = None) -> dict[tuple, Result]:
+        """`keep` of many results at once: each task's result kept in `folder` under the task's key (its file named
+        after the task), those not kept yet computed in the study's pool as they come, each logged (`describe`).
+
+        Args:
+            folder: a folder under the study's.
+            tasks: picklable tuples, each what `compute` needs (and what its result is keyed on).
+            compute: makes one task's result (a module-level function: it may run in a worker process).
+            read: reads a file: the result and the file's metadata.
+            write: writes a result to a path with this metadata added to the file's own.
+            describe: a log line for a result computed now (None: none).
+
+        Returns:
+            {task: result} in the order of `tasks`.
+        """
+        stores = {task: PartStore(self.out / folder, result_key({"task": list(task)}), read) for task in tasks}
+        files = {task: "@".join(map(str, task)).replace(" ", "_").replace("/", "-")[:120] + ".npz" for task in tasks}
+        results: dict[tuple, Result] = {}
+        for task in tasks:
+            found = stores[task].load(files[task])
+            if found:
+                results[task] = next(iter(found.values()))
+                self.reused += 1
+        missing = [task for task in tasks if task not in results]
+        start = time.perf_counter()
+
+        def kept(index: int, result: Result) -> None:
+            task = missing[index]
+            stores[task].save(files[task], lambda path, meta: write(result, path, meta))
+            results[task] = result
+            self.computed += 1
+            if describe is not None:
+                self.log(describe(task, result))
+
+        parallel_map(compute, missing, self.workers, kept, self.executor)
+        if missing and not self._computing:
+            self.seconds += time.perf_counter() - start
+        return {task: results[task] for task in tasks}
 
     def postures(self, name: str, key: str, make: Callable[[Path], PostureSet]) -> PostureSet:
         """A posture set kept as `<name>.npz` under its key; `make` gets a checkpoint folder of its own (removed

@@ -23,17 +23,14 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from ..base.checkpoints import PartStore, result_key
 from ..base.errors import GenerationError
 from ..base.io import load_npz, markdown_table, save_npz
-from ..base.workers import parallel_map
 from ..control.dexgraspbench import (
     GRASP_STAGES,
     Q1_CONTACT_DISTANCE,
@@ -131,9 +128,9 @@ def ablations() -> dict[str, tuple]:
     }
 
 
-def ablate(task: tuple[str, str, int]) -> np.ndarray:
+def ablate(task: tuple[str, str, int]) -> dict[str, np.ndarray]:
     """The benchmark object's n grasps verified under ours, replayed under one ablation of DexGraspBench's main
-    version: held per grasp."""
+    version: {'held': held per grasp}."""
     name, label, n = task
     obj = named(name)
     protocol, servo_scale, stages = ablations()[label]
@@ -147,37 +144,15 @@ def ablate(task: tuple[str, str, int]) -> np.ndarray:
     scene.model.actuator_gainprm[actuators, 0] *= servo_scale
     scene.model.actuator_biasprm[actuators, 1] *= servo_scale
     scene.model.actuator_forcerange[actuators] *= servo_scale
-    return np.array([replay_grasp(scene, grasp, protocol).held for grasp in grasps])
+    return {"held": np.array([replay_grasp(scene, grasp, protocol).held for grasp in grasps])}
 
 
 def _read(path: Path) -> tuple[dict[str, np.ndarray], dict]:
     return load_npz(path, "verification", {})
 
 
-def kept_map(study: StudyRun, folder: str, tasks: list[tuple], function: Callable[[tuple], object],
-             describe: Callable[[tuple, dict], str]) -> dict[tuple, dict[str, np.ndarray]]:
-    """`function(task)` for every task, in the study's pool, each result kept in `folder` under its key (a rerun
-    takes those of the same code and configuration)."""
-    store = {task: PartStore(study.out / folder, result_key({"task": list(task)}), _read) for task in tasks}
-    file = {task: "@".join(map(str, task)).replace(" ", "_").replace("/", "-")[:120] + ".npz" for task in tasks}
-    results = {}
-    for task in tasks:
-        found = store[task].load(file[task])
-        if found:
-            results[task] = next(iter(found.values()))
-            study.reused += 1
-    missing = [task for task in tasks if task not in results]
-
-    def keep(index: int, result) -> None:
-        task = missing[index]
-        arrays = result if isinstance(result, dict) else {"held": result}
-        store[task].save(file[task], lambda path, meta: save_npz(path, "verification", arrays, meta))
-        results[task] = arrays
-        study.computed += 1
-        study.log(describe(task, arrays))
-
-    parallel_map(function, missing, study.workers, keep, study.executor)
-    return {task: results[task] for task in tasks}
+def _write(arrays: dict[str, np.ndarray], path: Path, meta: dict) -> None:
+    save_npz(path, "verification", arrays, meta)
 
 
 @dataclass(frozen=True)
@@ -214,13 +189,13 @@ def measure(study: StudyRun, postures: int, held_out: bool) -> Verification:
     extra = list(HELD_OUT) if held_out else []
     tasks = [(name, p, postures) for p in VERIFYING for name in names + extra]  # a protocol at a time: a held-out
     # member's starts are searched once, under the first, and taken from the cache under the second
-    verified = kept_map(study, "verified", tasks, verify_object, lambda task, r: (
+    verified = study.keep_each("verified", tasks, verify_object, _read, _write, lambda task, r: (
         f"{task[0]} verified under {task[1]}: " + (str(r["error"])[:120] if "error" in r else
         f"{len(r['q1'])} in {float(r['seconds']):.0f} s, held under ours {r['held_ours'].mean():.0%}, "
         f"under dexgraspbench {r['held_dexgraspbench'].mean():.0%}")))
-    ablated = kept_map(study, "ablations", [(name, label, 2 * postures) for name in BENCHMARK_OBJECTS
-                                            for label in ablations()],
-                       ablate, lambda task, r: f"{task[0]}, {task[1]}: {r['held'].mean():.0%}")
+    ablated = study.keep_each("ablations", [(name, label, 2 * postures) for name in BENCHMARK_OBJECTS
+                                             for label in ablations()],
+                              ablate, _read, _write, lambda task, r: f"{task[0]}, {task[1]}: {r['held'].mean():.0%}")
     return Verification(postures, names, extra, verified, {task[:2]: r["held"] for task, r in ablated.items()})
 
 
