@@ -55,9 +55,10 @@ def software_versions() -> dict[str, str]:
         pass
     import scipy.linalg  # noqa: F401  (SciPy's own BLAS, loaded with its linear algebra)
 
-    blas = "; ".join(f"{Path(b.get('filepath', '?')).parent.name.removesuffix('.libs')}: {b.get('internal_api', '?')} "
-                     f"{b.get('version', '?')} ({b.get('architecture', '?')} kernels)"
-                     for b in threadpool_info() if b.get("user_api") == "blas") or "?"
+    blas = "; ".join(sorted(f"{Path(b.get('filepath', '?')).parent.name.removesuffix('.libs')}: "
+                            f"{b.get('internal_api', '?')} {b.get('version', '?')} ({b.get('architecture', '?')} kernels)"
+                            for b in threadpool_info() if b.get("user_api") == "blas")) or "?"  # in one order: the
+    # libraries are listed in the order they were loaded, which differs between runs
     return {"graspmanifold": __version__, "code": code_fingerprint(), "mujoco": mujoco.__version__, "numpy": np.__version__,
             "scipy": scipy.__version__, "numba": numba.__version__, "blas": blas,
             "python": platform.python_version(), "machine": f"{platform.machine()} {processor or '?'}, "
