@@ -38,7 +38,8 @@ from ..base.errors import InvalidInput
 from ..manifold.experience import Experience
 from ..manifold.nearest import argmin_tied
 from ..manifold.postureset import PostureSet
-from ..sim.hand import N_FINGER_JOINTS
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.scene import GRAVITY
 from ..sim.posture import SEGMENT_FINGER, pcp_masks
 
 #: the probe's gravity, unit vector in the world: the object's weight as when the hand lifts it
@@ -222,3 +223,68 @@ def reference_grasp_types(experience: Experience, postures: np.ndarray, types: n
     references = np.asarray(experience.references, dtype=float)
     nearest = np.array([argmin_tied(((data - row) ** 2).sum(axis=1)) for row in references], dtype=int)
     return types[nearest]
+
+
+class LiftProbe:
+    """The regrasp's stage between a grasp the controller calls done and the judge, over N worlds (see the module
+    doc): with attempts left, the grasp is lifted (the support off, the object's weight along `PROBE_DIRECTION`)
+    for `probe_seconds`; one whose touch fails (or is gone, which ends the probe early) is grasped again
+    (`restart`) from where the object lies, on the support, gravity off; one that passes, or the last attempt,
+    goes to the judge.
+
+    Args:
+        regrasp: the attempts and the probe's rules.
+        worlds: the trials' worlds (`sim.worlds.Worlds`).
+        controller: their controller (its `done`, `attempt` and `restart`).
+
+    Attributes:
+        failure: (n, 22 + segments): the joints (rad) and segment forces (N) sensed when each world's first attempt
+            failed its probe (NaN rows: none failed).
+    """
+
+    def __init__(self, regrasp: Regrasp, worlds: object, controller: object):
+        n = worlds.n
+        self.regrasp, self.worlds, self.controller = regrasp, worlds, controller
+        self._probing = np.full(n, np.nan)  # s: when each world's probe began (NaN: none runs)
+        self._probed = np.zeros(n, dtype=bool)  # passed the probe: the judge's turn
+        self.failure = np.full((n, N_FINGER_JOINTS + len(SEGMENTS)), np.nan)
+
+    def ready(self, clock: float) -> tuple[np.ndarray, np.ndarray]:
+        """One look at the worlds, every control period.
+
+        Args:
+            clock: s since the trials began.
+
+        Returns:
+            ((n,) bool: the worlds whose grasp goes to the judge now, the indices of those grasping again from now).
+        """
+        controller, worlds, regrasp = self.controller, self.worlds, self.regrasp
+        done = np.asarray(controller.done, dtype=bool)
+        again = np.zeros(0, dtype=int)
+        if regrasp.attempts == 1:
+            return done, again
+        probing, probed = self._probing, self._probed
+        last = np.asarray(controller.attempt) >= regrasp.attempts
+        begin = np.flatnonzero(done & ~last & ~probed & np.isnan(probing))
+        if len(begin):  # support off, the object's weight on: only touch is watched from here
+            worlds.release(begin)
+            worlds.set_gravity(begin, np.tile(GRAVITY * PROBE_DIRECTION, (len(begin), 1)))
+            probing[begin] = clock
+        watched = np.flatnonzero(~np.isnan(probing))
+        if len(watched):
+            forces = worlds.segment_forces(watched)
+            over = clock - probing[watched] >= regrasp.probe_seconds - 1e-9
+            failing = np.where(over, regrasp.failing(forces), ~(forces > 0).any(axis=1))  # gone: ends early
+            passed = watched[~failing & over]
+            again = watched[failing]
+            probed[passed], probing[passed] = True, np.nan
+            if len(again):  # gravity off, the support on where the object lies, the next attempt from there
+                worlds.set_gravity(again, np.zeros((len(again), 3)))
+                worlds.support(again, regrasp.support_stiffness, regrasp.support_damping)
+                joints = worlds.joints(again)
+                first = again[np.isnan(self.failure[again, 0])]
+                self.failure[first] = np.column_stack([joints, forces[failing]])[np.isin(again, first)]
+                controller.restart(again, joints, forces[failing])
+                probing[again] = np.nan
+                done = np.asarray(controller.done, dtype=bool)
+        return done & (probed | (np.asarray(controller.attempt) >= regrasp.attempts)), again

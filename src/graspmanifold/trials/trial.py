@@ -36,13 +36,13 @@ from ..base.validation import check_choice, check_int
 from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
 from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
-from ..control.regrasp import PROBE_DIRECTION, Regrasp
+from ..control.regrasp import LiftProbe, Regrasp
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
-from ..sim.scene import GRAVITY, Scene
+from ..sim.scene import Scene
 from ..sim.worlds import CpuWorlds, Worlds
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 
@@ -380,7 +380,6 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
     clock, time_to_grasp, failed = 0.0, np.full(n, np.nan), {}
     first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
-    failure = np.full((n, FAILURE_FEATURES), np.nan)
 
     def recalls(world: int) -> tuple[int, list[int]]:  # the best matches used (none, for a controller without)
         return (int(getattr(controller, "matches", np.zeros(n, dtype=int))[world]),
@@ -411,43 +410,17 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
             observer(worlds)
         return failures
 
-    attempts, probe = setup.regrasp.attempts, setup.regrasp.probe_seconds
-    probing = np.full(n, np.nan)  # s: when each world's lift probe began (NaN: none runs)
-    probed = np.zeros(n, dtype=bool)  # passed the probe: the judge's turn
+    probe = LiftProbe(setup.regrasp, worlds, controller)
 
     def ready() -> np.ndarray:
-        """The worlds whose grasp is done (all after MAX_GRASP_SECONDS: a controller that never finishes); with
-        attempts left, a done grasp is first probed (`regrasp` module doc) and, failing, grasped again."""
+        """The worlds whose grasp goes to the judge (all after MAX_GRASP_SECONDS: a controller that never
+        finishes); with attempts left, the regrasp's probe decides (`regrasp.LiftProbe`)."""
         if clock >= MAX_GRASP_SECONDS:
             time_to_grasp[np.isnan(time_to_grasp)] = clock
             return np.ones(n, dtype=bool)
-        done = np.asarray(controller.done, dtype=bool)
-        if attempts == 1:
-            return done
-        last = np.asarray(controller.attempt) >= attempts
-        begin = np.flatnonzero(done & ~last & ~probed & np.isnan(probing))
-        if len(begin):  # support off, the object's weight on: only touch is watched from here
-            worlds.release(begin)
-            worlds.set_gravity(begin, np.tile(GRAVITY * PROBE_DIRECTION, (len(begin), 1)))
-            probing[begin] = clock
-        watched = np.flatnonzero(~np.isnan(probing))
-        if len(watched):
-            forces = worlds.segment_forces(watched)
-            over = clock - probing[watched] >= probe - 1e-9
-            failing = np.where(over, setup.regrasp.failing(forces), ~(forces > 0).any(axis=1))  # gone: ends early
-            passed = watched[~failing & over]
-            again = watched[failing]
-            probed[passed], probing[passed] = True, np.nan
-            if len(again):  # gravity off, the support on where the object lies, the next attempt from there
-                worlds.set_gravity(again, np.zeros((len(again), 3)))
-                worlds.support(again, setup.regrasp.support_stiffness, setup.regrasp.support_damping)
-                joints = worlds.joints(again)
-                first = again[np.isnan(failure[again, 0])]
-                failure[first] = np.column_stack([joints, forces[failing]])[np.isin(again, first)]
-                controller.restart(again, joints, forces[failing])
-                probing[again], grasping[again] = np.nan, True
-                done = np.asarray(controller.done, dtype=bool)
-        return done & (probed | (np.asarray(controller.attempt) >= attempts))
+        judged, again = probe.ready(clock)
+        grasping[again] = True
+        return judged
 
     if observer is not None:
         observer(worlds)
@@ -459,7 +432,7 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
                             judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
                             matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int),
                             judged.hold_time, int(getattr(controller, "attempt", np.ones(n, dtype=int))[world]),
-                            first_contact[world], failure[world]))
+                            first_contact[world], probe.failure[world]))
     return trials
 
 
