@@ -406,8 +406,7 @@ class BatchController:
         self._base[worlds] = self._recall[worlds] = self.initial
         self._palm_goal[worlds] = self.palm_offset[worlds]
         self._previous[worlds] = np.nan
-        mine = np.isin(self._visited // (len(FINGERS) * self._rows), worlds)
-        self._visited = self._visited[~mine]
+        self._visited = self._visited[~np.isin(self._visit_world(self._visited), worlds)]
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -555,7 +554,7 @@ class BatchController:
     def _recall_for(self, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
         """'target': each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes
         the recall of its steered free fingers that are not on their way to it already, nor done with it."""
-        visits = (worlds[:, None] * len(FINGERS) + np.arange(len(FINGERS))) * self._rows + keys[:, None]
+        visits = self._visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
         new = (self._steered_finger & ~self._held[worlds] & ~np.isin(visits, self._visited)
                & ~(self._approaching[worlds] & (self._heading[worlds] == keys[:, None])))
         recalled = np.clip(np.where(self._steered, postures, self._target[worlds]), *self.limits.T)  # any hand's
@@ -566,11 +565,19 @@ class BatchController:
         self._approaching[worlds] |= new
         self._heading[worlds] = np.where(new, keys[:, None], self._heading[worlds])
 
+    def _visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
+        """The visit index of (world, finger, recall key), broadcast: one integer each, for `_visited`."""
+        return (worlds * len(FINGERS) + fingers) * self._rows + keys
+
+    def _visit_world(self, visits: np.ndarray) -> np.ndarray:
+        """The world of each visit index (`_visit`)."""
+        return visits // (len(FINGERS) * self._rows)
+
     def _done_with(self, fingers: np.ndarray) -> None:
         """'target': these (world, finger) pairs are done with the recall they were on their way to."""
         fingers = fingers & self._approaching
         worlds, which = np.nonzero(fingers)
-        self._visited = np.union1d(self._visited, (worlds * len(FINGERS) + which) * self._rows + self._heading[fingers])
+        self._visited = np.union1d(self._visited, self._visit(worlds, which, self._heading[fingers]))
         self._approaching &= ~fingers
 
     def _arrive(self, act: np.ndarray, joints: np.ndarray) -> None:
