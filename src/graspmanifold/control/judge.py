@@ -41,6 +41,8 @@ from .controller import row_norms
 from .quality import epsilon_l1
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+#: the same directions as a tuple of tuples, for the frozen rules that hold them
+SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
 
 
 @dataclass(frozen=True)
@@ -80,7 +82,7 @@ class JudgingRules:
     angle_limit: float = math.inf
     from_grasp: bool = False
     physics: str = ""
-    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+    directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:

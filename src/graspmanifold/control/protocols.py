@@ -24,7 +24,7 @@ import mujoco
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice
 from ..sim.scene import Scene
-from .judge import HOLD_DIRECTIONS, JUDGING, JudgingRules
+from .judge import JUDGING, SIX_DIRECTIONS, JudgingRules
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,7 @@ class DexGraspBenchProtocol:
     steps_per_target: int = 10
     hold_chunks: int = 10
     steps_per_chunk: int = 50
-    directions: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+    directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
 
     @property
     def name(self) -> str:
