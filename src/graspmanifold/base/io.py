@@ -358,6 +358,66 @@ def load_npz(path: str | os.PathLike, kind: str, required: dict[str, tuple[int |
     return _Arrays(path, arrays), meta
 
 
+class NpzRecord:
+    """The one way the library's values are saved and read (`save_npz` / `load_npz`: atomic, a kind and a schema,
+    no pickles, shapes checked before the data is read): a posture set, a posture database, a SOM and an evaluation
+    say only what they hold. A subclass sets `NPZ_KIND` and `NPZ_REQUIRED` (array names and shapes, None any
+    length) and writes `_to_npz` (its arrays and metadata) and `_from_npz` (itself from them).
+    """
+
+    NPZ_KIND: str = ""
+    NPZ_REQUIRED: dict[str, tuple[int | None, ...]] = {}
+
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
+        raise NotImplementedError
+
+    @classmethod
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> NpzRecord:
+        raise NotImplementedError
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
+        """Write it to an .npz file, atomically (a reader never sees half of it).
+
+        Args:
+            path: the file, ending in .npz.
+            overwrite: replace an existing file (False: refuse it with FileExistsError).
+            extra: more metadata to store beside its own.
+
+        Returns:
+            The path written.
+        """
+        arrays, meta = self._to_npz()
+        return save_npz(path, self.NPZ_KIND, arrays, {**meta, **(extra or {})}, overwrite=overwrite)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> NpzRecord:
+        """Read one written by `save`, checking its kind, schema and array shapes.
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The value.
+
+        Raises:
+            ValueError: the file is missing, truncated, corrupt or of another kind; the message names it.
+        """
+        return cls.load_with_metadata(path)[0]
+
+    @classmethod
+    def load_with_metadata(cls, path: str | os.PathLike) -> tuple[NpzRecord, dict]:
+        """`load`, with the file's metadata (what `save` was given as `extra` among it).
+
+        Args:
+            path: the .npz file.
+
+        Returns:
+            The value and the metadata.
+        """
+        arrays, meta = load_npz(path, cls.NPZ_KIND, cls.NPZ_REQUIRED)
+        return cls._from_npz(arrays, dict(meta), Path(path)), meta
+
+
 class Tabular:
     """What leaves the library as a table: a class with `rows()` (one dict per row, the same keys) gets `to_csv`
     and `to_frame` from this mixin."""

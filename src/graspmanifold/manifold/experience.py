@@ -9,14 +9,13 @@ best matches the current partial contact posture? `Experience` is that question 
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.io import fingerprint, load_npz, save_npz
+from ..base.io import NpzRecord, fingerprint
 from ..base.validation import check_data
 from ..sim.hand import N_FINGER_JOINTS
 from .nearest import MaskedNearest, Recall
@@ -89,7 +88,7 @@ class Experience(Protocol):
         ...
 
 
-class PostureDatabase(Recall):
+class PostureDatabase(Recall, NpzRecord):
     """All stored postures (n, dim); best matches are row indices into `postures`."""
 
     def __init__(self, postures: np.ndarray):
@@ -117,33 +116,15 @@ class PostureDatabase(Recall):
     def _nearest(self) -> MaskedNearest:
         return self._search
 
-    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
-        """Write the database to an .npz file, atomically.
+    NPZ_KIND = "posture_database"
+    NPZ_REQUIRED = {"postures": (None, None)}
 
-        Args:
-            path: the file, ending in .npz.
-            overwrite: replace an existing file (False: refuse it with FileExistsError).
-
-        Returns:
-            The path written.
-        """
-        meta = {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures)}
-        return save_npz(path, "posture_database", {"postures": self.postures}, meta, overwrite=overwrite)
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
+        return {"postures": self.postures}, {"dim": self.dim, "count": len(self),
+                                             "data_fingerprint": fingerprint(self.postures)}
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> PostureDatabase:
-        """Read a database written by `save`.
-
-        Args:
-            path: the .npz file.
-
-        Returns:
-            The database.
-
-        Raises:
-            ValueError: the file is missing, truncated, corrupt or not a posture database; the message names it.
-        """
-        arrays, _ = load_npz(path, "posture_database", {"postures": (None, None)})
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> PostureDatabase:
         return cls(arrays["postures"])
 
     def __repr__(self) -> str:

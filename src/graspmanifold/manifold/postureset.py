@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.io import Tabular, load_npz, save_npz
+from ..base.io import NpzRecord, Tabular
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS
 
 
 @dataclass(frozen=True)
-class PostureSet(Tabular):
+class PostureSet(Tabular, NpzRecord):
     """n grasp postures (radians) with their palm poses in the object frame (x y z, qw qx qy qz),
     the starting posture each was generated around (`start_ids` into `start_names`), which segments
     touch the object (`contacts`, columns in SEGMENTS order), each posture's grasp quality when it
@@ -127,38 +126,20 @@ class PostureSet(Tabular):
         return {"within_deg": float(np.degrees(within)), "between_deg": float(np.degrees(between)),
                 "ratio": float(within / between) if pairs else float("nan"), "starts": int(len(ids))}
 
-    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
-        """Write the set to an .npz file, atomically (a reader never sees half of it).
+    NPZ_KIND = "posture_set"
+    NPZ_REQUIRED = {"postures": (None, N_FINGER_JOINTS), "hand_poses": (None, 7), "start_ids": (None,),
+                    "contacts": (None, len(SEGMENTS)), "epsilon": (None,), "hold_displacement": (None,)}
 
-        Args:
-            path: the file, ending in .npz.
-            overwrite: replace an existing file (False: refuse it with FileExistsError).
-
-        Returns:
-            The path written.
-        """
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
         arrays = {"postures": self.postures, "hand_poses": self.hand_poses, "start_ids": self.start_ids,
                   "contacts": self.contacts, "epsilon": self.epsilon, "hold_displacement": self.hold_displacement}
         meta = {**self.metadata, "start_names": list(self.start_names), "joints": list(FINGER_JOINTS),
                 "segments": list(SEGMENTS), "units": "radians; hand poses in m and unit quaternions (w x y z)"}
-        return save_npz(path, "posture_set", arrays, meta, overwrite=overwrite)
+        return arrays, meta
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> PostureSet:
-        """Read a set written by `save`, checking its kind, schema and array shapes.
-
-        Args:
-            path: the .npz file.
-
-        Returns:
-            The set (postures in rad, palm poses in m and quaternions, in the object frame).
-
-        Raises:
-            ValueError: the file is missing, truncated, corrupt or not a posture set; the message names it.
-        """
-        arrays, meta = load_npz(path, "posture_set", {"postures": (None, N_FINGER_JOINTS), "hand_poses": (None, 7),
-                                                      "start_ids": (None,), "contacts": (None, len(SEGMENTS)),
-                                                      "epsilon": (None,), "hold_displacement": (None,)})
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> PostureSet:
+        """The set of a file (postures in rad, palm poses in m and quaternions, in the object frame)."""
         if meta.get("joints") != list(FINGER_JOINTS) or meta.get("segments") != list(SEGMENTS):
             raise InvalidInput(f"{path} uses another joint or segment order than this library")
         names = tuple(meta.pop("start_names", ()))

@@ -35,7 +35,6 @@ matter only for the presentation order.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,7 +44,7 @@ from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from ..base.errors import InvalidInput, NotFittedError
-from ..base.io import fingerprint, load_npz, save_npz
+from ..base.io import NpzRecord, fingerprint
 from ..base.paper_numbers import RESUME_SCHEDULE, TRAINING_SCHEDULE
 from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_data, check_int
@@ -129,7 +128,7 @@ PAPER = SOMSchedule(*TRAINING_SCHEDULE)
 RESUME = SOMSchedule(*RESUME_SCHEDULE)
 
 
-class SOM(Recall):
+class SOM(Recall, NpzRecord):
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
     def __init__(self, rows: int, cols: int, dim: int | None = None, *, seed: int = 0, epochs: int = PAPER.epochs,
@@ -452,27 +451,20 @@ class SOM(Recall):
                 "cv": float(d.std() / mean) if mean > 0 else float("nan"), "edges": int(len(d))}
 
     # -- files -----------------------------------------------------------------------------------
-    def save(self, path: str | os.PathLike, *, overwrite: bool = True) -> Path:
-        """Write the map to an .npz file, atomically, with its shape, seed and training history.
+    NPZ_KIND = "som"
+    NPZ_REQUIRED = {"weights": (None, None, None)}
 
-        Args:
-            path: the file, ending in .npz.
-            overwrite: replace an existing file (False: refuse it with FileExistsError).
-
-        Returns:
-            The path written.
-        """
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
+        """Its weights, with its shape, seed, schedule and training history."""
         meta = {"rows": self.rows, "cols": self.cols, "dim": self.dim, "seed": self.seed, "history": self.history,
                 "schedule": {"epochs": self.epochs, "learning_rate": list(self.learning_rate),
                              "sigma": list(self.sigma), "algorithm": self.algorithm},
                 "units": "as the training data (radians for postures)"}
-        return save_npz(path, "som", {"weights": self._require_weights()}, meta, overwrite=overwrite)
+        return {"weights": self._require_weights()}, meta
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> SOM:
-        """Read a map written by `save`, checking kind, schema and shapes (maps saved before the
-        schedule was stored get the paper's)."""
-        arrays, meta = load_npz(path, "som", {"weights": (None, None, None)})
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> SOM:
+        """The map of a file (maps saved before the schedule was stored get the paper's)."""
         try:
             som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"], **meta.get("schedule", {}))
         except KeyError as missing:

@@ -180,7 +180,7 @@ class StudyRun:
             The set.
         """
         parts = self.out / f"{name}.parts"
-        result = self.keep(f"{name}.npz", key, lambda: make(parts), _posture_file,
+        result = self.keep(f"{name}.npz", key, lambda: make(parts), PostureSet.load_with_metadata,
                            lambda postures, target, meta: replace(
                                postures, metadata={**postures.metadata, **meta}).save(target))
         remove_checkpoints(parts)
@@ -203,11 +203,6 @@ class StudyRun:
                            lambda result, target, meta: result.save(target, extra=meta))
         remove_checkpoints(parts)
         return result
-
-
-def _posture_file(path: Path) -> tuple[PostureSet, dict]:
-    postures = PostureSet.load(path)
-    return postures, postures.metadata
 
 
 def run_command(out: str | Path, body: Callable[[], None]) -> None:

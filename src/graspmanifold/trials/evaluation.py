@@ -23,7 +23,7 @@ import numpy as np
 
 from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
-from ..base.io import Tabular, library_version, load_npz, markdown_table, save_npz
+from ..base.io import NpzRecord, Tabular, library_version, markdown_table
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
@@ -79,7 +79,7 @@ class _Valid(np.ndarray):
 
 
 @dataclass
-class EvaluationResult(Tabular):
+class EvaluationResult(Tabular, NpzRecord):
     """Trials of one controller (method) on one object, with their summary.
 
     Attributes:
@@ -212,17 +212,12 @@ class EvaluationResult(Tabular):
               rate_text(round(s["force_closure_rate"] * n), n), _number(s["mean_margin"], 2), f"{s['mean_epsilon']:.4f}",
               f"{s['mean_time_to_grasp']:.2f}"]])) + "\n"
 
-    def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
-        """Write the trials, their winners and the summary to an .npz file, atomically.
+    NPZ_KIND = "evaluation"
+    NPZ_REQUIRED = {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,), "margin": (None,),
+                    "penetration": (None,), "fault": (None,)}
 
-        Args:
-            path: the file, ending in .npz.
-            overwrite: replace an existing file (False: refuse it with FileExistsError).
-            extra: more metadata to store.
-
-        Returns:
-            The path written.
-        """
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
+        """The trials, their winners and the summary."""
         t = self.trials
         arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
                   "postures": np.array([x.posture for x in t]).reshape(-1, N_FINGER_JOINTS),
@@ -240,36 +235,12 @@ class EvaluationResult(Tabular):
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
-                "units": "m, rad, s, N; epsilon per unit total normal force", "fields": FIELDS, **(extra or {})}
-        return save_npz(path, "evaluation", arrays, meta, overwrite=overwrite)
+                "units": "m, rad, s, N; epsilon per unit total normal force", "fields": FIELDS}
+        return arrays, meta
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> EvaluationResult:
-        """Read a result written by `save`, trials and per-cycle winners included.
-
-        Args:
-            path: the .npz file.
-
-        Returns:
-            The result.
-
-        Raises:
-            ValueError: the file is missing, truncated, corrupt or not an evaluation; the message names it.
-        """
-        return cls.load_with_metadata(path)[0]
-
-    @classmethod
-    def load_with_metadata(cls, path: str | os.PathLike) -> tuple[EvaluationResult, dict]:
-        """Read a result written by `save`, with the file's metadata (what `save` was given as `extra` among it).
-
-        Args:
-            path: the .npz file.
-
-        Returns:
-            The result and the metadata.
-        """
-        a, meta = load_npz(path, "evaluation", {"grid": (None, 4), "postures": (None, N_FINGER_JOINTS), "epsilon": (None,),
-                                                "margin": (None,), "penetration": (None,), "fault": (None,)})
+    def _from_npz(cls, a: dict[str, np.ndarray], meta: dict, path: Path) -> EvaluationResult:
+        """The result of a file, trials and per-cycle winners included."""
         winners: list[np.ndarray | None] = [None] * len(a["epsilon"])
         if "winners" in a:
             ends = np.cumsum(np.asarray(a["matches"], dtype=int))
@@ -289,7 +260,7 @@ class EvaluationResult(Tabular):
                         *((a[name][i] for name in ("first_contact", "failure")) if "failure" in a else ()))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
-                   meta.get("backend", "cpu")), meta
+                   meta.get("backend", "cpu"))
 
 
 def trial_count(summary: dict) -> str:
