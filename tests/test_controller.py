@@ -547,7 +547,8 @@ def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
                              (CLOSING_RECALL, np.where((recalled - half) * np.sign(closed - opened) < 0, half, recalled))):
         controller = BatchController(1, gm.PostureDatabase(recalled[None]), params)
         controller._target[0] = half
-        controller._recall_for(np.array([0]), np.array([1]), recalled[None])
+        controller.recall_rule.recall(controller, np.array([0]), np.array([0]), recalled[None], half[None],
+                                      np.zeros((1, len(gm.SEGMENTS)), dtype=bool), np.zeros((1, 5), dtype=bool))
         np.testing.assert_allclose(controller._recall[0], expected)
     assert np.any(expected != recalled) and np.all((expected - half) * np.sign(closed - opened) >= 0)
     with pytest.raises(ValueError, match="recall_closes_only works with recall='target'"):
@@ -580,3 +581,33 @@ def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
     times = [entry[0] for entry in made[0].log]
     assert len(times) > 10 and np.allclose(np.diff(times), CLOSING_RECALL.control_period)
     assert all(entry[3].shape == (2, 5) and entry[2].shape == (2, 22) for entry in made[0].log)
+
+
+def test_a_recall_rule_of_ones_own_runs_without_a_change_to_the_controller():
+    """`RecallRule` is the controller's one place for what a best match does: a rule that ignores every match, given
+    to our controller with an experience, grasps as the plain heuristic does (the same trials, the matches still
+    counted); the rules the parameters name are the module's two."""
+    from graspmanifold.control.controller import BatchController, BlendRecall, RecallRule, TargetRecall
+    from graspmanifold.trials.grid import check_grid
+
+    class Ignoring(RecallRule):
+        name = "ignoring"
+
+        def preshape(self, c, worlds, postures):
+            pass
+
+        def recall(self, c, worlds, winners, match, joints, touching_segments, fingers_touching):
+            pass
+
+    database = gm.PostureDatabase(np.array([gm.closed_posture(), gm.open_posture()]))
+    poses = check_grid("quick", gm.get_object("cylinder"))[1][::12]
+    plain = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False)
+    ignoring = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False, method="ignoring",
+                           controller=lambda n, hand: BatchController(n, database, hand=hand, recall=Ignoring()))
+    assert [t.hold for t in ignoring.trials] == [t.hold for t in plain.trials]
+    np.testing.assert_array_equal([t.posture for t in ignoring.trials], [t.posture for t in plain.trials])
+    assert sum(t.matches for t in ignoring.trials) > 0 == sum(t.matches for t in plain.trials)
+    assert gm.ControllerParams().recall_rule == TargetRecall()
+    assert BLEND.recall_rule == BlendRecall() and gm.ControllerParams(recall="base", reach=0.03).recall_rule.moves_palm
+    with pytest.raises(ValueError, match="recall must be a RecallRule"):
+        BatchController(1, recall="target")

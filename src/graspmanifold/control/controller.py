@@ -18,9 +18,10 @@ is the same controller for one world, driven one posture at a time.
        `release_time` closes on from where it held. The grasp ends when the touching fingers have
        not changed for `stable_time` and every finger touches or is fully closed, or at `timeout`.
 
-What a best match does is `ControllerParams.recall`:
+What a best match does is a `RecallRule` (the rule `ControllerParams.recall` names, `recall_rule`, or one of
+one's own: `BatchController(..., recall=...)`); the two ours:
 
-- `"target"`, the paper's reading ("the resulting posture then acts as the target posture for the
+- `"target"` (`TargetRecall`), the paper's reading ("the resulting posture then acts as the target posture for the
   current control cycle", Section 2): each steered free finger moves to its part of the recalled
   posture at the heuristic's joint speed, and only once it is there (its joints within
   `recall_tolerance`, or at rest short of it without a contact) does phase D close it on, from the
@@ -29,7 +30,7 @@ What a best match does is `ControllerParams.recall`:
   the object on its way to, does not call it back, so two alternating matches cannot hold it between
   them); a finger that loses its contact closes on from where it held; every match is trusted. A
   `reproduce` report lists these under "Our choices".
-- `"base"`, our earlier blend (`BLEND`): the recall is the heuristic's base, goal = match + c (closed -
+- `"base"` (`BlendRecall`), our earlier blend (`BLEND`): the recall is the heuristic's base, goal = match + c (closed -
   match), with c grown since phase B began, so at the first contact the recall only shifts a goal far
   towards the closed hand. Two extensions work with it: `restart_closure` (the first trusted match
   after a contact restarts the free fingers' closure at 0) and `reach` (that match also moves the palm,
@@ -168,6 +169,14 @@ class ControllerParams:
         if unknown:
             raise InvalidInput(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
+    @property
+    def recall_rule(self) -> RecallRule:
+        """The rule `recall` names, with its settings: `TargetRecall(recall_tolerance, recall_closes_only)` or
+        `BlendRecall(restart_closure, reach, reach_speed)`."""
+        if self.recall == "target":
+            return TargetRecall(self.recall_tolerance, self.recall_closes_only)
+        return BlendRecall(self.restart_closure, self.reach, self.reach_speed)
+
 
 BLEND = ControllerParams(recall="base", max_match_distance=0.2)
 """Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
@@ -280,6 +289,159 @@ def _bounded_step(current: np.ndarray, goal: np.ndarray, limit: float | np.ndarr
     return current + move * scale[:, None]  # move * 1.0 is move, bit for bit
 
 
+class RecallRule:
+    """What a best match does (see the module doc): the hooks `BatchController` calls with itself, so that a rule of
+    one's own runs without a change to the controller (`BatchController(..., recall=MyRule())`). The hooks work on the
+    controller's arrays of the worlds given; the closing heuristic, the holding and the finishing stay the
+    controller's.
+
+    Attributes:
+        name: the rule's name (`ControllerParams.recall` for ours).
+        moves_palm: whether a recall may move the palm (the trials then carry each palm to `palm_offset`).
+        reach_speed: m/s a recall moves the palm at.
+    """
+
+    name = "rule"
+    moves_palm = False
+    reach_speed = 0.0
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        """Phase B with a constant preshape: these worlds' preshapes (m, 22), rad, nothing touching yet."""
+        raise NotImplementedError
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        """Trusted best matches: these worlds' winning reference rows (m,) and recalled postures (m, 22), rad; every
+        world's sensed joints (N, 22), touching segments (N, segments) and touching fingers (N, 5)."""
+        raise NotImplementedError
+
+    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
+        """After the holding of phase D, every cycle: the acting worlds (N,), the (world, finger) pairs that touched
+        now for the first time (N, 5), the sensed joints (N, 22). Nothing by default."""
+
+    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
+        """Which (world, finger) pairs count as fully closed for the grasp's end (N, 5): `closed` (closure 1)
+        by default."""
+        return closed
+
+
+@dataclass(frozen=True)
+class TargetRecall(RecallRule):
+    """The paper's reading (`recall="target"`): the recall is the steered free fingers' target; a finger closes on
+    from it once there (see the module doc).
+
+    Attributes:
+        tolerance: rad: a finger is there once every joint is this close to its recall (or at rest short of it).
+        closes_only: a recall moves a joint only towards the closed hand (`CLOSING_RECALL`).
+    """
+
+    tolerance: float = 0.05
+    closes_only: bool = False
+    name = "target"
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        self._recall_for(c, worlds, np.zeros(len(worlds), dtype=np.int64), postures)
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
+
+    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
+        self._done_with(c, newly_held)  # touched on its way: that recall is done with
+        self._arrive(c, act, joints)
+
+    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
+        """A finger whose recall was the closed hand is fully closed once there; one on its way is not."""
+        return ~c._approaching & (closed | _per_finger(c._target == c.closed, FINGER_JOINT_MASKS))
+
+    def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
+        """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
+        its steered free fingers that are not on their way to it already, nor done with it."""
+        visits = c._visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
+        new = (c._steered_finger & ~c._held[worlds] & ~np.isin(visits, c._visited)
+               & ~(c._approaching[worlds] & (c._heading[worlds] == keys[:, None])))
+        recalled = np.clip(np.where(c._steered, postures, c._target[worlds]), *c.limits.T)  # any hand's
+        if self.closes_only:  # no joint sent back towards the open hand
+            now = c._target[worlds]
+            recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
+        c._recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c._recall[worlds])
+        c._approaching[worlds] |= new
+        c._heading[worlds] = np.where(new, keys[:, None], c._heading[worlds])
+
+    @staticmethod
+    def _done_with(c: BatchController, fingers: np.ndarray) -> None:
+        """These (world, finger) pairs are done with the recall they were on their way to."""
+        fingers = fingers & c._approaching
+        worlds, which = np.nonzero(fingers)
+        c._visited = np.union1d(c._visited, c._visit(worlds, which, c._heading[fingers]))
+        c._approaching &= ~fingers
+
+    def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
+        """A free finger whose target has reached its recall, its joints within `tolerance` of it or at rest
+        short of it, closes on from it, its closure from 0."""
+        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
+            still = _per_finger(np.abs(joints - c._previous) <= REST_SPEED * c.params.control_period,
+                                FINGER_JOINT_MASKS)
+        near = _per_finger(np.abs(joints - c._recall) <= self.tolerance, FINGER_JOINT_MASKS)
+        arrived = (act[:, None] & c._approaching & ~c._held & (near | still)
+                   & _per_finger(c._target == c._recall, FINGER_JOINT_MASKS))
+        c._base = np.where(arrived[:, JOINT_FINGER], c._recall, c._base)
+        c._closure[arrived] = 0.0
+        c._lost &= ~arrived
+        self._done_with(c, arrived)
+
+
+@dataclass(frozen=True)
+class BlendRecall(RecallRule):
+    """Our earlier blend (`recall="base"`, `BLEND`): the recall is the closing heuristic's base (see the module doc).
+
+    Attributes:
+        restart_closure: the first trusted match after a contact restarts the free fingers' closure at 0.
+        reach: m: that match may also move the palm by up to this much (0: the palm stays).
+        reach_speed: m/s the palm moves at then.
+    """
+
+    restart_closure: bool = False
+    reach: float = 0.0
+    reach_speed: float = 0.1
+    name = "base"
+
+    @property
+    def moves_palm(self) -> bool:
+        return self.reach > 0
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        c._base[worlds] = postures
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        c._base[worlds] = np.where(c._steered, match, c._base[worlds])
+        if not (self.restart_closure or self.reach > 0):
+            return
+        any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
+        restart = worlds[any_touch[worlds] & ~c._recalled[worlds]]
+        c._recalled[restart] = True
+        touching = fingers_touching[restart]
+        if self.reach > 0:
+            for world, row in zip(restart, match[np.isin(worlds, restart)]):
+                self._start_reach(c, world, joints[world], row, touching_segments[world])
+            reset = np.broadcast_to(c._steered_finger, touching.shape)
+        else:
+            reset = ~touching & ~c._held[restart] & c._steered_finger
+        c._closure[restart] = np.where(reset, 0.0, c._closure[restart])
+
+    def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
+                     touching: np.ndarray) -> None:
+        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
+        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
+        if not len(rows):
+            return
+        c._palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
+        c._reaching[world] = bool(np.any(c._palm_goal[world] != c.palm_offset[world]))
+        c._held[world] = False
+        c._lost[world] = False
+
+
 class BatchController:
     """The tactile grasp controller for N worlds (see the module doc); call `step` once per control
     period with every world's readings. The worlds share the clock; a world that is done keeps its target.
@@ -295,7 +457,7 @@ class BatchController:
 
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,
-                 hand: HandModel = SHADOW_HAND, regrasp: Regrasp | None = None):
+                 hand: HandModel = SHADOW_HAND, regrasp: Regrasp | None = None, recall: RecallRule | None = None):
         """A controller ready for the first grasp in every world.
 
         Args:
@@ -308,6 +470,7 @@ class BatchController:
             hand: the hand model it drives (its closed posture, joint ranges and kinematics).
             regrasp: its attempts and how it chooses the next one after a failed lift probe (`regrasp.Regrasp`;
                 None: one attempt, the paper's).
+            recall: what a best match does (`RecallRule`; None: `params.recall_rule`, the rule its parameters name).
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
@@ -329,8 +492,10 @@ class BatchController:
                                                           for of in FINGER_JOINT_MASKS])
         self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
         self._steered = self._steered_finger[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
-        self._kinematics = SegmentKinematics(hand) if self.params.reach > 0 else None
-        self._targeting = self.params.recall == "target"
+        self.recall_rule = self.params.recall_rule if recall is None else recall
+        if not isinstance(self.recall_rule, RecallRule):
+            raise InvalidInput(f"recall must be a RecallRule, got {type(self.recall_rule).__name__}")
+        self._kinematics = SegmentKinematics(hand) if self.recall_rule.moves_palm else None
         #: the recall keys one world's fingers can have (a row of the references, or the preshape)
         self._rows = 1 + (0 if self.experience is None else len(self.experience.references))
         self.reset()
@@ -342,8 +507,8 @@ class BatchController:
 
     @property
     def moves_palm(self) -> bool:
-        """Whether the trials must carry each palm to `palm_offset` (`reach` > 0)."""
-        return self.params.reach > 0
+        """Whether the trials must carry each palm to `palm_offset` (its recall rule moves palms: `reach` > 0)."""
+        return self.recall_rule.moves_palm
 
     def reset(self) -> None:
         """Start a new grasp in every world."""
@@ -410,7 +575,7 @@ class BatchController:
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
-        return (f"BatchController({self.n} worlds, experience {experience}, recall {self.params.recall}, "
+        return (f"BatchController({self.n} worlds, experience {experience}, recall {self.recall_rule.name}, "
                 f"{int(self.done.sum())} done)")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
@@ -457,9 +622,7 @@ class BatchController:
         self._lost |= released
         self._held &= ~released
         self._closure[released] = 0.0
-        if self._targeting:
-            self._done_with(newly_held)  # touched on its way: that recall is done with
-            self._arrive(act, joints)
+        self.recall_rule.follow(self, act, newly_held, joints)
 
         target = self._target.copy()
         pressed = _pressed(self._held_posture, p.squeeze, self.closed, self.limits)
@@ -483,15 +646,13 @@ class BatchController:
         moving = np.flatnonzero(act & self._reaching)  # palms on their way to the recalled grasps' places
         if len(moving):
             self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self._palm_goal[moving],
-                                                     p.reach_speed * dt)
+                                                     self.recall_rule.reach_speed * dt)
             self._reaching[moving] = np.any(self.palm_offset[moving] != self._palm_goal[moving], axis=1)
 
         changed = act & np.any(touching != self._touching, axis=1)
         self._touching[changed] = touching[changed]
         self._stable_since[changed] = self.time
-        closed = self._closure >= 1.0
-        if self._targeting:  # a finger whose recall was the closed hand is fully closed once there
-            closed = ~self._approaching & (closed | _per_finger(self._target == self.closed, FINGER_JOINT_MASKS))
+        closed = self.recall_rule.settled(self, self._closure >= 1.0)
         settled = np.all(touching | closed, axis=1)
         finished = act & ((touching.any(axis=1) & settled & ~self._reaching
                            & (self.time - self._stable_since >= p.stable_time))
@@ -509,10 +670,7 @@ class BatchController:
         p, any_touch = self.params, touching_segments.any(axis=1)
         preshaped = ~np.isnan(self._preshapes[:, 0])
         shaping = act & ~any_touch & preshaped
-        if self._targeting:
-            self._recall_for(np.flatnonzero(shaping), np.zeros(shaping.sum(), dtype=np.int64), self._preshapes[shaping])
-        else:
-            self._base[shaping] = self._preshapes[shaping]
+        self.recall_rule.preshape(self, np.flatnonzero(shaping), self._preshapes[shaping])
         candidates = act & ~(preshaped & ~any_touch)
         if self.experience is None:
             return
@@ -535,35 +693,7 @@ class BatchController:
         self.matches[worlds] += 1
         for world, winner in zip(worlds, winners):
             self.winners[world].append(int(winner))
-        if self._targeting:
-            self._recall_for(worlds, np.asarray(winners, dtype=np.int64) + 1, match)
-            return
-        self._base[worlds] = np.where(self._steered, match, self._base[worlds])
-        if p.restart_closure or p.reach > 0:  # the first trusted match after a contact restarts the closure
-            restart = worlds[any_touch[worlds] & ~self._recalled[worlds]]
-            self._recalled[restart] = True
-            touching = fingers_touching[restart]
-            if p.reach > 0:
-                for world, row in zip(restart, match[np.isin(worlds, restart)]):
-                    self._start_reach(world, joints[world], row, touching_segments[world])
-                reset = np.broadcast_to(self._steered_finger, touching.shape)
-            else:
-                reset = ~touching & ~self._held[restart] & self._steered_finger
-            self._closure[restart] = np.where(reset, 0.0, self._closure[restart])
-
-    def _recall_for(self, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
-        """'target': each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes
-        the recall of its steered free fingers that are not on their way to it already, nor done with it."""
-        visits = self._visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (self._steered_finger & ~self._held[worlds] & ~np.isin(visits, self._visited)
-               & ~(self._approaching[worlds] & (self._heading[worlds] == keys[:, None])))
-        recalled = np.clip(np.where(self._steered, postures, self._target[worlds]), *self.limits.T)  # any hand's
-        if self.params.recall_closes_only:  # no joint sent back towards the open hand
-            now = self._target[worlds]
-            recalled = np.where((recalled - now) * np.sign(self.closed - self.initial) < 0, now, recalled)
-        self._recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, self._recall[worlds])
-        self._approaching[worlds] |= new
-        self._heading[worlds] = np.where(new, keys[:, None], self._heading[worlds])
+        self.recall_rule.recall(self, worlds, np.asarray(winners), match, joints, touching_segments, fingers_touching)
 
     def _visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
         """The visit index of (world, finger, recall key), broadcast: one integer each, for `_visited`."""
@@ -572,37 +702,6 @@ class BatchController:
     def _visit_world(self, visits: np.ndarray) -> np.ndarray:
         """The world of each visit index (`_visit`)."""
         return visits // (len(FINGERS) * self._rows)
-
-    def _done_with(self, fingers: np.ndarray) -> None:
-        """'target': these (world, finger) pairs are done with the recall they were on their way to."""
-        fingers = fingers & self._approaching
-        worlds, which = np.nonzero(fingers)
-        self._visited = np.union1d(self._visited, self._visit(worlds, which, self._heading[fingers]))
-        self._approaching &= ~fingers
-
-    def _arrive(self, act: np.ndarray, joints: np.ndarray) -> None:
-        """'target': a free finger whose target has reached its recall, its joints within `recall_tolerance`
-        of it or at rest short of it, closes on from it, its closure from 0."""
-        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
-            still = _per_finger(np.abs(joints - self._previous) <= REST_SPEED * self.params.control_period,
-                                FINGER_JOINT_MASKS)
-        near = _per_finger(np.abs(joints - self._recall) <= self.params.recall_tolerance, FINGER_JOINT_MASKS)
-        arrived = (act[:, None] & self._approaching & ~self._held & (near | still)
-                   & _per_finger(self._target == self._recall, FINGER_JOINT_MASKS))
-        self._base = np.where(arrived[:, JOINT_FINGER], self._recall, self._base)
-        self._closure[arrived] = 0.0
-        self._lost &= ~arrived
-        self._done_with(arrived)
-
-    def _start_reach(self, world: int, joints: np.ndarray, match: np.ndarray, touching: np.ndarray) -> None:
-        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
-        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
-        if not len(rows):
-            return
-        self._palm_goal[world] = palm_shift(self._kinematics, joints, match, rows, self.params.reach)
-        self._reaching[world] = bool(np.any(self._palm_goal[world] != self.palm_offset[world]))
-        self._held[world] = False
-        self._lost[world] = False
 
 
 class GraspController:
