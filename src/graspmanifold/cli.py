@@ -29,6 +29,7 @@ from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
 from .sim.family import FAMILY
+from .sim.hand import SHADOW_HAND
 from .sim.hand_models import HAND_MODELS
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
@@ -194,7 +195,7 @@ def _experience_files(args: argparse.Namespace):
     sets = [PostureSet.load(p) for p in args.postures]
     hand = hand_name(args.hand, "--hand")
     foreign = [f"{p} ({s.metadata.get('hand', 'ours')})" for p, s in zip(args.postures, sets)
-               if s.metadata.get("hand", "ours") != hand]
+               if s.metadata.get("hand", SHADOW_HAND.name) != hand]
     if foreign:
         raise SystemExit(f"error: --postures of another hand than --hand {args.hand}: {', '.join(foreign)}")
     return PostureSet.concatenate(sets)
@@ -312,7 +313,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
-REPRODUCE_DEFAULTS = {"hand": "ours", "controller": "paper", "protocol": DEFAULT_PROTOCOL}
+REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL}
 PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm) or "
                  "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
@@ -337,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
                          "(.stl, .obj, .ply, ...: a watertight solid)")
         sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
-        sub.add_argument("--hand", default="ours", help=HAND_HELP)
+        sub.add_argument("--hand", default=SHADOW_HAND.name, help=HAND_HELP)
 
     def workers(sub: argparse.ArgumentParser) -> None:
         sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
@@ -351,7 +352,7 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--objects", nargs="+", metavar="NAME",
                            help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
                            "bottle_m); an object outside the paper gets the cylinder's preset size")
-    reproduce.add_argument("--hand", default="ours", help=f"{HAND_HELP}: the postures are generated and the trials "
+    reproduce.add_argument("--hand", default=SHADOW_HAND.name, help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)

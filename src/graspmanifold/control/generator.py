@@ -56,7 +56,7 @@ from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_int
 from ..base.workers import parallel_map, workers_for
 from ..manifold.postureset import PostureSet
-from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, HandModel, segment_of_geoms
+from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel, segment_of_geoms
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
@@ -181,7 +181,7 @@ class _SpringRig:
     """
 
     def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS,
-                 hand: str = "ours"):
+                 hand: str = SHADOW_HAND.name):
         self.scene = Scene(obj, hand=hand)
         self.params = params
         model, hand = self.scene.model, self.scene.hand
@@ -286,7 +286,7 @@ class _Job:
 
 
 def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, params: GeneratorParams,
-             hand: str = "ours") -> dict[str, np.ndarray]:
+             hand: str = SHADOW_HAND.name) -> dict[str, np.ndarray]:
     """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
     after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
@@ -549,7 +549,7 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
 
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool | None = None, executor: Executor | None = None, hand: str = "ours",
+                      progress: bool | None = None, executor: Executor | None = None, hand: str = SHADOW_HAND.name,
                       starts: Sequence[StartingPosture] | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
@@ -760,7 +760,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     params = params or GeneratorParams()
     workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
-    hand = postures.metadata.get("hand", "ours")
+    hand = postures.metadata.get("hand", SHADOW_HAND.name)
     tasks = [(obj, params, postures.postures[c], postures.hand_poses[c], hand) for c in chunks if len(c)]
     with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:
         rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers, lambda _, r: report.update(len(r)), executor)

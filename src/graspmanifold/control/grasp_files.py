@@ -33,7 +33,7 @@ from ..base.io import atomic_write
 from ..base.poses import compose, invert
 from ..base.validation import check_name, file_in
 from ..manifold.postureset import PostureSet
-from ..sim.hand import SEGMENTS, HandModel
+from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, make_object
 from ..sim.scene import Scene
@@ -169,7 +169,7 @@ def _mount_to_palm(hand: HandModel) -> tuple[np.ndarray, np.ndarray]:
     return compose(*invert(*mount), scene.data.xpos[scene.palm_id].copy(), scene.data.xquat[scene.palm_id].copy())
 
 
-def read_grasp_files(folder: str | os.PathLike, hand: str | HandModel = "ours") -> list[GraspFile]:
+def read_grasp_files(folder: str | os.PathLike, hand: str | HandModel = SHADOW_HAND.name) -> list[GraspFile]:
     """Every DexGraspBench grasp file (`*.npy`) in a folder, for a Shadow hand (see the module doc).
 
     Args:
@@ -224,7 +224,7 @@ def read_grasp_files(folder: str | os.PathLike, hand: str | HandModel = "ours") 
 
 
 def write_grasp_files(folder: str | os.PathLike, grasps: list[OpenLoopGrasp], object_path: str,
-                      object_scale: float = 1.0, hand: str | HandModel = "ours", prefix: str = "grasp") -> list[Path]:
+                      object_scale: float = 1.0, hand: str | HandModel = SHADOW_HAND.name, prefix: str = "grasp") -> list[Path]:
     """Our grasps as DexGraspBench grasp files (the root pose inside `<stage>_qpos`, the wrist straight).
 
     Args:

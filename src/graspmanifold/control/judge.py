@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import QualityError
-from ..sim.hand import SEGMENTS, HandModel
+from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
@@ -117,7 +117,7 @@ class Judgement:
     hold_time: float = 0.0
 
 
-def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = "ours") -> Scene:
+def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = SHADOW_HAND.name) -> Scene:
     """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
     spring-damper of `JUDGING` with gravity off, or a table with gravity on. Trials and the generator's
     verifier start from it (`hold_on_support` sets the spring again after a reset).

@@ -20,6 +20,7 @@ from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
+from ..sim.hand import SHADOW_HAND
 from ..sim.objects import DEFAULT_FRICTION
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
     from .summary import RunSummary
 
 #: how the report names each hand model (`ReproduceConfig.hand`)
-HANDS = {"ours": "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
+HANDS = {SHADOW_HAND.name: "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
          "gymnasium-robotics": "Gymnasium-Robotics' Shadow Hand (its MJCF, mapped onto the paper's joints)",
          "gymnasium-robotics-touch": "Gymnasium-Robotics' Shadow Hand with its 92 touch sensors (its MJCF, mapped "
                                      "onto the paper's joints)",
@@ -142,7 +143,7 @@ def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
     except RenderingUnavailable as error:
         return None, str(error)
     obj = figure_object(list(run.sets))
-    training, scene = run.sets[obj], Scene(obj, hand=run.config.get("hand", "ours"))
+    training, scene = run.sets[obj], Scene(obj, hand=run.config.get("hand", SHADOW_HAND.name))
     for geom in scene.spec.geoms:
         if np.allclose(geom.rgba, OBJECT_RGBA):
             geom.rgba = [0.6, 0.75, 1.0, 0.2]
@@ -247,7 +248,7 @@ def _choices(run: RunData) -> list[list[str]]:
          "N s/m, released before judging", "not described"],
         ["success", get_protocol(config.get("protocol", DEFAULT_PROTOCOL)).summary(), "force closure: ε > 0"],
         ["friction", f"{DEFAULT_FRICTION} for every hand-object contact and for ε", "not given (Vortex)"],
-        ["hand", HANDS.get(run.config.get("hand", "ours"), f"the Shadow Hand of the MJCF file {run.config.get('hand')}"),
+        ["hand", HANDS.get(run.config.get("hand", SHADOW_HAND.name), f"the Shadow Hand of the MJCF file {run.config.get('hand')}"),
          "a model of the Shadow hand in Vortex, coarse geometry"],
     ]
 

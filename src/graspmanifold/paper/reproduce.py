@@ -44,7 +44,7 @@ from ..control.generator import (
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
-from ..sim.hand import N_FINGER_JOINTS, HandModel
+from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, hand_name
 from ..sim.objects import get_object
 from ..trials.evaluation import EvaluationResult, evaluate
@@ -78,7 +78,7 @@ class ReproduceConfig:
     image_size: int = 120
     generator: GeneratorParams = field(default_factory=lambda: GeneratorParams(verify=False))
     procedure: str = "paper"
-    hand: str = "ours"
+    hand: str = SHADOW_HAND.name
     controller: ControllerParams = field(default_factory=ControllerParams)
     protocol: str = DEFAULT_PROTOCOL
 
@@ -224,7 +224,7 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
                 raise InvalidInput(f"{run_file} is unreadable ({error}); pass --force to start the run again") from None
             previous = None
         if isinstance(previous, dict):
-            previous.setdefault("hand", "ours")  # a run.json written before the choice of hand
+            previous.setdefault("hand", SHADOW_HAND.name)  # a run.json written before the choice of hand
             previous.setdefault("controller", {**json.loads(json.dumps(asdict(BLEND))), "max_match_distance": "0.2"})
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise InvalidInput(f"{out} holds another run's files with other parameters; pass --force to "

@@ -42,7 +42,7 @@ from .hand import DISTAL_SEGMENTS, FINGERS, HAND_JOINTS, SHADOW_HAND, WRIST_JOIN
 
 #: the names `hand_model` knows; `gymnasium-robotics-touch` is the same hand with its 92 touch sensors; `menagerie`
 #: is read from the checkout `MENAGERIE_ROOT` names (any other model: the path of its MJCF file)
-HAND_MODELS = ("ours", "gymnasium-robotics", "gymnasium-robotics-touch", "menagerie")
+HAND_MODELS = (SHADOW_HAND.name, "gymnasium-robotics", "gymnasium-robotics-touch", "menagerie")
 
 
 def _gymnasium_assets() -> Path:
@@ -403,7 +403,7 @@ def hand_name(hand: str | Path, argument: str = "hand") -> str:
     raise InvalidInput(f"{argument} must be one of {HAND_MODELS} or the path of an MJCF file (.xml), got {hand!r}")
 
 
-def hand_model(hand: str | Path = "ours") -> HandModel:
+def hand_model(hand: str | Path = SHADOW_HAND.name) -> HandModel:
     """A hand model by name or by the path of its MJCF file, checked against its MJCF.
 
     Args:

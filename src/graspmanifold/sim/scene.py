@@ -18,7 +18,7 @@ import numpy as np
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, invert
 from ..base.validation import check_int
-from .hand import HandModel
+from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
 from .objects import GraspObject, get_object
 from .posture import posture_to_ctrl, validate_posture
@@ -137,7 +137,7 @@ class Scene:
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
-                 gravity: bool = False, table: bool = False, hand: str | HandModel = "ours"):
+                 gravity: bool = False, table: bool = False, hand: str | HandModel = SHADOW_HAND.name):
         """The hand and one object in a new MuJoCo model.
 
         Args:

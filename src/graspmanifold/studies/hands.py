@@ -223,7 +223,7 @@ def ablation_rows(hand: HandModel, grid: str = "quick") -> list[str]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--presets", nargs="+", default=["paper", "verified"], choices=list(PRESETS))
-    parser.add_argument("--hands", nargs="+", default=["ours", "gymnasium-robotics"],
+    parser.add_argument("--hands", nargs="+", default=[SHADOW_HAND.name, "gymnasium-robotics"],
                         help="hand names or MJCF paths (the first is the one the others are compared with)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study-hands")
