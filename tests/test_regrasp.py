@@ -99,8 +99,8 @@ def test_a_restarted_world_opens_its_hand_and_closes_again_with_its_next_preshap
     controller.restart(np.array([1]), grasped[1:], touching[1:])
     assert list(controller.done) == [True, False] and list(controller.attempt) == [1, 2]
     target = controller.step(grasped, touching)  # still touching: a regrasp opens the hand all the same
-    assert np.allclose(target[1], controller.initial) and np.allclose(target[0], controller._target[0])
-    assert np.allclose(controller._preshapes[1], preshape) and np.isnan(controller._preshapes[0]).all()
+    assert np.allclose(target[1], controller.initial) and np.allclose(target[0], controller.state.target[0])
+    assert np.allclose(controller.state.preshapes[1], preshape) and np.isnan(controller.state.preshapes[0]).all()
 
 
 def test_the_recalled_next_grasp_is_of_another_type_than_the_failed_one():

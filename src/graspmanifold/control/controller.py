@@ -289,6 +289,89 @@ def _bounded_step(current: np.ndarray, goal: np.ndarray, limit: float | np.ndarr
     return current + move * scale[:, None]  # move * 1.0 is move, bit for bit
 
 
+@dataclass
+class GraspState:
+    """What the controller keeps of every world besides what it reports (`BatchController`'s public attributes):
+    one row per world. `new` makes it for a first grasp; `restart` makes these worlds' rows anew for their next
+    attempt. Recall rules (`RecallRule`) read and write it.
+
+    Attributes:
+        closure: (N, 5) each finger's closure c of phase D, 0 to 1.
+        held, held_posture: (N, 5) the fingers that hold where they touched, and (N, 22) rad where that was.
+        lost, lost_posture: (N, 5) the fingers that lost their contact, and (N, 22) rad where they had held.
+        last_touch: (N, 5) s, when each finger last touched.
+        base: (N, 22) rad, where a closing finger closes from.
+        target: (N, 22) rad, the targets of the last cycle.
+        touching, stable_since: (N, 5) the fingers touching, and (N,) s since when that set is unchanged.
+        recalled: (N,) the blend's first trusted match after a contact has come.
+        palm_goal, reaching: (N, 3) m, where each palm is going (`BlendRecall.reach`), and (N,) whether it is.
+        approaching, heading, recall: (N, 5) the fingers on their way to a recalled posture ('target'), its key
+            (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
+        visited: the `visit` index of every (world, finger, key) recall a finger is done with.
+        previous: (N, 22) rad, the joints sensed one cycle before (NaN: none yet).
+        started: (N,) s, when each world's attempt began.
+        preshapes: (N, 22) rad, each world's phase-B preshape (NaN rows: none).
+        rows: the recall keys one finger can have (the experience's reference rows + 1, for the preshape).
+    """
+
+    closure: np.ndarray
+    held: np.ndarray
+    held_posture: np.ndarray
+    lost: np.ndarray
+    lost_posture: np.ndarray
+    last_touch: np.ndarray
+    base: np.ndarray
+    target: np.ndarray
+    touching: np.ndarray
+    stable_since: np.ndarray
+    recalled: np.ndarray
+    palm_goal: np.ndarray
+    reaching: np.ndarray
+    approaching: np.ndarray
+    heading: np.ndarray
+    recall: np.ndarray
+    visited: np.ndarray
+    previous: np.ndarray
+    started: np.ndarray
+    preshapes: np.ndarray
+    rows: int
+
+    @classmethod
+    def new(cls, n: int, initial: np.ndarray, preshape: np.ndarray | None, rows: int) -> GraspState:
+        """The state of n worlds before their first grasp, the hand at `initial` (22,), rad; `preshape` (22,) rad or
+        None, every world's; `rows` recall keys per finger."""
+        fingers = len(FINGERS)
+        return cls(closure=np.zeros((n, fingers)), held=np.zeros((n, fingers), dtype=bool),
+                   held_posture=np.zeros((n, N_FINGER_JOINTS)), lost=np.zeros((n, fingers), dtype=bool),
+                   lost_posture=np.zeros((n, N_FINGER_JOINTS)), last_touch=np.full((n, fingers), -np.inf),
+                   base=np.tile(initial, (n, 1)), target=np.tile(initial, (n, 1)),
+                   touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
+                   recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
+                   approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
+                   recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
+                   previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n),
+                   preshapes=np.full((n, N_FINGER_JOINTS), np.nan) if preshape is None else np.tile(preshape, (n, 1)),
+                   rows=rows)
+
+    def restart(self, worlds: np.ndarray, initial: np.ndarray, palm_offset: np.ndarray, time: float) -> None:
+        """These worlds' next attempt: their fingers free and open-based at `initial`, the palm staying where it is
+        (`palm_offset`, (N, 3) m), their recalls forgotten, started at `time` s; the preshapes stay (the regrasp
+        has set them)."""
+        for array in (self.closure, self.held, self.lost, self.touching, self.recalled, self.reaching,
+                      self.approaching, self.heading):
+            array[worlds] = 0
+        self.last_touch[worlds] = -np.inf
+        self.base[worlds] = self.recall[worlds] = initial
+        self.palm_goal[worlds] = palm_offset[worlds]
+        self.previous[worlds] = np.nan
+        self.started[worlds] = time
+        self.visited = self.visited[~np.isin(self.visited // (len(FINGERS) * self.rows), worlds)]
+
+    def visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
+        """The visit index of (world, finger, recall key), broadcast: one integer each, for `visited`."""
+        return (worlds * len(FINGERS) + fingers) * self.rows + keys
+
+
 class RecallRule:
     """What a best match does (see the module doc): the hooks `BatchController` calls with itself, so that a rule of
     one's own runs without a change to the controller (`BatchController(..., recall=MyRule())`). The hooks work on the
@@ -352,42 +435,42 @@ class TargetRecall(RecallRule):
 
     def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
         """A finger whose recall was the closed hand is fully closed once there; one on its way is not."""
-        return ~c._approaching & (closed | _per_finger(c._target == c.closed, FINGER_JOINT_MASKS))
+        return ~c.state.approaching & (closed | _per_finger(c.state.target == c.closed, FINGER_JOINT_MASKS))
 
     def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
         """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
         its steered free fingers that are not on their way to it already, nor done with it."""
-        visits = c._visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (c._steered_finger & ~c._held[worlds] & ~np.isin(visits, c._visited)
-               & ~(c._approaching[worlds] & (c._heading[worlds] == keys[:, None])))
-        recalled = np.clip(np.where(c._steered, postures, c._target[worlds]), *c.limits.T)  # any hand's
+        visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
+        new = (c._steered_finger & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
+               & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
+        recalled = np.clip(np.where(c._steered, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
         if self.closes_only:  # no joint sent back towards the open hand
-            now = c._target[worlds]
+            now = c.state.target[worlds]
             recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
-        c._recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c._recall[worlds])
-        c._approaching[worlds] |= new
-        c._heading[worlds] = np.where(new, keys[:, None], c._heading[worlds])
+        c.state.recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recall[worlds])
+        c.state.approaching[worlds] |= new
+        c.state.heading[worlds] = np.where(new, keys[:, None], c.state.heading[worlds])
 
     @staticmethod
     def _done_with(c: BatchController, fingers: np.ndarray) -> None:
         """These (world, finger) pairs are done with the recall they were on their way to."""
-        fingers = fingers & c._approaching
+        fingers = fingers & c.state.approaching
         worlds, which = np.nonzero(fingers)
-        c._visited = np.union1d(c._visited, c._visit(worlds, which, c._heading[fingers]))
-        c._approaching &= ~fingers
+        c.state.visited = np.union1d(c.state.visited, c.state.visit(worlds, which, c.state.heading[fingers]))
+        c.state.approaching &= ~fingers
 
     def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
         """A free finger whose target has reached its recall, its joints within `tolerance` of it or at rest
         short of it, closes on from it, its closure from 0."""
         with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
-            still = _per_finger(np.abs(joints - c._previous) <= REST_SPEED * c.params.control_period,
+            still = _per_finger(np.abs(joints - c.state.previous) <= REST_SPEED * c.params.control_period,
                                 FINGER_JOINT_MASKS)
-        near = _per_finger(np.abs(joints - c._recall) <= self.tolerance, FINGER_JOINT_MASKS)
-        arrived = (act[:, None] & c._approaching & ~c._held & (near | still)
-                   & _per_finger(c._target == c._recall, FINGER_JOINT_MASKS))
-        c._base = np.where(arrived[:, JOINT_FINGER], c._recall, c._base)
-        c._closure[arrived] = 0.0
-        c._lost &= ~arrived
+        near = _per_finger(np.abs(joints - c.state.recall) <= self.tolerance, FINGER_JOINT_MASKS)
+        arrived = (act[:, None] & c.state.approaching & ~c.state.held & (near | still)
+                   & _per_finger(c.state.target == c.state.recall, FINGER_JOINT_MASKS))
+        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recall, c.state.base)
+        c.state.closure[arrived] = 0.0
+        c.state.lost &= ~arrived
         self._done_with(c, arrived)
 
 
@@ -411,24 +494,24 @@ class BlendRecall(RecallRule):
         return self.reach > 0
 
     def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        c._base[worlds] = postures
+        c.state.base[worlds] = postures
 
     def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
                joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        c._base[worlds] = np.where(c._steered, match, c._base[worlds])
+        c.state.base[worlds] = np.where(c._steered, match, c.state.base[worlds])
         if not (self.restart_closure or self.reach > 0):
             return
         any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
-        restart = worlds[any_touch[worlds] & ~c._recalled[worlds]]
-        c._recalled[restart] = True
+        restart = worlds[any_touch[worlds] & ~c.state.recalled[worlds]]
+        c.state.recalled[restart] = True
         touching = fingers_touching[restart]
         if self.reach > 0:
             for world, row in zip(restart, match[np.isin(worlds, restart)]):
                 self._start_reach(c, world, joints[world], row, touching_segments[world])
             reset = np.broadcast_to(c._steered_finger, touching.shape)
         else:
-            reset = ~touching & ~c._held[restart] & c._steered_finger
-        c._closure[restart] = np.where(reset, 0.0, c._closure[restart])
+            reset = ~touching & ~c.state.held[restart] & c._steered_finger
+        c.state.closure[restart] = np.where(reset, 0.0, c.state.closure[restart])
 
     def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
                      touching: np.ndarray) -> None:
@@ -436,10 +519,10 @@ class BlendRecall(RecallRule):
         rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
         if not len(rows):
             return
-        c._palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
-        c._reaching[world] = bool(np.any(c._palm_goal[world] != c.palm_offset[world]))
-        c._held[world] = False
-        c._lost[world] = False
+        c.state.palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
+        c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
+        c.state.held[world] = False
+        c.state.lost[world] = False
 
 
 class BatchController:
@@ -512,37 +595,16 @@ class BatchController:
 
     def reset(self) -> None:
         """Start a new grasp in every world."""
-        n, fingers = self.n, len(FINGERS)
+        n = self.n
         self.time = 0.0
         self.phase = np.zeros(n, dtype=np.int8)
         self.done = np.zeros(n, dtype=bool)
         self.time_to_grasp = np.full(n, np.nan)
         self.matches = np.zeros(n, dtype=int)
         self.winners: list[list[int]] = [[] for _ in range(n)]
-        self._closure = np.zeros((n, fingers))
-        self._held = np.zeros((n, fingers), dtype=bool)
-        self._held_posture = np.zeros((n, N_FINGER_JOINTS))
-        self._lost = np.zeros((n, fingers), dtype=bool)
-        self._lost_posture = np.zeros((n, N_FINGER_JOINTS))
-        self._last_touch = np.full((n, fingers), -np.inf)
-        self._base = np.tile(self.initial, (n, 1))  # where a closing finger closes from
-        self._target = np.tile(self.initial, (n, 1))
-        self._touching = np.zeros((n, fingers), dtype=bool)
-        self._stable_since = np.zeros(n)
-        self._recalled = np.zeros(n, dtype=bool)
         self.palm_offset = np.zeros((n, 3))
-        self._palm_goal = np.zeros((n, 3))
-        self._reaching = np.zeros(n, dtype=bool)
-        # recall='target': the fingers on their way to a recalled posture, which one, and where it is
-        self._approaching = np.zeros((n, fingers), dtype=bool)
-        self._heading = np.zeros((n, fingers), dtype=np.int64)  # its key: a reference row + 1, 0 for the preshape
-        self._recall = np.tile(self.initial, (n, 1))
-        self._visited = np.zeros(0, dtype=np.int64)  # (world, finger, key) of every recall a finger is done with
-        self._previous = np.full((n, N_FINGER_JOINTS), np.nan)  # the joints sensed one cycle before
-        self._started = np.zeros(n)  # s: when each world's attempt began
         self.attempt = np.ones(n, dtype=int)  # each world's attempt, 1 the first
-        self._preshapes = np.full((n, N_FINGER_JOINTS), np.nan) if self.preshape is None else \
-            np.tile(self.preshape, (n, 1))  # each world's phase-B preshape (NaN rows: none)
+        self.state = GraspState.new(n, self.initial, self.preshape, self._rows)
 
     def restart(self, worlds: np.ndarray, joints: np.ndarray, segment_forces: np.ndarray) -> None:
         """The next attempt in these worlds, whose grasp failed its lift probe (`regrasp`): the hand opens
@@ -560,18 +622,11 @@ class BatchController:
         joints, forces = np.asarray(joints, dtype=float), np.asarray(segment_forces, dtype=float)
         for attempt in np.unique(self.attempt[worlds]):
             rows = self.attempt[worlds] == attempt
-            self._preshapes[worlds[rows]] = self.regrasp.next_preshapes(self.experience, int(attempt), joints[rows],
-                                                                        forces[rows], self._preshapes[worlds[rows]])
+            self.state.preshapes[worlds[rows]] = self.regrasp.next_preshapes(self.experience, int(attempt), joints[rows],
+                                                                        forces[rows], self.state.preshapes[worlds[rows]])
         self.attempt[worlds] += 1
-        self._started[worlds] = self.time
         self.phase[worlds], self.done[worlds], self.time_to_grasp[worlds] = 0, False, np.nan
-        for name in ("_closure", "_held", "_lost", "_touching", "_recalled", "_reaching", "_approaching", "_heading"):
-            getattr(self, name)[worlds] = 0
-        self._last_touch[worlds] = -np.inf
-        self._base[worlds] = self._recall[worlds] = self.initial
-        self._palm_goal[worlds] = self.palm_offset[worlds]
-        self._previous[worlds] = np.nan
-        self._visited = self._visited[~np.isin(self._visit_world(self._visited), worlds)]
+        self.state.restart(worlds, self.initial, self.palm_offset, self.time)
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
@@ -600,77 +655,77 @@ class BatchController:
         touching_segments = forces > 0.0
         any_touch = touching_segments.any(axis=1)
         touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
-        elapsed = self.time - self._started
+        elapsed = self.time - self.state.started
         waiting = ~self.done & (elapsed <= p.preshape_time) & (~any_touch | (self.attempt > 1))  # A: a regrasp opens
-        self._target[waiting] = self.initial
+        self.state.target[waiting] = self.initial
         act = ~self.done & ~waiting
         if not act.any():
-            self._previous = joints.copy()
-            return self._target.copy()
+            self.state.previous = joints.copy()
+            return self.state.target.copy()
 
         self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
         self._match(act, joints, touching_segments, touching)
         # D: a touching finger holds where it first touched; one that lost its contact closes on from there
-        touched = act[:, None] & touching & ~self._reaching[:, None]  # while the palm moves, fingers follow the recall
-        self._last_touch[touched] = self.time
-        newly_held = touched & ~self._held
-        self._held = self._held | newly_held
-        self._held_posture = np.where(newly_held[:, JOINT_FINGER], joints, self._held_posture)
-        self._lost &= ~touched
-        released = act[:, None] & self._held & (self.time - self._last_touch > p.release_time)
-        self._lost_posture = np.where(released[:, JOINT_FINGER], self._held_posture, self._lost_posture)
-        self._lost |= released
-        self._held &= ~released
-        self._closure[released] = 0.0
+        touched = act[:, None] & touching & ~self.state.reaching[:, None]  # while the palm moves, fingers follow the recall
+        self.state.last_touch[touched] = self.time
+        newly_held = touched & ~self.state.held
+        self.state.held = self.state.held | newly_held
+        self.state.held_posture = np.where(newly_held[:, JOINT_FINGER], joints, self.state.held_posture)
+        self.state.lost &= ~touched
+        released = act[:, None] & self.state.held & (self.time - self.state.last_touch > p.release_time)
+        self.state.lost_posture = np.where(released[:, JOINT_FINGER], self.state.held_posture, self.state.lost_posture)
+        self.state.lost |= released
+        self.state.held &= ~released
+        self.state.closure[released] = 0.0
         self.recall_rule.follow(self, act, newly_held, joints)
 
-        target = self._target.copy()
-        pressed = _pressed(self._held_posture, p.squeeze, self.closed, self.limits)
+        target = self.state.target.copy()
+        pressed = _pressed(self.state.held_posture, p.squeeze, self.closed, self.limits)
         for finger, of in enumerate(FINGER_JOINT_MASKS):
-            held = act & self._held[:, finger]
+            held = act & self.state.held[:, finger]
             target[np.ix_(held, of)] = pressed[np.ix_(held, of)]
-            free = act & ~self._held[:, finger]
+            free = act & ~self.state.held[:, finger]
             if not free.any():
                 continue
-            going = self._approaching[free, finger]  # 'target': on the way to its recall; the others close
-            closure = self._closure[free, finger]
+            going = self.state.approaching[free, finger]  # 'target': on the way to its recall; the others close
+            closure = self.state.closure[free, finger]
             closure = np.where(going, closure, np.minimum(1.0, closure + p.closing_rate * dt))
-            self._closure[free, finger] = closure
-            base = np.where(self._lost[free, finger][:, None], self._lost_posture[np.ix_(free, of)],
-                            self._base[np.ix_(free, of)])
-            goal = np.where(going[:, None], self._recall[np.ix_(free, of)],
+            self.state.closure[free, finger] = closure
+            base = np.where(self.state.lost[free, finger][:, None], self.state.lost_posture[np.ix_(free, of)],
+                            self.state.base[np.ix_(free, of)])
+            goal = np.where(going[:, None], self.state.recall[np.ix_(free, of)],
                             base + closure[:, None] * (self.closed[of] - base))
-            target[np.ix_(free, of)] = _bounded_step(self._target[np.ix_(free, of)], goal,
+            target[np.ix_(free, of)] = _bounded_step(self.state.target[np.ix_(free, of)], goal,
                                                      np.where(going, 1.0, p.follow_speed) * self.speed[finger] * dt)
-        self._target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
-        moving = np.flatnonzero(act & self._reaching)  # palms on their way to the recalled grasps' places
+        self.state.target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
+        moving = np.flatnonzero(act & self.state.reaching)  # palms on their way to the recalled grasps' places
         if len(moving):
-            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self._palm_goal[moving],
+            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
                                                      self.recall_rule.reach_speed * dt)
-            self._reaching[moving] = np.any(self.palm_offset[moving] != self._palm_goal[moving], axis=1)
+            self.state.reaching[moving] = np.any(self.palm_offset[moving] != self.state.palm_goal[moving], axis=1)
 
-        changed = act & np.any(touching != self._touching, axis=1)
-        self._touching[changed] = touching[changed]
-        self._stable_since[changed] = self.time
-        closed = self.recall_rule.settled(self, self._closure >= 1.0)
+        changed = act & np.any(touching != self.state.touching, axis=1)
+        self.state.touching[changed] = touching[changed]
+        self.state.stable_since[changed] = self.time
+        closed = self.recall_rule.settled(self, self.state.closure >= 1.0)
         settled = np.all(touching | closed, axis=1)
-        finished = act & ((touching.any(axis=1) & settled & ~self._reaching
-                           & (self.time - self._stable_since >= p.stable_time))
+        finished = act & ((touching.any(axis=1) & settled & ~self.state.reaching
+                           & (self.time - self.state.stable_since >= p.stable_time))
                           | (elapsed >= p.timeout))
         self.done |= finished
         self.phase[finished] = PHASES.index("done")
         self.time_to_grasp[finished] = self.time
-        self._previous = joints.copy()
-        return self._target.copy()
+        self.state.previous = joints.copy()
+        return self.state.target.copy()
 
     def _match(self, act: np.ndarray, joints: np.ndarray, touching_segments: np.ndarray,
                fingers_touching: np.ndarray) -> None:
         """Phase B / C of every acting world: the best-matching experienced posture becomes the steered
         free fingers' recall ('target') or the closing heuristic's base ('base')."""
         p, any_touch = self.params, touching_segments.any(axis=1)
-        preshaped = ~np.isnan(self._preshapes[:, 0])
+        preshaped = ~np.isnan(self.state.preshapes[:, 0])
         shaping = act & ~any_touch & preshaped
-        self.recall_rule.preshape(self, np.flatnonzero(shaping), self._preshapes[shaping])
+        self.recall_rule.preshape(self, np.flatnonzero(shaping), self.state.preshapes[shaping])
         candidates = act & ~(preshaped & ~any_touch)
         if self.experience is None:
             return
@@ -694,14 +749,6 @@ class BatchController:
         for world, winner in zip(worlds, winners):
             self.winners[world].append(int(winner))
         self.recall_rule.recall(self, worlds, np.asarray(winners), match, joints, touching_segments, fingers_touching)
-
-    def _visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
-        """The visit index of (world, finger, recall key), broadcast: one integer each, for `_visited`."""
-        return (worlds * len(FINGERS) + fingers) * self._rows + keys
-
-    def _visit_world(self, visits: np.ndarray) -> np.ndarray:
-        """The world of each visit index (`_visit`)."""
-        return visits // (len(FINGERS) * self._rows)
 
 
 class GraspController:
@@ -735,8 +782,8 @@ class GraspController:
     matches = property(lambda self: int(self.batch.matches[0]))
     winners = property(lambda self: self.batch.winners[0])
     palm_offset = property(lambda self: self.batch.palm_offset[0])
-    reaching = property(lambda self: bool(self.batch._reaching[0]))
-    holding = property(lambda self: frozenset(f for f, h in zip(FINGERS, self.batch._held[0]) if h))
+    reaching = property(lambda self: bool(self.batch.state.reaching[0]))
+    holding = property(lambda self: frozenset(f for f, h in zip(FINGERS, self.batch.state.held[0]) if h))
     time_to_grasp = property(lambda self: None if np.isnan(self.batch.time_to_grasp[0])
                              else float(self.batch.time_to_grasp[0]))
 

@@ -63,7 +63,7 @@ class TracedController:
         """The controller's step, logged."""
         targets = self.controller.step(joints, segment_forces)
         self.log.append((self.controller.time, np.array(segment_forces, copy=True), targets.copy(),
-                         self.controller._approaching.copy()))
+                         self.controller.state.approaching.copy()))
         return targets
 
 
