@@ -42,7 +42,7 @@ def test_the_controller_is_never_told_the_object(monkeypatch):
     an experience, parameters and postures, then joint angles and segment forces every cycle."""
     for cls in (gm.GraspController, BatchController):
         names = set(inspect.signature(cls.__init__).parameters) - {"self"}
-        assert names <= {"n", "experience", "params", "initial_posture", "preshape", "hand", "regrasp"}, (cls, names)
+        assert names <= {"n", "experience", "params", "initial_posture", "preshape", "hand", "regrasp", "recall"}, (cls, names)
     seen = []
 
     class Spy(BatchController):

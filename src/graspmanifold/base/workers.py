@@ -141,6 +141,9 @@ def worker_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
             process.kill()  # SIGKILL: a stopped worker ignores SIGTERM until continued
         for process in processes:
             process.join(timeout=5)
+        manager = getattr(pool, "_executor_manager_thread", None)
+        if manager is not None:  # its wakeup pipe closed before the interpreter's exit hook writes to it (that
+            manager.join(timeout=5)  # race printed a traceback after a Ctrl-C, once in many)
         raise
     pool.shutdown(wait=True)
 
