@@ -175,11 +175,13 @@ class ExperienceStudy(StudyRun):
         stored = self.out / "evaluation"
         ours = [key for key in cells() if key[0] in self.objects]
         before = sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in ours)
+        chosen = {key: grid for key, grid in (self.split[split] if poses is None else poses).items()
+                  if key[0] in self.objects}
         results = run_benchmark(experience, split="test" if split == "test" else "selection", params=params,
-                                preshape=preshape, noise=noise, objects=self.objects,
-                                every=6 if self.config.quick and poses is None else 1, workers=self.executor or self.workers, seed=seed,
-                                store=stored, method=method, regrasp=regrasp,
-                                poses=self.split[split] if poses is None else poses)
+                                preshape=preshape, noise=noise, objects=chosen,
+                                every=6 if self.config.quick and poses is None else 1,
+                                workers=self.executor or self.workers, seed=seed, store=stored, method=method,
+                                regrasp=regrasp)
         self.reused_evaluations += before
         self.evaluations += len(ours)
         ledger = stored / "seconds.json"  # how long each evaluation took when it ran, for a report made from reuse

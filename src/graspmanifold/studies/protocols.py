@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..base.io import markdown_table, write_text_atomic
+from ..base.progress import show_progress
 from ..control.dexgraspbench import open_loop_grasps, replay
 from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from ..control.generator import generate_postures
@@ -71,16 +72,19 @@ def _run(args: argparse.Namespace, study: StudyRun) -> None:
         soms[name] = train_experience_map(postures.postures)
         print(f"[{time.perf_counter() - started:5.0f} s] {name}: open loop " + ", ".join(
             f"{p} {held.sum()}/{len(held)}" for p, held in open_loop[name].items()), flush=True)
-    for protocol in PROTOCOL_NAMES:
-        closed[("heuristic", protocol)] = run_benchmark(None, every=args.every, workers=args.workers, store=out,
-                                                        method=f"heuristic_{protocol}", protocol=protocol,
-                                                        progress=False)
-        closed[("paper", protocol)] = {}
-        for name in OBJECTS:  # the paper's controller recalls from the object's own SOM, as in the paper
-            closed[("paper", protocol)].update(run_benchmark(
-                soms[name], objects=(name,), every=args.every, workers=args.workers, store=out,
-                method=f"paper_{name}_{protocol}", protocol=protocol, progress=False))
-        print(f"[{time.perf_counter() - started:5.0f} s] closed loop under {protocol}", flush=True)
+    shown = show_progress(False)  # the study's log says what runs
+    try:
+        for protocol in PROTOCOL_NAMES:
+            closed[("heuristic", protocol)] = run_benchmark(None, every=args.every, workers=args.workers, store=out,
+                                                            method=f"heuristic_{protocol}", protocol=protocol)
+            closed[("paper", protocol)] = {}
+            for name in OBJECTS:  # the paper's controller recalls from the object's own SOM, as in the paper
+                closed[("paper", protocol)].update(run_benchmark(
+                    soms[name], objects=(name,), every=args.every, workers=args.workers, store=out,
+                    method=f"paper_{name}_{protocol}", protocol=protocol))
+            print(f"[{time.perf_counter() - started:5.0f} s] closed loop under {protocol}", flush=True)
+    finally:
+        show_progress(shown)
     write_text_atomic(Path(args.doc), report(args, verification, open_loop, closed, time.perf_counter() - started))
     print(f"wrote {args.doc}")
 

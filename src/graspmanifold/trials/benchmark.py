@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import itertools
 import os
+from collections.abc import Mapping
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
@@ -144,24 +145,24 @@ def cells() -> list[tuple[str, str]]:
     return [(name, placement) for name in OBJECTS for placement in PLACEMENTS]
 
 
-def run_benchmark(experience: Experience | None = None, *, split: str = "test", objects: tuple[str, ...] | None = None,
-                  every: int = 1, poses: dict[tuple[str, str], np.ndarray] | None = None, seed: int = 0,
-                  workers: int | Executor | None = None, store: str | os.PathLike | None = None,
-                  progress: bool | None = None, **setup: object) -> dict[tuple[str, str], EvaluationResult]:
-    """One controller on every (object, placement) of the benchmark, the object never told to it.
+def run_benchmark(experience: Experience | None = None, *, split: str = "test",
+                  objects: tuple[str, ...] | Mapping[tuple[str, str], np.ndarray] | None = None, every: int = 1,
+                  seed: int = 0, workers: int | Executor | None = None, store: str | os.PathLike | None = None,
+                  **setup: object) -> dict[tuple[str, str], EvaluationResult]:
+    """One controller on every (object, placement) of the benchmark, the object never told to it. Progress bars
+    show as `progress.show_progress` says.
 
     Args:
         experience: None (the plain heuristic), a PostureDatabase or a SOM: one for all objects.
         split: 'test' or 'selection'.
-        objects: the benchmark objects to run (default: all of `OBJECTS`).
+        objects: the benchmark objects to run (default: all of `OBJECTS`), on `benchmark_grid(object, placement,
+            split)`; or the grid poses (n, 4) of each (object, placement) to run (a random split,
+            `benchmark_split`: `split` then only names the stored files).
         every: keep every k-th pose of each grid (a smaller, CI-sized run).
-        poses: the grid poses of each (object, placement) instead of `benchmark_grid(object, placement, split)`
-            (a random split, `benchmark_split`); `split` then only names the stored files.
         seed: the trials' seed.
         workers: worker processes, or an executor that runs the trials (as `evaluate` takes it).
         store: a directory where each finished (object, placement) is kept as `<method>_<split>_<object>_<placement>.npz`
             and taken from on a rerun (an interrupted run resumes), with its trials checkpointed meanwhile.
-        progress: show progress bars (None: as `progress.show_progress` says, on by default).
         **setup: the `TrialSetup` fields by name, as `evaluate` takes them (the object is the benchmark's):
             params, preshape, noise, controller (a user's own; give a `method`), regrasp, protocol, and method
             (the method's name, for the stored files and `EvaluationResult.method`; with a `store`: letters,
@@ -170,7 +171,13 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test", 
     Returns:
         {(object, placement): EvaluationResult} in `cells()` order.
     """
-    names = tuple(OBJECTS) if objects is None else tuple(objects)
+    poses = dict(objects) if isinstance(objects, Mapping) else None
+    if poses is not None:
+        stray = [key for key in poses if key not in cells()]
+        if stray:
+            raise InvalidInput(f"objects: the poses' keys must be (object, placement) cells of the benchmark, got {stray}")
+    names = tuple(OBJECTS) if objects is None else tuple(dict.fromkeys(k[0] for k in poses)) if poses is not None \
+        else tuple(objects)
     unknown = [name for name in names if name not in OBJECTS]
     if unknown or not names:
         raise InvalidInput(f"objects must name benchmark objects ({', '.join(OBJECTS)}), got {list(names)}")
@@ -184,6 +191,8 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test", 
         if name not in names:
             continue
         path = None if store is None else file_in(store, f"{label or 'method'}_{split}_{name}_{placement}.npz", "method")
+        if poses is not None and (name, placement) not in poses:
+            continue
         grid = (benchmark_grid(name, placement, split) if poses is None else poses[(name, placement)])[::every]
         trial_setup = TrialSetup.build(OBJECTS[name].object, experience, **setup)
         key = trial_setup.key(grid, seed)
@@ -194,7 +203,7 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test", 
                 results[(name, placement)] = stored[path]
                 continue
         parts = None if path is None else path.with_suffix(".parts")
-        result = evaluate(trial_setup, grid=grid, seed=seed, workers=workers, checkpoint_dir=parts, progress=progress)
+        result = evaluate(trial_setup, grid=grid, seed=seed, workers=workers, checkpoint_dir=parts)
         result.grid_name = f"{split}/{placement}"
         if cell is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
