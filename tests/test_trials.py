@@ -9,6 +9,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.control.controller import BLEND, BatchController
+from graspmanifold.control.stages import Stage
 from graspmanifold.sim.posture import pcp_mask, pcp_masks
 from graspmanifold.trials.grid import check_grid
 
@@ -190,3 +191,47 @@ def test_a_recording_is_the_trial_that_evaluate_runs_whatever_the_set_up(fields)
         gm.record_trial("cylinder", proto="dexgraspbench")
     with pytest.raises(ValueError, match="given whole"):
         gm.evaluate(gm.TrialSetup(object="cylinder"), None, np.array([pose]), noise=gm.Noise())
+
+
+class Settle(Stage):
+    """A judging stage of one's own (for the test below): after the release, `seconds` with gravity off and no
+    push, the hand keeping its grasp; it notes how many control periods each world spent in it."""
+
+    seconds = 0.1
+    stays: list[int] = []
+
+    def __init__(self, run):
+        super().__init__(run)
+        self.periods = np.zeros(run.n, dtype=int)
+
+    def begin(self, worlds):
+        self.run.worlds.set_gravity(worlds, np.zeros((len(worlds), 3)))
+
+    def step(self, worlds):
+        passed = worlds[self.periods[worlds] * self.run.period >= self.seconds - 1e-9]
+        Settle.stays.extend(self.periods[passed].tolist())
+        return passed
+
+    def done(self, worlds, moved):
+        self.periods[worlds] += 1
+        return worlds[moved[worlds] > self.run.rules.hold_limit]
+
+
+def test_a_judging_stage_of_ones_own_runs_without_a_change_to_the_loop():
+    """A stage is a class named in the rules (`JudgingRules.stages`): a settling pause put before the hold test
+    runs in `evaluate` (the trial loop and the judging loop unchanged), every world passes through it for its
+    time, the hold test still runs in full after it, and the stages are part of the trials' key."""
+    from graspmanifold.control.judge import JUDGING
+    from graspmanifold.control.protocols import Protocol
+    from graspmanifold.control.stages import HoldTest, MarginRamp
+    from graspmanifold.trials.trial import TrialSetup
+
+    settled = Protocol("settled", replace(JUDGING, stages=(Settle, HoldTest, MarginRamp)))
+    poses = check_grid("quick", gm.get_object("box"))[1][:3]
+    Settle.stays.clear()
+    result = gm.evaluate("box", None, poses, seed=0, workers=1, progress=False, protocol=settled)
+    valid = [t for t in result.trials if t.valid]
+    assert valid and Settle.stays == [5] * len(valid)  # 0.1 s of 0.02 s periods each, every world
+    held = [t for t in result.trials if t.hold]
+    assert held and all(t.hold_time == pytest.approx(3.0) for t in held)  # the whole hold test after it
+    assert TrialSetup(object="box", protocol=settled).key(poses, 0) != TrialSetup(object="box").key(poses, 0)

@@ -18,7 +18,9 @@ spring with gravity off, or a table with gravity on); the support is released fi
 
 `judge_worlds` is the one judging loop, over N worlds at once, whatever steps them (`CpuWorlds`, or
 `WarpWorlds` on a GPU): the trials run it while their controller grasps, the open-loop replay
-(`dexgraspbench.replay_grasp`, the generator's verifier among its callers) once the hand has squeezed. No simulated second is spent that cannot
+(`dexgraspbench.replay_grasp`, the generator's verifier among its callers) once the hand has squeezed. Its
+stages are objects (`stages.py`: the grasp, the hold test, the margin; `JudgingRules.stages` names those after the
+grasp, so a stage of one's own runs without a change to the loop). No simulated second is spent that cannot
 change an outcome: a world's hold test ends in the period its object leaves the bound, its margin ramp
 likewise, and the margin runs only where it is asked for.
 """
@@ -34,11 +36,12 @@ import numpy as np
 from ..base.errors import QualityError
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
-from ..sim.scene import GRAVITY, Scene
+from ..sim.scene import Scene
 from ..sim.tactile import TactileReading
 from ..sim.worlds import CpuWorlds, Worlds
 from .controller import row_norms
 from .quality import epsilon_l1
+from .stages import Grasp, HoldTest, MarginRamp, Stage
 
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 #: the same directions as a tuple of tuples, for the frozen rules that hold them
@@ -68,6 +71,8 @@ class JudgingRules:
             grasp for each); False (ours): the directions follow one another.
         physics: the name of the scene's physics profile (`protocols.PhysicsProfile`), '' for ours.
         directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
+        stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
+            makes one of a `Judging`); one's own runs without a change to the loop.
     """
 
     hold_seconds: float = 0.5
@@ -83,6 +88,7 @@ class JudgingRules:
     from_grasp: bool = False
     physics: str = ""
     directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
+    stages: tuple[Callable[[Judging], Stage], ...] = (HoldTest, MarginRamp)
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
@@ -167,129 +173,143 @@ def judge_scene(scene: Scene, rules: JudgingRules = JUDGING, period: float = 0.0
 VERIFY_HOLD_SECONDS = JUDGING.hold_seconds
 
 
-_GRASP, _HOLD, _MARGIN, _FINISHED = range(4)
+class Judging:
+    """One run of the judging loop over N worlds: what its stages (`stages.Stage`) share, and the judgements.
+
+    Args:
+        worlds: the worlds (`CpuWorlds`, `WarpWorlds`).
+        period: s per control period.
+        rules: the judging rules.
+        friction: the objects' friction, for epsilon.
+
+    Attributes:
+        n: worlds.
+        directions: (k, 3) the rules' disturbance directions.
+        start: (n, 3) m, where each object was when its grasp was released.
+        displacement: (n,) m, the largest displacement of each object in the hold test so far.
+        margin: (n,) N, each grasp's disturbance margin (NaN where the rules do not ask for it).
+        hold_time: (n,) s of the hold test run (all of it unless the object dropped).
+        stage: (n,) the index of the stage each world is in (0: the grasp); -1 once it is judged.
+        judged: one `Judgement` per world once it is judged (None before).
+    """
+
+    def __init__(self, worlds: Worlds, period: float, rules: JudgingRules, friction: float):
+        n = self.n = worlds.n
+        self.worlds, self.period, self.rules, self.friction = worlds, period, rules, friction
+        self.directions = np.asarray(rules.directions, dtype=float).reshape(-1, 3)
+        self.start = np.zeros((n, 3))
+        self._start_quat = np.zeros((n, 4))
+        self.displacement = np.zeros(n)
+        self.margin = np.zeros(n) if rules.margin else np.full(n, np.nan)
+        self.hold_time = np.full(n, len(self.directions) * rules.hold_seconds)
+        self.stage = np.zeros(n, dtype=int)
+        self.judged: list[Judgement | None] = [None] * n
+        self._grasped: dict[int, tuple] = {}
+
+    def release(self, worlds: np.ndarray) -> np.ndarray:
+        """Release the objects of these worlds from their support and record their grasps (the touch, the posture,
+        epsilon, where each object is); a world whose epsilon cannot be computed is judged a fault.
+
+        Args:
+            worlds: their indices.
+
+        Returns:
+            Those whose grasp was recorded.
+        """
+        if not len(worlds):
+            return worlds
+        self.worlds.release(worlds)
+        positions = self.worlds.object_positions()
+        recorded = []
+        for world in worlds:
+            reading, centre = self.worlds.reading(world)
+            try:
+                epsilon = reading_epsilon(reading, centre, self.friction)
+            except QualityError as error:
+                self.fail(world, str(error))
+                continue
+            self._grasped[world] = (reading, self.worlds.posture(world), epsilon)
+            self.start[world] = positions[world]
+            if math.isfinite(self.rules.angle_limit):
+                self._start_quat[world] = self.worlds.object_quats()[world]
+            recorded.append(world)
+        return np.array(recorded, dtype=int)
+
+    def moved(self) -> np.ndarray:
+        """(n,) m each object has moved from where it was grasped; inf where it turned beyond the angle limit."""
+        with np.errstate(invalid="ignore"):
+            moved = row_norms(self.worlds.object_positions() - self.start)
+            if math.isfinite(self.rules.angle_limit):
+                dots = np.clip(np.abs(np.sum(self.worlds.object_quats() * self._start_quat, axis=1)), 0.0, 1.0)
+                moved = np.where(2.0 * np.arccos(dots) > self.rules.angle_limit, np.inf, moved)
+        return moved
+
+    def finish(self, world: int) -> None:
+        """Judge a world whose grasp was recorded, by the measures its stages left."""
+        self.stage[world] = -1
+        reading, posture, epsilon = self._grasped.pop(world)
+        displacement = self.displacement[world]
+        self.judged[world] = Judgement(epsilon, bool(displacement <= self.rules.hold_limit), float(displacement),
+                                       float(self.margin[world]), posture,
+                                       np.array([reading.touches(s) for s in SEGMENTS]),
+                                       self.worlds.max_penetration(world), hold_time=float(self.hold_time[world]))
+
+    def fail(self, world: int, why: str) -> None:
+        """Judge a world whose physics failed (`why`): a fault, neither held nor closed."""
+        self.stage[world] = -1
+        self._grasped.pop(world, None)
+        self.judged[world] = Judgement(0.0, False, np.inf, 0.0 if self.rules.margin else np.nan,
+                                       self.worlds.posture(world), np.zeros(len(SEGMENTS), dtype=bool),
+                                       self.worlds.max_penetration(world), why, self.worlds.time(world))
 
 
 def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], dict[int, str]], *,
                  friction: float, rules: JudgingRules = JUDGING,
                  ready: Callable[[], np.ndarray] | None = None) -> list[Judgement]:
-    """The judging loop: every world, once its grasp is ready (`ready()`, (n,) bool, asked before every period;
-    None: all from the start), released and judged (see the module doc), all worlds advancing together one
-    control period of `period` s at a time until each is judged. `advance(live)` runs one period of the worlds
-    given (an index array; a judged world is never given, its state may not be finite): whatever drives the
-    hands, then the physics; it returns {world: why its physics failed}. `friction` is the objects', for epsilon.
-    Returns one `Judgement` per world, in order.
+    """The judging loop (see the module doc of `stages`): every world goes through the grasp (until `ready()`,
+    (n,) bool, asked once a period while a world grasps; None: all ready from the start) and then the rules'
+    stages (`JudgingRules.stages`: the hold test, the margin), all worlds advancing together one control period of
+    `period` s at a time until each is judged.
+
+    Args:
+        worlds: the worlds.
+        period: s per control period.
+        advance: `advance(live)` runs one period of the worlds given (an index array; a judged world is never
+            given, its state may not be finite): whatever drives the hands, then the physics; it returns {world:
+            why its physics failed}.
+        friction: the objects', for epsilon.
+        rules: the judging rules.
+        ready: which grasps are ready, asked every period (None: all).
+
+    Returns:
+        One `Judgement` per world, in order.
     """
-    n = worlds.n
-    hold_cycles = rules.cycles(rules.hold_seconds, period)
-    margin_cycles = rules.cycles(rules.margin_seconds, period)
-    stage = np.full(n, _GRASP)
-    directions = np.asarray(rules.directions, dtype=float).reshape(-1, 3)
-    direction = np.zeros(n, dtype=int)  # which of the directions the judging is at
-    count = np.zeros(n, dtype=int)  # control cycles done in that direction (the margin ramp's k)
-    start = np.zeros((n, 3))
-    start_quat = np.zeros((n, 4))
-    saved: dict[int, object] = {}  # the state at each grasp's end, where every direction starts (`from_grasp`)
-    turning = math.isfinite(rules.angle_limit)
-    worst = np.zeros(n)
-    hold_time = np.full(n, len(directions) * rules.hold_seconds)
-    held_force = np.zeros(n) if rules.margin else np.full(n, np.nan)
-    judged: list[Judgement | None] = [None] * n
-    grasped: dict[int, tuple] = {}
-
-    def finish(world: int) -> None:
-        stage[world] = _FINISHED
-        reading, posture, epsilon = grasped.pop(world)
-        judged[world] = Judgement(epsilon, bool(worst[world] <= rules.hold_limit), float(worst[world]),
-                                  float(held_force[world]), posture, np.array([reading.touches(s) for s in SEGMENTS]),
-                                  worlds.max_penetration(world), hold_time=float(hold_time[world]))
-
-    def disturb(chosen: np.ndarray) -> None:
-        """The disturbance of each chosen world's direction: gravity along it, or a push with gravity off."""
-        along = directions[direction[chosen]]
-        if rules.push > 0:
-            worlds.set_gravity(chosen, np.zeros((len(chosen), 3)))
-            worlds.push(chosen, rules.push * along)
-        else:
-            worlds.set_gravity(chosen, GRAVITY * along)
-
-    def fail(world: int, why: str) -> None:
-        stage[world] = _FINISHED
-        grasped.pop(world, None)
-        judged[world] = Judgement(0.0, False, np.inf, 0.0 if rules.margin else np.nan, worlds.posture(world),
-                                  np.zeros(len(SEGMENTS), dtype=bool), worlds.max_penetration(world), why,
-                                  worlds.time(world))
-
-    while (stage != _FINISHED).any():
-        # judging begins for the worlds whose grasp ended in the last period
-        begin = np.flatnonzero((stage == _GRASP) & (True if ready is None else ready()))
-        if len(begin):
-            worlds.release(begin)
-            positions = worlds.object_positions()
-            for world in begin:
-                reading, centre = worlds.reading(world)
-                try:
-                    epsilon = reading_epsilon(reading, centre, friction)
-                except QualityError as error:
-                    fail(world, str(error))
-                    continue
-                grasped[world] = (reading, worlds.posture(world), epsilon)
-                start[world] = positions[world]
-                if turning:
-                    start_quat[world] = worlds.object_quats()[world]
-                if rules.from_grasp:
-                    saved[world] = worlds.save(world)
-            begin = begin[stage[begin] == _GRASP]
-            stage[begin], direction[begin], count[begin] = _HOLD, 0, 0
-            disturb(begin)
-        # the hold test: hold_cycles periods per gravity direction
-        turn = np.flatnonzero((stage == _HOLD) & (count == hold_cycles))
-        direction[turn] += 1
-        count[turn] = 0
-        done_holding = turn[direction[turn] == len(directions)]
-        held = done_holding[worst[done_holding] <= rules.hold_limit] if rules.margin else done_holding[:0]
-        for world in np.setdiff1d(done_holding, held):  # a grasp that held, when no margin is asked for
-            finish(world)
-        stage[held], direction[held], count[held], held_force[held] = _MARGIN, 0, 0, rules.margin_force
-        turn = turn[stage[turn] == _HOLD]
-        for world in turn if rules.from_grasp else ():
-            worlds.restore(world, saved[world])
-        disturb(turn)
-        # the margin: a push ramping up over margin_cycles periods per direction
-        ramp = np.flatnonzero(stage == _MARGIN)
-        count[ramp] += 1
-        turn = ramp[count[ramp] > margin_cycles]
-        direction[turn] += 1
-        count[turn] = 1
-        for world in turn[direction[turn] == len(directions)]:
-            worlds.push(np.array([world]), np.zeros((1, 3)))
-            finish(world)
-        ramp = ramp[stage[ramp] == _MARGIN]
-        worlds.set_gravity(ramp, GRAVITY * directions[direction[ramp]])
-        pushes = (rules.margin_force * count[ramp] / margin_cycles)[:, None] * directions[direction[ramp]]
-        worlds.push(ramp, pushes)
-
-        live = np.flatnonzero(stage != _FINISHED)
+    run = Judging(worlds, period, rules, friction)
+    stages = [Grasp(run, ready), *(stage(run) for stage in rules.stages)]
+    while (run.stage >= 0).any():
+        for index, stage in enumerate(stages):
+            holding = np.flatnonzero(run.stage == index)
+            if not len(holding):
+                continue
+            passed = stage.step(holding)
+            passed = passed[run.stage[passed] == index]  # not judged by the step (a fault)
+            if index + 1 < len(stages):
+                run.stage[passed] = index + 1
+                if len(passed):
+                    stages[index + 1].begin(passed)
+            else:
+                for world in passed:
+                    run.finish(world)
+        live = np.flatnonzero(run.stage >= 0)
         if not len(live):
             break
         for world, why in advance(live).items():
-            fail(world, why)
-        if not np.isin(stage, (_HOLD, _MARGIN)).any():  # the objects are looked at only while judged
+            run.fail(world, why)
+        if not (run.stage > 0).any():  # the objects are looked at only while judged
             continue
-        with np.errstate(invalid="ignore"):
-            moved = row_norms(worlds.object_positions() - start)
-            if turning:  # an angle beyond the limit counts as a displacement beyond it
-                dots = np.clip(np.abs(np.sum(worlds.object_quats() * start_quat, axis=1)), 0.0, 1.0)
-                moved = np.where(2.0 * np.arccos(dots) > rules.angle_limit, np.inf, moved)
-        holding = np.flatnonzero(stage == _HOLD)
-        worst[holding] = np.maximum(worst[holding], moved[holding])
-        count[holding] += 1
-        for world in holding[worst[holding] > rules.hold_limit]:  # dropped: no later direction can change that
-            hold_time[world] = rules.hold_seconds * direction[world] + period * count[world]
-            finish(world)
-        ramp = np.flatnonzero(stage == _MARGIN)
-        for world in ramp[moved[ramp] > rules.hold_limit]:
-            held_force[world] = rules.margin_force * (count[world] - 1) / margin_cycles
-            worlds.push(np.array([world]), np.zeros((1, 3)))
-            finish(world)
-    return judged
+        moved = run.moved()
+        for index, stage in enumerate(stages[1:], start=1):
+            holding = np.flatnonzero(run.stage == index)
+            for world in stage.done(holding, moved) if len(holding) else ():
+                run.finish(world)
+    return run.judged  # type: ignore[return-value]

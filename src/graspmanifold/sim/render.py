@@ -153,14 +153,14 @@ def _draw(job: dict[str, np.ndarray], backends: tuple[str, ...] | None) -> np.nd
 
 
 def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, ...] | None = None,
-                    hand: str = "ours") -> np.ndarray:
+                    hand: str | None = None) -> np.ndarray:
     """Images (n, size, size, 3) uint8 of the hand in each posture (n, 22), on a white background.
 
     Args:
         postures: (n, 22) finger joint angles in the paper's sense, rad.
         size: pixels, the side of each image.
         backends: OpenGL backends to try (default: MUJOCO_GL's, then each of `BACKENDS`).
-        hand: the hand model drawn: a name or an MJCF path (`hand_models.hand_model`).
+        hand: the hand model drawn: a name or an MJCF path (`hand_models.hand_model`); None: ours (`hand.SHADOW_HAND`).
 
     Returns:
         The images.
@@ -168,12 +168,13 @@ def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, 
     Raises:
         InvalidInput: postures not finite (n, 22), a size outside 16-4096 pixels.
     """
-    from .hand_models import hand_name  # MuJoCo is imported after MUJOCO_GL is chosen
+    from .hand import SHADOW_HAND  # MuJoCo is imported after MUJOCO_GL is chosen
+    from .hand_models import hand_name
 
     postures = check_data(np.asarray(postures, dtype=float).reshape(-1, 22), 22, "postures")
     size = check_int(size, "size (pixels)", low=16, high=4096)
     return _draw({"kind": np.array("postures"), "postures": postures, "size": np.array(size),
-                  "hand": np.array(hand_name(hand))}, backends)
+                  "hand": np.array(hand_name(hand or SHADOW_HAND.name))}, backends)
 
 
 def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,

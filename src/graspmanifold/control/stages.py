@@ -1,0 +1,186 @@
+"""The stages of the judging loop (`judge.judge_worlds`): the grasp, the hold test, the disturbance margin.
+
+Every world goes through the stages in turn, each on its own clock of control periods; a stage holds some of
+the worlds at a time. Every period the loop asks each stage, in order, to `step` the worlds it holds before the
+physics (it sets their disturbance and hands on those it has finished with, which the next stage `begin`s in the
+same period), runs one period of physics, and then asks each stage whether a world it holds is `done` (the
+object left the bound: its judging ends there). A world that leaves the last stage is judged. The stages after
+the grasp come from the rules (`JudgingRules.stages`): a stage of one's own is a subclass of `Stage` named there,
+and runs without a change to the loop (dm_control's composer, one episode loop with the task as hooks, is the
+model).
+
+- `Grasp` (always first): the controller grasps until its grasp is ready (the regrasp's lift probe decides where
+  attempts remain: `regrasp.LiftProbe`); then the support is released and the grasp recorded (its epsilon).
+- `HoldTest`: the disturbance along each of the rules' directions in turn for `hold_seconds` (ours: gravity
+  along it; DexGraspBench's: a push with gravity off, each direction from the state at the test's start); the
+  object must stay within `hold_limit` (and `angle_limit`).
+- `MarginRamp` (only where the rules ask for the margin): a grasp that held is pushed along each direction by a
+  force that ramps from 0 to `margin_force`; the margin is the force at which the object first leaves the bound.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..sim.scene import GRAVITY
+
+if TYPE_CHECKING:
+    from .judge import Judging
+
+
+class Stage:
+    """One stage of the judging loop over the worlds it holds (see the module doc); a subclass overrides what it
+    needs. A stage is made afresh for every run of the loop: it may keep per-world state (arrays of `run.n`).
+
+    Args:
+        run: the judging run it belongs to (`judge.Judging`: the worlds, the rules, the control period, and the
+            measures every stage shares: `displacement`, `margin`, `hold_time`, `start`).
+    """
+
+    def __init__(self, run: Judging):
+        self.run = run
+
+    def begin(self, worlds: np.ndarray) -> None:
+        """The worlds that enter this stage now, before this period's physics.
+
+        Args:
+            worlds: their indices.
+        """
+
+    def step(self, worlds: np.ndarray) -> np.ndarray:
+        """Before a period's physics: set up the period for the worlds this stage holds.
+
+        Args:
+            worlds: the indices of the worlds it holds (those that entered this period included).
+
+        Returns:
+            The worlds this stage has finished with (the next stage begins them in this period).
+        """
+        return worlds[:0]
+
+    def done(self, worlds: np.ndarray, moved: np.ndarray) -> np.ndarray:
+        """After a period's physics: the worlds whose judging ends here.
+
+        Args:
+            worlds: the indices of the worlds it holds.
+            moved: (n,) m each object has moved from where it was grasped (inf: turned beyond `angle_limit`).
+
+        Returns:
+            The worlds judged now (their object left the bound).
+        """
+        return worlds[:0]
+
+
+class Grasp(Stage):
+    """The controller's grasp, until it is ready; then the support is released and the grasp recorded.
+
+    Args:
+        run: the judging run.
+        ready: () -> (n,) bool, the worlds whose grasp is ready, asked once a period while a world grasps (None:
+            every grasp is ready from the start).
+    """
+
+    def __init__(self, run: Judging, ready: Callable[[], np.ndarray] | None = None):
+        super().__init__(run)
+        self.ready = ready
+
+    def step(self, worlds: np.ndarray) -> np.ndarray:
+        ready = worlds if self.ready is None else worlds[np.asarray(self.ready(), dtype=bool)[worlds]]
+        return self.run.release(ready)
+
+
+class HoldTest(Stage):
+    """The hold test (see the module doc): `hold_seconds` of the disturbance per direction; a world whose object
+    leaves the bound is judged at once (no later direction can change that), its `hold_time` where it stopped."""
+
+    def __init__(self, run: Judging):
+        super().__init__(run)
+        self.cycles = run.rules.cycles(run.rules.hold_seconds, run.period)
+        self.direction = np.zeros(run.n, dtype=int)  # which of the directions each world is at
+        self.count = np.zeros(run.n, dtype=int)  # control periods done in it
+        self.saved: dict[int, object] = {}  # the state each direction starts from (`JudgingRules.from_grasp`)
+
+    def begin(self, worlds: np.ndarray) -> None:
+        if self.run.rules.from_grasp:
+            for world in worlds:
+                self.saved[world] = self.run.worlds.save(world)
+        self.direction[worlds], self.count[worlds] = 0, 0
+        self.disturb(worlds)
+
+    def step(self, worlds: np.ndarray) -> np.ndarray:
+        turn = worlds[self.count[worlds] == self.cycles]
+        self.direction[turn] += 1
+        self.count[turn] = 0
+        finished = self.direction[turn] == len(self.run.directions)
+        turn, held = turn[~finished], turn[finished]
+        for world in turn if self.run.rules.from_grasp else ():
+            self.run.worlds.restore(world, self.saved[world])
+        self.disturb(turn)
+        return held
+
+    def disturb(self, worlds: np.ndarray) -> None:
+        """The disturbance of each world's direction: gravity along it, or a push with gravity off.
+
+        Args:
+            worlds: their indices.
+        """
+        run = self.run
+        along = run.directions[self.direction[worlds]]
+        if run.rules.push > 0:
+            run.worlds.set_gravity(worlds, np.zeros((len(worlds), 3)))
+            run.worlds.push(worlds, run.rules.push * along)
+        else:
+            run.worlds.set_gravity(worlds, GRAVITY * along)
+
+    def done(self, worlds: np.ndarray, moved: np.ndarray) -> np.ndarray:
+        run = self.run
+        run.displacement[worlds] = np.maximum(run.displacement[worlds], moved[worlds])
+        self.count[worlds] += 1
+        dropped = worlds[run.displacement[worlds] > run.rules.hold_limit]
+        run.hold_time[dropped] = run.rules.hold_seconds * self.direction[dropped] + run.period * self.count[dropped]
+        return dropped
+
+
+class MarginRamp(Stage):
+    """The disturbance margin (see the module doc), where the rules ask for it (otherwise every world passes
+    straight on): per direction a push that ramps from 0 to `margin_force` over `margin_seconds`, on top of
+    gravity along it; a grasp never dropped keeps `margin_force` (censored)."""
+
+    def __init__(self, run: Judging):
+        super().__init__(run)
+        self.cycles = run.rules.cycles(run.rules.margin_seconds, run.period)
+        self.direction = np.zeros(run.n, dtype=int)
+        self.count = np.zeros(run.n, dtype=int)  # the ramp's k: the push is k / cycles of margin_force
+
+    def begin(self, worlds: np.ndarray) -> None:
+        if self.run.rules.margin:
+            self.direction[worlds], self.count[worlds] = 0, 0
+            self.run.margin[worlds] = self.run.rules.margin_force
+
+    def step(self, worlds: np.ndarray) -> np.ndarray:
+        run = self.run
+        if not run.rules.margin:
+            return worlds
+        self.count[worlds] += 1
+        turn = worlds[self.count[worlds] > self.cycles]
+        self.direction[turn] += 1
+        self.count[turn] = 1
+        finished = turn[self.direction[turn] == len(run.directions)]
+        for world in finished:
+            run.worlds.push(np.array([world]), np.zeros((1, 3)))
+        ramp = worlds[~np.isin(worlds, finished)]
+        along = run.directions[self.direction[ramp]]
+        run.worlds.set_gravity(ramp, GRAVITY * along)
+        run.worlds.push(ramp, (run.rules.margin_force * self.count[ramp] / self.cycles)[:, None] * along)
+        return finished
+
+    def done(self, worlds: np.ndarray, moved: np.ndarray) -> np.ndarray:
+        run = self.run
+        dropped = worlds[moved[worlds] > run.rules.hold_limit]
+        for world in dropped:
+            run.margin[world] = run.rules.margin_force * (self.count[world] - 1) / self.cycles
+            run.worlds.push(np.array([world]), np.zeros((1, 3)))
+        return dropped
