@@ -30,7 +30,7 @@ def blend_golden_results(perturb: float = 0.0) -> dict[str, gm.EvaluationResult]
     run = dict(seed=3, workers=1, progress=False, margin=True)
     return {"database": gm.evaluate("cylinder", database, poses, params=BLEND, **run),
             "som_noise": gm.evaluate("cylinder", som, poses, noise=gm.Noise(0.004, 0.08, 0.01), params=BLEND, **run),
-            "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, restart_closure=True), **run)}
+            "som_restart": gm.evaluate("cylinder", som, poses, params=replace(BLEND, recall=gm.BlendRecall(restart_closure=True)), **run)}
 
 
 def assert_matches_golden(result: gm.EvaluationResult, name: str) -> None:

@@ -163,8 +163,7 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
 @pytest.mark.parametrize("field, value", [("control_period", 0.0), ("control_period", -0.02),
                                           ("closing_rate", -1.0), ("timeout", float("nan")),
                                           ("squeeze", -0.1), ("steered_fingers", ("ff", "toe")),
-                                          ("max_match_distance", 0.0), ("restart_closure", 1),
-                                          ("recall", "memory"), ("recall_tolerance", 0.0),
+                                          ("max_match_distance", 0.0), ("recall", "memory"),
                                           # not a whole number of 2 ms physics steps: the clocks would drift apart
                                           # (0.0005 once ran 24.8 s of physics for 6.2 s of controller time)
                                           ("control_period", 0.0005), ("control_period", 0.003),
@@ -172,11 +171,22 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
 def test_bad_controller_params_raise(field, value):
     with pytest.raises(ValueError, match=field):
         gm.ControllerParams(**{field: value})
-    with pytest.raises(ValueError, match="restart_closure needs steered_joints='all'"):
-        gm.ControllerParams(recall="base", restart_closure=True, steered_joints="spread")
-    for extension in ({"restart_closure": True}, {"reach": 0.02}):  # the recall is already the fingers' target
-        with pytest.raises(ValueError, match="works with recall='base'"):
-            gm.ControllerParams(**extension)
+    with pytest.raises(ValueError, match=r"BlendRecall\(restart_closure\) needs steered_joints='all'"):
+        gm.ControllerParams(recall=gm.BlendRecall(restart_closure=True), steered_joints="spread")
+
+
+@pytest.mark.parametrize("rule, field, value", [(gm.BlendRecall, "restart_closure", 1), (gm.BlendRecall, "reach", -0.01),
+                                                (gm.BlendRecall, "reach_speed", 0.0), (gm.TargetRecall, "tolerance", 0.0),
+                                                (gm.TargetRecall, "closes_only", 1)])
+def test_a_recall_rule_refuses_a_bad_setting_and_cannot_hold_another_rules(rule, field, value):
+    """A rule checks its own settings; a setting of the other rule cannot be written at all (the blend's reach on the
+    paper's reading, where the recalled posture is already the fingers' target)."""
+    with pytest.raises(ValueError, match=f"{rule.__name__}.{field}"):
+        rule(**{field: value})
+    with pytest.raises(TypeError):
+        gm.TargetRecall(reach=0.02)
+    with pytest.raises(TypeError):
+        gm.BlendRecall(closes_only=True)
 
 
 def test_the_physics_timestep_is_the_models():
@@ -201,7 +211,7 @@ def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the
     forces = np.zeros(len(gm.SEGMENTS))
     forces[index_tip] = 1.0
     for reach, speed in ((0.05, 0.1), (0.01, 0.1)):
-        params = gm.ControllerParams(recall="base", reach=reach, reach_speed=speed, max_match_distance=np.inf)
+        params = gm.ControllerParams(recall=gm.BlendRecall(reach=reach, reach_speed=speed), max_match_distance=np.inf)
         controller = gm.GraspController(gm.PostureDatabase(recalled[None]), params)
         offsets, reaching = [], []
         for _ in range(60):
@@ -216,8 +226,6 @@ def test_a_recall_with_reach_moves_the_palm_to_where_the_recalled_grasp_puts_the
         goal = expected if np.linalg.norm(expected) <= reach else expected * reach / np.linalg.norm(expected)
         np.testing.assert_allclose(offsets[-1], goal, atol=1e-12)
         assert "ff" in controller.holding  # once arrived, the touching finger holds again
-    with pytest.raises(ValueError, match="reach"):
-        gm.ControllerParams(reach=-0.01)
     assert np.all(gm.GraspController(None).palm_offset == 0)
 
 
@@ -228,7 +236,7 @@ def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():
     experience = gm.PostureDatabase(recalled[None])
     trust = dict(max_match_distance=np.inf)
     forces = np.zeros(len(gm.SEGMENTS))
-    controllers = {restart: gm.GraspController(experience, gm.ControllerParams(recall="base", restart_closure=restart,
+    controllers = {restart: gm.GraspController(experience, gm.ControllerParams(recall=gm.BlendRecall(restart_closure=restart),
                                                                                experience_preshape=False, **trust))
                    for restart in (False, True)}
     targets = {}
@@ -455,12 +463,12 @@ def test_one_reachability_rule_for_evaluate_and_record_trial_and_it_says_why():
 def test_the_papers_reading_takes_every_free_finger_to_its_recall_before_it_closes_beyond_it():
     """recall='target' (the default) with a one-posture experience, in a real MuJoCo scene where nothing
     touches: every finger's target moves straight to its part of the recalled posture, and closes on
-    towards the closed hand only once the finger's sensed joints are within `recall_tolerance` of it."""
+    towards the closed hand only once the finger's sensed joints are within `TargetRecall.tolerance` of it."""
     from graspmanifold.control.controller import FINGER_JOINT_MASKS
 
     recalled = gm.open_posture() + 0.4 * (gm.closed_posture() - gm.open_posture())
     params = gm.ControllerParams()
-    assert params.recall == "target" and params.max_match_distance == np.inf  # the paper trusts every match
+    assert params.recall == gm.TargetRecall() and params.max_match_distance == np.inf  # the paper trusts every match
     obj = gm.get_object("cylinder")
     scene = gm.Scene(obj, free_object=True)
     scene.set_object_support(2000.0, 30.0)
@@ -482,7 +490,7 @@ def test_the_papers_reading_takes_every_free_finger_to_its_recall_before_it_clos
         leave = next(k for k in range(first, len(at)) if not at[k])  # ... and later leaves it
         way = [np.linalg.norm(t[of] - recalled[of]) for t in targets[: first + 1]]
         assert np.all(np.diff(way) <= 1e-12), finger  # straight there, never away
-        assert np.abs(joints[leave][of] - recalled[of]).max() <= params.recall_tolerance, finger
+        assert np.abs(joints[leave][of] - recalled[of]).max() <= params.recall.tolerance, finger
         beyond = [np.linalg.norm(t[of] - closed[of]) for t in targets[leave - 1:]]
         assert np.all(np.diff(beyond) <= 1e-12) and beyond[-1] < 1e-9, finger  # then on to the closed hand
     assert controller.matches == len(targets) - round(params.preshape_time / params.control_period)
@@ -547,14 +555,10 @@ def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
                              (CLOSING_RECALL, np.where((recalled - half) * np.sign(closed - opened) < 0, half, recalled))):
         controller = BatchController(1, gm.PostureDatabase(recalled[None]), params)
         controller.state.target[0] = half
-        controller.recall_rule.recall(controller, np.array([0]), np.array([0]), recalled[None], half[None],
-                                      np.zeros((1, len(gm.SEGMENTS)), dtype=bool), np.zeros((1, 5), dtype=bool))
+        controller.params.recall.recall(controller, np.array([0]), np.array([0]), recalled[None], half[None],
+                                           np.zeros((1, len(gm.SEGMENTS)), dtype=bool), np.zeros((1, 5), dtype=bool))
         np.testing.assert_allclose(controller.state.recall[0], expected)
     assert np.any(expected != recalled) and np.all((expected - half) * np.sign(closed - opened) >= 0)
-    with pytest.raises(ValueError, match="recall_closes_only works with recall='target'"):
-        gm.ControllerParams(recall="base", recall_closes_only=True)
-    with pytest.raises(ValueError, match="recall_closes_only must be True or False"):
-        gm.ControllerParams(recall_closes_only=1)
 
 
 def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
@@ -584,12 +588,17 @@ def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
 
 
 def test_a_recall_rule_of_ones_own_runs_without_a_change_to_the_controller():
-    """`RecallRule` is the controller's one place for what a best match does: a rule that ignores every match, given
-    to our controller with an experience, grasps as the plain heuristic does (the same trials, the matches still
-    counted); the rules the parameters name are the module's two."""
-    from graspmanifold.control.controller import BatchController, BlendRecall, RecallRule, TargetRecall
+    """`RecallRule` is the controller's one place for what a best match does: a rule that ignores every match, the
+    recall of our controller's parameters with an experience, grasps as the plain heuristic does (the same trials,
+    the matches still counted); the rules named by the parameters are the module's two, and a configuration file
+    names one with its settings."""
+    from dataclasses import dataclass
+
+    from graspmanifold.base.config_files import apply_table, to_toml
+    from graspmanifold.control.controller import BlendRecall, RecallRule, TargetRecall
     from graspmanifold.trials.grid import check_grid
 
+    @dataclass(frozen=True)
     class Ignoring(RecallRule):
         name = "ignoring"
 
@@ -602,12 +611,22 @@ def test_a_recall_rule_of_ones_own_runs_without_a_change_to_the_controller():
     database = gm.PostureDatabase(np.array([gm.closed_posture(), gm.open_posture()]))
     poses = check_grid("quick", gm.get_object("cylinder"))[1][::12]
     plain = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False)
-    ignoring = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False, method="ignoring",
-                           controller=lambda n, hand: BatchController(n, database, hand=hand, recall=Ignoring()))
+    ignoring = gm.evaluate("cylinder", database, poses, seed=0, workers=1, progress=False,
+                           params=gm.ControllerParams(recall=Ignoring()))
     assert [t.hold for t in ignoring.trials] == [t.hold for t in plain.trials]
     np.testing.assert_array_equal([t.posture for t in ignoring.trials], [t.posture for t in plain.trials])
     assert sum(t.matches for t in ignoring.trials) > 0 == sum(t.matches for t in plain.trials)
-    assert gm.ControllerParams().recall_rule == TargetRecall()
-    assert BLEND.recall_rule == BlendRecall() and gm.ControllerParams(recall="base", reach=0.03).recall_rule.moves_palm
-    with pytest.raises(ValueError, match="recall must be a RecallRule"):
-        BatchController(1, recall="target")
+    assert gm.ControllerParams().recall == TargetRecall() and BLEND.recall == BlendRecall()
+    assert gm.ControllerParams(recall=BlendRecall(reach=0.03)).recall.moves_palm
+    with pytest.raises(ValueError, match="ControllerParams.recall must be a RecallRule"):
+        gm.ControllerParams(recall=3)
+    reaching = gm.ControllerParams(recall=BlendRecall(reach=0.03), max_match_distance=0.2)
+    assert "recall = { \"rule\" = \"base\", \"restart_closure\" = false, \"reach\" = 0.03" in to_toml(reaching)
+    assert apply_table(gm.ControllerParams(), {"recall": {"rule": "base", "reach": 0.03}, "max_match_distance": 0.2},
+                       "controller") == reaching
+    assert apply_table(BLEND, {"recall": "target"}, "controller").recall == TargetRecall()
+    with pytest.raises(ValueError, match=r"unknown setting\(s\) \['reach'\] of the recall rule 'target'"):
+        apply_table(gm.ControllerParams(), {"recall": {"reach": 0.03}}, "controller")
+    old = {"recall": "base", "recall_tolerance": 0.05, "recall_closes_only": False, "restart_closure": True,
+           "reach": 0.0, "reach_speed": 0.1, "max_match_distance": 0.2}  # a run.json of the flat settings
+    assert apply_table(gm.ControllerParams(), old, "controller") == replace(BLEND, recall=BlendRecall(restart_closure=True))

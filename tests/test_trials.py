@@ -46,7 +46,7 @@ TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "
 
 @pytest.mark.parametrize("kind,noise,params", [("database", gm.Noise(), None), ("som", gm.Noise(0.004, 0.08, 0.01), None),
                                                ("som", gm.Noise(), BLEND),
-                                               ("som", gm.Noise(), gm.ControllerParams(recall="base", reach=0.03))])
+                                               ("som", gm.Noise(), gm.ControllerParams(recall=gm.BlendRecall(reach=0.03)))])
 def test_worlds_run_together_give_the_trials_each_gives_alone(experience, kind, noise, params):
     """One trial loop over N worlds: a pose's trial does not depend on the other poses run beside it."""
     from graspmanifold.trials.trial import TrialSetup, run_trial, run_trials
@@ -235,3 +235,20 @@ def test_a_judging_stage_of_ones_own_runs_without_a_change_to_the_loop():
     held = [t for t in result.trials if t.hold]
     assert held and all(t.hold_time == pytest.approx(3.0) for t in held)  # the whole hold test after it
     assert TrialSetup(object="box", protocol=settled).key(poses, 0) != TrialSetup(object="box").key(poses, 0)
+
+
+def test_a_controller_is_named_as_the_command_line_names_it_or_given_as_a_factory():
+    """`controller=` means one thing in the API and on the command line: a controller. Ours by its registered name
+    (its parameters, keyed as if given as `params`), one's own as a factory; a name beside parameters is refused."""
+    from graspmanifold.control.controller import CONTROLLERS
+    from graspmanifold.trials.trial import TrialSetup
+
+    poses = np.zeros((1, 4))
+    for name, params in CONTROLLERS.items():
+        named = TrialSetup(object="box", controller=name)
+        assert named.params == params and named.controller is None
+        assert named.key(poses, 0) == TrialSetup(object="box", params=params).key(poses, 0)
+    with pytest.raises(ValueError, match=r"controller must be one of \('paper', 'blend', 'closing-recall'\) or a factory"):
+        TrialSetup(object="box", controller="blnd")
+    with pytest.raises(ValueError, match="give no params beside it"):
+        TrialSetup(object="box", controller="blend", params=BLEND)

@@ -252,7 +252,7 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
     start = time.perf_counter()
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.cluster or args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True,
-                      backend=args.backend, hand=args.hand, params=CONTROLLERS[args.controller],
+                      backend=args.backend, hand=args.hand, controller=args.controller,
                       margin=args.margin, protocol=args.protocol)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")

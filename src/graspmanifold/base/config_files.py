@@ -3,12 +3,18 @@
 A configuration is read with the standard library's TOML reader (`tomllib`) into the very dataclass the
 code validates (`ReproduceConfig`, with its `GeneratorParams` and `ControllerParams` as tables): a key the
 dataclass does not have is refused by name, a value goes through the dataclass's own checks, lists become
-tuples where the field is a tuple. `to_toml` writes a configuration back, so a run can keep the one it used.
+tuples where the field is a tuple. `to_toml` writes a configuration back, so a run can keep the one it used. A
+field whose value is one of several kinds (the controller's recall rule) is written as an inline table that names
+its kind (its `to_table`) and read through its `with_table`; a dataclass with `upgrade_table` reads a table of an
+older form.
 
     [generator]            # a nested dataclass is a table
     mode = "recording"
     postures = { box = 200, cylinder = 200 }   # a dict field is an inline table
     grid = "quick"
+
+    [controller]
+    recall = { rule = "base", reach = 0.03 }   # one of several kinds: named, with its settings
 """
 
 from __future__ import annotations
@@ -41,6 +47,8 @@ def apply_table(base: object, table: dict, where: str) -> object:
     Returns:
         A new configuration, checked by its own class.
     """
+    upgrade = getattr(type(base), "upgrade_table", None)  # a table of an older form, in today's
+    table = upgrade(table) if upgrade is not None else table
     fields = {f.name: f for f in dataclasses.fields(base)}
     unknown = sorted(set(table) - set(fields))
     if unknown:
@@ -50,7 +58,9 @@ def apply_table(base: object, table: dict, where: str) -> object:
     changes = {}
     for name, value in table.items():
         current = getattr(base, name)
-        if dataclasses.is_dataclass(current) and isinstance(value, dict):
+        if hasattr(current, "with_table") and isinstance(value, (dict, str)):  # one of several kinds, by name
+            changes[name] = current.with_table(value)
+        elif dataclasses.is_dataclass(current) and isinstance(value, dict):
             changes[name] = apply_table(current, value, f"{where}.{name}" if where else name)
         else:
             changes[name] = _value(fields[name].type, value)
@@ -84,6 +94,8 @@ def read_config(path: str | os.PathLike, base: object) -> object:
 
 
 def _toml_value(value: object) -> str:
+    if hasattr(value, "with_table"):  # a value of one of several kinds: an inline table that names its kind
+        value = value.to_table()
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
@@ -111,7 +123,7 @@ def to_toml(config: object) -> str:
     plain, tables = [], []
     for field in dataclasses.fields(config):
         value = getattr(config, field.name)
-        if dataclasses.is_dataclass(value):
+        if dataclasses.is_dataclass(value) and not hasattr(value, "with_table"):
             tables.append(f"\n[{field.name}]\n" + "".join(
                 f"{f.name} = {_toml_value(getattr(value, f.name))}\n" for f in dataclasses.fields(value)))
         else:

@@ -18,13 +18,13 @@ is the same controller for one world, driven one posture at a time.
        `release_time` closes on from where it held. The grasp ends when the touching fingers have
        not changed for `stable_time` and every finger touches or is fully closed, or at `timeout`.
 
-What a best match does is a `RecallRule` (the rule `ControllerParams.recall` names, `recall_rule`, or one of
-one's own: `BatchController(..., recall=...)`); the two ours:
+What a best match does is a `RecallRule`, a value of `ControllerParams.recall` (ours by name, `RECALL_RULES`, or
+one of one's own); the two ours:
 
 - `"target"` (`TargetRecall`), the paper's reading ("the resulting posture then acts as the target posture for the
   current control cycle", Section 2): each steered free finger moves to its part of the recalled
   posture at the heuristic's joint speed, and only once it is there (its joints within
-  `recall_tolerance`, or at rest short of it without a contact) does phase D close it on, from the
+  `tolerance`, or at rest short of it without a contact) does phase D close it on, from the
   recall, its closure from 0. Where the paper leaves a detail open we chose the plainest reading: phase
   B matches the whole posture; a finger goes to each recalled posture once (one it reached, or touched
   the object on its way to, does not call it back, so two alternating matches cannot hold it between
@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -86,8 +86,6 @@ FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS
 #: abduction, little-finger cupping, thumb rotation, abduction and roll); flexion is then left to the
 #: closing heuristic, which stops at the contact
 STEERED_JOINTS = {"all": np.ones(N_FINGER_JOINTS, dtype=bool), "spread": ~FLEXION}
-#: what a best match does (see the module doc): the free fingers' target, or the closing heuristic's base
-RECALLS: tuple[str, ...] = ("target", "base")
 #: the grasp phase of each world, as `GraspController.phase` names it
 PHASES: tuple[str, ...] = ("A", "B", "C", "done")
 #: rad/s: a finger on its way to a recalled posture whose joints move slower than this has stopped short of it
@@ -95,18 +93,240 @@ REST_SPEED = 0.1
 
 
 #: the largest values of `ControllerParams` that still describe a controller (a closing rate of 1e300 was taken)
-_HIGHEST = {"closing_rate": 50.0, "follow_speed": 100.0, "timeout": 60.0, "reach_speed": 10.0, "recall_tolerance": 10.0,
-            "control_period": 1.0, "preshape_time": 60.0, "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0,
-            "reach": 0.2}
+_HIGHEST = {"closing_rate": 50.0, "follow_speed": 100.0, "timeout": 60.0, "control_period": 1.0, "preshape_time": 60.0,
+            "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0}
 _HIGHEST_WHY = {"closing_rate": "the hand closes in 20 ms", "follow_speed": "rad/s", "timeout": "s",
-                "reach_speed": "m/s", "recall_tolerance": "rad", "control_period": "s", "preshape_time": "s",
-                "squeeze": "rad", "release_time": "s", "stable_time": "s", "reach": "m"}
+                "control_period": "s", "preshape_time": "s", "squeeze": "rad", "release_time": "s", "stable_time": "s"}
+
+
+def _check_number(owner: str, name: str, value: object, low: float, high: float, positive: bool = False) -> None:
+    """A setting that must be a finite number in [low, high] (above low where `positive`)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or value < low or (positive and value == low) or value > high:
+        raise InvalidInput(f"{owner}.{name} must be a finite number {'>' if positive else '>='} {low:g} and at most "
+                           f"{high:g}, got {value!r}")
+
+
+class RecallRule:
+    """What a best match does (see the module doc): the hooks `BatchController` calls with itself, so that a rule of
+    one's own runs without a change to the controller (`ControllerParams(recall=MyRule())`; a frozen dataclass, its
+    fields part of the trials' key). The hooks work on the controller's arrays of the worlds given; the closing
+    heuristic, the holding and the finishing stay the controller's.
+
+    Attributes:
+        name: the rule's name (`ControllerParams.recall` for ours).
+        moves_palm: whether a recall may move the palm (the trials then carry each palm to `palm_offset`).
+        reach_speed: m/s a recall moves the palm at.
+    """
+
+    name = "rule"
+    moves_palm = False
+    reach_speed = 0.0
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        """Phase B with a constant preshape: these worlds' preshapes (m, 22), rad, nothing touching yet."""
+        raise NotImplementedError
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        """Trusted best matches: these worlds' winning reference rows (m,) and recalled postures (m, 22), rad; every
+        world's sensed joints (N, 22), touching segments (N, segments) and touching fingers (N, 5)."""
+        raise NotImplementedError
+
+    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
+        """After the holding of phase D, every cycle: the acting worlds (N,), the (world, finger) pairs that touched
+        now for the first time (N, 5), the sensed joints (N, 22). Nothing by default."""
+
+    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
+        """Which (world, finger) pairs count as fully closed for the grasp's end (N, 5): `closed` (closure 1)
+        by default."""
+        return closed
+
+    def check(self, params: ControllerParams) -> None:
+        """Refuse controller parameters this rule cannot work with (none by default).
+
+        Args:
+            params: the parameters that hold it.
+
+        Raises:
+            InvalidInput: a combination it cannot work with.
+        """
+
+    def to_table(self) -> dict:
+        """The rule as a table (a configuration file's, run.json's, the trials' key): its name under 'rule', then its
+        fields."""
+        return {"rule": self.name, **{f.name: getattr(self, f.name) for f in fields(self)}}
+
+    def with_table(self, table: str | dict) -> RecallRule:
+        """This rule as a configuration file's table changes it: a name alone is that rule of ours with its defaults;
+        {rule, field = value, ...} the rule named (this one where the name is its own) with those fields.
+
+        Args:
+            table: the table, or a name in `RECALL_RULES`.
+
+        Returns:
+            The rule.
+
+        Raises:
+            InvalidInput: an unknown rule or field.
+        """
+        table = {"rule": table} if isinstance(table, str) else dict(table)
+        name = table.pop("rule", self.name)
+        base = self if name == self.name else RECALL_RULES[check_choice(name, tuple(RECALL_RULES), "recall rule")]()
+        known = [f.name for f in fields(base)]
+        unknown = sorted(set(table) - set(known))
+        if unknown:
+            raise InvalidInput(f"unknown setting(s) {unknown} of the recall rule {name!r}; it has {known}")
+        return replace(base, **table)
+
+
+@dataclass(frozen=True)
+class TargetRecall(RecallRule):
+    """The paper's reading (`recall="target"`): the recall is the steered free fingers' target; a finger closes on
+    from it once there (see the module doc).
+
+    Attributes:
+        tolerance: rad: a finger is there once every joint is this close to its recall (or at rest short of it).
+        closes_only: a recall moves a joint only towards the closed hand (`CLOSING_RECALL`).
+    """
+
+    tolerance: float = 0.05
+    closes_only: bool = False
+    name = "target"
+
+    def __post_init__(self) -> None:
+        _check_number("TargetRecall", "tolerance", self.tolerance, 0.0, 10.0, positive=True)
+        if not isinstance(self.closes_only, bool):
+            raise InvalidInput(f"TargetRecall.closes_only must be True or False, got {self.closes_only!r}")
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        self._recall_for(c, worlds, np.zeros(len(worlds), dtype=np.int64), postures)
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
+
+    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
+        self._done_with(c, newly_held)  # touched on its way: that recall is done with
+        self._arrive(c, act, joints)
+
+    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
+        """A finger whose recall was the closed hand is fully closed once there; one on its way is not."""
+        return ~c.state.approaching & (closed | _per_finger(c.state.target == c.closed, FINGER_JOINT_MASKS))
+
+    def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
+        """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
+        its steered free fingers that are not on their way to it already, nor done with it."""
+        visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
+        new = (c._steered_finger & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
+               & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
+        recalled = np.clip(np.where(c._steered, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
+        if self.closes_only:  # no joint sent back towards the open hand
+            now = c.state.target[worlds]
+            recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
+        c.state.recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recall[worlds])
+        c.state.approaching[worlds] |= new
+        c.state.heading[worlds] = np.where(new, keys[:, None], c.state.heading[worlds])
+
+    @staticmethod
+    def _done_with(c: BatchController, fingers: np.ndarray) -> None:
+        """These (world, finger) pairs are done with the recall they were on their way to."""
+        fingers = fingers & c.state.approaching
+        worlds, which = np.nonzero(fingers)
+        c.state.visited = np.union1d(c.state.visited, c.state.visit(worlds, which, c.state.heading[fingers]))
+        c.state.approaching &= ~fingers
+
+    def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
+        """A free finger whose target has reached its recall, its joints within `tolerance` of it or at rest
+        short of it, closes on from it, its closure from 0."""
+        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
+            still = _per_finger(np.abs(joints - c.state.previous) <= REST_SPEED * c.params.control_period,
+                                FINGER_JOINT_MASKS)
+        near = _per_finger(np.abs(joints - c.state.recall) <= self.tolerance, FINGER_JOINT_MASKS)
+        arrived = (act[:, None] & c.state.approaching & ~c.state.held & (near | still)
+                   & _per_finger(c.state.target == c.state.recall, FINGER_JOINT_MASKS))
+        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recall, c.state.base)
+        c.state.closure[arrived] = 0.0
+        c.state.lost &= ~arrived
+        self._done_with(c, arrived)
+
+
+@dataclass(frozen=True)
+class BlendRecall(RecallRule):
+    """Our earlier blend (`recall="base"`, `BLEND`): the recall is the closing heuristic's base (see the module doc).
+
+    Attributes:
+        restart_closure: the first trusted match after a contact restarts the free fingers' closure at 0.
+        reach: m: that match may also move the palm by up to this much (0: the palm stays).
+        reach_speed: m/s the palm moves at then.
+    """
+
+    restart_closure: bool = False
+    reach: float = 0.0
+    reach_speed: float = 0.1
+    name = "base"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.restart_closure, bool):
+            raise InvalidInput(f"BlendRecall.restart_closure must be True or False, got {self.restart_closure!r}")
+        _check_number("BlendRecall", "reach", self.reach, 0.0, 0.2)
+        _check_number("BlendRecall", "reach_speed", self.reach_speed, 0.0, 10.0, positive=True)
+
+    def check(self, params: ControllerParams) -> None:
+        if (self.restart_closure or self.reach) and params.steered_joints != "all":
+            raise InvalidInput(f"BlendRecall({'restart_closure' if self.restart_closure else 'reach'}) needs "
+                               "steered_joints='all': with only the spread joints recalled, a restarted closure would "
+                               "open the fingers' flexion again")
+
+    @property
+    def moves_palm(self) -> bool:
+        return self.reach > 0
+
+    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        c.state.base[worlds] = postures
+
+    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
+               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        c.state.base[worlds] = np.where(c._steered, match, c.state.base[worlds])
+        if not (self.restart_closure or self.reach > 0):
+            return
+        any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
+        restart = worlds[any_touch[worlds] & ~c.state.recalled[worlds]]
+        c.state.recalled[restart] = True
+        touching = fingers_touching[restart]
+        if self.reach > 0:
+            for world, row in zip(restart, match[np.isin(worlds, restart)]):
+                self._start_reach(c, world, joints[world], row, touching_segments[world])
+            reset = np.broadcast_to(c._steered_finger, touching.shape)
+        else:
+            reset = ~touching & ~c.state.held[restart] & c._steered_finger
+        c.state.closure[restart] = np.where(reset, 0.0, c.state.closure[restart])
+
+    def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
+                     touching: np.ndarray) -> None:
+        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
+        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
+        if not len(rows):
+            return
+        c.state.palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
+        c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
+        c.state.held[world] = False
+        c.state.lost[world] = False
+
+
+#: our recall rules by name (`ControllerParams(recall="base")`, a configuration file's `recall = "base"`)
+RECALL_RULES: dict[str, type[RecallRule]] = {"target": TargetRecall, "base": BlendRecall}
+#: the flat settings of a controller table before the recall rule was a value, and their names in the rule's
+_FLAT_RECALL_SETTINGS = {"recall_tolerance": "tolerance", "recall_closes_only": "closes_only",
+                         "restart_closure": "restart_closure", "reach": "reach", "reach_speed": "reach_speed"}
 
 
 @dataclass(frozen=True)
 class ControllerParams:
     """Timing, gains and switches of the controller (s, rad, rad/s); the defaults are the paper's reading
-    (`recall="target"`, every match trusted), `BLEND` our earlier variant."""
+    (`TargetRecall`, every match trusted), `BLEND` our earlier variant. `recall` is what a best match does: a
+    `RecallRule` value (`TargetRecall(...)`, `BlendRecall(...)` or one's own), or the name of one of ours
+    (`RECALL_RULES`: 'target', 'base') with its defaults."""
 
     control_period: float = 0.02  # 50 Hz
     preshape_time: float = 0.3  # phase A
@@ -121,15 +341,16 @@ class ControllerParams:
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose recall the experience sets
     steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger (flexion: D's)
     max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
-    recall: str = "target"  # what a best match does: 'target' (the paper's) or 'base' (the blend), see the module doc
-    recall_tolerance: float = 0.05  # rad: 'target' takes a finger on once every joint is this close to its recall
-    recall_closes_only: bool = False  # 'target': a recall moves a joint only towards the closed hand (CLOSING_RECALL)
-    restart_closure: bool = False  # 'base': the first trusted match after a contact restarts the free fingers' closure
-    reach: float = 0.0  # m, 'base': that match may also move the palm by up to this much (0: the palm stays)
-    reach_speed: float = 0.1  # m/s, how fast the palm moves then
+    recall: RecallRule = field(default_factory=lambda: TargetRecall())  # what a best match does (module doc)
 
     def __post_init__(self) -> None:
-        for name in ("control_period", "closing_rate", "follow_speed", "timeout", "reach_speed", "recall_tolerance"):
+        if isinstance(self.recall, str):
+            object.__setattr__(self, "recall", RECALL_RULES[check_choice(self.recall, tuple(RECALL_RULES),
+                                                                         "ControllerParams.recall")]())
+        if not isinstance(self.recall, RecallRule):
+            raise InvalidInput(f"ControllerParams.recall must be a RecallRule or one of {tuple(RECALL_RULES)}, got "
+                               f"{self.recall!r}")
+        for name in ("control_period", "closing_rate", "follow_speed", "timeout"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
@@ -142,7 +363,7 @@ class ControllerParams:
             raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
                                f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
                                "make the controller's clock run apart from the physics")
-        for name in ("preshape_time", "squeeze", "release_time", "stable_time", "reach"):
+        for name in ("preshape_time", "squeeze", "release_time", "stable_time"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
@@ -150,39 +371,47 @@ class ControllerParams:
             raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
                                f"got {self.max_match_distance!r}")
         check_choice(self.steered_joints, STEERED_JOINTS, "ControllerParams.steered_joints")
-        check_choice(self.recall, RECALLS, "ControllerParams.recall")
-        if not isinstance(self.restart_closure, bool):
-            raise InvalidInput(f"ControllerParams.restart_closure must be True or False, got {self.restart_closure!r}")
-        if not isinstance(self.recall_closes_only, bool):
-            raise InvalidInput(f"ControllerParams.recall_closes_only must be True or False, got {self.recall_closes_only!r}")
-        if self.recall_closes_only and self.recall != "target":
-            raise InvalidInput("ControllerParams.recall_closes_only works with recall='target' only: the blend's recall "
-                               "is the closing heuristic's base, not a target")
-        for name in ("restart_closure", "reach"):
-            if getattr(self, name) and self.recall != "base":
-                raise InvalidInput(f"ControllerParams.{name} works with recall='base' (the blend) only: with "
-                                   "recall='target' the recalled posture is already the fingers' target")
-            if getattr(self, name) and self.steered_joints != "all":
-                raise InvalidInput(f"ControllerParams.{name} needs steered_joints='all': with only the spread joints "
-                                   "recalled, a restarted closure would open the fingers' flexion again")
+        self.recall.check(self)
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
             raise InvalidInput(f"ControllerParams.steered_fingers has unknown fingers {unknown}; expected some of {FINGERS}")
 
-    @property
-    def recall_rule(self) -> RecallRule:
-        """The rule `recall` names, with its settings: `TargetRecall(recall_tolerance, recall_closes_only)` or
-        `BlendRecall(restart_closure, reach, reach_speed)`."""
-        if self.recall == "target":
-            return TargetRecall(self.recall_tolerance, self.recall_closes_only)
-        return BlendRecall(self.restart_closure, self.reach, self.reach_speed)
+    def to_table(self) -> dict:
+        """The parameters as a table (TOML, run.json, the trials' key): every field, the recall rule as a table of
+        its own with its name under 'rule'."""
+        table = {f.name: getattr(self, f.name) for f in fields(self)}
+        table["recall"] = self.recall.to_table()
+        return table
+
+    @staticmethod
+    def upgrade_table(table: dict) -> dict:
+        """A controller table of a run.json or TOML file written before the recall rule was a value (its settings
+        flat: `recall = "base"`, `reach = 0.03`, ...), in today's form; today's is returned as it is.
+
+        Args:
+            table: the table.
+
+        Returns:
+            The table with `recall` a rule's table.
+        """
+        flat = {old: new for old, new in _FLAT_RECALL_SETTINGS.items() if old in table}
+        if not flat and not isinstance(table.get("recall"), str):
+            return table
+        table = dict(table)
+        rule = {"rule": table.pop("recall", "target")}
+        for old, new in flat.items():
+            value = table.pop(old)
+            if new in {f.name for f in fields(RECALL_RULES.get(rule["rule"], TargetRecall))}:
+                rule[new] = value
+        table["recall"] = rule
+        return table
 
 
 BLEND = ControllerParams(recall="base", max_match_distance=0.2)
 """Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
 within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/experience_study_paper_grids.md)."""
 
-CLOSING_RECALL = ControllerParams(recall_closes_only=True)
+CLOSING_RECALL = ControllerParams(recall=TargetRecall(closes_only=True))
 """The paper's reading ("the resulting posture then acts as the target posture for the current control cycle") with
 one detail it leaves open read the other way: a recall moves each joint of a free finger only towards the closed
 hand, never back towards the open one (each joint's recall kept no more open than its target). The literal reading
@@ -372,159 +601,6 @@ class GraspState:
         return (worlds * len(FINGERS) + fingers) * self.rows + keys
 
 
-class RecallRule:
-    """What a best match does (see the module doc): the hooks `BatchController` calls with itself, so that a rule of
-    one's own runs without a change to the controller (`BatchController(..., recall=MyRule())`). The hooks work on the
-    controller's arrays of the worlds given; the closing heuristic, the holding and the finishing stay the
-    controller's.
-
-    Attributes:
-        name: the rule's name (`ControllerParams.recall` for ours).
-        moves_palm: whether a recall may move the palm (the trials then carry each palm to `palm_offset`).
-        reach_speed: m/s a recall moves the palm at.
-    """
-
-    name = "rule"
-    moves_palm = False
-    reach_speed = 0.0
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        """Phase B with a constant preshape: these worlds' preshapes (m, 22), rad, nothing touching yet."""
-        raise NotImplementedError
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        """Trusted best matches: these worlds' winning reference rows (m,) and recalled postures (m, 22), rad; every
-        world's sensed joints (N, 22), touching segments (N, segments) and touching fingers (N, 5)."""
-        raise NotImplementedError
-
-    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        """After the holding of phase D, every cycle: the acting worlds (N,), the (world, finger) pairs that touched
-        now for the first time (N, 5), the sensed joints (N, 22). Nothing by default."""
-
-    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """Which (world, finger) pairs count as fully closed for the grasp's end (N, 5): `closed` (closure 1)
-        by default."""
-        return closed
-
-
-@dataclass(frozen=True)
-class TargetRecall(RecallRule):
-    """The paper's reading (`recall="target"`): the recall is the steered free fingers' target; a finger closes on
-    from it once there (see the module doc).
-
-    Attributes:
-        tolerance: rad: a finger is there once every joint is this close to its recall (or at rest short of it).
-        closes_only: a recall moves a joint only towards the closed hand (`CLOSING_RECALL`).
-    """
-
-    tolerance: float = 0.05
-    closes_only: bool = False
-    name = "target"
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        self._recall_for(c, worlds, np.zeros(len(worlds), dtype=np.int64), postures)
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
-
-    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        self._done_with(c, newly_held)  # touched on its way: that recall is done with
-        self._arrive(c, act, joints)
-
-    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """A finger whose recall was the closed hand is fully closed once there; one on its way is not."""
-        return ~c.state.approaching & (closed | _per_finger(c.state.target == c.closed, FINGER_JOINT_MASKS))
-
-    def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
-        """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
-        its steered free fingers that are not on their way to it already, nor done with it."""
-        visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (c._steered_finger & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
-               & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
-        recalled = np.clip(np.where(c._steered, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
-        if self.closes_only:  # no joint sent back towards the open hand
-            now = c.state.target[worlds]
-            recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
-        c.state.recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recall[worlds])
-        c.state.approaching[worlds] |= new
-        c.state.heading[worlds] = np.where(new, keys[:, None], c.state.heading[worlds])
-
-    @staticmethod
-    def _done_with(c: BatchController, fingers: np.ndarray) -> None:
-        """These (world, finger) pairs are done with the recall they were on their way to."""
-        fingers = fingers & c.state.approaching
-        worlds, which = np.nonzero(fingers)
-        c.state.visited = np.union1d(c.state.visited, c.state.visit(worlds, which, c.state.heading[fingers]))
-        c.state.approaching &= ~fingers
-
-    def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
-        """A free finger whose target has reached its recall, its joints within `tolerance` of it or at rest
-        short of it, closes on from it, its closure from 0."""
-        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
-            still = _per_finger(np.abs(joints - c.state.previous) <= REST_SPEED * c.params.control_period,
-                                FINGER_JOINT_MASKS)
-        near = _per_finger(np.abs(joints - c.state.recall) <= self.tolerance, FINGER_JOINT_MASKS)
-        arrived = (act[:, None] & c.state.approaching & ~c.state.held & (near | still)
-                   & _per_finger(c.state.target == c.state.recall, FINGER_JOINT_MASKS))
-        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recall, c.state.base)
-        c.state.closure[arrived] = 0.0
-        c.state.lost &= ~arrived
-        self._done_with(c, arrived)
-
-
-@dataclass(frozen=True)
-class BlendRecall(RecallRule):
-    """Our earlier blend (`recall="base"`, `BLEND`): the recall is the closing heuristic's base (see the module doc).
-
-    Attributes:
-        restart_closure: the first trusted match after a contact restarts the free fingers' closure at 0.
-        reach: m: that match may also move the palm by up to this much (0: the palm stays).
-        reach_speed: m/s the palm moves at then.
-    """
-
-    restart_closure: bool = False
-    reach: float = 0.0
-    reach_speed: float = 0.1
-    name = "base"
-
-    @property
-    def moves_palm(self) -> bool:
-        return self.reach > 0
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        c.state.base[worlds] = postures
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        c.state.base[worlds] = np.where(c._steered, match, c.state.base[worlds])
-        if not (self.restart_closure or self.reach > 0):
-            return
-        any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
-        restart = worlds[any_touch[worlds] & ~c.state.recalled[worlds]]
-        c.state.recalled[restart] = True
-        touching = fingers_touching[restart]
-        if self.reach > 0:
-            for world, row in zip(restart, match[np.isin(worlds, restart)]):
-                self._start_reach(c, world, joints[world], row, touching_segments[world])
-            reset = np.broadcast_to(c._steered_finger, touching.shape)
-        else:
-            reset = ~touching & ~c.state.held[restart] & c._steered_finger
-        c.state.closure[restart] = np.where(reset, 0.0, c.state.closure[restart])
-
-    def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
-                     touching: np.ndarray) -> None:
-        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
-        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
-        if not len(rows):
-            return
-        c.state.palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
-        c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
-        c.state.held[world] = False
-        c.state.lost[world] = False
-
-
 class BatchController:
     """The tactile grasp controller for N worlds (see the module doc); call `step` once per control
     period with every world's readings. The worlds share the clock; a world that is done keeps its target.
@@ -540,7 +616,7 @@ class BatchController:
 
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,
-                 hand: HandModel = SHADOW_HAND, regrasp: Regrasp | None = None, recall: RecallRule | None = None):
+                 hand: HandModel = SHADOW_HAND, regrasp: Regrasp | None = None):
         """A controller ready for the first grasp in every world.
 
         Args:
@@ -553,7 +629,6 @@ class BatchController:
             hand: the hand model it drives (its closed posture, joint ranges and kinematics).
             regrasp: its attempts and how it chooses the next one after a failed lift probe (`regrasp.Regrasp`;
                 None: one attempt, the paper's).
-            recall: what a best match does (`RecallRule`; None: `params.recall_rule`, the rule its parameters name).
         """
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
             raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
@@ -575,10 +650,7 @@ class BatchController:
                                                           for of in FINGER_JOINT_MASKS])
         self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
         self._steered = self._steered_finger[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
-        self.recall_rule = self.params.recall_rule if recall is None else recall
-        if not isinstance(self.recall_rule, RecallRule):
-            raise InvalidInput(f"recall must be a RecallRule, got {type(self.recall_rule).__name__}")
-        self._kinematics = SegmentKinematics(hand) if self.recall_rule.moves_palm else None
+        self._kinematics = SegmentKinematics(hand) if self.params.recall.moves_palm else None
         #: the recall keys one world's fingers can have (a row of the references, or the preshape)
         self._rows = 1 + (0 if self.experience is None else len(self.experience.references))
         self.reset()
@@ -591,7 +663,7 @@ class BatchController:
     @property
     def moves_palm(self) -> bool:
         """Whether the trials must carry each palm to `palm_offset` (its recall rule moves palms: `reach` > 0)."""
-        return self.recall_rule.moves_palm
+        return self.params.recall.moves_palm
 
     def reset(self) -> None:
         """Start a new grasp in every world."""
@@ -630,7 +702,7 @@ class BatchController:
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
-        return (f"BatchController({self.n} worlds, experience {experience}, recall {self.recall_rule.name}, "
+        return (f"BatchController({self.n} worlds, experience {experience}, recall {self.params.recall.name}, "
                 f"{int(self.done.sum())} done)")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
@@ -677,7 +749,7 @@ class BatchController:
         self.state.lost |= released
         self.state.held &= ~released
         self.state.closure[released] = 0.0
-        self.recall_rule.follow(self, act, newly_held, joints)
+        self.params.recall.follow(self, act, newly_held, joints)
 
         target = self.state.target.copy()
         pressed = _pressed(self.state.held_posture, p.squeeze, self.closed, self.limits)
@@ -701,13 +773,13 @@ class BatchController:
         moving = np.flatnonzero(act & self.state.reaching)  # palms on their way to the recalled grasps' places
         if len(moving):
             self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
-                                                     self.recall_rule.reach_speed * dt)
+                                                     self.params.recall.reach_speed * dt)
             self.state.reaching[moving] = np.any(self.palm_offset[moving] != self.state.palm_goal[moving], axis=1)
 
         changed = act & np.any(touching != self.state.touching, axis=1)
         self.state.touching[changed] = touching[changed]
         self.state.stable_since[changed] = self.time
-        closed = self.recall_rule.settled(self, self.state.closure >= 1.0)
+        closed = self.params.recall.settled(self, self.state.closure >= 1.0)
         settled = np.all(touching | closed, axis=1)
         finished = act & ((touching.any(axis=1) & settled & ~self.state.reaching
                            & (self.time - self.state.stable_since >= p.stable_time))
@@ -725,7 +797,7 @@ class BatchController:
         p, any_touch = self.params, touching_segments.any(axis=1)
         preshaped = ~np.isnan(self.state.preshapes[:, 0])
         shaping = act & ~any_touch & preshaped
-        self.recall_rule.preshape(self, np.flatnonzero(shaping), self.state.preshapes[shaping])
+        self.params.recall.preshape(self, np.flatnonzero(shaping), self.state.preshapes[shaping])
         candidates = act & ~(preshaped & ~any_touch)
         if self.experience is None:
             return
@@ -748,7 +820,7 @@ class BatchController:
         self.matches[worlds] += 1
         for world, winner in zip(worlds, winners):
             self.winners[world].append(int(winner))
-        self.recall_rule.recall(self, worlds, np.asarray(winners), match, joints, touching_segments, fingers_touching)
+        self.params.recall.recall(self, worlds, np.asarray(winners), match, joints, touching_segments, fingers_touching)
 
 
 class GraspController:
@@ -789,7 +861,7 @@ class GraspController:
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
-        return (f"GraspController(experience {experience}, recall {self.params.recall}, phase {self.phase}, "
+        return (f"GraspController(experience {experience}, recall {self.params.recall.name}, phase {self.phase}, "
                 f"{self.matches} matches{', done' if self.done else ''})")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:

@@ -16,6 +16,7 @@ from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import atomic_write, write_text_atomic, markdown_table
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.protocols import DEFAULT_PROTOCOL, get_protocol
+from ..base.config_files import apply_table
 from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
@@ -238,10 +239,10 @@ def _choices(run: RunData) -> list[list[str]]:
          f"{c.stable_time} s; timeout {c.timeout} s; {trust}; the hand model's keyframes `open` and `closed`",
          "described in [15], not given"],
         ["recalled posture (Section 2, Eq. 2)", "`recall='target'`: the free fingers' target, reached at the "
-         f"heuristic's joint speed; a finger closes on from it once within {c.recall_tolerance} rad of it (or at "
+         f"heuristic's joint speed; a finger closes on from it once within {c.recall.tolerance} rad of it (or at "
          "rest short of it, no contact), its closure from 0; phase B matches the whole posture; each recall at most "
          "once per finger; a finger that lost its contact closes on from where it held; `_blend` methods: `BLEND`"
-         if c.recall == "target" else "`recall='base'` (the blend): the heuristic's base, goal = match + c (closed "
+         if c.recall.name == "target" else "`recall='base'` (the blend): the heuristic's base, goal = match + c (closed "
          "- match), c grown since phase B began", "\"acts as the target posture for the current control cycle\"; a "
          "generic closing heuristic finalises the grasp"],
         ["object support while the hand closes", f"a spring-damper, {JUDGING.support_stiffness:g} N/m and {JUDGING.support_damping:g} "
@@ -257,8 +258,9 @@ def _controller_params(stored: dict | None) -> ControllerParams:
     """A run's controller from its run.json (one written before the choice of controller ran `BLEND`)."""
     if stored is None:
         return BLEND
-    return ControllerParams(**{**stored, "steered_fingers": tuple(stored.get("steered_fingers", BLEND.steered_fingers)),
-                               "max_match_distance": float(stored.get("max_match_distance", BLEND.max_match_distance))})
+    return apply_table(ControllerParams(), {**stored, "max_match_distance": float(stored.get("max_match_distance",
+                                                                                             BLEND.max_match_distance))},
+                       "controller")
 
 
 def _config_text(config: dict) -> str:
@@ -266,7 +268,7 @@ def _config_text(config: dict) -> str:
     it is in run.json)."""
     shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()}
     shown["generator"] = f"mode {config['generator'].get('mode', 'settled')}"
-    shown["controller"] = f"recall {_controller_params(config.get('controller')).recall}"
+    shown["controller"] = f"recall {_controller_params(config.get('controller')).recall.name}"
     return ", ".join(f"{k} {json.dumps(v) if isinstance(v, dict) else v}" for k, v in shown.items())
 
 

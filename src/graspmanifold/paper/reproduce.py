@@ -127,6 +127,7 @@ class ReproduceConfig:
 
     def to_json(self) -> dict:
         config = asdict(self)
+        config["controller"] = self.controller.to_table()
         config["controller"]["max_match_distance"] = str(self.controller.max_match_distance)  # 'inf' is no JSON number
         config["grid"] = self.grid if isinstance(self.grid, str) else [list(map(float, g)) for g in self.grid]
         return config
@@ -225,7 +226,8 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             previous = None
         if isinstance(previous, dict):
             previous.setdefault("hand", SHADOW_HAND.name)  # a run.json written before the choice of hand
-            previous.setdefault("controller", {**json.loads(json.dumps(asdict(BLEND))), "max_match_distance": "0.2"})
+            previous.setdefault("controller", {**json.loads(json.dumps(BLEND.to_table())), "max_match_distance": "0.2"})
+            previous["controller"] = ControllerParams.upgrade_table(previous["controller"])
         if previous != json.loads(json.dumps(config.to_json())) and not force:
             raise InvalidInput(f"{out} holds another run's files with other parameters; pass --force to "
                              "replace them, or choose another directory")
@@ -334,7 +336,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             remove_checkpoints(parts)
         poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
         stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, hand.digest,
-                                                           asdict(params), config.protocol, *inputs[kind]), [path],
+                                                           params.to_table(), config.protocol, *inputs[kind]), [path],
                    run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 

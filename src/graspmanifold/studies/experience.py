@@ -53,7 +53,7 @@ from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
-from ..control.controller import BLEND, ControllerParams
+from ..control.controller import BLEND, BlendRecall, ControllerParams
 from ..control.generator import MAX_POSTURES, GeneratorParams, generate_postures
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.postureset import PostureSet
@@ -87,9 +87,9 @@ QUICK_OBJECTS = ("box", "marble")
 #: the SOM controller's variants, one of which the selection split picks: the paper's literal controller
 #: (recall='target'), the blend (BLEND), and the blend restarting the closure at the first trusted match
 SOM_VARIANTS = {"som_paper": ControllerParams(), "som_blend": BLEND,
-                "som_restart": replace(BLEND, restart_closure=True)}
+                "som_restart": replace(BLEND, recall=BlendRecall(restart_closure=True))}
 SOM_DESCRIPTIONS = {"som_paper": "the paper's controller (ControllerParams())", "som_blend": "the blend (BLEND)",
-                    "som_restart": "replace(BLEND, restart_closure=True)"}
+                    "som_restart": "replace(BLEND, recall=BlendRecall(restart_closure=True))"}
 #: the attempts of the regrasp methods and their controls
 ATTEMPTS = 2
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice, check_int
-from ..control.controller import BatchController, Controller, ControllerFactory, ControllerParams
+from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
 from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
 from ..control.regrasp import LiftProbe, Regrasp
@@ -107,9 +107,11 @@ class TrialSetup:
         method: the method's label in results and reports (empty: `method_name` of the experience).
         hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); experience from another hand's
             postures is refused.
-        controller: a user's own: `controller(n, hand)` returns a `controller.Controller` for n worlds (a
-            module-level class or function, for worker processes); it brings its own experience and parameters
-            (`experience`, `preshape`, `params` stay at their defaults), and `method` names it.
+        controller: the controller: one of ours by its registered name (`controller.CONTROLLERS`: 'paper', 'blend',
+            'closing-recall'; it becomes `params`, as the CLI's `--controller` names it), or a user's own, a factory:
+            `controller(n, hand)` returns a `controller.Controller` for n worlds (a module-level class or function,
+            for worker processes); it brings its own experience and parameters (`experience`, `preshape`, `params`
+            stay at their defaults), and `method` names it. None: ours with `params`.
         margin: measure the disturbance margin of every grasp that holds (`judge` module doc; up to 1.8 s more
             simulation per held grasp); False: `Trial.margin` is NaN.
         protocol: how the grasps are judged (`protocols.Protocol`, a registered name is looked up): our hold test
@@ -134,7 +136,7 @@ class TrialSetup:
     backend: str = "cpu"
     method: str = ""
     hand: HandModel = SHADOW_HAND
-    controller: ControllerFactory | None = None
+    controller: str | ControllerFactory | None = None
     margin: bool = False
     regrasp: Regrasp = Regrasp()
     protocol: Protocol = DEFAULT_PROTOCOL
@@ -151,6 +153,13 @@ class TrialSetup:
             raise InvalidInput(f"backend='warp' runs our hand model only, not {self.hand.name!r}: use backend='cpu'")
         set_field("experience", check_experience(self.experience))
         set_field("params", self.params or ControllerParams())
+        if isinstance(self.controller, str):  # one of ours by name: its parameters
+            if self.params != ControllerParams():
+                raise InvalidInput(f"controller={self.controller!r} names one of ours with its parameters: give no "
+                                   "params beside it")
+            set_field("params", CONTROLLERS[check_choice(self.controller, tuple(CONTROLLERS), "controller",
+                                                         also="or a factory controller(n, hand)")])
+            set_field("controller", None)
         set_field("noise", self.noise or Noise())
         if not isinstance(self.noise, Noise) or not isinstance(self.params, ControllerParams):
             raise InvalidInput(f"noise must be a Noise and params ControllerParams, got {type(self.noise).__name__} "
@@ -244,7 +253,7 @@ class TrialSetup:
         """
         experience, custom = self.experience, self.controller
         return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
-                           "params": asdict(self.params), "table": self.table, "backend": self.backend,
+                           "params": self.params.to_table(), "table": self.table, "backend": self.backend,
                            "margin": self.margin,
                            "experience": None if experience is None else type(experience).__name__,
                            "hand": self.hand.digest, "controller": None if custom is None else
