@@ -147,6 +147,18 @@ def test_the_studies_are_library_code_and_write_tables_one_way():
     assert by_hand == [], f"paired comparisons spelled by hand (use stats.mcnemar(..., valid=)): {by_hand}"
 
 
+def test_every_study_runs_on_the_one_study_template():
+    """A study is a command over `studies.runner.StudyRun`: every module of studies/ with a `main` runs it through
+    `run_study` or `run_command` (its folder locked, its log, its transcript, Ctrl-C ending in how to resume);
+    none makes its folder or writes its report by hand."""
+    studies = sorted(p for p in (PACKAGE / "studies").glob("*.py") if "\ndef main(" in p.read_text())
+    assert len(studies) >= 16
+    off = [p.name for p in studies if not re.search(r"\brun_(study|command)\(", p.read_text())]
+    assert not off, f"studies not on the template (runner.run_study / run_command): {off}"
+    by_hand = [p.name for p in studies if ".mkdir(" in p.read_text() or ".write_text(" in p.read_text()]
+    assert not by_hand, f"studies that make their folder or write a report by hand: {by_hand}"
+
+
 def test_no_public_function_of_the_trials_takes_more_than_eight_parameters():
     """A trial is one value (`TrialSetup`): `evaluate`, `record_trial` and `run_benchmark` take it, or its fields by
     keyword, beside what is not a trial's (grid, seed, workers, files); nothing in trials/ spells the set-up out."""

@@ -54,3 +54,15 @@ def test_a_study_run_from_python_holds_its_folder(tmp_path):
         with pytest.raises(OutputInUse, match="being written by another"):
             ExperienceStudy(ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1)).run()
     assert not (tmp_path / "config.toml").exists()
+
+
+def test_a_benchmark_like_study_keeps_what_it_prints_in_its_folder(tmp_path):
+    """A study on the template (`runner.run_study`): the spring-hold diagnosis on four cylinder candidates writes its
+    report where asked and keeps its printed output in its folder; its folder is released when it ends."""
+    from graspmanifold.studies import spring_holds
+
+    out, doc = tmp_path / "study", tmp_path / "report.md"
+    spring_holds.main(["--objects", "cylinder", "--n", "4", "--workers", "1", "--out", str(out), "--doc", str(doc)])
+    report, kept = doc.read_text(), (out / "spring_holds.log").read_text()
+    assert "| cylinder |" in report and "| cylinder |" in kept and "cylinder: done" in kept
+    assert sorted(p.name for p in out.iterdir()) == ["spring_holds.log"]  # no lock left

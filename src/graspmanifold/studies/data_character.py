@@ -32,7 +32,7 @@ from ..control.generator import (
 from ..manifold.analysis import nearest_neighbour_deg
 from ..manifold.postureset import PostureSet
 from ..trials.study import train_experience_map
-from .runner import StudyRun
+from .runner import StudyRun, run_study
 
 
 def posture_set(run: StudyRun, cache: Path | None, name: str, mode: str, record_every: int, verify: bool
@@ -65,7 +65,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", default="data_character")
     parser.add_argument("--cache", help="a directory with settled-mode paper sets named <object>.npz")
     args = parser.parse_args(argv)
-    run = StudyRun(args.out, args.workers)
+    run_study(args.out, args.workers, lambda run: _run(args, run), pool=False)  # the generator's own pool
+
+
+def _run(args: argparse.Namespace, run: StudyRun) -> None:
     rows = []
     for name in args.objects:
         for mode in args.modes:

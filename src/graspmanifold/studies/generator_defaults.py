@@ -1,7 +1,7 @@
 """What `generate_postures(obj, n)` gives with its defaults: the designs, their grasp types and verified shares.
 
     python scripts/study_generator_defaults.py [--objects box cylinder sphere | --test-family | --held-out]
-                                               [--n 40] [--workers 1] [--out docs/generator_defaults.md]
+                                               [--n 40] [--workers 1] [--out DIR] [--doc docs/generator_defaults.md]
 
 For each object: the starting postures of the default design family (every grasp type, each start one that
 holds and so do its neighbours: `generator.search_starting_postures`), found in the shipped file or searched
@@ -26,6 +26,7 @@ from ..control.starts import designs_for
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.objects import PAPER_OBJECTS, get_object
 from ..trials.stats import rate_text
+from .runner import StudyRun, run_study
 
 
 def study(name: str, n: int, workers: int) -> tuple[list[list], list]:
@@ -60,8 +61,13 @@ def main(argv: list[str] | None = None) -> None:
                         help="instead the paper's objects and every family member not held out (the tests' family)")
     parser.add_argument("--n", type=int, default=40)
     parser.add_argument("--workers", type=int, default=1)
-    parser.add_argument("--out", default="generator_defaults.md")
+    parser.add_argument("--out", default="study-generator-defaults", help="the study's folder (its log)")
+    parser.add_argument("--doc", default="generator_defaults.md", help="the report")
     args = parser.parse_args(argv)
+    run_study(args.out, 1, lambda run: _run(args, run), "generator_defaults.log")  # the generator has its own pool
+
+
+def _run(args: argparse.Namespace, run: StudyRun) -> None:
     test_family = [*PAPER_OBJECTS, *(name for name in FAMILY if name not in HELD_OUT)]
     names = list(HELD_OUT) if args.held_out else test_family if args.test_family else args.objects
     # a fresh cache: objects that ship no starts are searched here, as for a new user
@@ -71,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
         object_rows, summary = study(name, args.n, args.workers)
         rows += object_rows
         summaries.append(summary)
-        print(" | ".join(str(cell) for cell in summary), flush=True)
+        run.log(" | ".join(str(cell) for cell in summary))
     command = "python scripts/study_generator_defaults.py " + (
         "--held-out" if args.held_out else "--test-family" if args.test_family else "--objects " + " ".join(names)
     ) + f" --n {args.n} --workers {args.workers}"
@@ -82,8 +88,8 @@ def main(argv: list[str] | None = None) -> None:
                          "start search (s)", "generation (s)", "verified postures / s",
                          "designs with no start that holds"], summaries), "",
         *markdown_table(["object", "design (grasp type)", "candidates", "verified [95 % CI]", "kept"], rows), ""])
-    write_text_atomic(args.out, text)
-    print(f"wrote {args.out}")
+    write_text_atomic(args.doc, text)
+    print(f"wrote {args.doc}")
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..base.io import markdown_table
+from ..base.io import markdown_table, write_text_atomic
 from ..paper.reproduce import PRESETS, reproduce
 from ..sim.hand import SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, joint_agreement
@@ -33,6 +33,7 @@ from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import grid_preset
 from ..trials.stats import holm, rate_text
 from ..trials.study import compare
+from .runner import StudyRun, run_study
 
 OBJECTS = ("box", "cylinder", "sphere")
 METHODS = {"none": "heuristic", "database": "database", "som": "SOM"}
@@ -233,9 +234,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--why-grid", default="paper", help="the grid of the --why ablation (one worker: the changed "
                         "models are not registered by name)")
     args = parser.parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
+    run_study(args.out, 1, lambda run: _run(args, run), "hands.log")  # each reproduction has its own pool
+
+
+def _run(args: argparse.Namespace, run: StudyRun) -> None:
+    out, started = run.out, run.started
     runs = {(hand, preset): finished_run(out, hand, preset, args.workers) for preset in args.presets
             for hand in args.hands}
     results = {(hand, preset, obj, method): EvaluationResult.load(run / "evaluation" / f"{obj}_{method}.npz")
@@ -286,7 +289,7 @@ def main(argv: list[str] | None = None) -> None:
         for hand in hands[1:]:
             lines += ablation_rows(hand, args.why_grid)
     text = "\n".join(lines).replace("SECONDS", f"{time.perf_counter() - started:.0f}")
-    Path(args.doc).write_text(text + "\n")
+    write_text_atomic(args.doc, text + "\n")
     print(text)
 
 

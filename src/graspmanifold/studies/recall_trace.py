@@ -3,6 +3,7 @@ readings of the recall on the same poses with the same experience.
 
     python scripts/trace_literal_controller.py [--experience study-uncertainty] [--object pen] [--placement palm]
     python scripts/trace_literal_controller.py --all   # every cell of the test split, and the pooled comparisons
+    (the report kept in --out DIR, default study-recall-trace, as recall_trace.md)
 
 The experience is the verified postures a study kept (`experience_<object>.npz` in its folder: the experience or the
 uncertainty study), one SOM trained on all of them as the studies train it. The readings (`READINGS`): the paper's
@@ -37,7 +38,7 @@ from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_split
 from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
 from ..trials.trial import TrialSetup, run_trials
-from .runner import comparison_table, holm_family
+from .runner import comparison_table, holm_family, run_study
 
 #: the readings of the recall traced side by side
 READINGS: tuple[tuple[str, ControllerParams], ...] = (
@@ -124,29 +125,34 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--object", default="pen", choices=list(OBJECTS))
     parser.add_argument("--placement", default="palm", choices=list(PLACEMENTS))
     parser.add_argument("--all", action="store_true", help="every cell of the test split, and pooled comparisons")
+    parser.add_argument("--out", default="study-recall-trace", help="the folder its report (recall_trace.md) is kept in")
     args = parser.parse_args(argv)
-    files = sorted(glob.glob(f"{args.experience}/experience_*.npz"))
-    if not files:
-        raise SystemExit(f"error: no experience_*.npz in {args.experience}: run a study there first")
-    sets = [PostureSet.load(f) for f in files]
-    som = train_experience_map(np.concatenate([s.postures for s in sets]))
-    print(f"Experience: {sum(len(s) for s in sets)} verified postures of {len(files)} objects ({args.experience}), "
-          "one SOM.\n")
-    cells = [(o, p) for o in OBJECTS for p in PLACEMENTS] if args.all else [(args.object, args.placement)]
-    runs = []
-    for cell in cells:
-        lines, outcomes = trace_cell(som, *cell)
-        print("\n".join(lines), flush=True)
-        runs.append(outcomes)
-    pooled = {label: tuple(np.concatenate([r[label][k] for r in runs]) for k in (0, 1)) for label, _ in READINGS}
 
-    def versus(a: str, b: str):
-        return mcnemar(pooled[a][0], pooled[b][0], valid=pooled[a][1] & pooled[b][1])
+    def trace(run: object) -> None:
+        files = sorted(glob.glob(f"{args.experience}/experience_*.npz"))
+        if not files:
+            raise SystemExit(f"error: no experience_*.npz in {args.experience}: run a study there first")
+        sets = [PostureSet.load(f) for f in files]
+        som = train_experience_map(np.concatenate([s.postures for s in sets]))
+        print(f"Experience: {sum(len(s) for s in sets)} verified postures of {len(files)} objects ({args.experience}), "
+              "one SOM.\n")
+        cells = [(o, p) for o in OBJECTS for p in PLACEMENTS] if args.all else [(args.object, args.placement)]
+        runs = []
+        for cell in cells:
+            lines, outcomes = trace_cell(som, *cell)
+            print("\n".join(lines), flush=True)
+            runs.append(outcomes)
+        pooled = {label: tuple(np.concatenate([r[label][k] for r in runs]) for k in (0, 1)) for label, _ in READINGS}
 
-    print("### Pooled\n")
-    print("\n".join(f"- {label}: {rate_text(int(held[valid].sum()), int(valid.sum()))}"
-                    for label, (held, valid) in pooled.items()) + "\n")
-    print("\n".join(comparison_table(holm_family([
-        ("closing recall against the paper's controller", versus("closing recall", "paper's controller")),
-        ("the blend against the paper's controller", versus("blend", "paper's controller")),
-        ("the blend against the closing recall", versus("blend", "closing recall"))]))))
+        def versus(a: str, b: str):
+            return mcnemar(pooled[a][0], pooled[b][0], valid=pooled[a][1] & pooled[b][1])
+
+        print("### Pooled\n")
+        print("\n".join(f"- {label}: {rate_text(int(held[valid].sum()), int(valid.sum()))}"
+                        for label, (held, valid) in pooled.items()) + "\n")
+        print("\n".join(comparison_table(holm_family([
+            ("closing recall against the paper's controller", versus("closing recall", "paper's controller")),
+            ("the blend against the paper's controller", versus("blend", "paper's controller")),
+            ("the blend against the closing recall", versus("blend", "closing recall"))]))))
+
+    run_study(args.out, 1, trace, "recall_trace.md")

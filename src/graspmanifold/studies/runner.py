@@ -1,9 +1,10 @@
 """What every study shares: its output folder, its log, its pool of workers, the results it keeps under their
 keys, its paired comparisons and its tables.
 
-A study is a class over `StudyRun`: the run holds the folder (locked while the study runs in its `session`), one
-pool of worker processes for the whole study, the log (each line with the seconds since the start) and the count of
-what was computed now and what was taken from an earlier run. A result is kept by `keep` under the key of what
+Every study runs over a `StudyRun`: the run holds the folder (locked while the study runs in its `session`), one
+pool of worker processes for the whole study, the log (each line with the seconds since the start), the transcript
+of what it prints (kept in its folder: a benchmark's tables too) and the count of what was computed now and what was
+taken from an earlier run. A result is kept by `keep` under the key of what
 made it (`checkpoints.result_key`: the configuration and the code), so a rerun takes what is still valid and
 recomputes what is not, whatever the files are called. `holm_family` and `comparison_table` are the one way
 a study reports paired comparisons (McNemar, Holm within a family); `base.io.markdown_table` writes every table.
@@ -13,16 +14,17 @@ error (a folder another study holds among them) ending in one line.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext, redirect_stdout
 from dataclasses import replace
 from pathlib import Path
-from typing import TypeVar
+from typing import TextIO, TypeVar
 
 import numpy as np
 
@@ -92,6 +94,36 @@ class StudyRun:
                 yield self
             finally:
                 self.executor = None
+
+    @contextmanager
+    def transcript(self, name: str) -> Iterator[Path]:
+        """What the study prints inside the block, printed and also kept as `name` in its folder (written when the
+        block ends, interrupted or not: what was printed is not lost).
+
+        Args:
+            name: the file's name in the folder ('som_speed.md').
+
+        Yields:
+            The file's path.
+        """
+        path, kept = self.out / name, io.StringIO()
+
+        class Tee(io.TextIOBase):
+            def __init__(self, screen: TextIO):
+                self.screen = screen
+
+            def write(self, text: str) -> int:
+                kept.write(text)
+                return self.screen.write(text)
+
+            def flush(self) -> None:
+                self.screen.flush()
+
+        try:
+            with redirect_stdout(Tee(sys.stdout)):
+                yield path
+        finally:
+            write_text_atomic(path, kept.getvalue())
 
     def keep(self, name: str, key: str, compute: Callable[[], Result], read: Callable[[Path], tuple[Result, dict]],
              write: Callable[[Result, Path, dict], object]) -> Result:
@@ -220,6 +252,29 @@ def run_command(out: str | Path, body: Callable[[], None]) -> None:
         raise SystemExit(130) from None
     except GraspManifoldError as error:
         raise SystemExit(f"error: {error}") from None
+
+
+def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object], transcript: str | None = None,
+              pool: bool = True) -> None:
+    """A study as a command: its `StudyRun` over `out` (the folder locked, and one worker pool open, while `body(run)`
+    runs), what it prints kept as `transcript` in the folder (None: not kept), Ctrl-C and library errors ended as
+    `run_command` ends them.
+
+    Args:
+        out: the study's folder.
+        workers: worker processes (`run.workers`).
+        body: the study, given its run.
+        transcript: the file its printed output is kept in, or None.
+        pool: open the study's pool (`run.executor`); False: what it calls brings its own (`run.workers` of them).
+    """
+    run = StudyRun(out, workers)
+
+    def within() -> None:
+        with run.session() if pool else output_lock(run.out / LOCK_FILE, run.out), \
+                run.transcript(transcript) if transcript else nullcontext():
+            body(run)
+
+    run_command(out, within)
 
 
 def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callable[[dict], str],

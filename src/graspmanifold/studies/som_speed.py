@@ -1,7 +1,7 @@
 """Benchmark the SOM's hot paths in the paper's setting, against MiniSom in the same run.
 
     pip install minisom   # the peer; needed for this benchmark only
-    python scripts/bench_som.py [--epochs 300] [--samples 4220] [--data postures.npz] [--repeats 5]
+    python scripts/bench_som.py [--epochs 300] [--samples 4220] [--data postures.npz] [--repeats 5] [--out DIR]
 
 25 x 25 map, 22 dimensions, 4220 samples, 300 epochs (paper Section 5). Both online trainers start
 from the same PCA-initialised weights and follow the same per-epoch schedule (learning rate
@@ -31,6 +31,7 @@ from ..manifold import kernels
 from ..manifold.som import SOM, decay_schedule
 from ..sim.hand import SEGMENTS, finger_limits
 from ..sim.posture import pcp_mask
+from .runner import run_study
 
 ROWS = COLS = 25
 DIM = 22
@@ -102,8 +103,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--data", help="a .npz with a 'postures' array (n, 22) instead of synthetic data")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--skip-minisom", action="store_true")
+    parser.add_argument("--out", default="study-som-speed", help="the folder its report (som_speed.md) is kept in")
     args = parser.parse_args(argv)
+    run_study(args.out, 1, lambda run: measure(args), "som_speed.md")
 
+
+def measure(args: argparse.Namespace) -> None:
+    """The benchmark's tables, printed (see the module doc)."""
     data = load_postures(args.data) if args.data else synthetic_postures(args.samples)
     updates = args.epochs * len(data)
     print(f"python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "

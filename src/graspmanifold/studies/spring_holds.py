@@ -1,7 +1,7 @@
 """Why do the spring grasps of some shapes never hold? Each candidate's verification, taken apart.
 
     python scripts/study_spring_holds.py [--objects cylinder capsule_m frustum_m bottle_m] [--n 200]
-                                         [--workers 2] [--out spring_holds.md] [--by-start]
+                                         [--workers 2] [--out DIR] [--doc spring_holds.md] [--by-start]
 
 The generator keeps a spring candidate only when it holds the free object under the controller's
 squeeze (`GeneratorParams.verify`). For the bottle none of 1000 candidates did, for the frustum 11.
@@ -33,6 +33,7 @@ from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import get_object
 from ..sim.scene import GRAVITY, Scene
 from ..trials.stats import rate_text
+from .runner import StudyRun, run_study
 
 DIRECTION_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
 PERIOD = 0.02  # s, as the verifier checks
@@ -99,10 +100,18 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--objects", nargs="+", default=["cylinder", "capsule_m", "frustum_m", "bottle_m"])
     parser.add_argument("--n", type=int, default=200)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--out", default="spring_holds.md")
+    parser.add_argument("--out", default="study-spring-holds", help="the study's folder (its log, a copy of the report)")
+    parser.add_argument("--doc", default="spring_holds.md", help="the report")
     parser.add_argument("--by-start", action="store_true", help="a row per starting posture instead of per object")
     args = parser.parse_args(argv)
-    rows = [r for name in args.objects for r in study(name, args.n, args.workers, args.by_start)]
+    run_study(args.out, 1, lambda run: _run(args, run), "spring_holds.log")  # the generator has its own pool
+
+
+def _run(args: argparse.Namespace, run: StudyRun) -> None:
+    rows = []
+    for name in args.objects:
+        rows += study(name, args.n, args.workers, args.by_start)
+        run.log(f"{name}: done")
     command = "python scripts/study_spring_holds.py " + " ".join(sys.argv[1:])
     table = "\n".join(
         [f"# Why spring candidates do not hold{' (by starting posture)' if args.by_start else ''}", "",
@@ -114,7 +123,7 @@ def main(argv: list[str] | None = None) -> None:
          *markdown_table(["starting posture" if args.by_start else "object", "held [95 % CI]", "force closure",
                           "five fingertips still touch", "the thumb still touches", "touching segments",
                           "squeeze force (N)", "contact height", "axial normal", "first drop along (count)"], rows)])
-    write_text_atomic(args.out, table + "\n")
+    write_text_atomic(args.doc, table + "\n")
     print(table)
 
 

@@ -1,6 +1,6 @@
 """Where a trial's time goes: physics steps and seconds per phase, on one core, in this process.
 
-    python scripts/profile_trials.py trials [--grid paper] [--every 9] [--margin]
+    python scripts/profile_trials.py [--out DIR] trials [--grid paper] [--every 9] [--margin]
     python scripts/profile_trials.py generator [--object cylinder] [--n 20]
     python scripts/profile_trials.py stepping [--worlds 16] [--threads 2]
 
@@ -40,6 +40,7 @@ from ..sim.worlds import CpuWorlds
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid
 from ..trials.grid import check_grid, reachable
 from ..trials.trial import TrialSetup, run_trials
+from .runner import run_study
 
 SECONDS: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)
@@ -225,6 +226,8 @@ def profile_stepping(worlds: int, threads: int, periods: int = 20) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="study-trial-profile", help="the folder its report (trial_profile_WHAT.md) "
+                        "is kept in")
     sub = parser.add_subparsers(dest="what", required=True)
     trials = sub.add_parser("trials")
     trials.add_argument("--grid", default="paper", choices=("paper", "quick", "benchmark"))
@@ -237,12 +240,16 @@ def main(argv: list[str] | None = None) -> None:
     stepping.add_argument("--worlds", type=int, default=16)
     stepping.add_argument("--threads", type=int, default=2)
     args = parser.parse_args(argv)
-    if args.what == "trials":
-        profile_trials(args.grid, args.every, args.margin)
-    elif args.what == "generator":
-        profile_generator(args.object, args.n)
-    else:
-        profile_stepping(args.worlds, args.threads)
+
+    def body(run: object) -> None:
+        if args.what == "trials":
+            profile_trials(args.grid, args.every, args.margin)
+        elif args.what == "generator":
+            profile_generator(args.object, args.n)
+        else:
+            profile_stepping(args.worlds, args.threads)
+
+    run_study(args.out, 1, body, f"trial_profile_{args.what}.md")  # one process: what it profiles
 
 
 if __name__ == "__main__":

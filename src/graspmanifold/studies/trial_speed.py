@@ -1,8 +1,8 @@
 """Benchmark grasp trials: the batched CPU backend against one trial at a time, and the Warp backend.
 
-    python scripts/bench_trials.py cpu [--grids quick paper] [--workers 1 2]
-    python scripts/bench_trials.py agree [--objects box cylinder sphere] [--som MAP.npz]
-    python scripts/bench_trials.py gpu [--worlds 1024 4096 16384]
+    python scripts/bench_trials.py [--out DIR] cpu [--grids quick paper] [--workers 1 2]
+    python scripts/bench_trials.py [--out DIR] agree [--objects box cylinder sphere] [--som MAP.npz]
+    python scripts/bench_trials.py [--out DIR] gpu [--worlds 1024 4096 16384]
 
 `cpu`: trials per minute of `evaluate(backend="cpu")` (each checkpoint chunk one batch) and of the
 same trials run one by one with `trial.run_trial` in the same process pool (the evaluation before
@@ -28,6 +28,7 @@ from ..base.io import markdown_row, markdown_table
 from ..base.workers import parallel_map, usable_cores
 from ..manifold.som import SOM
 from ..sim.objects import PAPER_OBJECTS, get_object
+from .runner import run_study
 from ..trials.evaluation import evaluate
 from ..trials.grid import check_grid
 from ..trials.stats import mcnemar, rate_text
@@ -130,6 +131,8 @@ def bench_gpu(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="study-trial-speed", help="the folder its report (trial_speed_WHAT.md) is "
+                        "kept in")
     sub = parser.add_subparsers(dest="what", required=True)
     cpu = sub.add_parser("cpu")
     cpu.add_argument("--grids", nargs="+", default=["quick", "paper"])
@@ -145,8 +148,12 @@ def main(argv: list[str] | None = None) -> None:
     gpu.add_argument("--worlds", nargs="+", type=int, default=[1024, 4096, 16384])
     gpu.add_argument("--agree-grid", default="quick", help="the grid of the CPU agreement that follows ('none': none)")
     args = parser.parse_args(argv)
-    print(f"graspmanifold from {Path(__file__).resolve().parents[1]}")
-    {"cpu": bench_cpu, "agree": bench_agree, "gpu": bench_gpu}[args.what](args)
+
+    def body(run: object) -> None:
+        print(f"graspmanifold from {Path(__file__).resolve().parents[1]}")
+        {"cpu": bench_cpu, "agree": bench_agree, "gpu": bench_gpu}[args.what](args)
+
+    run_study(args.out, 1, body, f"trial_speed_{args.what}.md")  # its own pools: the workers are what it times
 
 
 if __name__ == "__main__":

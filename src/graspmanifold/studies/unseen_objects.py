@@ -48,7 +48,7 @@ from ..trials.evaluation import evaluate
 from ..trials.stats import headroom, holm, rate_text
 from ..trials.study import compare, train_experience_map
 from ..trials.trial import Noise
-from .runner import StudyRun
+from .runner import StudyRun, run_study
 
 
 def posture_set(run: StudyRun, obj: GraspObject, n: int) -> PostureSet:
@@ -93,7 +93,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="unseen")
     args = parser.parse_args(argv)
-    run = StudyRun(args.out, args.workers)
+    run_study(args.out, args.workers, lambda run: _run(args, run, parser), pool=False)  # the generator's own pool
+
+
+def _run(args: argparse.Namespace, run: StudyRun, parser: argparse.ArgumentParser) -> None:
     noise = Noise(position=args.position_noise, yaw=args.yaw_noise)
     paper = {name: posture_set(run, get_object(name), n) for name, n in DATASET_PRESETS[args.preset].items()}
     everything = PostureSet.concatenate(list(paper.values()))
