@@ -83,7 +83,8 @@ def test_evaluate_names_a_bad_backend_and_a_missing_gpu():
 def test_the_hold_test_stops_for_a_dropped_object_and_says_so():
     """No later gravity direction can change a hold test the object has already failed: it ends in the period
     the object leaves the bound, and the judgement says how much of the test ran."""
-    from graspmanifold.control.judge import HOLD_DIRECTIONS, JUDGING, judge_scene, supported_scene
+    from graspmanifold.control.judge import JUDGING, judge_scene, supported_scene
+    from graspmanifold.control.stages import HOLD_DIRECTIONS
 
     scene = supported_scene("cylinder")
     scene.set_hand_pose(*gm.facing_pose("cylinder", clearance=0.05))  # the open hand, far from the object

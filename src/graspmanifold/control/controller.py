@@ -124,22 +124,50 @@ class RecallRule:
     reach_speed = 0.0
 
     def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        """Phase B with a constant preshape: these worlds' preshapes (m, 22), rad, nothing touching yet."""
+        """Phase B with a constant preshape, nothing touching yet.
+
+        Args:
+            c: the controller (its `state` is what a rule changes).
+            worlds: (m,) the worlds' indices.
+            postures: (m, 22) rad, their preshapes.
+        """
         raise NotImplementedError
 
     def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
                joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        """Trusted best matches: these worlds' winning reference rows (m,) and recalled postures (m, 22), rad; every
-        world's sensed joints (N, 22), touching segments (N, segments) and touching fingers (N, 5)."""
+        """Trusted best matches, once a control cycle.
+
+        Args:
+            c: the controller.
+            worlds: (m,) the worlds with a trusted match.
+            winners: (m,) their winning reference rows.
+            match: (m, 22) rad, their recalled postures.
+            joints: (N, 22) rad, every world's sensed joints.
+            touching_segments: (N, segments) bool, every world's touching segments.
+            fingers_touching: (N, 5) bool, every world's touching fingers.
+        """
         raise NotImplementedError
 
     def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        """After the holding of phase D, every cycle: the acting worlds (N,), the (world, finger) pairs that touched
-        now for the first time (N, 5), the sensed joints (N, 22). Nothing by default."""
+        """After the holding of phase D, every cycle (nothing by default).
+
+        Args:
+            c: the controller.
+            act: (N,) bool, the worlds acting this cycle.
+            newly_held: (N, 5) bool, the (world, finger) pairs that touched now for the first time.
+            joints: (N, 22) rad, the sensed joints.
+        """
 
     def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """Which (world, finger) pairs count as fully closed for the grasp's end (N, 5): `closed` (closure 1)
-        by default."""
+        """Which (world, finger) pairs count as fully closed for the grasp's end.
+
+        Args:
+            c: the controller.
+            closed: (N, 5) bool, the pairs whose closure reached 1.
+
+        Returns:
+            (N, 5) bool; `closed` by default.
+        """
         return closed
 
     def check(self, params: ControllerParams) -> None:
@@ -200,18 +228,52 @@ class TargetRecall(RecallRule):
             raise InvalidInput(f"TargetRecall.closes_only must be True or False, got {self.closes_only!r}")
 
     def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        """The preshape is the steered free fingers' first recall (its key 0).
+
+        Args:
+            c: the controller.
+            worlds: (m,) the worlds' indices.
+            postures: (m, 22) rad, their preshapes.
+        """
         self._recall_for(c, worlds, np.zeros(len(worlds), dtype=np.int64), postures)
 
     def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
                joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        """Each match becomes the target of the steered free fingers not on their way to it or done with it.
+
+        Args:
+            c: the controller.
+            worlds: (m,) the worlds with a trusted match.
+            winners: (m,) their winning reference rows (each recall's key: the row + 1).
+            match: (m, 22) rad, their recalled postures.
+            joints: (N, 22) rad, every world's sensed joints (not read).
+            touching_segments: (N, segments) bool (not read).
+            fingers_touching: (N, 5) bool (not read).
+        """
         self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
 
     def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
+        """A finger that touched on its way is done with its recall; one that arrived closes on from it.
+
+        Args:
+            c: the controller.
+            act: (N,) bool, the worlds acting this cycle.
+            newly_held: (N, 5) bool, the (world, finger) pairs that touched now for the first time.
+            joints: (N, 22) rad, the sensed joints.
+        """
         self._done_with(c, newly_held)  # touched on its way: that recall is done with
         self._arrive(c, act, joints)
 
     def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """A finger whose recall was the closed hand is fully closed once there; one on its way is not."""
+        """A finger whose recall was the closed hand is fully closed once there; one on its way is not.
+
+        Args:
+            c: the controller.
+            closed: (N, 5) bool, the pairs whose closure reached 1.
+
+        Returns:
+            (N, 5) bool.
+        """
         return ~c.state.approaching & (closed | _per_finger(c.state.target == c.closed, FINGER_JOINT_MASKS))
 
     def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
@@ -273,6 +335,14 @@ class BlendRecall(RecallRule):
         _check_number("BlendRecall", "reach_speed", self.reach_speed, 0.0, 10.0, positive=True)
 
     def check(self, params: ControllerParams) -> None:
+        """Its extensions need every joint of a steered finger recalled.
+
+        Args:
+            params: the parameters that hold it.
+
+        Raises:
+            InvalidInput: `restart_closure` or `reach` with `steered_joints='spread'`.
+        """
         if (self.restart_closure or self.reach) and params.steered_joints != "all":
             raise InvalidInput(f"BlendRecall({'restart_closure' if self.restart_closure else 'reach'}) needs "
                                "steered_joints='all': with only the spread joints recalled, a restarted closure would "
@@ -283,10 +353,29 @@ class BlendRecall(RecallRule):
         return self.reach > 0
 
     def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
+        """The preshape is the closing heuristic's base.
+
+        Args:
+            c: the controller.
+            worlds: (m,) the worlds' indices.
+            postures: (m, 22) rad, their preshapes.
+        """
         c.state.base[worlds] = postures
 
     def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
                joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
+        """Each match is the base of the steered joints; the first after a contact may restart the closure and
+        move the palm (`restart_closure`, `reach`).
+
+        Args:
+            c: the controller.
+            worlds: (m,) the worlds with a trusted match.
+            winners: (m,) their winning reference rows (not read).
+            match: (m, 22) rad, their recalled postures.
+            joints: (N, 22) rad, every world's sensed joints.
+            touching_segments: (N, segments) bool, every world's touching segments.
+            fingers_touching: (N, 5) bool, every world's touching fingers.
+        """
         c.state.base[worlds] = np.where(c._steered, match, c.state.base[worlds])
         if not (self.restart_closure or self.reach > 0):
             return

@@ -41,60 +41,7 @@ from ..sim.tactile import TactileReading
 from ..sim.worlds import CpuWorlds, Worlds
 from .controller import row_norms
 from .quality import epsilon_l1
-from .stages import Grasp, HoldTest, MarginRamp, Stage
-
-HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
-#: the same directions as a tuple of tuples, for the frozen rules that hold them
-SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
-
-
-@dataclass(frozen=True)
-class JudgingRules:
-    """How every grasp is judged (see the module doc), in one place: `judge_worlds` reads it for the
-    trials and for the generator's verifier (a shorter `hold_seconds`, no margin).
-
-    Attributes:
-        hold_seconds: s of gravity per direction in the hold test.
-        hold_limit: m the object may move from where it was grasped and still be held.
-        margin_force: N, the largest extra disturbance tried (about five times a 0.1 kg object's weight).
-        margin_seconds: s per direction of the margin's ramp.
-        epsilon_threshold: force closure means epsilon above this: the grasp resists every disturbance
-            wrench of at least 1 % of its total normal force; smaller values are numerically marginal closure.
-        support_stiffness: N/m (and N m/rad) of the object's support while the hand closes.
-        support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
-        margin: measure the disturbance margin of a grasp that holds (False: the margin is NaN, not measured;
-            `TrialSetup.margin` asks for it).
-        push: N; 0 (ours): the disturbance along each direction is gravity; above 0 (DexGraspBench's): an external
-            force of this size on the object, gravity off.
-        angle_limit: rad the object may turn from where it was grasped and still be held (inf: any).
-        from_grasp: every direction starts again from the state at the grasp's end (DexGraspBench replays its
-            grasp for each); False (ours): the directions follow one another.
-        physics: the name of the scene's physics profile (`protocols.PhysicsProfile`), '' for ours.
-        directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
-        stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
-            makes one of a `Judging`); one's own runs without a change to the loop.
-    """
-
-    hold_seconds: float = 0.5
-    hold_limit: float = 0.02
-    margin_force: float = 5.0
-    margin_seconds: float = 0.3
-    epsilon_threshold: float = 0.01
-    support_stiffness: float = 2000.0
-    support_damping: float = 30.0
-    margin: bool = False
-    push: float = 0.0
-    angle_limit: float = math.inf
-    from_grasp: bool = False
-    physics: str = ""
-    directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
-    stages: tuple[Callable[[Judging], Stage], ...] = (HoldTest, MarginRamp)
-
-    @staticmethod
-    def cycles(seconds: float, period: float) -> int:
-        """Control cycles of `period` s in `seconds` (at least one)."""
-        return max(1, round(seconds / period))
-
+from .stages import Grasp, JudgingRules
 
 JUDGING = JudgingRules()
 """The rules every trial is judged by."""

@@ -24,7 +24,8 @@ import mujoco
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice
 from ..sim.scene import Scene
-from .judge import JUDGING, SIX_DIRECTIONS, JudgingRules
+from .judge import JUDGING
+from .stages import SIX_DIRECTIONS, JudgingRules
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""The stages of the judging loop (`judge.judge_worlds`): the grasp, the hold test, the disturbance margin.
+"""The rules of judging (`JudgingRules`) and the stages of the judging loop (`judge.judge_worlds`): the grasp, the
+hold test, the disturbance margin.
 
 Every world goes through the stages in turn, each on its own clock of control periods; a stage holds some of
 the worlds at a time. Every period the loop asks each stage, in order, to `step` the worlds it holds before the
@@ -20,15 +21,44 @@ model).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from ..sim.scene import GRAVITY
+from ..sim.worlds import Worlds
 
-if TYPE_CHECKING:
-    from .judge import Judging
+
+class JudgingRun(Protocol):
+    """What a stage may use of the judging run it belongs to (`judge.Judging`, one per call of the loop).
+
+    Attributes:
+        worlds: the worlds judged (`sim.worlds.Worlds`).
+        rules: the judging rules (`JudgingRules`).
+        period: s per control period.
+        n: worlds.
+        directions: (k, 3) the rules' disturbance directions.
+        start: (n, 3) m, where each object was when its grasp was released.
+        displacement: (n,) m, the largest displacement of each object in the hold test so far.
+        margin: (n,) N, each grasp's disturbance margin (NaN where the rules do not ask for it).
+        hold_time: (n,) s of the hold test run.
+    """
+
+    worlds: Worlds
+    rules: JudgingRules
+    period: float
+    n: int
+    directions: np.ndarray
+    start: np.ndarray
+    displacement: np.ndarray
+    margin: np.ndarray
+    hold_time: np.ndarray
+
+    def release(self, worlds: np.ndarray) -> np.ndarray:
+        """Release these worlds' objects and record their grasps; returns those recorded (the others a fault)."""
 
 
 class Stage:
@@ -36,11 +66,11 @@ class Stage:
     needs. A stage is made afresh for every run of the loop: it may keep per-world state (arrays of `run.n`).
 
     Args:
-        run: the judging run it belongs to (`judge.Judging`: the worlds, the rules, the control period, and the
+        run: the judging run it belongs to (`JudgingRun`: the worlds, the rules, the control period, and the
             measures every stage shares: `displacement`, `margin`, `hold_time`, `start`).
     """
 
-    def __init__(self, run: Judging):
+    def __init__(self, run: JudgingRun):
         self.run = run
 
     def begin(self, worlds: np.ndarray) -> None:
@@ -83,7 +113,7 @@ class Grasp(Stage):
             every grasp is ready from the start).
     """
 
-    def __init__(self, run: Judging, ready: Callable[[], np.ndarray] | None = None):
+    def __init__(self, run: JudgingRun, ready: Callable[[], np.ndarray] | None = None):
         super().__init__(run)
         self.ready = ready
 
@@ -96,7 +126,7 @@ class HoldTest(Stage):
     """The hold test (see the module doc): `hold_seconds` of the disturbance per direction; a world whose object
     leaves the bound is judged at once (no later direction can change that), its `hold_time` where it stopped."""
 
-    def __init__(self, run: Judging):
+    def __init__(self, run: JudgingRun):
         super().__init__(run)
         self.cycles = run.rules.cycles(run.rules.hold_seconds, run.period)
         self.direction = np.zeros(run.n, dtype=int)  # which of the directions each world is at
@@ -149,7 +179,7 @@ class MarginRamp(Stage):
     straight on): per direction a push that ramps from 0 to `margin_force` over `margin_seconds`, on top of
     gravity along it; a grasp never dropped keeps `margin_force` (censored)."""
 
-    def __init__(self, run: Judging):
+    def __init__(self, run: JudgingRun):
         super().__init__(run)
         self.cycles = run.rules.cycles(run.rules.margin_seconds, run.period)
         self.direction = np.zeros(run.n, dtype=int)
@@ -184,3 +214,56 @@ class MarginRamp(Stage):
             run.margin[world] = run.rules.margin_force * (self.count[world] - 1) / self.cycles
             run.worlds.push(np.array([world]), np.zeros((1, 3)))
         return dropped
+
+
+HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+#: the same directions as a tuple of tuples, for the frozen rules that hold them
+SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+
+
+@dataclass(frozen=True)
+class JudgingRules:
+    """How every grasp is judged (see `judge`'s module doc), in one place: `judge_worlds` reads it for the
+    trials and for the generator's verifier (a shorter `hold_seconds`, no margin).
+
+    Attributes:
+        hold_seconds: s of gravity per direction in the hold test.
+        hold_limit: m the object may move from where it was grasped and still be held.
+        margin_force: N, the largest extra disturbance tried (about five times a 0.1 kg object's weight).
+        margin_seconds: s per direction of the margin's ramp.
+        epsilon_threshold: force closure means epsilon above this: the grasp resists every disturbance
+            wrench of at least 1 % of its total normal force; smaller values are numerically marginal closure.
+        support_stiffness: N/m (and N m/rad) of the object's support while the hand closes.
+        support_damping: N s/m (and N m s/rad) of that support: about critical for 0.1 kg.
+        margin: measure the disturbance margin of a grasp that holds (False: the margin is NaN, not measured;
+            `TrialSetup.margin` asks for it).
+        push: N; 0 (ours): the disturbance along each direction is gravity; above 0 (DexGraspBench's): an external
+            force of this size on the object, gravity off.
+        angle_limit: rad the object may turn from where it was grasped and still be held (inf: any).
+        from_grasp: every direction starts again from the state at the grasp's end (DexGraspBench replays its
+            grasp for each); False (ours): the directions follow one another.
+        physics: the name of the scene's physics profile (`protocols.PhysicsProfile`), '' for ours.
+        directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
+        stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
+            makes one of a `Judging`); one's own runs without a change to the loop.
+    """
+
+    hold_seconds: float = 0.5
+    hold_limit: float = 0.02
+    margin_force: float = 5.0
+    margin_seconds: float = 0.3
+    epsilon_threshold: float = 0.01
+    support_stiffness: float = 2000.0
+    support_damping: float = 30.0
+    margin: bool = False
+    push: float = 0.0
+    angle_limit: float = math.inf
+    from_grasp: bool = False
+    physics: str = ""
+    directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
+    stages: tuple[Callable[[JudgingRun], Stage], ...] = (HoldTest, MarginRamp)
+
+    @staticmethod
+    def cycles(seconds: float, period: float) -> int:
+        """Control cycles of `period` s in `seconds` (at least one)."""
+        return max(1, round(seconds / period))

@@ -28,7 +28,8 @@ import numpy as np
 from ..base.io import markdown_table, write_text_atomic
 from ..control.controller import squeezed
 from ..control.generator import GeneratorParams, generate_postures
-from ..control.judge import HOLD_DIRECTIONS, JUDGING, reading_epsilon
+from ..control.judge import JUDGING, reading_epsilon
+from ..control.stages import HOLD_DIRECTIONS
 from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import get_object
 from ..sim.scene import GRAVITY, Scene

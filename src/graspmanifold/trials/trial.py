@@ -34,7 +34,8 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice, check_int
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
-from ..control.judge import JUDGING, JudgingRules, judge_worlds, supported_scene
+from ..control.judge import JUDGING, judge_worlds, supported_scene
+from ..control.stages import JudgingRules
 from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
 from ..control.regrasp import LiftProbe, Regrasp
 from ..manifold.experience import Experience, check_experience
