@@ -253,14 +253,7 @@ class TargetRecall(RecallRule):
         self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
 
     def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        """A finger that touched on its way is done with its recall; one that arrived closes on from it.
-
-        Args:
-            c: the controller.
-            act: (N,) bool, the worlds acting this cycle.
-            newly_held: (N, 5) bool, the (world, finger) pairs that touched now for the first time.
-            joints: (N, 22) rad, the sensed joints.
-        """
+        # a finger that touched on its way is done with its recall; one that arrived closes on from it
         self._done_with(c, newly_held)  # touched on its way: that recall is done with
         self._arrive(c, act, joints)
 

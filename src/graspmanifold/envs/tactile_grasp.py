@@ -1,0 +1,296 @@
+"""The tactile grasp task as a Gymnasium environment: one world (`TactileGraspEnv`) or N at once
+(`TactileGraspVectorEnv`, over the library's batched worlds).
+
+An episode is one grasp trial, as `evaluate` runs it: the object at a grid pose (drawn from the grid with the
+episode's seed, or given: `reset(options={"pose": ...})`) on its support in front of the open hand. Every step is
+one control period (`control_period`, 20 ms): the action sets the hand's 22 finger joint targets (rad, the
+controller's interface; clipped to the hand's ranges) and says whether the grasp is done (its last element, done
+from 0.5); the observation is what a tactile hand senses, the 22 joint angles (rad) and the normal force on each
+tactile segment (N, `SEGMENTS` order), and, with `pcp=True`, the Partial Contact Posture's mask (22: 1 for a joint
+of a touching segment, Eq. 1). Once the grasp is done (or after `max_seconds`) the library's judge runs it through
+the protocol named (`protocols.PROTOCOLS`: our hold test by default): the episode terminates, the reward is 1 for
+a grasp that holds and 0 otherwise (sparse), and `info` carries the judgement (hold, force closure, epsilon, the
+displacement, a physics fault). A trial whose physics fails terminates with reward 0 and the fault in `info`.
+
+Our controller drives it as the trials do: `BatchController(1, experience)`'s targets and its `done` each step give
+the episode `evaluate` reports on the same pose (a test). `render_mode="rgb_array"` draws the scene offscreen.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ..base.errors import InvalidInput
+from ..base.validation import check_int
+from ..control.controller import ControllerParams
+from ..control.judge import Judgement, judge_worlds
+from ..control.protocols import DEFAULT_PROTOCOL, Protocol
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
+from ..sim.objects import GraspObject
+from ..sim.posture import pcp_masks
+from ..sim.scene import Scene
+from ..sim.worlds import CpuWorlds
+from ..trials.grid import check_grid
+from ..trials.trial import Noise, TrialSetup, trial_scene
+
+#: s of a grasp after which it is judged as it is, done or not
+MAX_SECONDS = 10.0
+
+
+class _GraspWorlds:
+    """The task over N worlds (the one mechanism both environments run): their scenes, their clocks, one control
+    period of all, the judging of those done."""
+
+    def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | Protocol, grid: object,
+                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float):
+        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table)
+        self.hand = self.setup.hand
+        self.poses = check_grid(grid, self.setup.object, table)[1]
+        if not (isinstance(max_seconds, (int, float)) and 0 < max_seconds <= 600):
+            raise InvalidInput(f"max_seconds must be a number of seconds in (0, 600], got {max_seconds!r}")
+        self.n, self.pcp, self.max_seconds = n, pcp, float(max_seconds)
+        self.period = ControllerParams().control_period
+        self.initial = self.hand.keyframe_posture("open")
+        self.limits = self.hand.limits()
+        self.scenes: list[Scene | None] = [None] * n
+        self.clock = np.zeros(n)
+        self.pose = np.zeros((n, 4))  # each episode's grid pose
+        self.rngs = [seeding.np_random(None)[0] for _ in range(n)]
+        self._nstep = 0
+
+    @property
+    def observation_space(self) -> spaces.Box:
+        size = N_FINGER_JOINTS + len(SEGMENTS) + (N_FINGER_JOINTS if self.pcp else 0)
+        low = np.concatenate([np.full(N_FINGER_JOINTS, -math.pi), np.zeros(size - N_FINGER_JOINTS)])
+        high = np.concatenate([np.full(N_FINGER_JOINTS, math.pi), np.full(len(SEGMENTS), np.inf),
+                               np.ones(size - N_FINGER_JOINTS - len(SEGMENTS))])
+        return spaces.Box(low, high, dtype=np.float64)
+
+    @property
+    def action_space(self) -> spaces.Box:
+        return spaces.Box(np.append(self.limits[:, 0], 0.0), np.append(self.limits[:, 1], 1.0), dtype=np.float64)
+
+    def reset(self, worlds: list[int], seeds: list[int | None], poses: list[np.ndarray | None]) -> None:
+        """New episodes in these worlds: each its random stream (reseeded where a seed is given), its pose (drawn
+        from the grid where none is given), its scene."""
+        for world, seed, pose in zip(worlds, seeds, poses):
+            if seed is not None:
+                self.rngs[world] = seeding.np_random(seed)[0]
+            rng = self.rngs[world]
+            pose = self.poses[rng.integers(len(self.poses))] if pose is None else \
+                check_grid(np.asarray(pose, dtype=float), self.setup.object, self.setup.table)[1][0]
+            self.pose[world] = pose
+            self.scenes[world] = trial_scene(self.setup, pose, rng, self.initial)
+            self.clock[world] = 0.0
+        self._nstep = max(1, round(self.period / self.scenes[worlds[0]].model.opt.timestep))
+
+    def observe(self, worlds: np.ndarray) -> np.ndarray:
+        """(len(worlds), observation size): joints, segment forces, the PCP's mask."""
+        cpu = CpuWorlds([self.scenes[w] for w in worlds])
+        index = np.arange(len(worlds))
+        joints, forces = cpu.joints(index), cpu.segment_forces(index)
+        parts = [joints, forces] + ([pcp_masks(forces > 0).astype(float)] if self.pcp else [])
+        return np.concatenate(parts, axis=1)
+
+    def act(self, worlds: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, list[dict]]:
+        """One control period of these worlds under their actions, then the judging of those whose grasp is done.
+
+        Returns:
+            (len(worlds),) rewards and one info dict per world (a judged one's holds its judgement; `judged` says
+            which were).
+        """
+        actions = np.asarray(actions, dtype=float).reshape(len(worlds), N_FINGER_JOINTS + 1)
+        if not np.all(np.isfinite(actions)):
+            raise InvalidInput("actions must be finite: 22 joint targets (rad) and a done flag (0 ... 1)")
+        cpu = CpuWorlds([self.scenes[w] for w in worlds])
+        index = np.arange(len(worlds))
+        cpu.set_targets(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]))
+        failed = cpu.step(index, self._nstep)
+        self.clock[worlds] += self.period
+        done = (actions[:, -1] >= 0.5) | (self.clock[worlds] >= self.max_seconds - 1e-9)
+        rewards, infos = np.zeros(len(worlds)), [{"time": float(self.clock[w]), "judged": False} for w in worlds]
+        for k, why in failed.items():
+            infos[k].update(judged=True, hold=False, force_closure=False, fault=why)
+        judging = np.flatnonzero(done & ~np.isin(index, list(failed)))
+        if len(judging):
+            judged = CpuWorlds([cpu.scenes[k] for k in judging])
+            for k, judgement in zip(judging, judge_worlds(judged, self.period,
+                                                          lambda live: judged.step(live, self._nstep),
+                                                          friction=self.setup.object.friction,
+                                                          rules=self.setup.rules)):
+                rewards[k] = float(judgement.hold and not judgement.fault)
+                infos[k].update(self._judged(judgement))
+        return rewards, infos
+
+    def _judged(self, judgement: Judgement) -> dict:
+        return {"judged": True, "hold": bool(judgement.hold and not judgement.fault),
+                "force_closure": bool(not judgement.fault and judgement.epsilon > self.setup.rules.epsilon_threshold),
+                "epsilon": float(judgement.epsilon), "displacement": float(judgement.displacement),
+                "fault": judgement.fault}
+
+    def render(self, world: int, camera: str, width: int, height: int) -> np.ndarray:
+        from ..sim.render import render_states
+
+        scene = self.scenes[world]
+        return render_states(scene, scene.state()[None], camera, width, height)[0]
+
+
+class TactileGraspEnv(gymnasium.Env):
+    """The tactile grasp task in one world (see the module doc).
+
+    Args:
+        object: the object, or its name.
+        hand: the hand model, or its name.
+        protocol: how a grasp is judged (`protocols.PROTOCOLS` name, or a `Protocol`).
+        grid: the grid poses episodes draw from (a preset name or an (n, 4) array, m and rad).
+        noise: pose noise of the object (`trials.trial.Noise`; joint noise is the agent's own business).
+        table: the object stands on a table with gravity on (False: a spring support, gravity off).
+        pcp: add the Partial Contact Posture's mask to the observation.
+        max_seconds: s after which a grasp is judged as it is.
+        render_mode: None or 'rgb_array'.
+        camera: the camera `render` draws from (`scene.CAMERAS`).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, object: str | GraspObject = "cylinder", hand: str | HandModel = SHADOW_HAND.name,
+                 protocol: str | Protocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
+                 table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS,
+                 render_mode: str | None = None, camera: str = "hand"):
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise InvalidInput(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds)
+        self.observation_space = self.task.observation_space
+        self.action_space = self.task.action_space
+        self.render_mode, self.camera = render_mode, camera
+        self.control_period = self.task.period
+
+    @property
+    def scene(self) -> Scene | None:
+        """The episode's scene (None before the first reset)."""
+        return self.task.scenes[0]
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        """A new grasp: the object at a grid pose (`options["pose"]`, or drawn with the episode's seed).
+
+        Args:
+            seed: the episode's seed (None: the stream goes on).
+            options: {"pose": (x, z, gap, yaw)} in m and rad, or None.
+
+        Returns:
+            (the first observation, {"pose": the grid pose}).
+        """
+        super().reset(seed=seed)
+        pose = (options or {}).get("pose")
+        self.task.reset([0], [seed], [pose])
+        return self.task.observe(np.array([0]))[0], {"pose": self.task.pose[0].copy()}
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
+        """One control period.
+
+        Args:
+            action: (23,): the 22 finger joint targets (rad) and the done flag (the grasp is judged from 0.5).
+
+        Returns:
+            (observation, reward, terminated, truncated, info): reward 1 for a grasp judged to hold.
+        """
+        if self.scene is None:
+            raise InvalidInput("call reset() before step()")
+        rewards, infos = self.task.act(np.array([0]), np.asarray(action, dtype=float)[None])
+        return self.task.observe(np.array([0]))[0], float(rewards[0]), infos[0]["judged"], False, infos[0]
+
+    def render(self) -> np.ndarray | None:
+        """The scene now from `camera`, (240, 320, 3) uint8 (None without render_mode='rgb_array')."""
+        if self.render_mode != "rgb_array" or self.scene is None:
+            return None
+        return self.task.render(0, self.camera, 320, 240)
+
+
+class TactileGraspVectorEnv(VectorEnv):
+    """The tactile grasp task in N worlds at once (see the module doc), Gymnasium's vector interface: actions (N, 23),
+    observations (N, size); a world whose episode ended starts a new one at the next step (Gymnasium's next-step
+    autoreset). World i of `reset(seed=s)` runs the episode of `TactileGraspEnv().reset(seed=s + i)`.
+
+    Args:
+        num_envs: worlds.
+        **kwargs: as `TactileGraspEnv` takes them (render_mode aside).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, num_envs: int = 4, **kwargs: Any):
+        self.num_envs = check_int(num_envs, "num_envs")
+        kwargs.pop("render_mode", None)
+        kwargs.pop("camera", None)
+        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds")
+        unknown = sorted(set(kwargs) - set(names))
+        if unknown:
+            raise InvalidInput(f"unknown argument(s) {unknown}; TactileGraspVectorEnv takes {list(names)}")
+        defaults = dict(object="cylinder", hand=SHADOW_HAND.name, protocol=DEFAULT_PROTOCOL, grid="quick", noise=None,
+                        table=False, pcp=False, max_seconds=MAX_SECONDS)
+        self.task = _GraspWorlds(self.num_envs, **{**defaults, **kwargs})
+        self.single_observation_space = self.task.observation_space
+        self.single_action_space = self.task.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.control_period = self.task.period
+        self._ended = np.zeros(self.num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | list[int] | None = None,
+              options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        """New grasps in every world: world i seeded `seed + i` (or `seed[i]`), its pose `options["poses"][i]` or drawn.
+
+        Args:
+            seed: an int, one per world, or None.
+            options: {"poses": (N, 4)} in m and rad, or None.
+
+        Returns:
+            (observations (N, size), {"pose": (N, 4) the grid poses}).
+        """
+        seeds = [None] * self.num_envs if seed is None else list(seed) if isinstance(seed, (list, tuple)) else \
+            [int(seed) + i for i in range(self.num_envs)]
+        poses = (options or {}).get("poses")
+        poses = [None] * self.num_envs if poses is None else list(np.asarray(poses, dtype=float).reshape(-1, 4))
+        if len(seeds) != self.num_envs or len(poses) != self.num_envs:
+            raise InvalidInput(f"reset takes one seed and one pose per world ({self.num_envs})")
+        worlds = list(range(self.num_envs))
+        self.task.reset(worlds, seeds, poses)
+        self._ended[:] = False
+        return self.task.observe(np.arange(self.num_envs)), {"pose": self.task.pose.copy()}
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+        """One control period of every world (a world whose episode ended starts its next one instead).
+
+        Args:
+            actions: (N, 23): each world's 22 finger joint targets (rad) and done flag.
+
+        Returns:
+            (observations, rewards, terminated, truncated, infos), each over the N worlds; infos as Gymnasium's
+            vector environments give them ({key: (N,) values, "_key": where set}).
+        """
+        actions = np.asarray(actions, dtype=float)
+        if actions.shape != (self.num_envs, N_FINGER_JOINTS + 1):
+            raise InvalidInput(f"actions must have shape ({self.num_envs}, {N_FINGER_JOINTS + 1}), got {actions.shape}")
+        restarting = np.flatnonzero(self._ended)
+        if len(restarting):
+            self.task.reset(list(restarting), [None] * len(restarting), [None] * len(restarting))
+        acting = np.flatnonzero(~self._ended)
+        rewards, terminated = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=bool)
+        infos: dict = {}
+        if len(acting):
+            rewarded, per_world = self.task.act(acting, actions[acting])
+            rewards[acting] = rewarded
+            for k, world in enumerate(acting):
+                terminated[world] = per_world[k]["judged"]
+                infos = self._add_info(infos, per_world[k], world)
+        self._ended = terminated.copy()
+        return (self.task.observe(np.arange(self.num_envs)), rewards, terminated,
+                np.zeros(self.num_envs, dtype=bool), infos)
