@@ -253,3 +253,30 @@ def test_a_controller_is_named_as_the_command_line_names_it_or_given_as_a_factor
         TrialSetup(object="box", controller="blnd")
     with pytest.raises(ValueError, match="give no params beside it"):
         TrialSetup(object="box", controller="blend", params=BLEND)
+
+
+def test_mujocos_touch_sensors_feel_what_our_contact_sum_feels_on_a_held_grasp():
+    """`touch="sensors"` puts a site over each segment's geoms with MuJoCo's touch sensor on it. On a held grasp
+    the two agree to 1e-9 N on every segment that touches only the object (a sensor also feels the hand's own
+    contacts, finger on finger, which our sum leaves out); the trials run on either."""
+    import mujoco
+
+    scene = gm.Scene("box", free_object=True, touch="sensors")
+    scene.set_hand_pose(*gm.facing_pose("box"))
+    scene.set_posture(gm.open_posture())
+    scene.set_target(gm.closed_posture())
+    scene.run(1.5)
+    summed, sensed = scene.sensor.segment_forces(scene.data), scene.segment_forces()
+    model = scene.model
+    bodies = [(model.body(model.geom_bodyid[g1]).name, model.body(model.geom_bodyid[g2]).name)
+              for g1, g2 in zip(scene.data.contact.geom1[:scene.data.ncon], scene.data.contact.geom2[:scene.data.ncon])]
+    own = {name for pair in bodies if "object" not in pair for name in pair}  # segments touching the hand itself
+    only_object = np.array([segment not in own for segment in gm.SEGMENTS])
+    assert (summed > 1.0).sum() >= 5 and only_object[summed > 0].all()
+    np.testing.assert_allclose(sensed[only_object], summed[only_object], rtol=0, atol=1e-9)
+    assert scene.model.nsensor == 20 and mujoco.mjtSensor.mjSENS_TOUCH in set(scene.model.sensor_type)
+    poses = check_grid("quick", gm.get_object("cylinder"))[1][::12]
+    felt = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False, touch="sensors")
+    assert all(t.valid for t in felt.trials) and any(t.hold for t in felt.trials)
+    with pytest.raises(ValueError, match="touch must be one of"):
+        gm.evaluate("cylinder", None, poses, progress=False, touch="skin")

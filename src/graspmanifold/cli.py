@@ -33,7 +33,7 @@ from .sim.hand import SHADOW_HAND
 from .sim.hand_models import HAND_MODELS
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import closed_posture, open_posture
-from .sim.scene import Scene, facing_pose
+from .sim.scene import TOUCH_SOURCES, Scene, facing_pose
 from .trials.grid import GRID_PRESETS
 
 HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
@@ -253,7 +253,7 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.cluster or args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True,
                       backend=args.backend, hand=args.hand, controller=args.controller,
-                      margin=args.margin, protocol=args.protocol)
+                      margin=args.margin, protocol=args.protocol, touch=args.touch)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -408,6 +408,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--margin", action="store_true",
                           help="measure the disturbance margin of the grasps that hold "
                                "(more simulation per held grasp)")
+    evaluate.add_argument("--touch", choices=TOUCH_SOURCES, default=TOUCH_SOURCES[0],
+                          help="what the controller feels: the hand-object contacts' forces per segment (ours) or "
+                               "MuJoCo's touch sensors (a site over each segment: they feel the hand's own contacts too)")
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")

@@ -70,7 +70,8 @@ class Judgement:
     hold_time: float = 0.0
 
 
-def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = SHADOW_HAND.name) -> Scene:
+def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = SHADOW_HAND.name,
+                    touch: str = "contacts") -> Scene:
     """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
     spring-damper of `JUDGING` with gravity off, or a table with gravity on. Trials and the generator's
     verifier start from it (`hold_on_support` sets the spring again after a reset).
@@ -79,11 +80,12 @@ def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel
         obj: the object.
         table: a table with gravity on instead of the spring.
         hand: the hand model, or its name.
+        touch: where the sensed segment forces come from (`scene.TOUCH_SOURCES`).
 
     Returns:
         The scene.
     """
-    scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand)
+    scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand, touch=touch)
     hold_on_support(scene)
     return scene
 

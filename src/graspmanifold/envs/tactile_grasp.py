@@ -50,8 +50,8 @@ class _GraspWorlds:
     period of all, the judging of those done."""
 
     def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | Protocol, grid: object,
-                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float):
-        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table)
+                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float, touch: str):
+        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table, touch=touch)
         self.hand = self.setup.hand
         self.poses = check_grid(grid, self.setup.object, table)[1]
         if not (isinstance(max_seconds, (int, float)) and 0 < max_seconds <= 600):
@@ -155,6 +155,8 @@ class TactileGraspEnv(gymnasium.Env):
         table: the object stands on a table with gravity on (False: a spring support, gravity off).
         pcp: add the Partial Contact Posture's mask to the observation.
         max_seconds: s after which a grasp is judged as it is.
+        touch: where the observed segment forces come from (`scene.TOUCH_SOURCES`: the contacts', or MuJoCo's
+            touch sensors).
         render_mode: None or 'rgb_array'.
         camera: the camera `render` draws from (`scene.CAMERAS`).
     """
@@ -163,11 +165,11 @@ class TactileGraspEnv(gymnasium.Env):
 
     def __init__(self, object: str | GraspObject = "cylinder", hand: str | HandModel = SHADOW_HAND.name,
                  protocol: str | Protocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
-                 table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS,
+                 table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS, touch: str = "contacts",
                  render_mode: str | None = None, camera: str = "hand"):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InvalidInput(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds)
+        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds, touch)
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.render_mode, self.camera = render_mode, camera
@@ -230,12 +232,12 @@ class TactileGraspVectorEnv(VectorEnv):
         self.num_envs = check_int(num_envs, "num_envs")
         kwargs.pop("render_mode", None)
         kwargs.pop("camera", None)
-        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds")
+        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds", "touch")
         unknown = sorted(set(kwargs) - set(names))
         if unknown:
             raise InvalidInput(f"unknown argument(s) {unknown}; TactileGraspVectorEnv takes {list(names)}")
         defaults = dict(object="cylinder", hand=SHADOW_HAND.name, protocol=DEFAULT_PROTOCOL, grid="quick", noise=None,
-                        table=False, pcp=False, max_seconds=MAX_SECONDS)
+                        table=False, pcp=False, max_seconds=MAX_SECONDS, touch="contacts")
         self.task = _GraspWorlds(self.num_envs, **{**defaults, **kwargs})
         self.single_observation_space = self.task.observation_space
         self.single_action_space = self.task.action_space

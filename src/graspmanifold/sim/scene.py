@@ -17,7 +17,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, invert
-from ..base.validation import check_int
+from ..base.validation import check_choice, check_int
 from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
 from .objects import GraspObject, get_object
@@ -111,6 +111,44 @@ def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObjec
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}_mesh", **contact)
 
 
+#: where the segment forces a scene senses come from (`Scene(touch=...)`): the contacts' normal forces summed per
+#: segment (ours, the default), or MuJoCo's touch sensors
+TOUCH_SOURCES = ("contacts", "sensors")
+#: m the touch site over a segment's geom reaches beyond it: a contact point lies on the surfaces' midplane, up to
+#: half a penetration inside the geom or outside it
+TOUCH_SITE_MARGIN = 0.003
+_SITE_TYPES = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+               mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_BOX)
+
+
+def _touch_sensors(model: mujoco.MjModel, hand: HandModel) -> list[tuple[int, int]]:
+    """(sensordata address, segment index) of each touch sensor whose site sits on a tactile segment."""
+    segment_of_body = {model.body(name).id: i for i, name in enumerate(hand.segments)}
+    return [(int(model.sensor_adr[k]), segment_of_body[int(model.site_bodyid[model.sensor_objid[k]])])
+            for k in range(model.nsensor) if model.sensor_type[k] == mujoco.mjtSensor.mjSENS_TOUCH
+            and int(model.site_bodyid[model.sensor_objid[k]]) in segment_of_body]
+
+
+def _add_touch_sensors(spec: mujoco.MjSpec, model: mujoco.MjModel, hand: HandModel) -> None:
+    """A touch sensor over every colliding geom of every tactile segment: a site of the geom's shape (a box around a
+    mesh), `TOUCH_SITE_MARGIN` larger, placed as the compiled geom is in its body."""
+    for segment in hand.segments:
+        body = model.body(segment).id
+        for k, geom in enumerate(np.flatnonzero((model.geom_bodyid == body)
+                                                & ((model.geom_contype != 0) | (model.geom_conaffinity != 0)))):
+            kind, size, pos = model.geom_type[geom], model.geom_size[geom].copy(), model.geom_pos[geom].copy()
+            if kind not in _SITE_TYPES:  # a mesh: the box around it, in the geom's frame
+                kind, size, pos = mujoco.mjtGeom.mjGEOM_BOX, model.geom_aabb[geom][3:].copy(), pos + model.geom_aabb[geom][:3]
+            grown = size + TOUCH_SITE_MARGIN
+            if kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER):
+                grown[2] = 0.0  # radius and half length only
+            name = f"touch_{segment}_{k}"
+            spec.body(segment).add_site(name=name, type=kind, size=grown.tolist(), pos=pos.tolist(),
+                                        quat=model.geom_quat[geom].tolist(), group=4)
+            spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_TOUCH, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                            objname=name)
+
+
 def _add_cameras(spec: mujoco.MjSpec, palm: str) -> None:
     for name, (parent, pos) in CAMERAS.items():
         body = spec.worldbody if parent == "world" else spec.body(palm if parent == "palm" else parent)
@@ -137,7 +175,8 @@ class Scene:
     """
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
-                 gravity: bool = False, table: bool = False, hand: str | HandModel = SHADOW_HAND.name):
+                 gravity: bool = False, table: bool = False, hand: str | HandModel = SHADOW_HAND.name,
+                 touch: str = "contacts"):
         """The hand and one object in a new MuJoCo model.
 
         Args:
@@ -147,6 +186,10 @@ class Scene:
             table: a table top under the object.
             hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); postures stay the paper's 22
                 joint angles in the paper's sense whatever the model's names and signs.
+            touch: where the segment forces the controller senses come from (`TOUCH_SOURCES`): 'contacts', the
+                normal forces of the hand-object contacts summed per segment (ours, `TactileSensor`), or 'sensors',
+                MuJoCo's own touch sensors (a hand model's, or added here: a site over each segment's collision
+                geoms, `TOUCH_SITE_MARGIN` larger, with a `touch` sensor on it), summed per segment (`touch()`).
         """
         self.object = get_object(obj)
         self.free_object = free_object
@@ -164,8 +207,12 @@ class Scene:
                                     pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
                                     solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
         _add_cameras(spec, self.hand.palm)
+        self.touch_source = check_choice(touch, TOUCH_SOURCES, "touch")
         self.spec = spec
         self.model = spec.compile()
+        if touch == "sensors" and not _touch_sensors(self.model, self.hand):
+            _add_touch_sensors(spec, self.model, self.hand)
+            self.model = spec.compile()
         self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
         self.data = mujoco.MjData(self.model)
         self.sensor = TactileSensor(self.model, hand=self.hand)
@@ -176,12 +223,9 @@ class Scene:
         self.finger_qpos = self.hand_qpos[2:]
         self.actuator_ids = np.array([self.model.actuator(name).id for name in self.hand.actuators])
         # the model's own touch sensors (a site each), by the segment their site sits on
-        segment_of_body = {self.model.body(name).id: i for i, name in enumerate(self.hand.segments)}
-        touch = [(int(self.model.sensor_adr[k]), segment_of_body[int(self.model.site_bodyid[self.model.sensor_objid[k]])])
-                 for k in range(self.model.nsensor) if self.model.sensor_type[k] == mujoco.mjtSensor.mjSENS_TOUCH
-                 and int(self.model.site_bodyid[self.model.sensor_objid[k]]) in segment_of_body]
-        self._touch_adr = np.array([adr for adr, _ in touch], dtype=int)
-        self._touch_segment = np.array([segment for _, segment in touch], dtype=int)
+        touch_sensors = _touch_sensors(self.model, self.hand)
+        self._touch_adr = np.array([adr for adr, _ in touch_sensors], dtype=int)
+        self._touch_segment = np.array([segment for _, segment in touch_sensors], dtype=int)
         self.mount_id = int(self.model.body(self.hand.mount).mocapid[0])
         self.palm_id = self.model.body(self.hand.palm).id
         self.object_body = self.model.body("object").id
@@ -406,6 +450,15 @@ class Scene:
             raise InvalidInput(f"the {self.hand.name!r} hand model has no touch sensors (e.g. gymnasium-robotics-touch)")
         return np.bincount(self._touch_segment, weights=self.data.sensordata[self._touch_adr],
                            minlength=len(self.hand.segments))
+
+    def segment_forces(self) -> np.ndarray:
+        """What the controller senses now: the normal force on each tactile segment, from the scene's touch source.
+
+        Returns:
+            Forces (len(SEGMENTS),), N, in `SEGMENTS` order: the hand-object contacts' (`TactileSensor`) or the touch
+            sensors' (`touch`).
+        """
+        return self.touch() if self.touch_source == "sensors" else self.sensor.segment_forces(self.data)
 
     def posture(self) -> np.ndarray:
         """The current 22 finger joint angles (radians, FINGER_JOINTS order, the paper's sense)."""

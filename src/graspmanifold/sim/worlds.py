@@ -85,8 +85,7 @@ class CpuWorlds:
                                              ).reshape(-1, N_FINGER_JOINTS))
 
     def segment_forces(self, worlds: np.ndarray) -> np.ndarray:
-        return np.array([self.scenes[w].sensor.segment_forces(self.scenes[w].data) for w in worlds]
-                        ).reshape(-1, len(SEGMENTS))
+        return np.array([self.scenes[w].segment_forces() for w in worlds]).reshape(-1, len(SEGMENTS))
 
     def object_positions(self) -> np.ndarray:
         return np.array([scene.data.xpos[scene.object_body] for scene in self.scenes])

@@ -43,7 +43,7 @@ from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
-from ..sim.scene import Scene
+from ..sim.scene import TOUCH_SOURCES, Scene
 from ..sim.worlds import CpuWorlds, Worlds
 from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
 
@@ -123,6 +123,9 @@ class TrialSetup:
             `restart` (as `BatchController` has them).
         batch_size: trials at once on the GPU with the 'warp' backend (not part of the trials' key: it changes
             no outcome).
+        touch: where the segment forces the controller senses come from (`scene.TOUCH_SOURCES`): 'contacts' (the
+            hand-object contacts' normal forces summed per segment, ours) or 'sensors' (MuJoCo's touch sensors, a
+            site over each segment; the cpu backend).
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -142,6 +145,7 @@ class TrialSetup:
     regrasp: Regrasp = Regrasp()
     protocol: Protocol = DEFAULT_PROTOCOL
     batch_size: int = WARP_BATCH
+    touch: str = "contacts"
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -204,6 +208,9 @@ class TrialSetup:
         set_field("table", bool(self.table))
         set_field("margin", bool(self.margin))
         set_field("batch_size", check_int(self.batch_size, "batch_size"))
+        check_choice(self.touch, TOUCH_SOURCES, "touch")
+        if self.touch != "contacts" and self.backend != "cpu":
+            raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
 
     @classmethod
     def build(cls, obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
@@ -260,6 +267,7 @@ class TrialSetup:
                            "hand": self.hand.digest, "controller": None if custom is None else
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}",
                            **({"regrasp": self.regrasp.description()} if self.regrasp.attempts > 1 else {}),
+                           **({"touch": self.touch} if self.touch != "contacts" else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -358,7 +366,7 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
     support (`judge.supported_scene`), and the open hand at rest in `initial`."""
-    scene = supported_scene(setup.object, setup.table, setup.hand)
+    scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch)
     setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
