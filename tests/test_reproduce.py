@@ -292,3 +292,37 @@ def test_a_run_is_the_same_run_twice_whatever_the_workers_and_its_figures_regene
     redrawn = tmp_path / "redrawn"
     figure_from_run(first, "rates", redrawn)
     assert (redrawn / "rates.png").stat().st_size > 1000
+
+
+def test_an_object_of_ones_own_mesh_file_runs_from_the_command_line_and_its_experiment_file(tmp_path):
+    """`graspmanifold reproduce --object part.stl --scale 0.001` runs a reproduction on one's own mesh (here a capsule
+    in millimetres); the run's config.toml names the file, reads back to the same configuration, and reruns the
+    same run; an edited file gives new results (its content keys the stages), not the old file's."""
+    import trimesh
+
+    from graspmanifold.base.config_files import read_config
+    from graspmanifold.cli import main
+
+    mesh = tmp_path / "part.stl"
+    trimesh.creation.capsule(height=100.0, radius=22.0).export(mesh)
+    small = tmp_path / "small.toml"
+    small.write_text('postures = { cylinder = 12 }\nmap_size = [2, 4]\nepochs = 2\nimage_size = 16\n'
+                     'grid = [[0.0, 0.0, 0.01, 0.0]]\n[generator]\njob_size = 6\n')
+    out = tmp_path / "run"
+    command = ["reproduce", "--config", str(small), "--object", str(mesh), "--scale", "0.001", "--out", str(out),
+               "--workers", "1"]
+    assert main(command) == 0
+    first = gm.PostureSet.load(out / "postures" / "part.npz")
+    assert first.metadata["object"]["shape"] == "mesh" and len(first) == 12
+    written = read_config(out / "config.toml", PRESETS["quick"])
+    assert written.meshes == {"part": {"file": str(mesh.resolve()), "scale": 0.001}} and written.postures == {"part": 12}
+    assert written.object("part").mesh_digest == first.metadata["object"]["mesh_digest"]
+    trimesh.creation.capsule(height=110.0, radius=20.0).export(mesh)  # the file edited in place
+    assert main(command) == 0
+    second = gm.PostureSet.load(out / "postures" / "part.npz")
+    assert second.metadata["object"]["mesh_digest"] != first.metadata["object"]["mesh_digest"]
+    assert not np.array_equal(second.postures, first.postures)
+    with pytest.raises(ValueError, match=r"meshes\['part'\].file"):
+        ReproduceConfig(postures={"part": 12}, meshes={"part": {"file": str(tmp_path / "gone.stl")}})
+    with pytest.raises(ValueError, match="unknown object 'part'"):
+        ReproduceConfig(postures={"part": 12})

@@ -296,8 +296,18 @@ def _reproduce(args: argparse.Namespace) -> int:
         if args.config:  # the file changes the preset; the flags below change it again where they are given
             config = read_config(args.config, config)
         if args.objects:
-            sizes = config.postures
-            config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in args.objects})
+            sizes, names, meshes = config.postures, [], dict(config.meshes)
+            for text in args.objects:  # a library object by name, or a mesh file of one's own (times --scale)
+                if text in PAPER_OBJECTS or text in FAMILY or not (Path(text).suffix or os.sep in text):
+                    names.append(text)
+                else:
+                    obj = make_object("mesh", mesh=text, scale=args.scale)
+                    names.append(obj.name)
+                    meshes[obj.name] = {"file": text, "scale": args.scale}
+            config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in names},
+                             meshes=meshes)
+        elif args.scale != 1.0:
+            raise InvalidInput("--scale is for the mesh files --object names")
         given = {"hand": args.hand, "controller": args.controller, "protocol": args.protocol}
         given = {k: v for k, v in given.items() if not args.config or v != REPRODUCE_DEFAULTS[k]}
         if "controller" in given:
@@ -349,9 +359,11 @@ def build_parser() -> argparse.ArgumentParser:
     reproduce.add_argument("--preset", choices=("quick", "paper", "verified"), default="quick",
                            help="quick (the paper's procedure at small sizes, a minute or two), paper (the paper's "
                            "procedure and dataset sizes) or verified (the paper's candidates, trained on those that hold)")
-    reproduce.add_argument("--objects", nargs="+", metavar="NAME",
-                           help="objects to run instead of the paper's (paper or family names, e.g. cylinder ring_m "
-                           "bottle_m); an object outside the paper gets the cylinder's preset size")
+    reproduce.add_argument("--objects", "--object", nargs="+", metavar="NAME_OR_FILE",
+                           help="objects to run instead of the paper's: paper or family names (e.g. cylinder ring_m "
+                           "bottle_m) or mesh files of one's own (.stl, .obj, .ply: watertight solids, times --scale); "
+                           "an object outside the paper gets the cylinder's preset size")
+    reproduce.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (0.001 for mm)")
     reproduce.add_argument("--hand", default=SHADOW_HAND.name, help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)

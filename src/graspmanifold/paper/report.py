@@ -22,7 +22,7 @@ from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
 from ..sim.hand import SHADOW_HAND
-from ..sim.objects import DEFAULT_FRICTION
+from ..sim.objects import DEFAULT_FRICTION, make_object
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
 from ..trials.stats import holm, rate_text
@@ -144,7 +144,9 @@ def _renderer(run: RunData, image_size: int) -> tuple[Callable | None, str]:
     except RenderingUnavailable as error:
         return None, str(error)
     obj = figure_object(list(run.sets))
-    training, scene = run.sets[obj], Scene(obj, hand=run.config.get("hand", SHADOW_HAND.name))
+    mesh = run.config.get("meshes", {}).get(obj)  # an object of one's own mesh file
+    shown = obj if mesh is None else make_object("mesh", mesh=mesh["file"], scale=mesh["scale"], name=obj)
+    training, scene = run.sets[obj], Scene(shown, hand=run.config.get("hand", SHADOW_HAND.name))
     for geom in scene.spec.geoms:
         if np.allclose(geom.rgba, OBJECT_RGBA):
             geom.rgba = [0.6, 0.75, 1.0, 0.2]

@@ -13,6 +13,7 @@ run killed half-way picks up where it stopped, a missing, truncated or replaced 
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import json
 import os
@@ -28,7 +29,7 @@ from ..base.checkpoints import remove_checkpoints, result_key
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
-from ..base.validation import check_choice, check_int
+from ..base.validation import check_choice, check_input_file, check_int
 from ..base.workers import default_workers, worker_pool
 from ..base.config_files import apply_table, to_toml
 from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES, get_protocol
@@ -46,7 +47,7 @@ from ..manifold.postureset import PostureSet
 from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
 from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, hand_name
-from ..sim.objects import get_object
+from ..sim.objects import GraspObject, get_object, make_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
 from .report import RunData, run_methods, write_figures, write_report
@@ -60,8 +61,11 @@ PROCEDURES: tuple[str, ...] = ("paper", "verified")
 
 @dataclass(frozen=True)
 class ReproduceConfig:
-    """Everything a run depends on. `postures` names the objects (paper objects or family members,
-    `graspmanifold.sim.family.FAMILY`) and the candidates to generate for each; `procedure` says which of
+    """Everything a run depends on. `postures` names the objects (paper objects, family members,
+    `graspmanifold.sim.family.FAMILY`, or objects of one's own mesh files named in `meshes`) and the candidates to
+    generate for each; `meshes` gives an object of one's own its file and scale (`{"mug": {"file": "mug.stl",
+    "scale": 0.001}}`: a watertight solid, metres per unit; the file's content keys every stage that uses it, so an
+    edited file gives new results); `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
     the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
     `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`);
@@ -81,8 +85,24 @@ class ReproduceConfig:
     hand: str = SHADOW_HAND.name
     controller: ControllerParams = field(default_factory=ControllerParams)
     protocol: str = DEFAULT_PROTOCOL
+    meshes: dict[str, dict] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.meshes, dict):
+            raise InvalidInput(f"ReproduceConfig.meshes must map object names to {{file, scale}}, got {self.meshes!r}")
+        meshes = {}
+        for name, mesh in self.meshes.items():
+            unknown = sorted(set(mesh) - {"file", "scale"}) if isinstance(mesh, dict) else None
+            if unknown is None or unknown or "file" not in mesh:
+                raise InvalidInput(f"ReproduceConfig.meshes[{name!r}] must be {{file = PATH, scale = METRES_PER_UNIT}}, "
+                                   f"got {mesh!r}")
+            scale = mesh.get("scale", 1.0)
+            if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0 < scale < 1e3:
+                raise InvalidInput(f"ReproduceConfig.meshes[{name!r}].scale must be a positive number of metres per "
+                                   f"unit, got {scale!r}")
+            meshes[name] = {"file": str(check_input_file(mesh["file"], f"ReproduceConfig.meshes[{name!r}].file")
+                                        .resolve()), "scale": float(scale)}
+        object.__setattr__(self, "meshes", meshes)
         check_choice(self.protocol, PROTOCOL_NAMES, "ReproduceConfig.protocol")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
         if not isinstance(self.controller, ControllerParams):
@@ -103,7 +123,7 @@ class ReproduceConfig:
             if name == "all":
                 raise InvalidInput("ReproduceConfig.postures: 'all' names the map of every object; rename the object")
             try:
-                get_object(name)
+                self.object(name)
             except ValueError as error:
                 raise InvalidInput(f"ReproduceConfig.postures: {error}") from None
         if len(self.map_size) != 2 or not all(positive_int(v) for v in self.map_size):
@@ -124,6 +144,24 @@ class ReproduceConfig:
             check_int(count, f"ReproduceConfig.postures[{name!r}]", high=MAX_POSTURES)
         check_schedule(self.learning_rate, "ReproduceConfig.learning_rate", upper=1.0)
         check_schedule(self.sigma, "ReproduceConfig.sigma")
+
+    def object(self, name: str) -> GraspObject:
+        """The object a name of `postures` stands for: one of the library's, or the mesh `meshes` gives it.
+
+        Args:
+            name: the name.
+
+        Returns:
+            The object.
+
+        Raises:
+            InvalidInput: an unknown name, or a mesh file that is not a graspable solid.
+        """
+        if name in self.meshes:
+            file = self.meshes[name]["file"]
+            state = os.stat(file)
+            return _mesh_object(name, file, self.meshes[name]["scale"], (state.st_mtime_ns, state.st_size))
+        return get_object(name)
 
     def to_json(self) -> dict:
         config = asdict(self)
@@ -151,6 +189,13 @@ class ReproduceConfig:
                 raise InvalidInput(f"ReproduceConfig.controller.max_match_distance must be a number, got "
                                    f"{controller['max_match_distance']!r}") from None
         return apply_table(cls(postures=dict(config.get("postures") or {"cylinder": 1})), config, "")
+
+
+@functools.lru_cache(maxsize=16)
+def _mesh_object(name: str, file: str, scale: float, stamp: tuple) -> GraspObject:
+    """The object of a mesh file (`make_object`), made once per file, scale, name and the file's state (`stamp`: its
+    modification time and size; an edited file is read again)."""
+    return make_object("mesh", mesh=file, scale=scale, name=name)
 
 
 #: `quick`: the paper's procedure at small sizes (CI, a first look); `paper`: the paper's procedure and dataset
@@ -251,7 +296,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
         check_int(workers, "workers")
     hand = hand_model(config.hand)  # refused here, before any file is written, when it is not a Shadow Hand
     for name in config.postures:  # a grid no object can use was refused after the maps were trained
-        check_grid(_grid(config), get_object(name))
+        check_grid(_grid(config), config.object(name))
     out = Path(out)
     _check_output(out, config, force)
     with output_lock(out / LOCK_FILE):
@@ -281,18 +326,19 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     for name, path in sets_paths.items():
         def generate(name=name, path=path):
             parts = path.with_name(path.name + ".parts")
-            postures = generate_postures(name, config.postures[name], seed=config.seed, workers=workers,
+            postures = generate_postures(config.object(name), config.postures[name], seed=config.seed, workers=workers,
                                          executor=executor, hand=config.hand,
                                          params=config.generator, checkpoint_dir=parts, progress=True)
             postures.save(path)
             remove_checkpoints(parts)
         stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator),
-                                                  hand.digest), [path], generate)
+                                                  hand.digest, config.object(name).params()), [path], generate)
     if verified:  # the maps learn the candidates that hold
         candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
         for name, path in sets_paths.items():
             def verify(name=name, path=path):
-                held = verify_postures(PostureSet.load(candidates_paths[name]), name, workers, params=config.generator,
+                held = verify_postures(PostureSet.load(candidates_paths[name]), config.object(name), workers,
+                                       params=config.generator,
                                        executor=executor, progress=True)
                 held.save(path)
                 return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
@@ -329,14 +375,15 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             experience = {"none": None, "database": PostureDatabase(sets[name].postures),
                           "som": maps[name], "som_all": maps["all"]}[kind]
             parts = path.with_name(path.stem + ".parts")
-            result = evaluate(name, experience, _grid(config), seed=config.seed, workers=executor or workers,
+            result = evaluate(config.object(name), experience, _grid(config), seed=config.seed, workers=executor or workers,
                               checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
                               margin=get_protocol(config.protocol).physics is None, protocol=config.protocol)  # the report's margin
             result.save(path)
             remove_checkpoints(parts)
-        poses = check_grid(_grid(config), get_object(name))[1]  # keyed on the poses, not the preset's name
+        poses = check_grid(_grid(config), config.object(name))[1]  # keyed on the poses, not the preset's name
         stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, hand.digest,
-                                                           params.to_table(), config.protocol, *inputs[kind]), [path],
+                                                           params.to_table(), config.protocol,
+                                                           config.object(name).params(), *inputs[kind]), [path],
                    run_evaluation)
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
 
