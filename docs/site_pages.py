@@ -7,7 +7,7 @@ from mkdocs.structure.files import File
 
 DOCS = Path(__file__).resolve().parent
 #: the pages of docs/ that the site shows, by the section of its navigation
-PAGES = ("structure.md", "experience_study.md", "experience_study_paper_grids.md", "protocols.md",
+PAGES = ("recipes.md", "structure.md", "experience_study.md", "experience_study_paper_grids.md", "protocols.md",
          "generator_defaults.md", "generator_defaults_held_out.md", "hands.md", "hands_menagerie_without_meshes.md",
          "unseen_objects_paper.md", "unseen_objects_quick.md", "data_character.md", "spring_holds_by_design.md",
          "uncertainty_study.md", "uncertainty_study.png", "learning_curve.md", "learning_curve.png",

@@ -199,7 +199,8 @@ def _mesh_object(name: str, file: str, scale: float, stamp: tuple) -> GraspObjec
 
 
 #: `quick`: the paper's procedure at small sizes (CI, a first look); `paper`: the paper's procedure and dataset
-#: sizes; `verified`: the same candidates, trained on those that hold
+#: sizes; `verified`: the same candidates, trained on those that hold; `first`: the quick preset on the cylinder, a
+#: first run in about a minute
 PRESETS: dict[str, ReproduceConfig] = {
     **{name: ReproduceConfig(postures=dict(DATASET_PRESETS[name]), grid=name, generator=PRESET_PARAMS[name])
        for name in ("quick", "paper")},
@@ -208,6 +209,10 @@ PRESETS: dict[str, ReproduceConfig] = {
     "verified": ReproduceConfig(postures=dict(DATASET_PRESETS["paper"]), grid="paper",
                                 generator=GeneratorParams(mode="recording", record_every=5, verify=False),
                                 procedure="verified"),
+    # a first run in about a minute: the quick preset on the cylinder (the paper's Figs. 5-8 object), the pictures
+    # smaller; its report and the command's last lines give experience against the plain heuristic, with intervals
+    "first": ReproduceConfig(postures={"cylinder": DATASET_PRESETS["quick"]["cylinder"]}, grid="quick",
+                             generator=PRESET_PARAMS["quick"], image_size=64),
 }
 
 
