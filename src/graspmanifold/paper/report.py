@@ -268,7 +268,8 @@ def _controller_params(stored: dict | None) -> ControllerParams:
 def _config_text(config: dict) -> str:
     """The run's configuration in one line (a custom grid by its size, the generator by its mode; all of
     it is in run.json)."""
-    shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()}
+    shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()
+             if not (k == "meshes" and not v)}  # objects of one's own mesh files, where there are
     shown["generator"] = f"mode {config['generator'].get('mode', 'settled')}"
     shown["controller"] = f"recall {_controller_params(config.get('controller')).recall.name}"
     return ", ".join(f"{k} {json.dumps(v) if isinstance(v, dict) else v}" for k, v in shown.items())
