@@ -51,7 +51,14 @@ def test_a_random_episode_ends_in_a_judgement():
         if terminated:
             break
     assert terminated and step == 9 and info["judged"] and reward in (0.0, 1.0) and reward == float(info["hold"])
-    assert env.observation_space.contains(obs)
+    assert env.observation_space.contains(obs) and env.render() is None  # no render_mode asked for
+    drawn = TactileGraspEnv(object="box", render_mode="rgb_array")
+    drawn.reset(seed=0)
+    try:
+        image = drawn.render()
+    except gm.RenderingUnavailable:  # no offscreen OpenGL here: the library says so
+        return
+    assert image.shape == (240, 320, 3) and image.dtype == np.uint8 and image.std() > 0
 
 
 def test_the_papers_controller_through_the_environment_holds_what_evaluate_reports():

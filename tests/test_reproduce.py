@@ -296,8 +296,9 @@ def test_a_run_is_the_same_run_twice_whatever_the_workers_and_its_figures_regene
 
 def test_an_object_of_ones_own_mesh_file_runs_from_the_command_line_and_its_experiment_file(tmp_path):
     """`graspmanifold reproduce --object part.stl --scale 0.001` runs a reproduction on one's own mesh (here a capsule
-    in millimetres); the run's config.toml names the file, reads back to the same configuration, and reruns the
-    same run; an edited file gives new results (its content keys the stages), not the old file's."""
+    in millimetres); the run's config.toml names the file and reads back to the same configuration; run from it
+    after the file was edited, the run gives new results (the file's content keys the stages), not the old file's;
+    a study that takes object names takes the file too."""
     import trimesh
 
     from graspmanifold.base.config_files import read_config
@@ -317,11 +318,16 @@ def test_an_object_of_ones_own_mesh_file_runs_from_the_command_line_and_its_expe
     written = read_config(out / "config.toml", PRESETS["quick"])
     assert written.meshes == {"part": {"file": str(mesh.resolve()), "scale": 0.001}} and written.postures == {"part": 12}
     assert written.object("part").mesh_digest == first.metadata["object"]["mesh_digest"]
-    trimesh.creation.capsule(height=110.0, radius=20.0).export(mesh)  # the file edited in place
-    assert main(command) == 0
+    trimesh.creation.capsule(height=110.0, radius=20.0).export(mesh)  # the file edited in place; the run again from
+    assert main(["reproduce", "--config", str(out / "config.toml"), "--out", str(out), "--workers", "1"]) == 0  # its file
     second = gm.PostureSet.load(out / "postures" / "part.npz")
     assert second.metadata["object"]["mesh_digest"] != first.metadata["object"]["mesh_digest"]
     assert not np.array_equal(second.postures, first.postures)
+    from graspmanifold.studies import spring_holds
+
+    spring_holds.main(["--objects", str(mesh), "--scale", "0.001", "--n", "3", "--workers", "1",
+                       "--out", str(tmp_path / "holds"), "--doc", str(tmp_path / "holds.md")])
+    assert "| part |" in (tmp_path / "holds.md").read_text()
     with pytest.raises(ValueError, match=r"meshes\['part'\].file"):
         ReproduceConfig(postures={"part": 12}, meshes={"part": {"file": str(tmp_path / "gone.stl")}})
     with pytest.raises(ValueError, match="unknown object 'part'"):

@@ -31,7 +31,7 @@ from .paper.report import FIGURES
 from .sim.family import FAMILY
 from .sim.hand import SHADOW_HAND
 from .sim.hand_models import HAND_MODELS
-from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
+from .sim.objects import GraspObject, named_object, named_objects
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import TOUCH_SOURCES, Scene, facing_pose
 from .trials.grid import GRID_PRESETS
@@ -42,15 +42,8 @@ HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip
 
 def _object(args: argparse.Namespace) -> GraspObject:
     """The object --object names: a paper object, a family member, or a mesh file (times --scale)."""
-    text = args.object
     try:
-        if text in PAPER_OBJECTS or text in FAMILY:
-            if args.scale != 1.0:
-                raise InvalidInput(f"--scale is for mesh files, not the named object {text!r}")
-            return get_object(text)
-        if Path(text).suffix or os.sep in text:
-            return make_object("mesh", mesh=text, scale=args.scale)
-        return get_object(text)
+        return named_object(args.object, args.scale)
     except (InvalidInput, ImportError) as error:
         raise SystemExit(f"error: --object: {error}") from None
 
@@ -297,12 +290,9 @@ def _reproduce(args: argparse.Namespace) -> int:
             config = read_config(args.config, config)
         if args.objects:
             sizes, names, meshes = config.postures, [], dict(config.meshes)
-            for text in args.objects:  # a library object by name, or a mesh file of one's own (times --scale)
-                if text in PAPER_OBJECTS or text in FAMILY or not (Path(text).suffix or os.sep in text):
-                    names.append(text)
-                else:
-                    obj = make_object("mesh", mesh=text, scale=args.scale)
-                    names.append(obj.name)
+            for text, obj in zip(args.objects, named_objects(args.objects, args.scale)):  # names, or mesh files
+                names.append(obj.name)
+                if obj.shape == "mesh" and obj.name not in FAMILY:
                     meshes[obj.name] = {"file": text, "scale": args.scale}
             config = replace(config, postures={name: sizes.get(name, sizes["cylinder"]) for name in names},
                              meshes=meshes)

@@ -403,6 +403,48 @@ def get_object(obj: str | GraspObject) -> GraspObject:
                      "make_object()")
 
 
+def named_object(text: str, scale: float = 1.0) -> GraspObject:
+    """The object a command line or a study's list names: a library object by its name (`get_object`), or one's own
+    mesh file by its path (anything with a suffix or a folder: `make_object("mesh", mesh=text, scale=scale)`).
+
+    Args:
+        text: a name, or the path of a mesh file (.stl, .obj, .ply, ...: a watertight solid).
+        scale: metres per unit of a mesh file (0.001 for mm); a named object takes none.
+
+    Returns:
+        The object.
+
+    Raises:
+        InvalidInput: an unknown name, a scale given for a named object, a mesh that is not a graspable solid.
+    """
+    if _is_name(text):
+        if scale != 1.0:
+            raise InvalidInput(f"a scale is for mesh files, not the named object {text!r}")
+        return get_object(text)
+    return make_object("mesh", mesh=text, scale=scale)
+
+
+def named_objects(texts: list[str], scale: float = 1.0) -> list[GraspObject]:
+    """`named_object` of each: library objects by name, mesh files of one's own times `scale` (which then only the
+    files take; given without a file, it is refused).
+
+    Args:
+        texts: names and mesh file paths.
+        scale: metres per unit of the mesh files.
+
+    Returns:
+        The objects, in order.
+    """
+    if scale != 1.0 and all(_is_name(text) for text in texts):
+        raise InvalidInput(f"a scale is for mesh files, and {list(texts)} names none")
+    return [named_object(text, 1.0 if _is_name(text) else scale) for text in texts]
+
+
+def _is_name(text: str) -> bool:
+    """A library object's name rather than a file: a name it knows, or a text with no suffix and no folder."""
+    return text in PAPER_OBJECTS or text in FAMILY or not (Path(text).suffix or os.sep in text)
+
+
 @cache
 def _family_object(name: str) -> GraspObject:
     return make_object("mesh", mesh=family_mesh(name), name=name)

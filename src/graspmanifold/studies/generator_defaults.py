@@ -24,14 +24,14 @@ from ..base.io import markdown_table, write_text_atomic
 from ..control.generator import generate_postures, starting_postures
 from ..control.starts import designs_for
 from ..sim.family import FAMILY, HELD_OUT
-from ..sim.objects import PAPER_OBJECTS, get_object
+from ..sim.objects import PAPER_OBJECTS, GraspObject, named_objects
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
 
 
-def study(name: str, n: int, workers: int) -> tuple[list[list], list]:
+def study(obj: GraspObject, n: int, workers: int) -> tuple[list[list], list]:
     """The rows of one object's table (one per design) and its summary row."""
-    obj = get_object(name)
+    name = obj.name
     started = time.perf_counter()
     starts = starting_postures(obj, "grasp_types")
     searched = time.perf_counter() - started
@@ -55,7 +55,9 @@ def study(name: str, n: int, workers: int) -> tuple[list[list], list]:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--objects", nargs="+", default=["box", "cylinder", "sphere"])
+    parser.add_argument("--objects", nargs="+", default=["box", "cylinder", "sphere"],
+                        help="library objects by name, or mesh files of one's own (times --scale)")
+    parser.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (0.001 for mm)")
     parser.add_argument("--held-out", action="store_true", help="the object family's held-out members instead")
     parser.add_argument("--test-family", action="store_true",
                         help="instead the paper's objects and every family member not held out (the tests' family)")
@@ -73,8 +75,8 @@ def _run(args: argparse.Namespace, run: StudyRun) -> None:
     # a fresh cache: objects that ship no starts are searched here, as for a new user
     os.environ["GRASPMANIFOLD_CACHE"] = tempfile.mkdtemp(prefix="graspmanifold-cache-")
     rows, summaries = [], []
-    for name in names:
-        object_rows, summary = study(name, args.n, args.workers)
+    for obj in named_objects(names, args.scale):
+        object_rows, summary = study(obj, args.n, args.workers)
         rows += object_rows
         summaries.append(summary)
         run.log(" | ".join(str(cell) for cell in summary))

@@ -31,7 +31,7 @@ from ..control.generator import GeneratorParams, generate_postures
 from ..control.judge import JUDGING, reading_epsilon
 from ..control.stages import HOLD_DIRECTIONS
 from ..sim.hand import DISTAL_SEGMENTS
-from ..sim.objects import get_object
+from ..sim.objects import GraspObject, named_objects
 from ..sim.scene import GRAVITY, Scene
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
@@ -69,8 +69,9 @@ def replay(scene: Scene, posture: np.ndarray, pose: np.ndarray, params: Generato
     return record
 
 
-def study(name: str, n: int, workers: int, by_start: bool = False) -> list[list]:
-    obj = get_object(name)
+def study(obj: GraspObject, n: int, workers: int, by_start: bool = False) -> list[list]:
+    """The table's rows of one object."""
+    name = obj.name
     params = GeneratorParams(verify=False)
     candidates = generate_postures(obj, n, seed=0, workers=workers, params=params)
     scene = Scene(obj, free_object=True)
@@ -98,7 +99,9 @@ def row(name: str, records: list[dict]) -> list:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--objects", nargs="+", default=["cylinder", "capsule_m", "frustum_m", "bottle_m"])
+    parser.add_argument("--objects", nargs="+", default=["cylinder", "capsule_m", "frustum_m", "bottle_m"],
+                        help="library objects by name, or mesh files of one's own (times --scale)")
+    parser.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (0.001 for mm)")
     parser.add_argument("--n", type=int, default=200)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study-spring-holds", help="the study's folder (its log, a copy of the report)")
@@ -110,9 +113,9 @@ def main(argv: list[str] | None = None) -> None:
 
 def _run(args: argparse.Namespace, run: StudyRun) -> None:
     rows = []
-    for name in args.objects:
-        rows += study(name, args.n, args.workers, args.by_start)
-        run.log(f"{name}: done")
+    for obj in named_objects(args.objects, args.scale):
+        rows += study(obj, args.n, args.workers, args.by_start)
+        run.log(f"{obj.name}: done")
     command = "python scripts/study_spring_holds.py " + " ".join(sys.argv[1:])
     table = "\n".join(
         [f"# Why spring candidates do not hold{' (by starting posture)' if args.by_start else ''}", "",
