@@ -258,7 +258,8 @@ def test_a_controller_is_named_as_the_command_line_names_it_or_given_as_a_factor
 def test_mujocos_touch_sensors_feel_what_our_contact_sum_feels_on_a_held_grasp():
     """`touch="sensors"` puts a site over each segment's geoms with MuJoCo's touch sensor on it. On a held grasp
     the two agree to 1e-9 N on every segment that touches only the object (a sensor also feels the hand's own
-    contacts, finger on finger, which our sum leaves out); the trials run on either."""
+    contacts, finger on finger, which our sum leaves out); the trials run on either. `touch="contact-sensors"`
+    (MuJoCo's contact sensor between each segment and the object) feels what our sum feels: the same trials."""
     import mujoco
 
     scene = gm.Scene("box", free_object=True, touch="sensors")
@@ -278,5 +279,15 @@ def test_mujocos_touch_sensors_feel_what_our_contact_sum_feels_on_a_held_grasp()
     poses = check_grid("quick", gm.get_object("cylinder"))[1][::12]
     felt = gm.evaluate("cylinder", None, poses, seed=0, workers=1, progress=False, touch="sensors")
     assert all(t.valid for t in felt.trials) and any(t.hold for t in felt.trials)
+    # MuJoCo's contact sensors between each segment and the object feel the object only: our sum, exactly
+    paired = gm.Scene("box", free_object=True, touch="contact-sensors")
+    paired.set_hand_pose(*gm.facing_pose("box"))
+    paired.set_posture(gm.open_posture())
+    paired.set_target(gm.closed_posture())
+    paired.run(1.5)
+    np.testing.assert_allclose(paired.segment_forces(), paired.sensor.segment_forces(paired.data), rtol=0, atol=1e-9)
+    ours = gm.evaluate("sphere", None, poses[:3], seed=0, workers=1, progress=False)
+    theirs = gm.evaluate("sphere", None, poses[:3], seed=0, workers=1, progress=False, touch="contact-sensors")
+    assert [(t.hold, t.epsilon) for t in ours.trials] == [(t.hold, t.epsilon) for t in theirs.trials]
     with pytest.raises(ValueError, match="touch must be one of"):
         gm.evaluate("cylinder", None, poses, progress=False, touch="skin")

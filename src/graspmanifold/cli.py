@@ -417,8 +417,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="measure the disturbance margin of the grasps that hold "
                                "(more simulation per held grasp)")
     evaluate.add_argument("--touch", choices=TOUCH_SOURCES, default=TOUCH_SOURCES[0],
-                          help="what the controller feels: the hand-object contacts' forces per segment (ours) or "
-                               "MuJoCo's touch sensors (a site over each segment: they feel the hand's own contacts too)")
+                          help="what the controller feels: the hand-object contacts' forces per segment (ours), "
+                               "MuJoCo's touch sensors (a site over each segment: they feel the hand's own contacts "
+                               "too) or its contact sensors between each segment and the object")
     evaluate.add_argument("--position-noise", type=float, default=0.0, help="object position noise (m)")
     evaluate.add_argument("--yaw-noise", type=float, default=0.0, help="object yaw noise (rad)")
     evaluate.add_argument("--joint-noise", type=float, default=0.0, help="joint sensing noise (rad)")

@@ -112,8 +112,14 @@ def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObjec
 
 
 #: where the segment forces a scene senses come from (`Scene(touch=...)`): the contacts' normal forces summed per
-#: segment (ours, the default), or MuJoCo's touch sensors
-TOUCH_SOURCES = ("contacts", "sensors")
+#: segment (ours, the default), MuJoCo's touch sensors (a site over each segment: they feel every contact in it, the
+#: hand's own too), or MuJoCo's contact sensors between each segment and the object (they feel the object only)
+TOUCH_SOURCES = ("contacts", "sensors", "contact-sensors")
+#: contacts between one segment and the object a contact sensor reports (the largest forces first); more are
+#: left out of its sum
+CONTACT_SENSOR_SLOTS = 16
+_CONTACT_FOUND_FORCE = 3  # a contact sensor's data: the count found (1) and each slot's force (2), as bits
+_CONTACT_MAXFORCE = 2  # its slots sorted by force, the largest first
 #: m the touch site over a segment's geom reaches beyond it: a contact point lies on the surfaces' midplane, up to
 #: half a penetration inside the geom or outside it
 TOUCH_SITE_MARGIN = 0.003
@@ -187,9 +193,11 @@ class Scene:
             hand: the hand model, or its name or the path of its MJCF file (`hand_models.hand_model`); postures stay the paper's 22
                 joint angles in the paper's sense whatever the model's names and signs.
             touch: where the segment forces the controller senses come from (`TOUCH_SOURCES`): 'contacts', the
-                normal forces of the hand-object contacts summed per segment (ours, `TactileSensor`), or 'sensors',
+                normal forces of the hand-object contacts summed per segment (ours, `TactileSensor`); 'sensors',
                 MuJoCo's own touch sensors (a hand model's, or added here: a site over each segment's collision
-                geoms, `TOUCH_SITE_MARGIN` larger, with a `touch` sensor on it), summed per segment (`touch()`).
+                geoms, `TOUCH_SITE_MARGIN` larger, with a `touch` sensor on it), summed per segment (`touch()`); or
+                'contact-sensors', a MuJoCo `contact` sensor between each segment and the object, its slots'
+                normal forces summed (up to `CONTACT_SENSOR_SLOTS` contacts a segment).
         """
         self.object = get_object(obj)
         self.free_object = free_object
@@ -212,6 +220,13 @@ class Scene:
         self.model = spec.compile()
         if touch == "sensors" and not _touch_sensors(self.model, self.hand):
             _add_touch_sensors(spec, self.model, self.hand)
+            self.model = spec.compile()
+        if touch == "contact-sensors":
+            for segment in self.hand.segments:
+                spec.add_sensor(name=f"contact_{segment}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                objtype=mujoco.mjtObj.mjOBJ_BODY, objname=segment, reftype=mujoco.mjtObj.mjOBJ_BODY,
+                                refname="object", intprm=[_CONTACT_FOUND_FORCE, _CONTACT_MAXFORCE,
+                                                          CONTACT_SENSOR_SLOTS])
             self.model = spec.compile()
         self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
         self.data = mujoco.MjData(self.model)
@@ -455,9 +470,13 @@ class Scene:
         """What the controller senses now: the normal force on each tactile segment, from the scene's touch source.
 
         Returns:
-            Forces (len(SEGMENTS),), N, in `SEGMENTS` order: the hand-object contacts' (`TactileSensor`) or the touch
-            sensors' (`touch`).
+            Forces (len(SEGMENTS),), N, in `SEGMENTS` order: the hand-object contacts' (`TactileSensor`), the touch
+            sensors' (`touch`) or the segment-object contact sensors'.
         """
+        if self.touch_source == "contact-sensors":  # each slot: the count found, then its force (normal first)
+            adr = self.model.sensor(f"contact_{self.hand.segments[0]}").adr[0]
+            slots = self.data.sensordata[adr:adr + len(self.hand.segments) * CONTACT_SENSOR_SLOTS * 4]
+            return slots.reshape(len(self.hand.segments), CONTACT_SENSOR_SLOTS, 4)[:, :, 1].sum(axis=1)
         return self.touch() if self.touch_source == "sensors" else self.sensor.segment_forces(self.data)
 
     def posture(self) -> np.ndarray:

@@ -124,8 +124,9 @@ class TrialSetup:
         batch_size: trials at once on the GPU with the 'warp' backend (not part of the trials' key: it changes
             no outcome).
         touch: where the segment forces the controller senses come from (`scene.TOUCH_SOURCES`): 'contacts' (the
-            hand-object contacts' normal forces summed per segment, ours) or 'sensors' (MuJoCo's touch sensors, a
-            site over each segment; the cpu backend).
+            hand-object contacts' normal forces summed per segment, ours), 'sensors' (MuJoCo's touch sensors, a site
+            over each segment) or 'contact-sensors' (MuJoCo's contact sensors between each segment and the object);
+            the sensors on the cpu backend.
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
