@@ -169,6 +169,7 @@ class Judging:
             return worlds
         self.worlds.release(worlds)
         positions = self.worlds.object_positions()
+        quats = self.worlds.object_quats() if math.isfinite(self.rules.angle_limit) else None
         recorded = []
         for world in worlds:
             reading, centre = self.worlds.reading(world)
@@ -179,8 +180,8 @@ class Judging:
                 continue
             self._grasped[world] = (reading, self.worlds.posture(world), epsilon)
             self.start[world] = positions[world]
-            if math.isfinite(self.rules.angle_limit):
-                self._start_quat[world] = self.worlds.object_quats()[world]
+            if quats is not None:
+                self._start_quat[world] = quats[world]
             recorded.append(world)
         return np.array(recorded, dtype=int)
 
@@ -194,7 +195,11 @@ class Judging:
         return moved
 
     def finish(self, world: int) -> None:
-        """Judge a world whose grasp was recorded, by the measures its stages left."""
+        """Judge a world whose grasp was recorded, by the measures its stages left.
+
+        Args:
+            world: its index.
+        """
         self.stage[world] = -1
         reading, posture, epsilon = self._grasped.pop(world)
         displacement = self.displacement[world]
@@ -204,7 +209,12 @@ class Judging:
                                        self.worlds.max_penetration(world), hold_time=float(self.hold_time[world]))
 
     def fail(self, world: int, why: str) -> None:
-        """Judge a world whose physics failed (`why`): a fault, neither held nor closed."""
+        """Judge a world whose physics failed: a fault, neither held nor closed.
+
+        Args:
+            world: its index.
+            why: what failed (the judgement's `fault`).
+        """
         self.stage[world] = -1
         self._grasped.pop(world, None)
         self.judged[world] = Judgement(0.0, False, np.inf, 0.0 if self.rules.margin else np.nan,
