@@ -294,6 +294,33 @@ def test_a_run_is_the_same_run_twice_whatever_the_workers_and_its_figures_regene
     assert (redrawn / "rates.png").stat().st_size > 1000
 
 
+def test_an_experiment_files_relative_mesh_path_is_read_from_its_folder_whatever_the_working_directory(
+        tmp_path, monkeypatch):
+    """A configuration file that names its mesh by a relative path finds it beside itself (it was read from the
+    working directory, so a folder of a file and its mesh worked only when run from inside it); an absolute path
+    stays as it is, and a missing relative one is refused with the path it was looked for at."""
+    import trimesh
+
+    from graspmanifold.base.config_files import read_config
+
+    folder, elsewhere = tmp_path / "experiment", tmp_path / "elsewhere"
+    (folder / "meshes").mkdir(parents=True)
+    elsewhere.mkdir()
+    trimesh.creation.capsule(height=100.0, radius=22.0).export(folder / "meshes" / "part.stl")
+    config = folder / "part.toml"
+    config.write_text('postures = { part = 12 }\nmeshes = { part = { file = "meshes/part.stl", scale = 0.001 } }\n')
+    monkeypatch.chdir(elsewhere)
+    read = read_config(config, PRESETS["quick"])
+    assert read.meshes == {"part": {"file": str((folder / "meshes" / "part.stl").resolve()), "scale": 0.001}}
+    assert read.object("part").shape == "mesh"
+    absolute = folder / "absolute.toml"
+    absolute.write_text(f'postures = {{ part = 12 }}\nmeshes = {{ part = {{ file = "{folder / "meshes" / "part.stl"}", scale = 0.001 }} }}\n')
+    assert read_config(absolute, PRESETS["quick"]).meshes["part"]["file"] == str((folder / "meshes" / "part.stl").resolve())
+    (folder / "gone.toml").write_text('postures = { part = 12 }\nmeshes = { part = { file = "gone.stl" } }\n')
+    with pytest.raises(ValueError, match=r"gone\.toml.*meshes\['part'\]\.file.*experiment/gone\.stl"):
+        read_config(folder / "gone.toml", PRESETS["quick"])
+
+
 def test_an_object_of_ones_own_mesh_file_runs_from_the_command_line_and_its_experiment_file(tmp_path):
     """`graspmanifold reproduce --object part.stl --scale 0.001` runs a reproduction on one's own mesh (here a capsule
     in millimetres); the run's config.toml names the file and reads back to the same configuration; run from it

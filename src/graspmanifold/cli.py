@@ -187,8 +187,7 @@ def _experience_files(args: argparse.Namespace):
         raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --som MAP.npz)")
     sets = [PostureSet.load(p) for p in args.postures]
     hand = hand_name(args.hand, "--hand")
-    foreign = [f"{p} ({s.metadata.get('hand', 'ours')})" for p, s in zip(args.postures, sets)
-               if s.metadata.get("hand", SHADOW_HAND.name) != hand]
+    foreign = [f"{p} ({s.hand})" for p, s in zip(args.postures, sets) if s.hand != hand]
     if foreign:
         raise SystemExit(f"error: --postures of another hand than --hand {args.hand}: {', '.join(foreign)}")
     return PostureSet.concatenate(sets)

@@ -6,7 +6,8 @@ dataclass does not have is refused by name, a value goes through the dataclass's
 tuples where the field is a tuple. `to_toml` writes a configuration back, so a run can keep the one it used. A
 field whose value is one of several kinds (the controller's recall rule) is written as an inline table that names
 its kind (its `to_table`) and read through its `with_table`; a dataclass with `upgrade_table` reads a table of an
-older form.
+older form, and one with `table_paths_from` reads the file paths a table names from the file's folder (a file
+moved with the files it names still finds them, from any working directory).
 
     [generator]            # a nested dataclass is a table
     mode = "recording"
@@ -71,7 +72,8 @@ def read_config(path: str | os.PathLike, base: object) -> object:
     """A configuration from a TOML file, over a base configuration.
 
     Args:
-        path: the .toml file.
+        path: the .toml file; a relative path it names is read from its folder (where the class says which
+            values are paths: `table_paths_from`).
         base: the configuration its keys change (a dataclass).
 
     Returns:
@@ -87,6 +89,9 @@ def read_config(path: str | os.PathLike, base: object) -> object:
         raise InvalidInput(f"configuration file {path}: cannot be read ({error.strerror})") from None
     except tomllib.TOMLDecodeError as error:
         raise InvalidInput(f"configuration file {path}: not TOML ({error})") from None
+    paths_from = getattr(type(base), "table_paths_from", None)
+    if paths_from is not None:
+        table = paths_from(table, path.resolve().parent)
     try:
         return apply_table(base, table, "")
     except (InvalidInput, TypeError) as error:

@@ -339,7 +339,7 @@ def open_loop_grasps(postures: PostureSet, stages: GraspStages | None = None,
             raise InvalidInput("open_loop_grasps: stages made from the contacts need the set's object (obj=): its "
                                "metadata names none")
         obj = object_from_params(postures.metadata["object"])
-    scene = None if obj is None else Scene(obj, hand=postures.metadata.get("hand", SHADOW_HAND.name))
+    scene = None if obj is None else Scene(obj, hand=postures.hand)
     return [open_loop_grasp(pose, posture, stages, scene)
             for pose, posture in zip(postures.hand_poses, postures.postures)]
 

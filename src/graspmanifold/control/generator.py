@@ -760,7 +760,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     params = params or GeneratorParams()
     workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
-    hand = postures.metadata.get("hand", SHADOW_HAND.name)
+    hand = postures.hand
     tasks = [(obj, params, postures.postures[c], postures.hand_poses[c], hand) for c in chunks if len(c)]
     with progress_bar(len(postures), f"verify {obj.name}", "postures", enabled=progress) as report:
         rows = np.concatenate(parallel_map(_verify_chunk, tasks, workers, lambda _, r: report.update(len(r)), executor)

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, Tabular
-from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS
+from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 
 
 @dataclass(frozen=True)
@@ -62,6 +62,11 @@ class PostureSet(Tabular, NpzRecord):
 
     def __len__(self) -> int:
         return len(self.postures)
+
+    @property
+    def hand(self) -> str:
+        """The name of the hand model the postures are of (`metadata["hand"]`; ours for a set that names none)."""
+        return str(self.metadata.get("hand", SHADOW_HAND.name))
 
     def __array__(self, dtype: object = None, copy: bool | None = None) -> np.ndarray:
         """The (n, 22) postures, so a PostureSet goes wherever postures do (`np.asarray`, `SOM.fit`)."""

@@ -64,7 +64,8 @@ class ReproduceConfig:
     """Everything a run depends on. `postures` names the objects (paper objects, family members,
     `graspmanifold.sim.family.FAMILY`, or objects of one's own mesh files named in `meshes`) and the candidates to
     generate for each; `meshes` gives an object of one's own its file and scale (`{"mug": {"file": "mug.stl",
-    "scale": 0.001}}`: a watertight solid, metres per unit; the file's content keys every stage that uses it, so an
+    "scale": 0.001}}`: a watertight solid, metres per unit; a relative path is read from the working directory, or in
+    a configuration file from the file's folder; the file's content keys every stage that uses it, so an
     edited file gives new results); `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
     the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
@@ -144,6 +145,25 @@ class ReproduceConfig:
             check_int(count, f"ReproduceConfig.postures[{name!r}]", high=MAX_POSTURES)
         check_schedule(self.learning_rate, "ReproduceConfig.learning_rate", upper=1.0)
         check_schedule(self.sigma, "ReproduceConfig.sigma")
+
+    @staticmethod
+    def table_paths_from(table: dict, folder: Path) -> dict:
+        """A configuration file's table with its relative mesh files read from the file's folder (`read_config`).
+
+        Args:
+            table: the file's table.
+            folder: the file's folder.
+
+        Returns:
+            The table, each relative `meshes.<name>.file` joined to `folder`.
+        """
+        meshes = table.get("meshes")
+        if not isinstance(meshes, dict):
+            return table
+        located = {name: mesh | {"file": str(folder / mesh["file"])}
+                   if isinstance(mesh, dict) and isinstance(mesh.get("file"), str) and not Path(mesh["file"]).is_absolute()
+                   else mesh for name, mesh in meshes.items()}
+        return table | {"meshes": located}
 
     def object(self, name: str) -> GraspObject:
         """The object a name of `postures` stands for: one of the library's, or the mesh `meshes` gives it.

@@ -138,7 +138,7 @@ def report(args: argparse.Namespace, verification: Verification, open_loop: dict
               "rates and of every pair: " + "; ".join(
                   f"{c} / {p} {sum(int((~r.valid).sum()) for r in closed[(c, p)].values())}"
                   for c in ("heuristic", "paper") for p in PROTOCOL_NAMES) + " of "
-              f"{sum(len(r.trials) for r in closed[('heuristic', 'ours')].values())} poses."]
+              f"{sum(len(r.trials) for r in closed[('heuristic', DEFAULT_PROTOCOL)].values())} poses."]
     lines += ["", "## Paired comparisons (replay and closed loop)", "", "`+` / `-`: poses or grasps held only under the "
               "first / only under the second. Holm over this table.", "", *comparison_table(holm_family(tests))]
     return "\n".join(lines) + "\n"

@@ -152,8 +152,8 @@ class TrialSetup:
         set_field = functools.partial(object.__setattr__, self)
         set_field("object", get_object(self.object))
         set_field("hand", self.hand if isinstance(self.hand, HandModel) else hand_model(self.hand))
-        if isinstance(self.experience, PostureSet) and self.experience.metadata.get("hand", SHADOW_HAND.name) != self.hand.name:
-            raise InvalidInput(f"the experience holds postures of the {self.experience.metadata.get('hand', 'ours')!r} "
+        if isinstance(self.experience, PostureSet) and self.experience.hand != self.hand.name:
+            raise InvalidInput(f"the experience holds postures of the {self.experience.hand!r} "
                                f"hand; these trials run the {self.hand.name!r} hand")
         if self.backend == "warp" and self.hand.name != SHADOW_HAND.name:
             raise InvalidInput(f"backend='warp' runs our hand model only, not {self.hand.name!r}: use backend='cpu'")
