@@ -228,6 +228,15 @@ def test_the_verifier_is_the_replay(protocol_name):
     verified = [verifier(p, h[:3], h[3:]).hold for p, h in zip(candidates.postures, candidates.hand_poses)]
     held, _ = replay("cylinder", open_loop_grasps(candidates), protocol_name)
     assert verified == list(held) and 0 < sum(verified) < len(verified)
+    # a look at the scene at the squeeze's end (`observe`, as the spring-holds study takes it) changes nothing and
+    # sees every grasp that holds touching its object
+    touching = []
+    for posture, pose in zip(candidates.postures, candidates.hand_poses):
+        seen = []
+        touching.append((verifier(posture, pose[:3], pose[3:], observe=lambda s: seen.append(s.tactile().segments)).hold,
+                         seen))
+    assert [hold for hold, _ in touching] == verified
+    assert all(len(seen) == 1 and len(seen[0]) >= 2 for hold, seen in touching if hold)
 
 
 @pytest.mark.parametrize("name, protocol_name, stages", [

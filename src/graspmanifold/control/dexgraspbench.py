@@ -20,6 +20,7 @@ simulation's friction, 8 edges, torques scaled by the largest lever): two metric
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import mujoco
@@ -185,8 +186,8 @@ def _approach(scene: Scene, grasp: OpenLoopGrasp, mounts: list, protocol: DexGra
     return steps
 
 
-def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
-                        protocol: DexGraspBenchProtocol = DEXGRASPBENCH) -> ForceTest:
+def external_force_test(scene: Scene, grasp: OpenLoopGrasp, protocol: DexGraspBenchProtocol = DEXGRASPBENCH,
+                        observe: Callable[[Scene], None] | None = None) -> ForceTest:
     """Judge an open-loop grasp as DexGraspBench does (see the module doc); the directions run in turn and the
     test ends at the first that fails (no later one can change the outcome). DexGraspBench replays the approach
     for every direction; the physics being deterministic, the approach runs once here and every direction
@@ -197,6 +198,8 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
             applied to it (its model changes for good).
         grasp: the pregrasp, grasp and squeeze.
         protocol: the test, one version of it (`protocols.DEXGRASPBENCH`, `protocols.DEXGRASPBENCH_PAPER`).
+        observe: called with the scene at the squeeze's end, before the first push (a study's look at the grasp
+            it judges; it must not change the scene's state).
 
     Returns:
         The `ForceTest`.
@@ -213,6 +216,8 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp,
                          f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
     start_position, start_quat = scene.object_pose()
     steps = _approach(scene, grasp, mounts, protocol)
+    if observe is not None:
+        observe(scene)
     epsilon = reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body],
                               float(model.geom_friction[scene.object_geoms[0], 0]))
     squeezed_state = np.empty(mujoco.mj_stateSize(model, _STATE))
@@ -369,7 +374,7 @@ class Replay:
 
 
 def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = DEFAULT_PROTOCOL,
-                 hold_seconds: float | None = None) -> Replay:
+                 hold_seconds: float | None = None, observe: Callable[[Scene], None] | None = None) -> Replay:
     """The one replay of an open-loop grasp: the scene reset to the pregrasp (the object free and unsupported,
     gravity off; a pregrasp deeper than DexGraspBench's `max_penetration` inside the object is refused, whatever
     judges), pregrasp -> grasp -> squeeze in DexGraspBench's interpolated targets, then the protocol's judging:
@@ -384,13 +389,16 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = 
         protocol: a name in `protocols.PROTOCOLS`, or a `Protocol` (one changed for an ablation, or one's own).
         hold_seconds: s per direction of a hold test by rules (None: the protocol's rules'); an external-force
             test has its own.
+        observe: called with the scene at the squeeze's end, before the judging (a study's look at what is
+            judged, e.g. `studies.spring_holds`; it must not change the scene's state); not called for a refused
+            pregrasp.
 
     Returns:
         The `Replay`.
     """
     protocol = get_protocol(protocol)
     if protocol.push_test is not None:
-        test = external_force_test(scene, grasp, protocol.push_test)
+        test = external_force_test(scene, grasp, protocol.push_test, observe)
         if test.fault and test.steps == 0:
             return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=test.penetration), test.fault)
         return Replay(Judgement(test.epsilon, test.success, float(np.nanmax(test.translation, initial=0.0)), np.nan,
@@ -403,6 +411,8 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = 
         return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=depth),
                       f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
     _approach(scene, grasp, mounts, timed)  # its targets and their seconds, the scene's physics
+    if observe is not None:
+        observe(scene)
     rules = protocol.rules if hold_seconds is None else replace(protocol.rules, hold_seconds=hold_seconds)
     return Replay(judge_scene(scene, rules))
 
@@ -452,13 +462,15 @@ class GraspVerifier:
         """The open-loop grasp the verifier replays for a posture at a palm pose (see `__call__`)."""
         return open_loop_grasp(np.r_[hand_pos, hand_quat], posture, self.stages, self._shaping)
 
-    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray) -> Judgement:
+    def __call__(self, posture: np.ndarray, hand_pos: np.ndarray, hand_quat: np.ndarray,
+                 observe: Callable[[Scene], None] | None = None) -> Judgement:
         """Judge one grasp.
 
         Args:
             posture: (22,) rad, the grasp's finger joints.
             hand_pos: (3,) m, the palm's position in the object frame.
             hand_quat: (4,) the palm's orientation (w x y z) in the object frame.
+            observe: called with the scene at the squeeze's end, before the judging (`replay_grasp`).
 
         Returns:
             The replay's `Judgement` (a refused pregrasp: not held).
@@ -467,7 +479,7 @@ class GraspVerifier:
             SimulationError: the replay's physics failed.
         """
         replayed = replay_grasp(self.scene, self.grasp(posture, hand_pos, hand_quat), self.protocol,
-                                self.hold_seconds)
+                                self.hold_seconds, observe)
         if replayed.judgement.fault:
             raise SimulationError(replayed.judgement.fault)
         return replayed.judgement

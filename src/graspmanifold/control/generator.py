@@ -291,7 +291,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
     rig = _SpringRig(obj, params, start.contacts, hand)
-    verifier = _verifier(obj, params, hand) if params.verify else None
+    verifier = verifier_of(obj, params, hand) if params.verify else None
     rig.reset_to(start)
     rig.scene.set_target(start.posture)
     base = to_rotation(start.hand_quat)
@@ -478,9 +478,18 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
                               "can close around it (use an object that is narrower somewhere than the hand spans)")
 
 
-def _verifier(obj: GraspObject, params: GeneratorParams, hand: str) -> GraspVerifier:
-    """The verifier of a candidate: its open-loop replay (`dexgraspbench.replay_grasp`) with the stages, the
-    protocol and the hold of `params`."""
+def verifier_of(obj: GraspObject, params: GeneratorParams, hand: str = SHADOW_HAND.name) -> GraspVerifier:
+    """The generator's verifier of a candidate: its open-loop replay (`dexgraspbench.replay_grasp`) with the
+    stages, the protocol and the hold of `params`.
+
+    Args:
+        obj: the object.
+        params: the generator's parameters (`grasp_stages`, `verify_hold_seconds`, `verify_protocol`).
+        hand: the hand model's name.
+
+    Returns:
+        The `GraspVerifier`.
+    """
     return GraspVerifier(obj, params.grasp_stages, params.verify_hold_seconds, hand, params.verify_protocol)
 
 
@@ -722,7 +731,7 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
     """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
     obj, params, postures, poses, hand = task
-    verifier = _verifier(obj, params, hand)
+    verifier = verifier_of(obj, params, hand)
     rows = []
     for posture, pose in zip(postures, poses):
         try:

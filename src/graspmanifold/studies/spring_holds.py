@@ -3,17 +3,16 @@
     python scripts/study_spring_holds.py [--objects cylinder capsule_m frustum_m bottle_m] [--n 200]
                                          [--workers 2] [--out DIR] [--doc spring_holds.md] [--by-start]
 
-The generator keeps a spring candidate only when it holds the free object under the controller's
-squeeze (`GeneratorParams.verify`). For the bottle none of 1000 candidates did, for the frustum 11.
-This script generates `--n` unverified candidates per object (seed 0) and replays each exactly as the
-verifier does, recording what the verifier does not keep: the contacts under the squeeze (how many
-segments, where along the object's long axis z, how much of each contact normal points along z,
-whether the contacts close the grasp (epsilon), whether all five fingertips still touch), and in
-which gravity direction the object first leaves the 2 cm bound (the directions are tried in the
-order +x, -x, +y, -y, +z, -z, 0.25 s each, so a grasp that fails at once shows as +x). The paper
-cylinder is the reference whose candidates hold one time in four. `--by-start` gives a row per
-starting posture (design) instead of per object, with how often the thumb still touches under the
-squeeze: why some designs never hold.
+The generator keeps a spring candidate only when it holds the free object when replayed open loop
+(`GeneratorParams.verify`). This script generates `--n` unverified candidates per object (seed 0) and runs each
+through the generator's own verifier (`generator.verifier_of`: its pregrasp, grasp and squeeze, then our hold
+test), recording what the verifier does not keep: at the squeeze's end, the contacts (how many segments, where
+along the object's long axis z, how much of each contact normal points along z, whether the contacts close
+the grasp (epsilon), whether all five fingertips and the thumb still touch), and in which gravity direction the
+object first leaves the 2 cm bound (the directions are tried in the order +x, -x, +y, -y, +z, -z, so a grasp
+that fails at once shows as +x; 'refused': a pregrasp inside the object, never run). The paper cylinder is the
+reference. `--by-start` gives a row per starting posture (design) instead of per object: why some designs never
+hold.
 """
 
 from __future__ import annotations
@@ -22,50 +21,62 @@ import argparse
 import sys
 from collections import Counter
 
-import mujoco
 import numpy as np
 
+from ..base.errors import SimulationError
 from ..base.io import markdown_table, write_text_atomic
-from ..control.controller import squeezed
-from ..control.generator import GeneratorParams, generate_postures
+from ..control.dexgraspbench import GraspVerifier
+from ..control.generator import GeneratorParams, generate_postures, verifier_of
 from ..control.judge import JUDGING, reading_epsilon
-from ..control.stages import HOLD_DIRECTIONS
 from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import GraspObject, named_objects
-from ..sim.scene import GRAVITY, Scene
+from ..sim.scene import Scene
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
 
-DIRECTION_NAMES = ("+x", "-x", "+y", "-y", "+z", "-z")
-PERIOD = 0.02  # s, as the verifier checks
+PERIOD = 0.02  # s, the control period the verifier's hold test checks the object in (`judge.judge_scene`)
+OUTCOMES = ("+x", "-x", "+y", "-y", "+z", "-z", "pushed", "refused", "fault")  # the last column's order
 
 
-def replay(scene: Scene, posture: np.ndarray, pose: np.ndarray, params: GeneratorParams) -> dict[str, object]:
-    """The verifier's replay of one candidate, with what it saw on the way."""
-    mujoco.mj_resetData(scene.model, scene.data)
-    scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
-    scene.set_hand_pose(pose[:3], pose[3:])
-    scene.set_posture(posture)
-    scene.set_target(squeezed(posture, params.squeeze))
-    scene.run(0.2)
-    reading = scene.tactile()
-    half_length = scene.object.half_extents[2]
-    weights = reading.forces / max(reading.forces.sum(), 1e-12)
-    record = {"segments": len(reading.segments), "five_tips": set(DISTAL_SEGMENTS) <= set(reading.segments),
-              "thumb": any(s.startswith("th") for s in reading.segments),
-              "epsilon": reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body].copy(), scene.object.friction),
-              "axial_normal": float(weights @ np.abs(reading.normals[:, 2])) if len(weights) else np.nan,
-              "contact_height": float(weights @ (reading.points[:, 2] / half_length)) if len(weights) else np.nan,
-              "squeeze_force": float(reading.forces.sum()), "dropped_along": ""}
-    scene.set_object_support(0.0, 0.0)
-    start = scene.object_pose()[0]
-    for name, direction in zip(DIRECTION_NAMES, HOLD_DIRECTIONS):
-        scene.set_gravity(GRAVITY * direction)
-        for _ in range(round(params.verify_hold_seconds / PERIOD)):
-            scene.run(PERIOD)
-            if np.linalg.norm(scene.object_pose()[0] - start) > JUDGING.hold_limit:
-                record["dropped_along"] = name
-                return record
+def direction_name(direction: np.ndarray) -> str:
+    """'+x', '-z', ...: a unit direction along an axis by its sign and axis."""
+    axis = int(np.argmax(np.abs(direction)))
+    return ("+" if direction[axis] > 0 else "-") + "xyz"[axis]
+
+
+def replay(verifier: GraspVerifier, posture: np.ndarray, pose: np.ndarray) -> dict[str, object]:
+    """One candidate through the generator's verifier, with what it saw at the squeeze's end."""
+    record: dict[str, object] = {"segments": 0, "five_tips": False, "thumb": False, "epsilon": np.nan,
+                                 "axial_normal": np.nan, "contact_height": np.nan, "squeeze_force": np.nan,
+                                 "approach_shift": np.nan, "dropped_along": "refused"}
+
+    def look(scene: Scene) -> None:
+        reading = scene.tactile()
+        position = scene.data.xpos[scene.object_body]
+        rotation = scene.data.xmat[scene.object_body].reshape(3, 3)  # the contacts in the object's frame, as it is now
+        points, normals = (reading.points - position) @ rotation, reading.normals @ rotation
+        record["approach_shift"] = float(np.linalg.norm(position))  # it starts at the world's origin
+        weights = reading.forces / max(reading.forces.sum(), 1e-12)
+        record.update(
+            segments=len(reading.segments), five_tips=set(DISTAL_SEGMENTS) <= set(reading.segments),
+            thumb=any(s.startswith("th") for s in reading.segments), dropped_along="",
+            epsilon=reading_epsilon(reading, scene.data.xipos[scene.object_body].copy(), scene.object.friction),
+            axial_normal=float(weights @ np.abs(normals[:, 2])) if len(weights) else np.nan,
+            contact_height=float(weights @ (points[:, 2] / scene.object.half_extents[2])) if len(weights) else np.nan,
+            squeeze_force=float(reading.forces.sum()) if len(weights) else np.nan)
+
+    try:
+        judgement = verifier(posture, pose[:3], pose[3:], observe=look)
+    except SimulationError:
+        record["dropped_along"] = "fault"
+        return record
+    if not judgement.hold and not record["dropped_along"]:
+        if verifier.protocol.push_test is not None:
+            record["dropped_along"] = "pushed"
+        else:  # the hold test stopped in the period the object left: which direction it was in
+            rules = verifier.protocol.rules
+            turn = int((judgement.hold_time - PERIOD / 2) // verifier.hold_seconds)
+            record["dropped_along"] = direction_name(np.asarray(rules.directions[min(turn, len(rules.directions) - 1)]))
     return record
 
 
@@ -74,8 +85,8 @@ def study(obj: GraspObject, n: int, workers: int, by_start: bool = False) -> lis
     name = obj.name
     params = GeneratorParams(verify=False)
     candidates = generate_postures(obj, n, seed=0, workers=workers, params=params)
-    scene = Scene(obj, free_object=True)
-    records = [replay(scene, p, pose, params) for p, pose in zip(candidates.postures, candidates.hand_poses)]
+    verifier = verifier_of(obj, params)
+    records = [replay(verifier, p, pose) for p, pose in zip(candidates.postures, candidates.hand_poses)]
     if not by_start:
         return [row(name, records)]
     return [row(candidates.start_names[i], [r for r, s in zip(records, candidates.start_ids) if s == i])
@@ -89,12 +100,21 @@ def row(name: str, records: list[dict]) -> list:
     closure = sum(r["epsilon"] > JUDGING.epsilon_threshold for r in records)
     five = sum(r["five_tips"] for r in records)
     drops = Counter(r["dropped_along"] for r in records if r["dropped_along"])
-    first_drops = ", ".join(f"{d} {drops[d]}" for d in DIRECTION_NAMES if drops[d])
-    median = lambda key: float(np.nanmedian([r[key] for r in records]))  # noqa: E731
+    first_drops = ", ".join(f"{d} {drops[d]}" for d in OUTCOMES if drops[d])
     thumb = sum(r["thumb"] for r in records)
+
+    def median_all(key: str, unit: float) -> str:  # over every candidate that ran
+        values = [r[key] for r in records if np.isfinite(r[key])]
+        return f"{unit * float(np.median(values)):.0f}" if values else "–"
+
+    def median(key: str, form: str) -> str:  # over the candidates with contacts to measure ('–' where none had)
+        values = [r[key] for r in records if np.isfinite(r[key])]
+        return format(float(np.median(values)), form) if values else "–"
+
     return [name, rate_text(len(held), n), rate_text(closure, n), rate_text(five, n), rate_text(thumb, n),
-            f"{median('segments'):.0f}", f"{median('squeeze_force'):.1f}", f"{median('contact_height'):+.2f}",
-            f"{median('axial_normal'):.2f}", first_drops or "–"]
+            f"{np.median([r['segments'] for r in records]):.0f}", median("squeeze_force", ".1f"),
+            median("contact_height", "+.2f"), median("axial_normal", ".2f"), median_all("approach_shift", 1000),
+            first_drops or "–"]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -120,13 +140,16 @@ def _run(args: argparse.Namespace, run: StudyRun) -> None:
     table = "\n".join(
         [f"# Why spring candidates do not hold{' (by starting posture)' if args.by_start else ''}", "",
          f"Generated by `{command}`. "
-         f"{args.n} unverified spring candidates per object (seed 0), each replayed as the verifier does. Medians over "
-         "candidates; contact height: force-weighted mean z of the contacts over the half length (+1 top, −1 "
+         f"{args.n} unverified spring candidates per object (seed 0), each through the generator's verifier "
+         "(its pregrasp, grasp and squeeze, then our hold test). Medians over candidates, at the squeeze's end (the "
+         "force, height and normal over those that touch the object there; how far the free object was moved before "
+         "the hold test, over those that ran); contact height: force-weighted mean z of the contacts over the half length (+1 top, −1 "
          "bottom); axial normal: force-weighted mean |n_z| of the contact normals (0: all normals across the long "
          "axis, 1: all along it).", "",
          *markdown_table(["starting posture" if args.by_start else "object", "held [95 % CI]", "force closure",
                           "five fingertips still touch", "the thumb still touches", "touching segments",
-                          "squeeze force (N)", "contact height", "axial normal", "first drop along (count)"], rows)])
+                          "squeeze force (N)", "contact height", "axial normal", "moved by the approach (mm)",
+                          "first drop along (count)"], rows)])
     write_text_atomic(args.doc, table + "\n")
     print(table)
 
