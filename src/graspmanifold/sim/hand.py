@@ -190,14 +190,25 @@ class HandModel:
 
     def keyframe_posture(self, key: str) -> np.ndarray:
         """A posture stored in the MJCF as a keyframe (or, for a model without it, in `postures`), in the
-        paper's sense.
+        paper's sense. Read from the model once per key (the starting-posture search asks hundreds of thousands
+        of times).
 
         Args:
             key: the keyframe's name (`open`, `closed`).
 
         Returns:
-            Its finger joint angles in posture order (22,), rad.
+            Its finger joint angles in posture order (22,), rad (a copy: the caller may change it).
         """
+        if key not in self._keyframes:
+            self._keyframes[key] = self._read_keyframe(key)
+        return self._keyframes[key].copy()
+
+    @functools.cached_property
+    def _keyframes(self) -> dict[str, np.ndarray]:
+        """The keyframe postures read so far, by key."""
+        return {}
+
+    def _read_keyframe(self, key: str) -> np.ndarray:
         model = self.model
         try:
             qpos = model.key(key).qpos
