@@ -7,7 +7,6 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -26,9 +25,6 @@ from ..sim.objects import DEFAULT_FRICTION, make_object
 from ..trials.evaluation import EvaluationResult, trial_count
 from ..trials.grid import GRID_DESCRIPTIONS
 from ..trials.stats import holm, rate_text
-
-if TYPE_CHECKING:
-    from .summary import RunSummary
 
 #: how the report names each hand model (`ReproduceConfig.hand`)
 HANDS = {SHADOW_HAND.name: "our MJCF from the published kinematics, primitive collision geometry, 20 position servos",
@@ -189,17 +185,16 @@ def _table(header: list[str], rows: list[list[object]]) -> str:
     return "\n".join(markdown_table(header, rows)) + "\n\n"
 
 
-def write_report(out: Path, run: RunData, summary: RunSummary) -> None:
+def write_report(out: Path, run: RunData, summary: dict) -> None:
     """Write a run's summary (summary.json) and report (report.md).
 
     Args:
         out: the run's folder.
         run: what the run produced.
-        summary: its summary (`summary.summarize`).
+        summary: its summary as JSON data (`summary.summarize(...).to_json()`).
     """
-    data = summary.to_json()
-    write_text_atomic(out / "summary.json", json.dumps(data, indent=1, default=float) + "\n")
-    write_text_atomic(out / "report.md", _markdown(run, data))
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
+    write_text_atomic(out / "report.md", _markdown(run, summary))
 
 
 def _fmt(value: object, digits: int = 3) -> str:

@@ -431,11 +431,11 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
                          *eval_paths.values())
     figure_info = stages.run("figures", figure_key, [out / "figures"],
                              lambda: write_figures(out / "figures", run, log))
-    summary = summarize(run, figure_info)
+    summary = summarize(run, figure_info).to_json()
     write_report(out, run, summary)
     log(f"reproduce: {len(stages.ran)} stages ran, {len(stages.reused)} reused, "
         f"{time.perf_counter() - started:.1f} s; report in {out / 'report.md'}")
-    return summary.to_json()
+    return summary
 
 
 def _grid(config: ReproduceConfig) -> str | np.ndarray:
