@@ -55,9 +55,9 @@ def replay(verifier: GraspVerifier, posture: np.ndarray, pose: np.ndarray) -> di
         position = scene.data.xpos[scene.object_body]
         rotation = scene.data.xmat[scene.object_body].reshape(3, 3)  # the contacts in the object's frame, as it is now
         points, normals = (reading.points - position) @ rotation, reading.normals @ rotation
-        record["approach_shift"] = float(np.linalg.norm(position))  # it starts at the world's origin
         weights = reading.forces / max(reading.forces.sum(), 1e-12)
         record.update(
+            approach_shift=float(np.linalg.norm(position)),  # the object starts at the world's origin
             segments=len(reading.segments), five_tips=set(DISTAL_SEGMENTS) <= set(reading.segments),
             thumb=any(s.startswith("th") for s in reading.segments), dropped_along="",
             epsilon=reading_epsilon(reading, scene.data.xipos[scene.object_body].copy(), scene.object.friction),
@@ -103,17 +103,13 @@ def row(name: str, records: list[dict]) -> list:
     first_drops = ", ".join(f"{d} {drops[d]}" for d in OUTCOMES if drops[d])
     thumb = sum(r["thumb"] for r in records)
 
-    def median_all(key: str, unit: float) -> str:  # over every candidate that ran
+    def median(key: str, form: str, unit: float = 1.0) -> str:  # over the candidates it was measured on (not NaN)
         values = [r[key] for r in records if np.isfinite(r[key])]
-        return f"{unit * float(np.median(values)):.0f}" if values else "–"
-
-    def median(key: str, form: str) -> str:  # over the candidates with contacts to measure ('–' where none had)
-        values = [r[key] for r in records if np.isfinite(r[key])]
-        return format(float(np.median(values)), form) if values else "–"
+        return format(unit * float(np.median(values)), form) if values else "–"
 
     return [name, rate_text(len(held), n), rate_text(closure, n), rate_text(five, n), rate_text(thumb, n),
             f"{np.median([r['segments'] for r in records]):.0f}", median("squeeze_force", ".1f"),
-            median("contact_height", "+.2f"), median("axial_normal", ".2f"), median_all("approach_shift", 1000),
+            median("contact_height", "+.2f"), median("axial_normal", ".2f"), median("approach_shift", ".0f", 1000),
             first_drops or "–"]
 
 
