@@ -14,7 +14,8 @@ is the same controller for one world, driven one posture at a time.
        `closing_rate` per second, its goal is goal = base + c (closed - base), and its target follows
        the goal at most `follow_speed` times the heuristic's joint speed; without experience the base
        is the open hand and c grows from the start of B (the plain heuristic). A touching finger holds
-       where it touched and squeezes (`squeeze`, flexion joints); one that loses its contact for
+       where it touched and squeezes (`squeeze`, flexion joints; with `squeeze_time`, only once the grasp has
+       settled, every touching finger at once, ramped over that time); one that loses its contact for
        `release_time` closes on from where it held. The grasp ends when the touching fingers have
        not changed for `stable_time` and every finger touches or is fully closed, or at `timeout`.
 
@@ -94,9 +95,9 @@ REST_SPEED = 0.1
 
 #: the largest values of `ControllerParams` that still describe a controller (a closing rate of 1e300 was taken)
 _HIGHEST = {"closing_rate": 50.0, "follow_speed": 100.0, "timeout": 60.0, "control_period": 1.0, "preshape_time": 60.0,
-            "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0}
+            "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0, "squeeze_time": 60.0}
 _HIGHEST_WHY = {"closing_rate": "the hand closes in 20 ms", "follow_speed": "rad/s", "timeout": "s",
-                "control_period": "s", "preshape_time": "s", "squeeze": "rad", "release_time": "s", "stable_time": "s"}
+                "control_period": "s", "preshape_time": "s", "squeeze": "rad", "release_time": "s", "stable_time": "s", "squeeze_time": "s"}
 
 
 def _check_number(owner: str, name: str, value: object, low: float, high: float, positive: bool = False) -> None:
@@ -418,6 +419,7 @@ class ControllerParams:
     release_time: float = 0.1  # a holding finger that lost its contact this long closes on
     stable_time: float = 0.3  # the touching set must stay unchanged this long to finish
     timeout: float = 3.0  # s after the start
+    squeeze_time: float = 0.0  # s; 0: a finger squeezes once it touches; > 0: all squeeze together once settled
     experience_preshape: bool = True  # phase B: match the whole posture every cycle
     experience_steering: bool = True  # phase C: match the Partial Contact Posture every cycle
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose recall the experience sets
@@ -445,7 +447,7 @@ class ControllerParams:
             raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
                                f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
                                "make the controller's clock run apart from the physics")
-        for name in ("preshape_time", "squeeze", "release_time", "stable_time"):
+        for name in ("preshape_time", "squeeze", "release_time", "stable_time", "squeeze_time"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise InvalidInput(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
@@ -500,10 +502,18 @@ hand, never back towards the open one (each joint's recall kept no more open tha
 (the default) lets a recall open a finger; traced, that is how it loses the pen near the palm
 (`scripts/trace_literal_controller.py`)."""
 
+SETTLED_BLEND = replace(BLEND, squeeze_time=0.2, squeeze=0.3)
+"""The blend with the execution of the planned-grasp benchmark (`trials.planned`): a touching finger holds where it
+touched, without pressing, until the grasp has settled; then every touching finger squeezes together, ramped over
+0.2 s, twice as far (0.3 rad). Measured on a probe (16 verified grasps each of the box, cylinder and pen, generator
+seed 0, perfect recall, at the plan's own palm pose), the blend's immediate squeeze let the first fingers push the
+object 6-11 mm against the support before the others arrived (the open loop: 2-3 mm), a load its release then threw
+off; chosen there, it is scored on the other seeds' plans (docs/planned_grasps.md)."""
+
 CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND,
-                                            "closing-recall": CLOSING_RECALL}
-"""The controllers by name (`graspmanifold reproduce --controller NAME`): the paper's reading, the blend, and the
-paper's reading with recalls that only close."""
+                                            "closing-recall": CLOSING_RECALL, "blend-settled": SETTLED_BLEND}
+"""The controllers by name (`graspmanifold reproduce --controller NAME`): the paper's reading, the blend, the
+paper's reading with recalls that only close, and the blend with the settled squeeze."""
 
 
 @runtime_checkable
@@ -621,6 +631,7 @@ class GraspState:
         visited: the `visit` index of every (world, finger, key) recall a finger is done with.
         previous: (N, 22) rad, the joints sensed one cycle before (NaN: none yet).
         started: (N,) s, when each world's attempt began.
+        squeezing: (N,) how far each world's squeeze has come, 0 to 1 (`ControllerParams.squeeze_time`).
         preshapes: (N, 22) rad, each world's phase-B preshape (NaN rows: none).
         rows: the recall keys one finger can have (the experience's reference rows + 1, for the preshape).
     """
@@ -644,6 +655,7 @@ class GraspState:
     visited: np.ndarray
     previous: np.ndarray
     started: np.ndarray
+    squeezing: np.ndarray
     preshapes: np.ndarray
     rows: int
 
@@ -660,7 +672,7 @@ class GraspState:
                    recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
                    approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
                    recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
-                   previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n),
+                   previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
                    preshapes=np.full((n, N_FINGER_JOINTS), np.nan) if preshape is None else np.tile(preshape, (n, 1)),
                    rows=rows)
 
@@ -669,7 +681,7 @@ class GraspState:
         (`palm_offset`, (N, 3) m), their recalls forgotten, started at `time` s; the preshapes stay (the regrasp
         has set them)."""
         for array in (self.closure, self.held, self.lost, self.touching, self.recalled, self.reaching,
-                      self.approaching, self.heading):
+                      self.approaching, self.heading, self.squeezing):
             array[worlds] = 0
         self.last_touch[worlds] = -np.inf
         self.base[worlds] = self.recall[worlds] = initial
@@ -834,7 +846,8 @@ class BatchController:
         self.params.recall.follow(self, act, newly_held, joints)
 
         target = self.state.target.copy()
-        pressed = _pressed(self.state.held_posture, p.squeeze, self.closed, self.limits)
+        pressed = _pressed(self.state.held_posture, p.squeeze if not p.squeeze_time else
+                           p.squeeze * self.state.squeezing[:, None], self.closed, self.limits)
         for finger, of in enumerate(FINGER_JOINT_MASKS):
             held = act & self.state.held[:, finger]
             target[np.ix_(held, of)] = pressed[np.ix_(held, of)]
@@ -863,7 +876,12 @@ class BatchController:
         self.state.stable_since[changed] = self.time
         closed = self.params.recall.settled(self, self.state.closure >= 1.0)
         settled = np.all(touching | closed, axis=1)
-        finished = act & ((touching.any(axis=1) & settled & ~self.state.reaching
+        squeezed_fully = np.ones(self.n, dtype=bool)
+        if p.squeeze_time:  # the touching fingers squeeze together once the grasp has settled
+            ramping = act & touching.any(axis=1) & settled
+            self.state.squeezing[ramping] = np.minimum(1.0, self.state.squeezing[ramping] + dt / p.squeeze_time)
+            squeezed_fully = self.state.squeezing >= 1.0
+        finished = act & ((touching.any(axis=1) & settled & ~self.state.reaching & squeezed_fully
                            & (self.time - self.state.stable_since >= p.stable_time))
                           | (elapsed >= p.timeout))
         self.done |= finished

@@ -27,6 +27,7 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput, SimulationError
+from ..base.poses import invert, rotate
 from ..base.validation import check_choice
 from ..manifold.postureset import PostureSet
 from ..sim.hand import SHADOW_HAND, HandModel
@@ -435,6 +436,110 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | 
     scene = Scene(obj, free_object=True, hand=hand)
     replays = [replay_grasp(scene, grasp, protocol) for grasp in grasps]
     return np.array([r.held for r in replays], dtype=bool), [r.fault for r in replays]
+
+
+#: s each interpolated target of an approach lasts (DexGraspBench's steps per target at its own time step)
+APPROACH_TARGET_SECONDS = DEXGRASPBENCH.steps_per_target * DEXGRASPBENCH.physics.timestep
+
+
+class OpenLoopController:
+    """An open-loop grasp executed as a trial's controller, N worlds at once; it senses nothing. From the hand's
+    open posture at the grasp's palm pose (where a planned trial starts every arm, `TrialSetup.plan`) it moves to
+    the pregrasp, then to the grasp and the squeeze, each move in the replay's `approach_targets` interpolated
+    targets of `APPROACH_TARGET_SECONDS` each (`replay_grasp`'s approach, with the pregrasp shaped first), the palm
+    carried by the arm where the stages put it; then it is done and keeps the squeeze. It is the open-loop arm of
+    a planned trial (`TrialSetup(controller=OpenLoop(grasp), plan=grasp)`): every arm then starts from the same
+    state and faces the same support, release and judge.
+
+    Attributes:
+        n: worlds; control_period: s; initial: (22,) rad, the hand's open posture; done: (N,) bool.
+        waypoints: (4, 22) rad, the open hand, the pregrasp, the grasp and the squeeze.
+        offsets: (4, 3) m, the palm at each waypoint relative to the grasp's palm pose, in its frame.
+        moves_palm: whether the stages move the palm; palm_offset: (N, 3) m, where the arm has carried each palm.
+    """
+
+    def __init__(self, n: int, grasp: OpenLoopGrasp, hand: HandModel = SHADOW_HAND,
+                 control_period: float = ControllerParams.control_period,
+                 approach_targets: int = DEXGRASPBENCH.approach_targets):
+        """An open-loop controller ready for its grasp in every world.
+
+        Args:
+            n: worlds.
+            grasp: the pregrasp, grasp and squeeze (palm poses in the object frame).
+            hand: the hand model (its open posture is where the trial starts).
+            control_period: s between two `step` calls; a target lasts a whole number of them.
+            approach_targets: interpolated targets per move (DexGraspBench's 10).
+
+        Raises:
+            InvalidInput: stages that turn the palm (the arm here only carries it), or a period that does not
+                divide a target's seconds.
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
+        if not isinstance(grasp, OpenLoopGrasp):
+            raise InvalidInput(f"grasp must be an OpenLoopGrasp, got {type(grasp).__name__}")
+        if np.any(np.abs(np.abs(grasp.poses[:, 3:] @ grasp.poses[1, 3:]) - 1.0) > 1e-9):
+            raise InvalidInput("OpenLoopController: the stages turn the palm; the arm here carries it without turning")
+        per_target = APPROACH_TARGET_SECONDS / control_period
+        if round(per_target) < 1 or abs(per_target - round(per_target)) > 1e-6:
+            raise InvalidInput(f"control_period must divide an approach target's {APPROACH_TARGET_SECONDS:g} s, got "
+                               f"{control_period!r}")
+        self.n, self.grasp, self.control_period = int(n), grasp, float(control_period)
+        self.targets, self.periods_per_target = int(approach_targets), int(round(per_target))
+        self.initial = open_posture(hand)
+        self.waypoints = np.vstack([self.initial, grasp.postures])
+        to_palm = invert(np.zeros(3), grasp.poses[1, 3:])[1]
+        self.offsets = np.array([rotate(pose[:3] - grasp.poses[1, :3], to_palm)
+                                 for pose in grasp.poses[[0, 0, 1, 2]]])
+        self.moves_palm = bool(np.any(self.offsets != 0.0))
+        self.reset()
+
+    def reset(self) -> None:
+        """Start the grasp again in every world."""
+        self.cycle = 0
+        self.done = np.zeros(self.n, dtype=bool)
+        self.palm_offset = np.zeros((self.n, 3))
+
+    def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
+        """One control period: the approach's target for it (what is sensed is not read).
+
+        Args:
+            joints: (N, 22) rad (not read).
+            segment_forces: (N, segments) N (not read).
+
+        Returns:
+            (N, 22) rad, the targets.
+        """
+        moves = len(self.waypoints) - 1
+        target = min(self.cycle // self.periods_per_target, moves * self.targets - 1)  # 0-based, over every move
+        move, k = divmod(target, self.targets)
+        t = (k + 1) / self.targets
+        posture = (1 - t) * self.waypoints[move] + t * self.waypoints[move + 1]
+        self.palm_offset[:] = (1 - t) * self.offsets[move] + t * self.offsets[move + 1]
+        self.cycle += 1
+        self.done[:] = self.cycle >= moves * self.targets * self.periods_per_target
+        return np.tile(posture, (self.n, 1))
+
+
+@dataclass(frozen=True, eq=False)
+class OpenLoop:
+    """The factory of `OpenLoopController`s of one grasp, for `TrialSetup(controller=...)` (picklable).
+
+    Attributes:
+        grasp: the open-loop grasp.
+    """
+
+    grasp: OpenLoopGrasp
+
+    def __call__(self, n: int, hand: HandModel) -> OpenLoopController:
+        """Args:
+            n: worlds.
+            hand: the hand model.
+
+        Returns:
+            The controller.
+        """
+        return OpenLoopController(n, self.grasp, hand)
 
 
 class GraspVerifier:

@@ -150,3 +150,22 @@ def check_experience(experience: object) -> Experience | None:
     if experience.dim != N_FINGER_JOINTS:
         raise InvalidInput(f"experience must hold {N_FINGER_JOINTS}-joint postures, it has dim {experience.dim}")
     return experience
+
+
+def scrambled(postures: np.ndarray, seed: int = 0) -> np.ndarray:
+    """The null experience's postures: each joint column permuted on its own, so that every joint keeps the
+    distribution it has over the postures and no grasp is left in any row (the control an experience claim is made
+    against: an experience that pays must beat a map trained on these).
+
+    Args:
+        postures: (n, dim) postures, rad.
+        seed: seeds the permutations (column j: the generator seeded [seed, j]).
+
+    Returns:
+        (n, dim) the scrambled postures (a new array).
+    """
+    data = np.asarray(postures, dtype=float)
+    if data.ndim != 2 or len(data) == 0:
+        raise InvalidInput(f"postures must be a non-empty (n, dim) array, got shape {data.shape}")
+    return np.column_stack([data[np.random.default_rng([seed, j]).permutation(len(data)), j]
+                            for j in range(data.shape[1])])

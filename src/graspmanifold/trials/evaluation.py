@@ -333,7 +333,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size, backend = setup.batch_size, setup.backend
-    grid_name, poses = check_grid(grid, obj, setup.table)
+    grid_name, poses = check_grid(grid, obj, setup.table, setup.plan)
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]

@@ -20,6 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert, rotate, to_quat
+from ..control.dexgraspbench import OpenLoopGrasp
 from ..manifold.nearest import argmin_tied
 from ..sim.hand import SEGMENTS, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
@@ -37,6 +38,9 @@ GRID_DESCRIPTIONS = {
     "hard": "x and z in {-3, -1.5, 0, 1.5, 3} cm, gaps 1 and 2.5 cm, yaw in {-0.8, -0.4, 0, 0.4, 0.8} rad",
 }
 START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the object at a grid pose
+#: m: a planned trial starts where the open hand at the plan's palm pose lies at most this deep inside the displaced
+#: object (a plan's palm may touch its object; `check_grid`)
+PLANNED_START_DEPTH = 0.001
 
 
 def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
@@ -155,8 +159,27 @@ def reachable(obj: str | GraspObject, grid: np.ndarray, table: bool = False) -> 
     return open_hand_clearance(obj, grid, table) >= START_CLEARANCE
 
 
-def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str, np.ndarray]:
+def check_grid(grid: object, obj: GraspObject, table: bool = False,
+               plan: OpenLoopGrasp | None = None) -> tuple[str, np.ndarray]:
+    """The grid's name and its poses (n, 4), refused where no trial can start.
+
+    Args:
+        grid: a preset name (`GRID_PRESETS`), or poses (n, 4) or one pose (4,): x, z, gap in m, yaw in rad.
+        obj: the object.
+        table: the object stands on a table.
+        plan: a planned grasp: the poses are then the object's displacements from where it assumed the object
+            (`displaced_palm_pose`), refused where the open hand at the plan's palm pose lies more than
+            `PLANNED_START_DEPTH` inside the displaced object.
+
+    Returns:
+        ('custom' or the preset's name, the poses).
+
+    Raises:
+        InvalidInput: a bad grid, or a pose where no trial can start (the message says why).
+    """
     if isinstance(grid, str):
+        if plan is not None:
+            raise InvalidInput(f"a planned trial's poses are the object's displacements (n, 4), not a preset ({grid!r})")
         return grid, grid_preset(grid, obj, table)
     try:
         poses = np.asarray(grid, dtype=float)
@@ -174,6 +197,15 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False) -> tuple[str
     if len(far):  # a pose 5 m away ran as a valid trial that failed
         raise InvalidInput(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
                          f"±{MAX_GAP} m and the yaw within ±π rad")
+    if plan is not None:
+        depth = planned_start_depth(obj, plan.poses[1], open_posture(), poses, table)
+        inside = np.flatnonzero(depth > PLANNED_START_DEPTH)
+        if len(inside):
+            raise InvalidInput(f"displacements {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object "
+                               f"inside the open hand at the plan's palm pose (row {inside[0]}: "
+                               f"{depth[inside[0]] * 1000:.1f} mm deep; at most {PLANNED_START_DEPTH * 1000:.0f} mm), "
+                               "where no trial can start; keep those that planned_start_depth allows")
+        return "custom", poses
     inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
         first = inside[0]
@@ -192,6 +224,50 @@ def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, 
     turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
     _, quat = compose(np.zeros(3), turn, np.zeros(3), object_in_palm[1])
     return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)
+
+
+def displaced_palm_pose(palm_pose: np.ndarray, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The palm's pose in the frame of an object lying off the pose a plan assumed: the palm stays where the plan
+    put it for the nominal pose; the object is moved, in the palm frame, by x across the fingers, z along them and
+    gap further from the palm (along the palm normal), and turned by yaw about the palm normal through its centre.
+
+    Args:
+        palm_pose: (7,) the plan's palm position (m) and orientation (w x y z) in the nominal object's frame.
+        displacement: (4,) x, z, gap in m, yaw in rad (the grid's columns, `GRID_COLUMNS`, read as a change).
+
+    Returns:
+        The palm's position (3,), m, and orientation (4,) in the displaced object's frame.
+    """
+    palm_pose, displacement = np.asarray(palm_pose, dtype=float), np.asarray(displacement, dtype=float)
+    x, z, gap, yaw = displacement
+    centre, quat = invert(palm_pose[:3], palm_pose[3:])  # the nominal object in the palm frame
+    turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
+    _, turned = compose(np.zeros(3), turn, np.zeros(3), quat)
+    return invert(centre + np.array([x, -gap, z]), turned)
+
+
+def planned_start_depth(obj: str | GraspObject, palm_pose: np.ndarray, posture: np.ndarray,
+                        displacements: np.ndarray, table: bool = False) -> np.ndarray:
+    """How deep (m) the hand lies inside the object at the start of each planned trial: the palm where the plan
+    put it (`displaced_palm_pose`), the fingers in the plan's starting posture (0 where nothing overlaps).
+
+    Args:
+        obj: the object, or its name.
+        palm_pose: (7,) the plan's starting palm pose in the nominal object's frame.
+        posture: (22,) rad, the plan's starting posture.
+        displacements: (n, 4) the objects' displacements (`displaced_palm_pose`).
+        table: the object stands on a table.
+
+    Returns:
+        (n,) m.
+    """
+    scene = Scene(get_object(obj), free_object=True, table=table)
+    depths = []
+    for displacement in np.asarray(displacements, dtype=float).reshape(-1, 4):
+        scene.set_posture(posture)
+        scene.set_hand_pose(*displaced_palm_pose(palm_pose, displacement))
+        depths.append(scene.penetration())
+    return np.array(depths)
 
 
 def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -> np.ndarray:

@@ -33,6 +33,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice, check_int
+from ..control.dexgraspbench import OpenLoopGrasp
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.judge import JUDGING, judge_worlds, supported_scene
 from ..control.stages import JudgingRules
@@ -45,7 +46,7 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import TOUCH_SOURCES, Scene
 from ..sim.worlds import CpuWorlds, Worlds
-from .grid import START_CLEARANCE, check_grid, clearance, palm_pose_for
+from .grid import START_CLEARANCE, check_grid, clearance, displaced_palm_pose, palm_pose_for
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
 #: noise of 1e9 rad was accepted)
@@ -127,6 +128,11 @@ class TrialSetup:
             hand-object contacts' normal forces summed per segment, ours), 'sensors' (MuJoCo's touch sensors, a site
             over each segment) or 'contact-sensors' (MuJoCo's contact sensors between each segment and the object);
             the sensors on the cpu backend.
+        plan: a planned grasp (`dexgraspbench.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
+            plan, a trial's pose (x, z, gap, yaw) is the object's displacement from where the plan assumed it (palm
+            frame, `grid.displaced_palm_pose`): the palm starts where the plan puts it for the nominal pose, the
+            hand open, and the object lies displaced; the controller is not told the displacement. The plan's
+            open-loop execution is the controller `dexgraspbench.OpenLoop(plan)`.
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -147,6 +153,7 @@ class TrialSetup:
     protocol: Protocol = DEFAULT_PROTOCOL
     batch_size: int = WARP_BATCH
     touch: str = "contacts"
+    plan: OpenLoopGrasp | None = None
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -209,6 +216,12 @@ class TrialSetup:
         set_field("table", bool(self.table))
         set_field("margin", bool(self.margin))
         set_field("batch_size", check_int(self.batch_size, "batch_size"))
+        if self.plan is not None and not isinstance(self.plan, OpenLoopGrasp):
+            raise InvalidInput(f"plan must be an OpenLoopGrasp (dexgraspbench.open_loop_grasp makes one), got "
+                               f"{type(self.plan).__name__}")
+        if self.plan is not None and (self.noise.position or self.noise.yaw):
+            raise InvalidInput("a planned trial's pose is the object's displacement itself: give no position or yaw "
+                               "noise beside a plan")
         check_choice(self.touch, TOUCH_SOURCES, "touch")
         if self.touch != "contacts" and self.backend != "cpu":
             raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
@@ -269,6 +282,8 @@ class TrialSetup:
                            f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}",
                            **({"regrasp": self.regrasp.description()} if self.regrasp.attempts > 1 else {}),
                            **({"touch": self.touch} if self.touch != "contacts" else {}),
+                           **({"plan": {"poses": self.plan.poses.tolist(), "postures": self.plan.postures.tolist()}}
+                              if self.plan is not None else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -366,12 +381,16 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
-    support (`judge.supported_scene`), and the open hand at rest in `initial`."""
+    support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the palm at the plan's
+    grasp pose for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
     scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch)
     setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
+    scene.set_posture(initial)
+    if setup.plan is not None:  # the palm where the plan puts it for the nominal pose; the object displaced
+        scene.set_hand_pose(*displaced_palm_pose(setup.plan.poses[1], np.asarray(grid_pose, dtype=float)))
+        return scene
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
-    scene.set_posture(initial)
     return scene
 
 
@@ -537,7 +556,7 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
-    check_grid(grid_pose, obj, setup.table)  # the poses `evaluate` would refuse are refused here too
+    check_grid(grid_pose, obj, setup.table, setup.plan)  # the poses `evaluate` would refuse are refused here too
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}
 

@@ -1,0 +1,242 @@
+"""The benchmark of planned grasps: every trial has a plan, and the object is not where the plan assumed it.
+
+A plan is a verified grasp of the object (a palm pose in the object's frame and a posture, from the generator,
+verified under the default protocol), with the pregrasp and squeeze it was verified with (`dexgraspbench.
+open_loop_grasps`). A trial puts the palm where the plan says for the *nominal* object pose, the hand open, and
+the object lies displaced by a stated error (`displacements`: 0 cm once, then 1, 2, 3, 5 cm in 8 directions of the
+palm's plane, each turned about the palm normal by a yaw drawn within +-30 degrees scaled as the level is to the
+largest). A displacement that would put the object inside the open hand (`grid.PLANNED_START_DEPTH`) is run by no
+arm and counted (`PlannedResult.started`): a geometric rule fixed before any trial, the same for every arm.
+
+The arms (`ARMS`), all on the same start state, the same spring support and release, the same hold test; a fault
+is a failure of its arm and is reported by arm:
+
+- `open-loop`: the plan executed open loop (`dexgraspbench.OpenLoop`: the open hand shapes the pregrasp, then the
+  pregrasp, grasp and squeeze it was verified with);
+- `heuristic`: the plain closing heuristic (no experience);
+- `paper`: the paper's controller with the object's experience;
+- `blend-recall`: the blend with a perfect recall (its experience is the plan's own posture);
+- `blend`: the blend with the object's experience;
+- `settled-recall`, `settled`, `settled-scrambled`: the blend with the settled squeeze (`controller.SETTLED_BLEND`)
+  and a perfect recall, the object's experience, or the null experience (the object's postures with each joint
+  column permuted: `manifold.experience.scrambled`).
+
+No controller reads the displacement: it senses joints and touch only (the open loop senses nothing).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..base.workers import parallel_map
+from ..control.controller import CONTROLLERS, ControllerParams
+from ..control.dexgraspbench import OpenLoop, OpenLoopGrasp
+from ..manifold.experience import Experience, PostureDatabase
+from ..sim.objects import GraspObject, get_object
+from ..sim.posture import open_posture
+from .grid import PLANNED_START_DEPTH, planned_start_depth
+from .trial import Trial, TrialSetup, run_trials
+
+#: m, the levels of displacement in the palm's plane
+LEVELS: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.05)
+#: directions of the palm's plane each level above 0 is taken in (evenly spaced)
+DIRECTIONS = 8
+#: rad, the largest yaw about the palm normal (at the largest level; a level's bound scales with it)
+MAX_YAW = math.radians(30.0)
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm of the planned-grasp benchmark.
+
+    Attributes:
+        name: its name in results and reports.
+        controller: 'open-loop', or one of ours by name (`controller.CONTROLLERS`), or 'heuristic' (ours without
+            experience).
+        experience: what it recalls from: 'none', 'plan' (the plan's own posture: a perfect recall), 'object' (the
+            object's experience) or 'scrambled' (the null experience).
+        params: the controller's parameters where they are not the named controller's (None: those).
+    """
+
+    name: str
+    controller: str
+    experience: str
+    params: ControllerParams | None = None
+
+
+ARMS: dict[str, Arm] = {arm.name: arm for arm in (
+    Arm("open-loop", "open-loop", "none"),
+    Arm("heuristic", "heuristic", "none"),
+    Arm("paper", "paper", "object"),
+    Arm("blend-recall", "blend", "plan"),
+    Arm("blend", "blend", "object"),
+    Arm("settled-recall", "blend-settled", "plan"),
+    Arm("settled", "blend-settled", "object"),
+    Arm("settled-scrambled", "blend-settled", "scrambled"),
+)}
+#: the kinds of experience an arm names besides 'none' and 'plan'
+EXPERIENCES = ("object", "scrambled")
+
+
+def displacements(levels: Sequence[float] = LEVELS, directions: int = DIRECTIONS, seed: int = 0,
+                  plan: int = 0) -> np.ndarray:
+    """The object's displacements of one plan's trials (the module doc): 0 once, then each level in `directions`
+    evenly spaced directions of the palm's plane, each with a yaw drawn uniformly within +-`MAX_YAW` x level /
+    the largest level.
+
+    Args:
+        levels: m, the levels, increasing (0 first, where there is one).
+        directions: directions per level above 0.
+        seed: with `plan`, seeds the yaws ([seed, plan]).
+        plan: the plan's index.
+
+    Returns:
+        (k, 4): x, z, gap (0) in m, yaw in rad (`grid.displaced_palm_pose`).
+    """
+    levels = tuple(float(v) for v in levels)
+    if not levels or any(not math.isfinite(v) or v < 0 for v in levels) or list(levels) != sorted(levels):
+        raise InvalidInput(f"levels must be increasing distances >= 0 (m), got {levels}")
+    if isinstance(directions, bool) or not isinstance(directions, int) or directions < 1:
+        raise InvalidInput(f"directions must be a positive integer, got {directions!r}")
+    rng = np.random.default_rng([seed, plan])
+    rows = []
+    for level in levels:
+        if level == 0.0:
+            rows.append([0.0, 0.0, 0.0, 0.0])
+            continue
+        angles = 2 * math.pi * np.arange(directions) / directions
+        yaws = rng.uniform(-1.0, 1.0, directions) * MAX_YAW * level / max(levels)
+        rows += [[level * math.cos(a), level * math.sin(a), 0.0, yaw] for a, yaw in zip(angles, yaws)]
+    return np.array(rows)
+
+
+def level_of(displacement: np.ndarray) -> np.ndarray:
+    """m, the level of each displacement (n, 4): its length in the palm's plane, rounded to 0.1 mm."""
+    return np.round(np.hypot(displacement[..., 0], displacement[..., 1]), 4)
+
+
+def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapping[str, Experience | None],
+              method: str = "") -> TrialSetup:
+    """The trial set-up of one arm on one plan.
+
+    Args:
+        arm: the arm.
+        obj: the object.
+        plan: the plan.
+        experiences: 'object' and 'scrambled' experiences (an arm that names one needs it).
+        method: the result's label (empty: the arm's name).
+
+    Returns:
+        The `TrialSetup`.
+    """
+    label = method or arm.name
+    if arm.controller == "open-loop":
+        return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label)
+    if arm.experience == "plan":
+        experience: Experience | None = PostureDatabase(plan.postures[1][None])
+    elif arm.experience == "none":
+        experience = None
+    elif arm.experience in experiences and experiences[arm.experience] is not None:
+        experience = experiences[arm.experience]
+    else:
+        raise InvalidInput(f"arm {arm.name!r} recalls from the {arm.experience!r} experience: give it "
+                           f"(experiences has {sorted(experiences)})")
+    params = arm.params or (ControllerParams() if arm.controller == "heuristic" else CONTROLLERS[arm.controller])
+    return TrialSetup(object=obj, experience=experience, params=params, plan=plan, method=label)
+
+
+@dataclass(frozen=True)
+class PlanTrials:
+    """One plan's trials, every arm on the same displacements.
+
+    Attributes:
+        displacements: (k, 4) the object's displacements (`displacements`).
+        started: (k,) bool: the open hand is clear of the object there (the others ran no arm).
+        trials: {arm: one `Trial` per started displacement}.
+    """
+
+    displacements: np.ndarray
+    started: np.ndarray
+    trials: dict[str, list[Trial]]
+
+    def held(self, arm: str) -> np.ndarray:
+        """(k,) bool: held without a fault (False where no trial started)."""
+        out = np.zeros(len(self.displacements), dtype=bool)
+        out[self.started] = [t.valid and t.hold for t in self.trials[arm]]
+        return out
+
+    def faulted(self, arm: str) -> np.ndarray:
+        """(k,) bool: the physics failed."""
+        out = np.zeros(len(self.displacements), dtype=bool)
+        out[self.started] = [not t.valid for t in self.trials[arm]]
+        return out
+
+
+def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experiences: Mapping[str, Experience | None],
+             moved: np.ndarray, seed: int = 0) -> PlanTrials:
+    """Every arm's trials of one plan at these displacements (those the open hand is clear at).
+
+    Args:
+        plan: the plan.
+        obj: the object.
+        arms: names in `ARMS`.
+        experiences: the 'object' and 'scrambled' experiences the arms need.
+        moved: (k, 4) the displacements.
+        seed: the trials' seed (trial i draws from [seed, i]; planned trials have no noise).
+
+    Returns:
+        The `PlanTrials`.
+    """
+    depth = planned_start_depth(obj, plan.poses[1], open_posture(), moved)
+    started = depth <= PLANNED_START_DEPTH
+    poses = moved[started]
+    trials = {}
+    for name in arms:
+        setup = arm_setup(ARMS[name], obj, plan, experiences)
+        trials[name] = run_trials(setup, poses, [np.random.default_rng([seed, i]) for i in range(len(poses))]) \
+            if len(poses) else []
+    return PlanTrials(moved, started, trials)
+
+
+def _plan_task(task: tuple[int, OpenLoopGrasp, np.ndarray], obj: GraspObject, arms: tuple[str, ...],
+               experiences: Mapping[str, Experience | None], seed: int) -> PlanTrials:
+    _, plan, moved = task
+    return run_plan(plan, obj, arms, experiences, moved, seed)
+
+
+def run_planned(obj: str | GraspObject, plans: Sequence[OpenLoopGrasp], arms: Sequence[str] = tuple(ARMS),
+                experiences: Mapping[str, Experience | None] | None = None, levels: Sequence[float] = LEVELS, *,
+                seed: int = 0, workers: int = 1, executor: Executor | None = None) -> list[PlanTrials]:
+    """The planned-grasp benchmark of one object: every plan, every arm, every displacement (the module doc).
+
+    Args:
+        obj: the object, or its name.
+        plans: its plans (`dexgraspbench.open_loop_grasps` of verified postures).
+        arms: names in `ARMS`.
+        experiences: {'object': ..., 'scrambled': ...} for the arms that name them.
+        levels: m, the displacements' levels.
+        seed: seeds the yaws (plan i's: [seed, i]) and the trials.
+        workers: worker processes (a plan a task); `executor`: run them there instead.
+
+    Returns:
+        One `PlanTrials` per plan, in order.
+    """
+    obj = get_object(obj)
+    unknown = [a for a in arms if a not in ARMS]
+    if unknown:
+        raise InvalidInput(f"unknown arm(s) {unknown}; expected some of {tuple(ARMS)}")
+    if not plans or not all(isinstance(p, OpenLoopGrasp) for p in plans):
+        raise InvalidInput("plans must be a non-empty sequence of OpenLoopGrasp (dexgraspbench.open_loop_grasps)")
+    experiences = dict(experiences or {})
+    for name in arms:  # refused before any trial
+        arm_setup(ARMS[name], obj, plans[0], experiences)
+    tasks = [(i, plan, displacements(levels, seed=seed, plan=i)) for i, plan in enumerate(plans)]
+    run = functools.partial(_plan_task, obj=obj, arms=tuple(arms), experiences=experiences, seed=seed)
+    return parallel_map(run, tasks, workers, executor=executor)
