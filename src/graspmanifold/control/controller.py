@@ -502,13 +502,14 @@ hand, never back towards the open one (each joint's recall kept no more open tha
 (the default) lets a recall open a finger; traced, that is how it loses the pen near the palm
 (`scripts/trace_literal_controller.py`)."""
 
-SETTLED_BLEND = replace(BLEND, squeeze_time=0.2, squeeze=0.3)
+SETTLED_BLEND = replace(BLEND, squeeze_time=0.2, squeeze=0.3, max_match_distance=math.inf)
 """The blend with the execution of the planned-grasp benchmark (`trials.planned`): a touching finger holds where it
 touched, without pressing, until the grasp has settled; then every touching finger squeezes together, ramped over
-0.2 s, twice as far (0.3 rad). Measured on a probe (16 verified grasps each of the box, cylinder and pen, generator
-seed 0, perfect recall, at the plan's own palm pose), the blend's immediate squeeze let the first fingers push the
-object 6-11 mm against the support before the others arrived (the open loop: 2-3 mm), a load its release then threw
-off; chosen there, it is scored on the other seeds' plans (docs/planned_grasps.md)."""
+0.2 s, twice as far (0.3 rad); every match is trusted (a plan's own posture lies 0.5-1 rad RMS from its pregrasp, so
+the blend's 0.2 rad trust never recalled it there). Chosen on a probe (16 verified grasps each of the box, cylinder
+and pen, generator seed 0, a perfect recall from the plan's pregrasp, judged by `protocols.OURS_FADED`): the blend's
+immediate squeeze let the first fingers push the object 6-11 mm against the support before the others arrived (the
+open loop: 2-3 mm); scored on the other seeds' plans (docs/planned_grasps.md)."""
 
 CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND,
                                             "closing-recall": CLOSING_RECALL, "blend-settled": SETTLED_BLEND}

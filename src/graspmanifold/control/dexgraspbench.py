@@ -443,30 +443,26 @@ APPROACH_TARGET_SECONDS = DEXGRASPBENCH.steps_per_target * DEXGRASPBENCH.physics
 
 
 class OpenLoopController:
-    """An open-loop grasp executed as a trial's controller, N worlds at once; it senses nothing. From the hand's
-    open posture at the grasp's palm pose (where a planned trial starts every arm, `TrialSetup.plan`) it moves to
-    the pregrasp, then to the grasp and the squeeze, each move in the replay's `approach_targets` interpolated
-    targets of `APPROACH_TARGET_SECONDS` each (`replay_grasp`'s approach, with the pregrasp shaped first), the palm
-    carried by the arm where the stages put it; then it is done and keeps the squeeze. It is the open-loop arm of
-    a planned trial (`TrialSetup(controller=OpenLoop(grasp), plan=grasp)`): every arm then starts from the same
-    state and faces the same support, release and judge.
+    """An open-loop grasp executed as a trial's controller, N worlds at once; it senses nothing. From the pregrasp
+    (where a planned trial starts every arm, `TrialSetup.plan`) it moves to the grasp and then the squeeze, each move
+    in the replay's `approach_targets` interpolated targets of `APPROACH_TARGET_SECONDS` each (`replay_grasp`'s
+    approach), the palm carried by the arm where the stages put it; then it is done and keeps the squeeze. It is the
+    open-loop arm of a planned trial (`TrialSetup(controller=OpenLoop(grasp), plan=grasp)`): every arm then starts
+    from the same state and faces the same support, release and judge.
 
     Attributes:
-        n: worlds; control_period: s; initial: (22,) rad, the hand's open posture; done: (N,) bool.
-        waypoints: (4, 22) rad, the open hand, the pregrasp, the grasp and the squeeze.
-        offsets: (4, 3) m, the palm at each waypoint relative to the grasp's palm pose, in its frame.
+        n: worlds; control_period: s; initial: (22,) rad, the pregrasp's posture; done: (N,) bool.
+        offsets: (3, 3) m, the palm at each stage relative to the pregrasp's palm pose, in its frame.
         moves_palm: whether the stages move the palm; palm_offset: (N, 3) m, where the arm has carried each palm.
     """
 
-    def __init__(self, n: int, grasp: OpenLoopGrasp, hand: HandModel = SHADOW_HAND,
-                 control_period: float = ControllerParams.control_period,
+    def __init__(self, n: int, grasp: OpenLoopGrasp, control_period: float = ControllerParams.control_period,
                  approach_targets: int = DEXGRASPBENCH.approach_targets):
         """An open-loop controller ready for its grasp in every world.
 
         Args:
             n: worlds.
             grasp: the pregrasp, grasp and squeeze (palm poses in the object frame).
-            hand: the hand model (its open posture is where the trial starts).
             control_period: s between two `step` calls; a target lasts a whole number of them.
             approach_targets: interpolated targets per move (DexGraspBench's 10).
 
@@ -478,7 +474,7 @@ class OpenLoopController:
             raise InvalidInput(f"n (worlds) must be a positive integer, got {n!r}")
         if not isinstance(grasp, OpenLoopGrasp):
             raise InvalidInput(f"grasp must be an OpenLoopGrasp, got {type(grasp).__name__}")
-        if np.any(np.abs(np.abs(grasp.poses[:, 3:] @ grasp.poses[1, 3:]) - 1.0) > 1e-9):
+        if np.any(np.abs(np.abs(grasp.poses[:, 3:] @ grasp.poses[0, 3:]) - 1.0) > 1e-9):
             raise InvalidInput("OpenLoopController: the stages turn the palm; the arm here carries it without turning")
         per_target = APPROACH_TARGET_SECONDS / control_period
         if round(per_target) < 1 or abs(per_target - round(per_target)) > 1e-6:
@@ -486,11 +482,9 @@ class OpenLoopController:
                                f"{control_period!r}")
         self.n, self.grasp, self.control_period = int(n), grasp, float(control_period)
         self.targets, self.periods_per_target = int(approach_targets), int(round(per_target))
-        self.initial = open_posture(hand)
-        self.waypoints = np.vstack([self.initial, grasp.postures])
-        to_palm = invert(np.zeros(3), grasp.poses[1, 3:])[1]
-        self.offsets = np.array([rotate(pose[:3] - grasp.poses[1, :3], to_palm)
-                                 for pose in grasp.poses[[0, 0, 1, 2]]])
+        self.initial = grasp.postures[0].copy()
+        to_palm = invert(np.zeros(3), grasp.poses[0, 3:])[1]
+        self.offsets = np.array([rotate(pose[:3] - grasp.poses[0, :3], to_palm) for pose in grasp.poses])
         self.moves_palm = bool(np.any(self.offsets != 0.0))
         self.reset()
 
@@ -510,11 +504,11 @@ class OpenLoopController:
         Returns:
             (N, 22) rad, the targets.
         """
-        moves = len(self.waypoints) - 1
+        moves = len(self.grasp.postures) - 1
         target = min(self.cycle // self.periods_per_target, moves * self.targets - 1)  # 0-based, over every move
         move, k = divmod(target, self.targets)
         t = (k + 1) / self.targets
-        posture = (1 - t) * self.waypoints[move] + t * self.waypoints[move + 1]
+        posture = (1 - t) * self.grasp.postures[move] + t * self.grasp.postures[move + 1]
         self.palm_offset[:] = (1 - t) * self.offsets[move] + t * self.offsets[move + 1]
         self.cycle += 1
         self.done[:] = self.cycle >= moves * self.targets * self.periods_per_target
@@ -539,7 +533,7 @@ class OpenLoop:
         Returns:
             The controller.
         """
-        return OpenLoopController(n, self.grasp, hand)
+        return OpenLoopController(n, self.grasp)
 
 
 class GraspVerifier:

@@ -71,33 +71,35 @@ class Judgement:
 
 
 def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = SHADOW_HAND.name,
-                    touch: str = "contacts") -> Scene:
+                    touch: str = "contacts", rules: JudgingRules = JUDGING) -> Scene:
     """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
-    spring-damper of `JUDGING` with gravity off, or a table with gravity on. Trials and the generator's
-    verifier start from it (`hold_on_support` sets the spring again after a reset).
+    spring-damper of the judging rules with gravity off, or a table with gravity on. Trials start from it
+    (`hold_on_support` sets the spring again after a reset).
 
     Args:
         obj: the object.
         table: a table with gravity on instead of the spring.
         hand: the hand model, or its name.
         touch: where the sensed segment forces come from (`scene.TOUCH_SOURCES`).
+        rules: the judging rules whose support it is (`JudgingRules.support_stiffness`, `support_damping`).
 
     Returns:
         The scene.
     """
     scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand, touch=touch)
-    hold_on_support(scene)
+    hold_on_support(scene, rules)
     return scene
 
 
-def hold_on_support(scene: Scene) -> None:
+def hold_on_support(scene: Scene, rules: JudgingRules = JUDGING) -> None:
     """Put a scene's free object back on the spring support (nothing to do on a table).
 
     Args:
         scene: a scene made by `supported_scene`.
+        rules: the judging rules whose support it is.
     """
     if scene.table_geom is None:
-        scene.set_object_support(JUDGING.support_stiffness, JUDGING.support_damping)
+        scene.set_object_support(rules.support_stiffness, rules.support_damping)
 
 
 def reading_epsilon(reading: TactileReading, centre: np.ndarray, friction: float) -> float:

@@ -205,8 +205,12 @@ def pushed(test: DexGraspBenchProtocol, name: str | None = None) -> Protocol:
 
 #: our hold test (`judge.JUDGING`): the default everywhere
 OURS = Protocol("ours")
-#: every registered protocol by name: our hold test and DexGraspBench's versions
-PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, pushed(DEXGRASPBENCH), pushed(DEXGRASPBENCH_PAPER))}
+#: our hold test after a support that fades over 0.3 s once the grasp is ready (`JudgingRules.release_seconds`),
+#: the hand acting on: a load the spring carried is handed to the grasp gradually (the planned-grasp benchmark's)
+OURS_FADED = Protocol("ours-faded", replace(JUDGING, release_seconds=0.3))
+#: every registered protocol by name: our hold test (at once, or after a fading support) and DexGraspBench's versions
+PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, OURS_FADED, pushed(DEXGRASPBENCH),
+                                                      pushed(DEXGRASPBENCH_PAPER))}
 #: the registered protocols' names
 PROTOCOL_NAMES: tuple[str, ...] = tuple(PROTOCOLS)
 #: the name of the protocol used where none is named

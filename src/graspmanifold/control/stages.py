@@ -105,7 +105,9 @@ class Stage:
 
 
 class Grasp(Stage):
-    """The controller's grasp, until it is ready; then the support is released and the grasp recorded.
+    """The controller's grasp, until it is ready; then the support is released and the grasp recorded. Where the
+    rules fade the release (`JudgingRules.release_seconds`), the support's spring weakens to nothing over that
+    time first, the hand acting on, so that a load the spring carried is handed to the grasp gradually.
 
     Args:
         run: the judging run.
@@ -116,10 +118,22 @@ class Grasp(Stage):
     def __init__(self, run: JudgingRun, ready: Callable[[], np.ndarray] | None = None):
         super().__init__(run)
         self.ready = ready
+        self.cycles = run.rules.cycles(run.rules.release_seconds, run.period) if run.rules.release_seconds else 0
+        self.fading = np.full(run.n, -1)  # control periods of the fading release done; -1: still grasping
 
     def step(self, worlds: np.ndarray) -> np.ndarray:
-        ready = worlds if self.ready is None else worlds[np.asarray(self.ready(), dtype=bool)[worlds]]
-        return self.run.release(ready)
+        grasping = worlds[self.fading[worlds] < 0]
+        ready = grasping if self.ready is None else grasping[np.asarray(self.ready(), dtype=bool)[grasping]]
+        if not self.cycles:
+            return self.run.release(ready)
+        self.fading[ready] = 0
+        fading = worlds[self.fading[worlds] >= 0]
+        self.fading[fading] += 1
+        done = fading[self.fading[fading] > self.cycles]
+        going = fading[self.fading[fading] <= self.cycles]
+        left = 1.0 - self.fading[going] / (self.cycles + 1)
+        self.run.worlds.soften(going, self.run.rules.support_stiffness * left, self.run.rules.support_damping * left)
+        return self.run.release(done)
 
 
 class HoldTest(Stage):
@@ -243,6 +257,8 @@ class JudgingRules:
         from_grasp: every direction starts again from the state at the grasp's end (DexGraspBench replays its
             grasp for each); False (ours): the directions follow one another.
         physics: the name of the scene's physics profile (`protocols.PhysicsProfile`), '' for ours.
+        release_seconds: s over which the support fades to nothing once a grasp is ready, the hand acting on, before
+            it is released and recorded (0, ours: released at once; the planned-grasp benchmark fades it).
         directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
         stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
             makes one of a `Judging`); one's own runs without a change to the loop.
@@ -260,6 +276,7 @@ class JudgingRules:
     angle_limit: float = math.inf
     from_grasp: bool = False
     physics: str = ""
+    release_seconds: float = 0.0
     directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
     stages: tuple[Callable[[JudgingRun], Stage], ...] = (HoldTest, MarginRamp)
 

@@ -192,6 +192,13 @@ class WarpWorlds:
         self._m.jnt_stiffness.assign(self._stiffness)
         self._m.dof_damping.assign(self._damping)
 
+    def soften(self, worlds: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> None:
+        joint = self.scenes[0].model.joint("object_free")
+        self._stiffness[worlds, joint.id] = stiffness
+        self._damping[np.ix_(worlds, np.arange(joint.dofadr[0], joint.dofadr[0] + 6))] = np.asarray(damping)[:, None]
+        self._m.jnt_stiffness.assign(self._stiffness)
+        self._m.dof_damping.assign(self._damping)
+
     def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None:
         raise InvalidInput("re-engaging the support where the object lies (a regrasp) runs on the cpu backend only")
 

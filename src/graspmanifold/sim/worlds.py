@@ -49,6 +49,8 @@ class Worlds(Protocol):
 
     def support(self, worlds: np.ndarray, stiffness: float, damping: float) -> None: ...  # caught where it lies
 
+    def soften(self, worlds: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> None: ...  # where anchored
+
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None: ...
 
     def push(self, worlds: np.ndarray, forces: np.ndarray) -> None: ...  # extra force on the object (N)
@@ -132,6 +134,11 @@ class CpuWorlds:
         for world in worlds:
             self.scenes[world].anchor_object_support()
             self.scenes[world].set_object_support(stiffness, damping)
+
+    def soften(self, worlds: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> None:
+        for world, k, d in zip(worlds, stiffness, damping):
+            if self.scenes[world].table_geom is None:  # a table has no spring to soften
+                self.scenes[world].set_object_support(float(k), float(d))
 
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:
         for world, vector in zip(worlds, vectors):

@@ -1,16 +1,17 @@
 """The planned-grasp study: a grasp the controller knows, executed where the object is not quite where it was
 planned, by every arm of `trials.planned`.
 
-    python scripts/study_planned_grasps.py [--quick] [--workers 2] [--seed 1] [--plans 44] [--displaced 6]
+    python scripts/study_planned_grasps.py [--quick] [--workers 2] [--seeds 1 2 3] [--plans 30] [--displaced 3]
                                            [--out study-planned-grasps] [--doc docs/planned_grasps.md]
 
-For each of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`), `--plans` verified grasps
-(`generate_postures(obj, n, seed, params=GeneratorParams(designs="grasp_types"))`, verified under the default
+For each of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`) and each seed, `--plans` verified
+grasps (`generate_postures(obj, n, seed, params=GeneratorParams(designs="grasp_types"))`, verified under the default
 protocol) are the plans. The object's experience is a 10 x 10 SOM trained on them, the null experience the same SOM
-trained on them scrambled (`manifold.experience.scrambled`). Every plan is run by every arm at 0 cm (the ceiling:
-at the plan's own palm pose); the first `--displaced` plans of each object also at 1, 2, 3 and 5 cm in 8 directions
-(`trials.planned.displacements`). The settled squeeze (`controller.SETTLED_BLEND`) was chosen on a probe of
-generator seed 0; the study runs seed 1 by default, so it is scored on plans it was not chosen on.
+trained on them scrambled (`manifold.experience.scrambled`). Every plan is run by every arm at 0 cm (the ceiling: at
+the plan's own palm pose); the first `--displaced` plans of each object also at 1, 2, 3 and 5 cm in 8 directions
+(`trials.planned.displacements`). Every arm is judged by `trials.planned.PLANNED_PROTOCOL` (the support fading before
+the release). The settled squeeze (`controller.SETTLED_BLEND`) and the fading release were chosen on a probe of
+generator seed 0; the study runs seeds 1, 2 and 3, so they are scored on plans they were not chosen on.
 
 Reported: the hold rate of every arm by level (a fault is a failure, and faults are counted by arm), pooled and per
 object, with Wilson intervals; McNemar on the same trials, Holm over the family of the issue's questions. Writes
@@ -28,13 +29,15 @@ from pathlib import Path
 import numpy as np
 
 from ..base.checkpoints import result_key
+from ..base.errors import InvalidInput
 from ..base.io import load_npz, markdown_table, save_npz
+from ..base.validation import check_int
 from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasps
 from ..control.generator import GeneratorParams, generate_postures
 from ..manifold.experience import Experience, scrambled
 from ..manifold.som import SOM
 from ..trials.benchmark import OBJECTS
-from ..trials.planned import ARMS, LEVELS, PlanTrials, displacements, level_of, run_plan
+from ..trials.planned import ARMS, LEVELS, PLANNED_PROTOCOL, STARTS, PlanTrials, displacements, level_of, run_plan
 from ..trials.stats import mcnemar, rate_text
 from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure
 
@@ -57,18 +60,30 @@ class PlannedStudyConfig:
     """How the study runs.
 
     Attributes:
-        quick: a smoke run (two objects, 6 plans, 2 displaced).
+        quick: a smoke run (two objects, one seed, 6 plans, 2 displaced).
         workers: worker processes.
-        seed: the generator's, the SOMs' and the trials' seed.
-        plans: verified grasps per object (each run at 0 cm).
-        displaced: plans per object also run displaced.
+        seeds: each the generator's, the SOMs' and the trials' seed: the study runs once per seed.
+        plans: verified grasps per object and seed (each run at 0 cm).
+        displaced: plans per object and seed also run displaced.
     """
 
     quick: bool = False
     workers: int = 2
-    seed: int = 1
-    plans: int = 44
-    displaced: int = 6
+    seeds: tuple[int, ...] = (1, 2, 3)
+    plans: int = 30
+    displaced: int = 3
+
+    def __post_init__(self) -> None:
+        if not self.seeds or len(set(self.seeds)) != len(self.seeds) or any(
+                isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in self.seeds):
+            raise InvalidInput(f"seeds must be distinct integers >= 0, got {self.seeds!r}")
+        for name in ("plans", "displaced"):
+            check_int(getattr(self, name), name, low=1)
+
+    @property
+    def run_seeds(self) -> tuple[int, ...]:
+        """The seeds run (a quick run: the first)."""
+        return self.seeds[:1] if self.quick else self.seeds
 
     @property
     def objects(self) -> tuple[str, ...]:
@@ -80,15 +95,15 @@ class PlannedStudyConfig:
         return (6, 2) if self.quick else (self.plans, min(self.displaced, self.plans))
 
 
-def _plan_task(task: tuple, plans: dict[str, list[OpenLoopGrasp]], experiences: dict[str, dict[str, Experience]],
-               seed: int) -> PlanTrials:
-    name, index, levels, _ = task
+def _plan_task(task: tuple, plans: dict[tuple[str, int], list[OpenLoopGrasp]],
+               experiences: dict[tuple[str, int], dict[str, Experience]]) -> PlanTrials:
+    name, seed, index, levels, _ = task
     moved = displacements(tuple(float(v) for v in levels.split(",")), seed=seed, plan=index)
-    return run_plan(plans[name][index], OBJECTS[name].object, tuple(ARMS), experiences[name], moved, seed)
+    return run_plan(plans[name, seed][index], OBJECTS[name].object, tuple(ARMS), experiences[name, seed], moved, seed)
 
 
 def _write(result: PlanTrials, path: Path, meta: dict) -> None:
-    arrays = {"displacements": result.displacements, "started": result.started}
+    arrays = {"displacements": result.displacements, "start": result.start}
     for arm in result.trials:
         arrays[f"held_{arm}"] = result.held(arm)
         arrays[f"faulted_{arm}"] = result.faulted(arm)
@@ -102,15 +117,19 @@ class _Outcomes:
     """What the report reads of one plan's trials (a `PlanTrials` as kept on disk)."""
 
     levels: np.ndarray
-    started: np.ndarray
+    start: np.ndarray
     held: dict[str, np.ndarray]
     faulted: dict[str, np.ndarray]
     faults: dict[str, list[str]]
 
+    @property
+    def started(self) -> np.ndarray:
+        return self.start > 0
+
 
 def _read(path: Path) -> tuple[_Outcomes, dict]:
-    arrays, meta = load_npz(path, "planned_trials", {"displacements": (None, 4), "started": (None,)})
-    outcomes = _Outcomes(level_of(arrays["displacements"]), arrays["started"].astype(bool),
+    arrays, meta = load_npz(path, "planned_trials", {"displacements": (None, 4), "start": (None,)})
+    outcomes = _Outcomes(level_of(arrays["displacements"]), arrays["start"].astype(int),
                          {arm: arrays[f"held_{arm}"].astype(bool) for arm in meta["arms"]},
                          {arm: arrays[f"faulted_{arm}"].astype(bool) for arm in meta["arms"]}, meta["faults"])
     return outcomes, meta
@@ -119,7 +138,7 @@ def _read(path: Path) -> tuple[_Outcomes, dict]:
 def _as_outcomes(result: PlanTrials | _Outcomes) -> _Outcomes:
     if isinstance(result, _Outcomes):
         return result
-    return _Outcomes(level_of(result.displacements), result.started, {a: result.held(a) for a in result.trials},
+    return _Outcomes(level_of(result.displacements), result.start, {a: result.held(a) for a in result.trials},
                      {a: result.faulted(a) for a in result.trials},
                      {a: [t.fault for t in ts if t.fault] for a, ts in result.trials.items()})
 
@@ -129,35 +148,43 @@ def run(config: PlannedStudyConfig, study: StudyRun, doc: Path) -> dict:
     n_plans, n_displaced = config.sizes
     params = GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if config.quick else 50)
     plans, experiences, digests = {}, {}, {}
-    for name in config.objects:
-        obj = OBJECTS[name].object
-        postures = study.postures(f"postures/{name}", result_key({"object": obj.params(), "n": n_plans,
-                                                                  "seed": config.seed, "params": repr(params)}),
-                                  lambda parts: generate_postures(obj, n_plans, seed=config.seed, workers=study.workers,
-                                                                  params=params, checkpoint_dir=parts, progress=False))
-        plans[name] = open_loop_grasps(postures, obj=obj)
-        som = SOM(10, 10, seed=config.seed).fit(postures.postures)
-        null = SOM(10, 10, seed=config.seed).fit(scrambled(postures.postures, config.seed))
-        experiences[name] = {"object": som, "scrambled": null}
-        digests[name] = result_key({"postures": postures.postures.tolist(), "poses": postures.hand_poses.tolist()})
-        study.log(f"{name}: {len(postures)} plans")
+    for seed in config.run_seeds:
+        for name in config.objects:
+            obj = OBJECTS[name].object
+            postures = study.postures(
+                f"postures/{name}_{seed}", result_key({"object": obj.params(), "n": n_plans, "seed": seed,
+                                                       "params": repr(params)}),
+                functools.partial(_generate, obj, n_plans, seed, study.workers, params))
+            plans[name, seed] = open_loop_grasps(postures, obj=obj)
+            som = SOM(10, 10, seed=seed).fit(postures.postures)
+            null = SOM(10, 10, seed=seed).fit(scrambled(postures.postures, seed))
+            experiences[name, seed] = {"object": som, "scrambled": null}
+            digests[name, seed] = result_key({"postures": postures.postures.tolist(),
+                                              "poses": postures.hand_poses.tolist()})
+            study.log(f"{name}, seed {seed}: {len(postures)} plans")
     zero, every = "0.0", ",".join(str(v) for v in LEVELS)
-    tasks = [(name, i, every if i < n_displaced else zero, digests[name])
-             for name in config.objects for i in range(n_plans)]
-    compute = functools.partial(_plan_task, plans=plans, experiences=experiences, seed=config.seed)
+    tasks = [(name, seed, i, every if i < n_displaced else zero, digests[name, seed])
+             for seed in config.run_seeds for name in config.objects for i in range(n_plans)]
+    compute = functools.partial(_plan_task, plans=plans, experiences=experiences)
     kept = study.keep_each("plans", tasks, compute, _read, _write,
-                           lambda task, r: f"{task[0]} plan {task[1]}: " + ", ".join(
+                           lambda task, r: f"{task[0]} seed {task[1]} plan {task[2]}: " + ", ".join(
                                f"{a} {int(r.held(a).sum())}" for a in ("open-loop", "settled-recall", "settled")))
     outcomes = {task: _as_outcomes(result) for task, result in kept.items()}
     return summarise(config, outcomes, doc)
 
 
+def _generate(obj: object, n: int, seed: int, workers: int, params: GeneratorParams, parts: Path) -> object:
+    return generate_postures(obj, n, seed=seed, workers=workers, params=params, checkpoint_dir=parts, progress=False)
+
+
 def _pairs(outcomes: dict, arm: str, levels: tuple[float, ...], objects: tuple[str, ...] | None = None,
-           displaced_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(held, started) of an arm over the trials at these levels (of these objects; of the displaced plans only)."""
+           displaced_only: bool = False, seed: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(held, started) of an arm over the trials at these levels (of these objects; of the displaced plans only; of
+    one seed)."""
     held, started = [], []
-    for (name, _, lv, _), o in outcomes.items():
-        if (objects is not None and name not in objects) or (displaced_only and lv == "0.0"):
+    for (name, run_seed, _, lv, _), o in outcomes.items():
+        if (objects is not None and name not in objects) or (displaced_only and lv == "0.0") or \
+                (seed is not None and run_seed != seed):
             continue
         at = np.isin(o.levels, levels)
         held.append(o.held[arm][at])
@@ -177,17 +204,27 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
                               for lv in LEVELS] for arm in arms}
     info["by_object_level"] = {name: {arm: [[int(x) for x in _count(*_pairs(outcomes, arm, (lv,), (name,), True))]
                                             for lv in LEVELS] for arm in arms} for name in objects}
-    info["not_started"] = [int(sum((~o.started[o.levels == lv]).sum() for (_, _, l2, _), o in outcomes.items()
-                                   if l2 != "0.0")) for lv in LEVELS]
+    info["starts"] = {kind: [int(sum((o.start[o.levels == lv] == k).sum() for (_, _, _, l2, _), o in outcomes.items()
+                                     if l2 != "0.0")) for lv in LEVELS] for k, kind in enumerate(STARTS)}
     info["faults"] = {arm: int(sum(o.faulted[arm].sum() for o in outcomes.values())) for arm in arms}
     info["fault_reasons"] = {arm: sorted({f.split(":")[0][:80] for o in outcomes.values() for f in o.faults[arm]})[:5]
                              for arm in arms}
-    family = []
+    family, signs = [], []
     for label, a, b, levels in QUESTIONS:
         held_a, started = _pairs(outcomes, a, levels, displaced_only=levels != (0.0,))
         held_b, _ = _pairs(outcomes, b, levels, displaced_only=levels != (0.0,))
         family.append((label, mcnemar(held_a[started], held_b[started])))
+        per_seed = []
+        for seed in config.run_seeds:
+            held_a, started = _pairs(outcomes, a, levels, displaced_only=levels != (0.0,), seed=seed)
+            held_b, _ = _pairs(outcomes, b, levels, displaced_only=levels != (0.0,), seed=seed)
+            per_seed.append(float(np.mean(held_a[started])) - float(np.mean(held_b[started])) if started.any()
+                            else float("nan"))
+        signs.append(per_seed)
     info["comparisons"] = holm_family(family, "issue 65")
+    for row, per_seed in zip(info["comparisons"], signs):
+        row["by_seed"] = per_seed
+        row["same_sign"] = bool(all(d > 0 for d in per_seed) or all(d < 0 for d in per_seed))
     ceiling = info["ceiling"]
     recall, open_loop = ceiling["settled-recall"], ceiling["open-loop"]
     rate_recall = recall[0] / max(recall[1], 1)
@@ -207,24 +244,34 @@ def report(info: dict) -> str:
     arms, levels = info["arms"], info["levels"]
     lines = ["# Planned grasps: execution at the verified grasp's level, against a fair open loop", "",
              f"Generated by `{info['command']}` ({info['config']}). The design: `graspmanifold.studies.planned_grasps`"
-             " (module doc) and `graspmanifold.trials.planned`. Every arm starts from the same state (the open hand "
-             "at the plan's palm pose for the nominal object), on the same spring support, released and judged by "
-             "the same hold test; a fault is a failure of its arm. One seed of generator, maps and trials: the "
-             "issue's three seeds are not run yet.", "", f"**{info['verdict']}**", ""]
+             " (module doc) and `graspmanifold.trials.planned`. Every arm starts from the same state (the hand in "
+             "the plan's pregrasp, its palm where the plan puts it for the nominal object), on the same spring "
+             f"support, released as the `{PLANNED_PROTOCOL.name}` protocol releases it (the support fading over "
+             f"{PLANNED_PROTOCOL.rules.release_seconds:g} s) and judged by the same hold test; a fault is a failure "
+             "of its arm.", "", f"**{info['verdict']}**", ""]
     lines += ["## The ceiling: every plan at its own palm pose (0 cm)", ""]
     lines += markdown_table(["arm", "held [95 % CI]"] + [name for name in info["ceiling_by_object"]],
                             [[arm, rate_text(*info["ceiling"][arm])] +
                              [f"{h}/{n}" for h, n in (info["ceiling_by_object"][name][arm]
                                                       for name in info["ceiling_by_object"])] for arm in arms])
     lines += ["", "## Hold rate against displacement (the displaced plans)", "",
-              f"Displacements where the open hand would start inside the object, run by no arm: "
-              f"{dict(zip([f'{100 * v:.0f} cm' for v in levels], info['not_started']))}.", ""]
+              "How the displaced plans' trials started, by level (from the pregrasp; from the open hand where the "
+              "pregrasp would start inside the object; not at all where the open hand would too):", ""]
+    lines += markdown_table(["start"] + [f"{100 * v:.0f} cm" for v in levels],
+                            [[kind] + counts for kind, counts in info["starts"].items()])
+    lines += [""]
     lines += markdown_table(["arm"] + [f"{100 * v:.0f} cm" for v in levels],
                             [[arm] + [rate_text(*c) for c in info["by_level"][arm]] for arm in arms])
     if info.get("figure"):
         lines += ["", f"![hold rate against displacement]({info['figure']})"]
     lines += ["", "## Paired comparisons (McNemar on the same trials, Holm over the family)", ""]
     lines += comparison_table(info["comparisons"])
+    lines += ["", "The same differences seed by seed (a difference is claimed only where its sign holds on every seed):",
+              ""]
+    lines += markdown_table(["comparison"] + [f"seed {s}" for s in info["config"]["seeds"][:len(
+        info["comparisons"][0]["by_seed"])]] + ["same sign"],
+        [[r["label"]] + [f"{100 * d:+.1f} pts" for d in r["by_seed"]] + ["yes" if r["same_sign"] else "no"]
+         for r in info["comparisons"]])
     lines += ["", "## Faults by arm (each counted as a failure above)", ""]
     lines += markdown_table(["arm", "faults", "reasons (first words)"],
                             [[arm, info["faults"][arm], "; ".join(info["fault_reasons"][arm]) or "–"] for arm in arms])
@@ -258,13 +305,14 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a smoke run: two objects, 6 plans, 2 displaced")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--plans", type=int, default=44, help="verified grasps per object, each run at 0 cm")
-    parser.add_argument("--displaced", type=int, default=6, help="plans per object also run displaced")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3],
+                        help="generator, map and trial seeds, one run each (seed 0 chose the settled squeeze)")
+    parser.add_argument("--plans", type=int, default=30, help="verified grasps per object and seed, each run at 0 cm")
+    parser.add_argument("--displaced", type=int, default=3, help="plans per object and seed also run displaced")
     parser.add_argument("--out", default="", help="the study's folder (default study-planned-grasps[-quick])")
     parser.add_argument("--doc", default="", help="the report (default docs/planned_grasps.md, or OUT/ for --quick)")
     args = parser.parse_args(argv)
-    config = PlannedStudyConfig(args.quick, args.workers, args.seed, args.plans, args.displaced)
+    config = PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans, args.displaced)
     out = Path(args.out or ("study-planned-grasps-quick" if args.quick else "study-planned-grasps"))
     doc = Path(args.doc or (out / "planned_grasps.md" if args.quick else "docs/planned_grasps.md"))
 

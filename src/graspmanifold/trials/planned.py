@@ -2,17 +2,19 @@
 
 A plan is a verified grasp of the object (a palm pose in the object's frame and a posture, from the generator,
 verified under the default protocol), with the pregrasp and squeeze it was verified with (`dexgraspbench.
-open_loop_grasps`). A trial puts the palm where the plan says for the *nominal* object pose, the hand open, and
-the object lies displaced by a stated error (`displacements`: 0 cm once, then 1, 2, 3, 5 cm in 8 directions of the
-palm's plane, each turned about the palm normal by a yaw drawn within +-30 degrees scaled as the level is to the
-largest). A displacement that would put the object inside the open hand (`grid.PLANNED_START_DEPTH`) is run by no
-arm and counted (`PlannedResult.started`): a geometric rule fixed before any trial, the same for every arm.
+open_loop_grasps`). A trial puts the hand in the plan's pregrasp, its palm where the plan says for the *nominal* object
+pose, and the object lies displaced by a stated error (`displacements`: 0 cm once, then 1, 2, 3, 5 cm in 8 directions
+of the palm's plane, each turned about the palm normal by a yaw drawn within +-30 degrees scaled as the level is to
+the largest). Where the pregrasp would start inside the displaced object (`grid.PLANNED_START_DEPTH`), the trial
+starts from the open hand at the grasp's palm pose (`open_start`); where that too is inside, no arm runs
+(`PlanTrials.start` says which): a geometric rule fixed before any trial, the same for every arm. Every arm's
+support fades before the release (`PLANNED_PROTOCOL`).
 
 The arms (`ARMS`), all on the same start state, the same spring support and release, the same hold test; a fault
 is a failure of its arm and is reported by arm:
 
-- `open-loop`: the plan executed open loop (`dexgraspbench.OpenLoop`: the open hand shapes the pregrasp, then the
-  pregrasp, grasp and squeeze it was verified with);
+- `open-loop`: the plan executed open loop (`dexgraspbench.OpenLoop`: from the pregrasp to the grasp and the squeeze
+  it was verified with, in the replay's targets);
 - `heuristic`: the plain closing heuristic (no experience);
 - `paper`: the paper's controller with the object's experience;
 - `blend-recall`: the blend with a perfect recall (its experience is the plan's own posture);
@@ -38,10 +40,11 @@ from ..base.errors import InvalidInput
 from ..base.workers import parallel_map
 from ..control.controller import CONTROLLERS, ControllerParams
 from ..control.dexgraspbench import OpenLoop, OpenLoopGrasp
+from ..control.protocols import OURS_FADED
 from ..manifold.experience import Experience, PostureDatabase
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import open_posture
-from .grid import PLANNED_START_DEPTH, planned_start_depth
+from .grid import PLANNED_START_DEPTH, START_DEPTH_TOLERANCE, planned_start_depth
 from .trial import Trial, TrialSetup, run_trials
 
 #: m, the levels of displacement in the palm's plane
@@ -50,6 +53,9 @@ LEVELS: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.05)
 DIRECTIONS = 8
 #: rad, the largest yaw about the palm normal (at the largest level; a level's bound scales with it)
 MAX_YAW = math.radians(30.0)
+#: how every arm is judged: our hold test after a support that fades over 0.3 s (`protocols.OURS_FADED`): with the
+#: support let go at once, the blend lost grasps whose squeeze had pushed the object 6-16 mm against the spring
+PLANNED_PROTOCOL = OURS_FADED
 
 
 @dataclass(frozen=True)
@@ -138,7 +144,7 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
     """
     label = method or arm.name
     if arm.controller == "open-loop":
-        return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label)
+        return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label, protocol=PLANNED_PROTOCOL)
     if arm.experience == "plan":
         experience: Experience | None = PostureDatabase(plan.postures[1][None])
     elif arm.experience == "none":
@@ -149,7 +155,25 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
         raise InvalidInput(f"arm {arm.name!r} recalls from the {arm.experience!r} experience: give it "
                            f"(experiences has {sorted(experiences)})")
     params = arm.params or (ControllerParams() if arm.controller == "heuristic" else CONTROLLERS[arm.controller])
-    return TrialSetup(object=obj, experience=experience, params=params, plan=plan, method=label)
+    return TrialSetup(object=obj, experience=experience, params=params, plan=plan, method=label,
+                      protocol=PLANNED_PROTOCOL)
+
+
+#: how a planned trial starts (`PlanTrials.start`): not at all, in the plan's pregrasp, or in the open hand
+STARTS: tuple[str, ...] = ("none", "pregrasp", "open")
+
+
+def open_start(plan: OpenLoopGrasp) -> OpenLoopGrasp:
+    """The plan started from the open hand instead of its pregrasp (the palm at the grasp's pose): where the
+    pregrasp would start inside the displaced object.
+
+    Args:
+        plan: the plan.
+
+    Returns:
+        The plan whose first stage is the hand's open posture at the grasp's palm pose.
+    """
+    return OpenLoopGrasp(plan.poses[[1, 1, 2]], np.vstack([open_posture(), plan.postures[1:]]))
 
 
 @dataclass(frozen=True)
@@ -158,13 +182,19 @@ class PlanTrials:
 
     Attributes:
         displacements: (k, 4) the object's displacements (`displacements`).
-        started: (k,) bool: the open hand is clear of the object there (the others ran no arm).
-        trials: {arm: one `Trial` per started displacement}.
+        start: (k,) index into `STARTS`: how each displacement's trials started (0: none ran, the hand would start
+            inside the object).
+        trials: {arm: one `Trial` per started displacement, in order}.
     """
 
     displacements: np.ndarray
-    started: np.ndarray
+    start: np.ndarray
     trials: dict[str, list[Trial]]
+
+    @property
+    def started(self) -> np.ndarray:
+        """(k,) bool: trials ran there."""
+        return self.start > 0
 
     def held(self, arm: str) -> np.ndarray:
         """(k,) bool: held without a fault (False where no trial started)."""
@@ -181,7 +211,9 @@ class PlanTrials:
 
 def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experiences: Mapping[str, Experience | None],
              moved: np.ndarray, seed: int = 0) -> PlanTrials:
-    """Every arm's trials of one plan at these displacements (those the open hand is clear at).
+    """Every arm's trials of one plan at these displacements: from the plan's pregrasp where the hand in it is
+    clear of the displaced object (`grid.PLANNED_START_DEPTH`, or no deeper in it than at the nominal pose), else
+    from the open hand at the grasp's palm pose where that is clear (`open_start`), else none.
 
     Args:
         plan: the plan.
@@ -194,15 +226,23 @@ def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experie
     Returns:
         The `PlanTrials`.
     """
-    depth = planned_start_depth(obj, plan.poses[1], open_posture(), moved)
-    started = depth <= PLANNED_START_DEPTH
-    poses = moved[started]
-    trials = {}
+    variants = (plan, open_start(plan))
+    start = np.zeros(len(moved), dtype=int)
+    for kind, variant in enumerate(variants, start=1):
+        left = np.flatnonzero(start == 0)
+        depth = planned_start_depth(obj, variant.poses[0], variant.postures[0], np.vstack([np.zeros(4), moved[left]]))
+        start[left[depth[1:] <= max(PLANNED_START_DEPTH, depth[0] + START_DEPTH_TOLERANCE)]] = kind
+    trials: dict[str, list[Trial]] = {}
     for name in arms:
-        setup = arm_setup(ARMS[name], obj, plan, experiences)
-        trials[name] = run_trials(setup, poses, [np.random.default_rng([seed, i]) for i in range(len(poses))]) \
-            if len(poses) else []
-    return PlanTrials(moved, started, trials)
+        ran: dict[int, Trial] = {}
+        for kind, variant in enumerate(variants, start=1):
+            rows = np.flatnonzero(start == kind)
+            if len(rows):
+                setup = arm_setup(ARMS[name], obj, variant, experiences)
+                done = run_trials(setup, moved[rows], [np.random.default_rng([seed, int(i)]) for i in rows])
+                ran.update(zip(rows.tolist(), done))
+        trials[name] = [ran[i] for i in sorted(ran)]
+    return PlanTrials(moved, start, trials)
 
 
 def _plan_task(task: tuple[int, OpenLoopGrasp, np.ndarray], obj: GraspObject, arms: tuple[str, ...],

@@ -130,9 +130,10 @@ class TrialSetup:
             the sensors on the cpu backend.
         plan: a planned grasp (`dexgraspbench.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
             plan, a trial's pose (x, z, gap, yaw) is the object's displacement from where the plan assumed it (palm
-            frame, `grid.displaced_palm_pose`): the palm starts where the plan puts it for the nominal pose, the
-            hand open, and the object lies displaced; the controller is not told the displacement. The plan's
-            open-loop execution is the controller `dexgraspbench.OpenLoop(plan)`.
+            frame, `grid.displaced_palm_pose`): the hand starts in the plan's pregrasp, its palm where the plan puts
+            it for the nominal pose, and the object lies displaced; the controller is not told the displacement (ours
+            starts from the pregrasp's posture). The plan's open-loop execution is the controller
+            `dexgraspbench.OpenLoop(plan)`.
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -308,7 +309,8 @@ class TrialSetup:
         """
         if self.controller is None:
             return BatchController(n, self.experience, self.params, preshape=self.preshape, hand=self.hand,
-                                   regrasp=self.regrasp)
+                                   regrasp=self.regrasp,
+                                   initial_posture=None if self.plan is None else self.plan.postures[0])
         controller = self.controller(n, self.hand)
         if not isinstance(controller, Controller):
             raise InvalidInput(f"the controller {type(controller).__name__} lacks a member of the Controller protocol "
@@ -381,13 +383,14 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
 
 def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
-    support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the palm at the plan's
-    grasp pose for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
-    scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch)
+    support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the hand in the plan's
+    pregrasp for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
+    scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch, setup.rules)
     setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
     scene.set_posture(initial)
     if setup.plan is not None:  # the palm where the plan puts it for the nominal pose; the object displaced
-        scene.set_hand_pose(*displaced_palm_pose(setup.plan.poses[1], np.asarray(grid_pose, dtype=float)))
+        scene.set_posture(setup.plan.postures[0])
+        scene.set_hand_pose(*displaced_palm_pose(setup.plan.poses[0], np.asarray(grid_pose, dtype=float)))
         return scene
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
