@@ -318,8 +318,9 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
 REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL}
-PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm) or "
-                 "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
+PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm), ours-faded "
+                 "(ours after a support that fades over 0.3 s before the release) or DexGraspBench's external-force "
+                 "test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
                    "closing heuristic's base (our earlier variant); closing-recall, the paper's reading with recalls "
                    "that only close a finger; blend-settled, the blend whose fingers squeeze together once the grasp "
