@@ -387,13 +387,13 @@ def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generat
     pregrasp for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
     scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch, setup.rules)
     setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
-    scene.set_posture(initial)
     if setup.plan is not None:  # the palm where the plan puts it for the nominal pose; the object displaced
         scene.set_posture(setup.plan.postures[0])
         scene.set_hand_pose(*displaced_palm_pose(setup.plan.poses[0], np.asarray(grid_pose, dtype=float)))
         return scene
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
+    scene.set_posture(initial)
     return scene
 
 
