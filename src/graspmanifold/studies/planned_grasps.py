@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import argparse
 import functools
+import re
 import sys
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -207,7 +209,7 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
     info["starts"] = {kind: [int(sum((o.start[o.levels == lv] == k).sum() for (_, _, _, l2, _), o in outcomes.items()
                                      if l2 != "0.0")) for lv in LEVELS] for k, kind in enumerate(STARTS)}
     info["faults"] = {arm: int(sum(o.faulted[arm].sum() for o in outcomes.values())) for arm in arms}
-    info["fault_reasons"] = {arm: sorted({f.split(":")[0][:80] for o in outcomes.values() for f in o.faults[arm]})[:5]
+    info["fault_reasons"] = {arm: dict(Counter(_reason(f) for o in outcomes.values() for f in o.faults[arm]))
                              for arm in arms}
     family, signs = [], []
     for label, a, b, levels in QUESTIONS:
@@ -233,6 +235,14 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
                        f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}.")
     info["command"] = "python scripts/study_planned_grasps.py " + " ".join(sys.argv[1:])
     return info
+
+
+def _reason(fault: str) -> str:
+    """A fault's reason without its numbers: "the simulation of the pen scene failed at t = 0.26 s: a contact
+    penetrates 6.1 mm (limit 5 mm); ..." -> "pen: a contact penetrates N mm (limit N mm)"."""
+    scene = re.search(r"of the (\S+) scene", fault)
+    reason = re.sub(r"\d+(\.\d+)?", "N", fault.split(": ", 1)[-1].split(";")[0]).strip()
+    return f"{scene.group(1) if scene else '?'}: {reason[:70]}"
 
 
 def _count(held: np.ndarray, started: np.ndarray) -> tuple[int, int]:
@@ -273,8 +283,10 @@ def report(info: dict) -> str:
         [[r["label"]] + [f"{100 * d:+.1f} pts" for d in r["by_seed"]] + ["yes" if r["same_sign"] else "no"]
          for r in info["comparisons"]])
     lines += ["", "## Faults by arm (each counted as a failure above)", ""]
-    lines += markdown_table(["arm", "faults", "reasons (first words)"],
-                            [[arm, info["faults"][arm], "; ".join(info["fault_reasons"][arm]) or "–"] for arm in arms])
+    lines += markdown_table(["arm", "faults", "object: reason (count)"],
+                            [[arm, info["faults"][arm], "; ".join(f"{r} ({n})" for r, n in sorted(
+                                info["fault_reasons"][arm].items(), key=lambda item: -item[1])) or "–"]
+                             for arm in arms])
     return "\n".join(lines) + "\n"
 
 
@@ -286,8 +298,13 @@ def figure(info: dict, path: Path) -> str:
     import matplotlib.pyplot as plt
 
     names = list(info["by_object_level"])
-    fig, axes = plt.subplots(1, 1 + len(names), figsize=(3.2 * (1 + len(names)), 3.2), sharey=True,
-                             layout="constrained")
+    columns = min(4, 1 + len(names))
+    rows = -(-(1 + len(names)) // columns)
+    fig, grid = plt.subplots(rows, columns, figsize=(3.3 * columns, 2.9 * rows + 0.8), sharey=True, sharex=True,
+                             layout="constrained", squeeze=False)
+    axes = grid.ravel()
+    for ax in axes[1 + len(names):]:
+        ax.set_visible(False)
     xs = 100 * np.array(info["levels"])
     for ax, title, counts in [(axes[0], "pooled", info["by_level"])] + [
             (ax, name, info["by_object_level"][name]) for ax, name in zip(axes[1:], names)]:
@@ -295,8 +312,10 @@ def figure(info: dict, path: Path) -> str:
             rate_curve(ax, xs + 0.06 * (k - len(info["arms"]) / 2), counts[arm], label=arm, fmt="-o", ms=3,
                        color=_STYLE.get(arm))
         ax.set_title(title)
+    for ax in grid[-1]:
         ax.set_xlabel("displacement (cm)")
-    axes[0].set_ylabel("held (%)")
+    for ax in grid[:, 0]:
+        ax.set_ylabel("held (%)")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=4, fontsize=8)
     return save_figure(fig, path)
 
