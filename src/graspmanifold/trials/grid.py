@@ -200,14 +200,13 @@ def check_grid(grid: object, obj: GraspObject, table: bool = False,
         raise InvalidInput(f"grid rows {far.tolist()[:10]} lie beyond the hand's reach: x, z and the gap must be within "
                          f"±{MAX_GAP} m and the yaw within ±π rad")
     if plan is not None:
-        depth = planned_start_depth(obj, plan.poses[0], plan.postures[0], np.vstack([np.zeros(4), poses]), table)
-        allowed, depth = max(PLANNED_START_DEPTH, depth[0] + START_DEPTH_TOLERANCE), depth[1:]
-        inside = np.flatnonzero(depth > allowed)
+        clear, depth, allowed = planned_start_clear(obj, plan.poses[0], plan.postures[0], poses, table)
+        inside = np.flatnonzero(~clear)
         if len(inside):
             raise InvalidInput(f"displacements {inside.tolist()[:10]}{' ...' if len(inside) > 10 else ''} put the object "
                                f"inside the hand in the plan's pregrasp (row {inside[0]}: "
                                f"{depth[inside[0]] * 1000:.1f} mm deep; at most {allowed * 1000:.1f} mm), "
-                               "where no trial can start; keep those that planned_start_depth allows")
+                               "where no trial can start; keep those that planned_start_clear allows")
         return "custom", poses
     inside = np.flatnonzero(~reachable(obj, poses, table))
     if len(inside):
@@ -271,6 +270,27 @@ def planned_start_depth(obj: str | GraspObject, palm_pose: np.ndarray, posture: 
         scene.set_hand_pose(*displaced_palm_pose(palm_pose, displacement))
         depths.append(scene.penetration())
     return np.array(depths)
+
+
+def planned_start_clear(obj: str | GraspObject, palm_pose: np.ndarray, posture: np.ndarray,
+                        displacements: np.ndarray, table: bool = False) -> tuple[np.ndarray, np.ndarray, float]:
+    """Where a planned trial can start: the hand in the plan's starting posture lies at most `PLANNED_START_DEPTH`
+    inside the displaced object, or no deeper than at the nominal pose (`planned_start_depth`).
+
+    Args:
+        obj: the object, or its name.
+        palm_pose: (7,) the plan's starting palm pose in the nominal object's frame.
+        posture: (22,) rad, the plan's starting posture.
+        displacements: (n, 4) the objects' displacements.
+        table: the object stands on a table.
+
+    Returns:
+        ((n,) bool: clear, (n,) m: each start's depth, m: the depth allowed).
+    """
+    depth = planned_start_depth(obj, palm_pose, posture, np.vstack([np.zeros(4), np.reshape(displacements, (-1, 4))]),
+                                table)
+    allowed = max(PLANNED_START_DEPTH, float(depth[0]) + START_DEPTH_TOLERANCE)
+    return depth[1:] <= allowed, depth[1:], allowed
 
 
 def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -> np.ndarray:

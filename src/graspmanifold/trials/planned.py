@@ -44,7 +44,7 @@ from ..control.protocols import OURS_FADED
 from ..manifold.experience import Experience, PostureDatabase
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import open_posture
-from .grid import PLANNED_START_DEPTH, START_DEPTH_TOLERANCE, planned_start_depth
+from .grid import planned_start_clear
 from .trial import Trial, TrialSetup, run_trials
 
 #: m, the levels of displacement in the palm's plane
@@ -230,8 +230,8 @@ def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experie
     start = np.zeros(len(moved), dtype=int)
     for kind, variant in enumerate(variants, start=1):
         left = np.flatnonzero(start == 0)
-        depth = planned_start_depth(obj, variant.poses[0], variant.postures[0], np.vstack([np.zeros(4), moved[left]]))
-        start[left[depth[1:] <= max(PLANNED_START_DEPTH, depth[0] + START_DEPTH_TOLERANCE)]] = kind
+        clear, _, _ = planned_start_clear(obj, variant.poses[0], variant.postures[0], moved[left])
+        start[left[clear]] = kind
     trials: dict[str, list[Trial]] = {}
     for name in arms:
         ran: dict[int, Trial] = {}
