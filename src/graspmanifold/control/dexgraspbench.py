@@ -526,7 +526,9 @@ class OpenLoop:
     grasp: OpenLoopGrasp
 
     def __call__(self, n: int, hand: HandModel) -> OpenLoopController:
-        """Args:
+        """A controller of the grasp for n worlds.
+
+        Args:
             n: worlds.
             hand: the hand model.
 

@@ -89,6 +89,7 @@ class PlannedStudyConfig:
 
     @property
     def objects(self) -> tuple[str, ...]:
+        """The benchmark objects run (a quick run: the cylinder and the cube)."""
         return ("cylinder", "cube") if self.quick else tuple(OBJECTS)
 
     @property
@@ -126,6 +127,7 @@ class _Outcomes:
 
     @property
     def started(self) -> np.ndarray:
+        """(k,) bool: trials ran there."""
         return self.start > 0
 
 
