@@ -178,11 +178,11 @@ def test_a_plan_runs_every_arm_through_the_one_trial_loop(box_plans):
     postures, plans = box_plans
     experiences = {"object": PostureDatabase(postures.postures),
                    "scrambled": PostureDatabase(scrambled(postures.postures))}
-    result = run_plan(plans[0], planned.get_object("box"), ("open-loop", "settled-recall"), experiences,
+    result = run_plan(plans[0], planned.get_object("box"), ("open-loop", "approach-recall"), experiences,
                       np.zeros((1, 4)))
     assert result.start.tolist() == [1]  # from the pregrasp
     assert result.held("open-loop").tolist() == [True]  # a verified grasp, replayed where it was verified, holds
-    assert set(result.trials) == {"open-loop", "settled-recall"}
+    assert set(result.trials) == {"open-loop", "approach-recall"}
 
 
 def test_the_settled_squeeze_presses_nothing_until_every_finger_settles_then_ramps():

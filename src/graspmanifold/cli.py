@@ -324,7 +324,8 @@ PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions,
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
                    "closing heuristic's base (our earlier variant); closing-recall, the paper's reading with recalls "
                    "that only close a finger; blend-settled, the blend whose fingers squeeze together once the grasp "
-                   "has settled (docs/planned_grasps.md)")
+                   "has settled; approach, the paper's reading executed as a verified grasp is: to the recall, on "
+                   "along the way there, pressing along it (docs/planned_grasps.md)")
 
 #: one default for every command that runs workers: the machine's cores, at most two
 DEFAULT_WORKERS = default_workers()

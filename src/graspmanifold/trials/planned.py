@@ -19,9 +19,10 @@ is a failure of its arm and is reported by arm:
 - `paper`: the paper's controller with the object's experience;
 - `blend-recall`: the blend with a perfect recall (its experience is the plan's own posture);
 - `blend`: the blend with the object's experience;
-- `settled-recall`, `settled`, `settled-scrambled`: the blend with the settled squeeze (`controller.SETTLED_BLEND`)
-  and a perfect recall, the object's experience, or the null experience (the object's postures with each joint
-  column permuted: `manifold.experience.scrambled`).
+- `approach-recall`, `approach`, `approach-scrambled`: the paper's reading executed as a verified grasp is
+  (`controller.APPROACH`: to the recall, on along the way there, pressing along it) with a perfect recall, the
+  object's experience, or the null experience (the object's postures with each joint column permuted:
+  `manifold.experience.scrambled`).
 
 No controller reads the displacement: it senses joints and touch only (the open loop senses nothing).
 """
@@ -83,9 +84,9 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("paper", "paper", "object"),
     Arm("blend-recall", "blend", "plan"),
     Arm("blend", "blend", "object"),
-    Arm("settled-recall", "blend-settled", "plan"),
-    Arm("settled", "blend-settled", "object"),
-    Arm("settled-scrambled", "blend-settled", "scrambled"),
+    Arm("approach-recall", "approach", "plan"),
+    Arm("approach", "approach", "object"),
+    Arm("approach-scrambled", "approach", "scrambled"),
 )}
 #: the kinds of experience an arm names besides 'none' and 'plan'
 EXPERIENCES = ("object", "scrambled")
