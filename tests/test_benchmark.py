@@ -101,3 +101,10 @@ def test_a_comparison_leaves_out_a_failed_physics_or_counts_it_as_a_failed_grasp
     assert counted.only_b == dropped.only_b + int(held.trials[0].hold) and counted.only_a == dropped.only_a
     with pytest.raises(ValueError, match="invalid must be one of"):
         compare_pooled(a, b, invalid="keep")
+    first = np.zeros(len(grid), dtype=bool)
+    first[0] = True  # only the faulted pose: nothing left to pair once it is dropped
+    assert compare_pooled(a, b, keep={("pen", "palm"): first}).n == 0
+    assert compare_pooled(a, b, keep={("pen", "palm"): ~first}).n == dropped.n
+    assert len(pooled(a, keep={("pen", "palm"): ~first})[0]) == len(grid) - 1
+    with pytest.raises(ValueError, match=r"keep must give the cell \('pen', 'palm'\) one bool per trial"):
+        pooled(a, keep={("pen", "palm"): first[1:]})

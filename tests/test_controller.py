@@ -443,6 +443,23 @@ def test_coverage_sees_placements_up_to_the_objects_symmetry():
         coverage("cylinder", grid, np.zeros((0, 7)))
 
 
+def test_a_pose_is_covered_where_a_verified_grasp_holds_the_object_within_a_centimetre_and_its_axis_near():
+    """`grid.covered`: the centre within `COVERED_WITHIN` of an experienced one, seen from the palm, and the long axis
+    within `COVERED_ANGLE`; turned a quarter about the palm normal, a cylinder at the same centre is not covered."""
+    from graspmanifold.trials.grid import COVERED_WITHIN, covered
+
+    obj = gm.get_object("cylinder")
+    grid = np.array([[0.0, 0.0, 0.01, 0.0]])
+    experienced = np.concatenate(palm_pose_for(obj, grid[0]))[None]
+    moved = grid + [[0.0, 0.0, 0.0, 0.0], [0.009, 0.0, 0.0, 0.0], [0.0, 0.011, 0.0, 0.0], [0.0, 0.0, 0.0, np.pi / 2]]
+    assert covered(obj, moved, experienced).tolist() == [True, True, False, False]
+    assert covered(obj, moved, experienced, within=0.02, angle=np.pi).tolist() == [True] * 4
+    assert COVERED_WITHIN == 0.01
+    for bad in (dict(within=-0.01), dict(angle=float("nan")), dict(within=True)):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            covered(obj, grid, experienced, **bad)
+
+
 def test_one_reachability_rule_for_evaluate_and_record_trial_and_it_says_why():
     """record_trial ran (and called valid) poses that evaluate refused; why a pose was refused was not said;
     a single pose as a 1-D array was refused."""
@@ -630,3 +647,78 @@ def test_a_recall_rule_of_ones_own_runs_without_a_change_to_the_controller():
     old = {"recall": "base", "recall_tolerance": 0.05, "recall_closes_only": False, "restart_closure": True,
            "reach": 0.0, "reach_speed": 0.1, "max_match_distance": 0.2}  # a run.json of the flat settings
     assert apply_table(gm.ControllerParams(), old, "controller") == replace(BLEND, recall=BlendRecall(restart_closure=True))
+
+
+def test_the_approach_takes_every_finger_to_its_recall_together_then_on_along_the_way_it_came():
+    """recall='approach' (`APPROACH`) with a one-posture experience, in a real MuJoCo scene where nothing touches,
+    from a start posture short of the recall: every finger's target moves straight to its part of the recall, all
+    arriving in the same cycle, and closes on along the way it came (never towards the closed fist) to at most the
+    overshoot beyond it."""
+    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+
+    recalled = gm.open_posture() + 0.5 * (gm.closed_posture() - gm.open_posture())
+    recalled[gm.FINGER_JOINTS.index("THJ5")] -= 0.3  # the thumb's way is not the fist's
+    start = gm.open_posture() + 0.1 * (gm.closed_posture() - gm.open_posture())
+    way = recalled - start
+    obj = gm.get_object("cylinder")
+    scene = gm.Scene(obj, free_object=True)
+    scene.set_object_support(2000.0, 30.0)
+    controller = gm.GraspController(gm.PostureDatabase(recalled[None]), APPROACH, initial_posture=start)
+    scene.set_hand_pose(*palm_pose_for(obj, np.array([0.0, 0.0, 0.3, 0.0])))  # 30 cm away: nothing touches
+    scene.set_posture(start)
+    targets = []
+    while not controller.done:
+        reading = scene.tactile()
+        assert not reading.segments
+        targets.append(controller.step(scene.posture(), reading.segment_forces))
+        scene.set_target(targets[-1])
+        scene.run(APPROACH.control_period)
+    arrivals = []
+    for finger, of in zip(gm.FINGERS, FINGER_JOINT_MASKS):
+        at = [np.allclose(t[of], recalled[of], atol=1e-12) for t in targets]
+        arrivals.append(at.index(True))
+        to = [np.linalg.norm(t[of] - recalled[of]) for t in targets[: arrivals[-1] + 1]]
+        assert np.all(np.diff(to) <= 1e-12), finger  # straight there, never away
+        beyond = np.array([t[of] - recalled[of] for t in targets[arrivals[-1]:]])
+        along = beyond @ way[of] / np.linalg.norm(way[of]) ** 2  # in lengths of the way
+        np.testing.assert_allclose(beyond, along[:, None] * way[of], atol=1e-9, err_msg=finger)  # on along the way
+        assert np.all(np.diff(along) >= -1e-12) and along[-1] <= APPROACH.recall.overshoot + 1e-9, finger
+        assert along[-1] > 0.5, finger  # it did close on
+    assert max(arrivals) - min(arrivals) <= 1  # together
+
+
+def test_a_touching_finger_presses_on_along_its_way_and_without_a_way_the_approach_is_the_papers_closing():
+    """A finger that touches holds where it touched and presses `squeeze` rad (its joints' norm) on along the way it
+    came to its recall; with no experience there is no way, and the approach closes and presses exactly as the
+    paper's reading with the same squeeze does."""
+    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+
+    start = gm.open_posture()
+    recalled = start + 0.3 * (gm.closed_posture() - start)
+    touch = np.zeros((1, len(gm.SEGMENTS)))
+    touch[0, gm.SEGMENTS.index("ffdistal")] = 1.0
+    ff = FINGER_JOINT_MASKS[gm.FINGERS.index("ff")]
+
+    def run(experience, params):
+        controller = BatchController(1, experience, params, initial_posture=start)
+        joints, out = start[None].copy(), []
+        for cycle in range(60):
+            out.append(controller.step(joints, touch if cycle >= 30 else np.zeros_like(touch)))
+            joints = out[-1]  # the joints follow their targets
+        return controller, np.array(out)
+
+    controller, targets = run(gm.PostureDatabase(recalled[None]), APPROACH)
+    assert controller.state.held[0, 0]
+    way = controller.state.way[0, ff]
+    np.testing.assert_allclose(way, (recalled - start)[ff])
+    pressed = controller.state.held_posture[0, ff] + APPROACH.squeeze * way / np.linalg.norm(way)
+    np.testing.assert_allclose(targets[-1, 0, ff], pressed, atol=1e-12)
+    _, plain = run(None, APPROACH)
+    _, paper = run(None, replace(gm.ControllerParams(), squeeze=APPROACH.squeeze))
+    np.testing.assert_array_equal(plain, paper)
+
+
+@pytest.mark.parametrize("field, value", [("overshoot", -0.5), ("overshoot", float("nan")), ("together", 1)])
+def test_the_approach_refuses_a_bad_setting(field, value):
+    with pytest.raises(ValueError, match=f"ApproachRecall.{field}"):
+        gm.ApproachRecall(**{field: value})

@@ -22,13 +22,18 @@ never told which object it grasps. The study, in the order a careful reviewer wo
    against the best of them, and the chance oracle over as many runs of that best strategy (its own and
    jittered reruns, 1 mm / 0.02 rad): only the headroom beyond chance counts (`stats.headroom`).
 5. Selection, on the selection split only: the best shared preshape (one attempt), the SOM controller's
-   variant (the paper's literal controller, the blend, the blend restarting its closure), and the best fixed
+   variant (the paper's literal controller, the blend, the blend restarting its closure, the approach execution
+   of issue 65), and the best fixed
    two-attempt sequence of strategies (the best single one first, the best second attempt after it).
 6. Test, one attempt: the paper's literal controller, the blend and the selected variant against the best
    shared preshape. Two attempts (`control.regrasp`: a lift probe reads touch only; a failing grasp is let
    go and grasped again from where the object lies): regrasp with experience (the SOM's best match for what
    the failed attempt sensed, of another grasp type) against the best fixed sequence and the heuristic
    retried. Paired (McNemar), Holm within each family, pooled and per object; rates with Wilson intervals.
+7. Experience content (issue 65): the selected controller and its regrasp again with the null experience (the same
+   map trained on the postures with each joint column permuted: `manifold.experience.scrambled`); an experience
+   claim is a claim against it. Coverage: the test poses where a verified grasp of the experience holds the object
+   within 1 cm of where the pose puts it (`grid.covered`), every method's rate and the main comparisons also there.
 
 Every finished evaluation is kept in --out under the key of what made it, so an interrupted study resumes
 and a changed one recomputes only what changed; the configuration used is written to --out/config.toml. Writes `--out/study.json`
@@ -53,9 +58,10 @@ from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
-from ..control.controller import BLEND, BlendRecall, ControllerParams
+from ..control.controller import APPROACH, BLEND, BlendRecall, ControllerParams
 from ..control.generator import MAX_POSTURES, GeneratorParams, generate_postures
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
+from ..manifold.experience import scrambled
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
 from ..trials.benchmark import (
@@ -67,6 +73,7 @@ from ..trials.benchmark import (
     pooled,
     run_benchmark,
 )
+from ..trials.grid import COVERED_ANGLE, COVERED_WITHIN, covered
 from ..trials.selector import StrategySelector, choose_cross_validated
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
 from ..trials.study import train_experience_map
@@ -85,11 +92,18 @@ REGRASP_AS_FAILURES = "regrasp with experience against the best fixed sequence, 
 PAPER_AS_FAILURES = "the paper's controller against the shared preshape, failed physics as failed grasps"
 QUICK_OBJECTS = ("box", "marble")
 #: the SOM controller's variants, one of which the selection split picks: the paper's literal controller
-#: (recall='target'), the blend (BLEND), and the blend restarting the closure at the first trusted match
+#: (recall='target'), the blend (BLEND), the blend restarting the closure at the first trusted match, and the paper's
+#: reading executed as a verified grasp is (APPROACH, issue 65)
 SOM_VARIANTS = {"som_paper": ControllerParams(), "som_blend": BLEND,
-                "som_restart": replace(BLEND, recall=BlendRecall(restart_closure=True))}
+                "som_restart": replace(BLEND, recall=BlendRecall(restart_closure=True)), "som_approach": APPROACH}
 SOM_DESCRIPTIONS = {"som_paper": "the paper's controller (ControllerParams())", "som_blend": "the blend (BLEND)",
-                    "som_restart": "replace(BLEND, recall=BlendRecall(restart_closure=True))"}
+                    "som_restart": "replace(BLEND, recall=BlendRecall(restart_closure=True))",
+                    "som_approach": "the approach execution (APPROACH)"}
+#: the null experience's map: the same training on the union's postures with each joint column permuted
+NULL_SEED = 0
+#: the experience-content family's comparisons: the selected controller with the map against with the null map
+NULL_ONCE = "the selected SOM controller against itself with the null map"
+NULL_REGRASP = "regrasp with experience against regrasp with the null map"
 #: the attempts of the regrasp methods and their controls
 ATTEMPTS = 2
 
@@ -418,6 +432,15 @@ def measure(study: ExperienceStudy) -> dict:
                                            regrasp=Regrasp(ATTEMPTS, grasp_types=som_types))
     test["regrasp_selector"] = study.evaluate("test", f"regrasp_selector_{best}", preshape=strategies[best],
                                          regrasp=Regrasp(ATTEMPTS, chooser=selector))
+    # the null experience: the same map trained on the postures scrambled (no grasp left in it), the same controller
+    null = train_experience_map(scrambled(union.postures, NULL_SEED))
+    test["som_null"] = study.evaluate("test", f"{tuned}_null", null, SOM_VARIANTS[tuned])
+    test["regrasp_null"] = study.evaluate("test", f"regrasp_{tuned}_null", null, SOM_VARIANTS[tuned],
+                                          regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(
+                                              null, union.postures, types)))
+    # the paper's grid read honestly: the test poses a verified grasp of the experience holds the object near
+    kept = {key: covered(OBJECTS[key[0]].object, np.array([t.grid_pose for t in result.trials]),
+                         sets[key[0]].hand_poses) for key, result in test["none"].items()}
     # one attempt: the selector trained on the selection split picks per test pose from the heuristic's first contact
     for m in strategies:
         if m not in ("none", shared):
@@ -458,7 +481,15 @@ def measure(study: ExperienceStudy) -> dict:
             (REGRASP_AS_FAILURES,
              compare_pooled(test["regrasp_experience"], test["best_sequence"], invalid="fail")),
             (PAPER_AS_FAILURES,
-             compare_pooled(test["som_paper"], test["shared_preshape"], invalid="fail"))]}
+             compare_pooled(test["som_paper"], test["shared_preshape"], invalid="fail"))],
+        "experience content: the map against the null map (the same controller), pooled": [
+            (NULL_ONCE, compare_pooled(test[tuned], test["som_null"])),
+            (NULL_REGRASP, compare_pooled(test["regrasp_experience"], test["regrasp_null"]))],
+        "on the covered test poses only (a verified grasp holds the object near there), pooled": [
+            (f"{label}, covered poses", compare_pooled(test[a], test[b], keep=kept)) for label, a, b in (
+                ("regrasp with experience against the best fixed sequence", "regrasp_experience", "best_sequence"),
+                ("the paper's controller against the shared preshape", "som_paper", "shared_preshape"),
+                (NULL_ONCE, tuned, "som_null"), (NULL_REGRASP, "regrasp_experience", "regrasp_null"))]}
     comparisons = [row for name, tests in families.items() for row in holm_family(tests, name)]
 
     # the target
@@ -507,6 +538,12 @@ def measure(study: ExperienceStudy) -> dict:
             "verdict": verdict, "by_placement": by_placement, "mean_attempts": attempts,
             "counts": {m: {f"{o}/{p}": [int(r[(o, p)].outcomes()[r[(o, p)].valid].sum()), int(r[(o, p)].valid.sum())]
                            for (o, p) in r} for m, r in test.items()},
+            "coverage": {"within": COVERED_WITHIN, "angle": COVERED_ANGLE,
+                         "by_object": {o: [int(sum(kept[key].sum() for key in object_rows(o) if key in kept)),
+                                           int(sum(len(kept[key]) for key in object_rows(o) if key in kept))]
+                                       for o in study.objects}},
+            "covered_counts": {m: [int(h[v].sum()), int(v.sum())] for m, (h, v) in
+                               ((m, pooled(r, keep=kept)) for m, r in test.items())},
             "seconds": study.evaluation_seconds, "wall_seconds": time.perf_counter() - study.started,
             "workers": study.workers, "reused": study.reused_evaluations, "evaluations": study.evaluations,
             "made_seconds": sum(study.made_seconds.values())}
@@ -527,7 +564,10 @@ def reading(info: dict) -> list[str]:
     # every test pose run (a quick run runs a sixth); a study.json from before the sensitivity family has no such row
     sensitivity = REGRASP_AS_FAILURES in by_label
     poses = by_label[REGRASP_AS_FAILURES]["n"] if sensitivity else info["split"]["poses"]["test"]
-    return [
+    content = ([f"- Experience content: the selected SOM controller with its map against the same controller with "
+                f"the null map (each joint column permuted, no grasp left) {said(NULL_ONCE)}; regrasp with experience "
+                f"against regrasp with the null map {said(NULL_REGRASP)}."] if NULL_ONCE in by_label else [])
+    return content + [
         f"- A second attempt is what pays: the heuristic retried against once {said('the heuristic retried against once')}"
         f"; regrasp with experience against its own first attempt "
         f"{said(next(k for k in by_label if k.startswith('regrasp with experience against its one attempt')))}.",
@@ -635,6 +675,20 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
               + ". Hold rate by placement, pooled over the objects: " + "; ".join(
                   f"{m} " + " / ".join(f"{p} {r:.0%}" for p, r in v.items()) for m, v in info["by_placement"].items())
               + ".", ""]
+    if "coverage" in info:  # a study.json from before issue 65 has none
+        cover = info["coverage"]
+        total = [sum(c[k] for c in cover["by_object"].values()) for k in (0, 1)]
+        lines += ["## Coverage: the test poses a verified grasp holds the object near", "",
+                  f"A test pose is covered where one of its object's verified grasps of the experience holds the "
+                  f"object's centre within {100 * cover['within']:.0f} cm of where the pose puts it, seen from the "
+                  f"palm, its long axis within {np.degrees(cover['angle']):.0f} degrees (`grid.covered`): there a "
+                  "recall can place a verified grasp without the palm moving; elsewhere no finger posture alone can. "
+                  f"Covered: {total[0]} of {total[1]} test poses (" + ", ".join(
+                      f"{o} {c[0]}/{c[1]}" for o, c in cover["by_object"].items()) + ").", ""]
+        lines += markdown_table(["method", "all test poses", "covered poses"], [
+            [m, rate_text(sum(c[0] for c in info["counts"][m].values()), sum(c[1] for c in info["counts"][m].values())),
+             rate_text(*info["covered_counts"][m])] for m in info["counts"]])
+        lines += ["", "Their paired comparisons are the family \"on the covered test poses only\" below.", ""]
     lines += ["## Paired comparisons (test split)", "",
               "`+` / `-`: poses where only the first / only the second method held. Holm's correction within each "
               "family.", "", *comparison_table(info["comparisons"], family=True)]

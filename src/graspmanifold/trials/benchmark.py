@@ -213,13 +213,16 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test",
 
 
 def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hold",
-           rows: list[tuple[str, str]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+           rows: list[tuple[str, str]] | None = None,
+           keep: Mapping[tuple[str, str], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Success and validity per trial, concatenated over the benchmark's cells.
 
     Args:
         results: {(object, placement): EvaluationResult}, as `run_benchmark` returns.
         measure: 'hold' or 'force_closure'.
         rows: the cells to pool (default: all of `results`), taken in `cells()` order.
+        keep: {cell: (n,) bool over its trials}: only those trials (a subset of the poses, say the covered ones:
+            `grid.covered`); default every trial.
 
     Returns:
         (success, valid): two bool arrays over the pooled trials.
@@ -227,8 +230,18 @@ def pooled(results: dict[tuple[str, str], EvaluationResult], measure: str = "hol
     keys = [key for key in cells() if key in results and (rows is None or key in rows)]
     if not keys:
         raise InvalidInput("results hold none of the cells asked for")
-    return (np.concatenate([results[key].outcomes(measure) for key in keys]),
-            np.concatenate([results[key].valid for key in keys]))
+    kept = {key: slice(None) if keep is None else _kept(keep, key, len(results[key].trials)) for key in keys}
+    return (np.concatenate([results[key].outcomes(measure)[kept[key]] for key in keys]),
+            np.concatenate([results[key].valid[kept[key]] for key in keys]))
+
+
+def _kept(keep: Mapping[tuple[str, str], np.ndarray], key: tuple[str, str], n: int) -> np.ndarray:
+    """A cell's `keep` mask, checked against its trials."""
+    mask = np.asarray(keep.get(key, np.zeros(0)), dtype=bool)
+    if key not in keep or mask.shape != (n,):
+        raise InvalidInput(f"keep must give the cell {key} one bool per trial ({n}), got "
+                           f"{'none' if key not in keep else mask.shape}")
+    return mask
 
 
 #: what a paired comparison does with a trial whose physics failed: leave its pose out, or count it as a failure
@@ -237,7 +250,8 @@ INVALID_TRIALS = ("drop", "fail")
 
 def compare_pooled(a: dict[tuple[str, str], EvaluationResult], b: dict[tuple[str, str], EvaluationResult],
                    rows: list[tuple[str, str]] | None = None, measure: str = "hold",
-                   invalid: str = "drop") -> PairedComparison:
+                   invalid: str = "drop", keep: Mapping[tuple[str, str], np.ndarray] | None = None
+                   ) -> PairedComparison:
     """McNemar's test of method a against method b pooled over the benchmark's cells.
 
     Args:
@@ -248,12 +262,13 @@ def compare_pooled(a: dict[tuple[str, str], EvaluationResult], b: dict[tuple[str
         invalid: 'drop': pair the poses valid for both (a trial whose physics failed says nothing about its
             controller); 'fail': pair every pose, a failed trial's physics counted as a failed grasp (the
             sensitivity of a comparison to what was dropped).
+        keep: {cell: (n,) bool}: only those poses (`pooled`).
 
     Returns:
         The paired comparison.
     """
     check_choice(invalid, INVALID_TRIALS, "invalid")
-    (held_a, valid_a), (held_b, valid_b) = pooled(a, measure, rows), pooled(b, measure, rows)
+    (held_a, valid_a), (held_b, valid_b) = pooled(a, measure, rows, keep), pooled(b, measure, rows, keep)
     if held_a.shape != held_b.shape:
         raise InvalidInput(f"a and b pool {len(held_a)} and {len(held_b)} trials; a paired comparison needs the same "
                            "poses")

@@ -13,6 +13,7 @@ inside (or within 1 mm of) the open hand, which no hand could have reached (`rea
 from __future__ import annotations
 
 import itertools
+import math
 
 import mujoco
 import numpy as np
@@ -43,6 +44,9 @@ START_CLEARANCE = 0.001  # m: the open hand must be at least this far from the o
 PLANNED_START_DEPTH = 0.001
 #: m: the nominal pose's own depth, found again where the hand is put there anew, differs in its last bits
 START_DEPTH_TOLERANCE = 1e-6
+#: a grid pose is covered by the experience where a verified grasp holds the object's centre within this distance (m)
+#: of where the pose puts it, seen from the palm, its long axis within `COVERED_ANGLE` (rad) (`covered`)
+COVERED_WITHIN, COVERED_ANGLE = 0.01, math.radians(30.0)
 
 
 def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.ndarray:
@@ -323,3 +327,27 @@ def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -
         angle = 0.0 if obj.shape == "sphere" else float(np.arccos(min(1.0, abs(float(axes[nearest] @ axis)))))
         out[i] = distances[nearest], angle
     return out
+
+
+def covered(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray, within: float = COVERED_WITHIN,
+            angle: float = COVERED_ANGLE) -> np.ndarray:
+    """Which grid poses the experience covers: a verified grasp of it (its palm pose in the object frame) holds the
+    object's centre within `within` of where the pose puts it, seen from the palm, with the long axis within `angle`
+    (`coverage`; the object's symmetries count as the same placement). The paper's grid read honestly: where nothing
+    is covered, no recall of a verified grasp can hold the object without the palm moving.
+
+    Args:
+        obj: the object, or its name.
+        grid: (n, 4) grid poses.
+        hand_poses: (m, 7) the verified grasps' palm poses in the object frame (`PostureSet.hand_poses`).
+        within: m.
+        angle: rad.
+
+    Returns:
+        (n,) bool.
+    """
+    for name, value in (("within", within), ("angle", angle)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise InvalidInput(f"{name} must be a finite number >= 0, got {value!r}")
+    near = coverage(obj, grid, hand_poses)
+    return (near[:, 0] <= within) & (near[:, 1] <= angle)
