@@ -144,7 +144,11 @@ def test_the_uncertainty_study_runs_and_reports_every_method_at_every_level(tmp_
         assert list(counts) == levels
         for held, n in counts.values():
             assert 0 <= held <= n <= nominal
+        assert all(n <= info["plans"]["with_plan"] for _, n in counts.values())  # one denominator: the planned poses
         if method.startswith("open_loop"):  # over the poses with a plan, at every level alike
             assert {n for _, n in counts.values()} <= {info["plans"]["with_plan"]}
-    assert info["selected"]["chosen"] in info["curve"]
+    assert info["selected"]["chosen"] in info["curve"] and info["null"] == info["selected"]["chosen"] + "_null"
+    assert info["null"] in info["curve"] and not any(m.startswith("open_loop") for m in info["every_pose"])
+    assert all(info["covered_curve"][m][lv][1] <= info["curve"][m][lv][1] for m in info["curve"] for lv in levels)
+    assert "null map" in report and "covered" in report
 

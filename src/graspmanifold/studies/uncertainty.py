@@ -15,10 +15,15 @@ first dropped its object, each from the object's undisturbed true pose (an upper
 
 In order: the experience (the experience study's: verified postures of every grasp type, one SOM for all objects);
 on the selection split, at 2-5 cm, the choice among the tactile controllers with experience (the paper's literal
-controller, the blend, regrasp with the better of the two); on the test split, touched once, every method at every
-level, and the paired comparisons (McNemar, Holm within each family), pooled over the poses at 2-5 cm and per level.
-Poses without a plan (no tactile method held them at zero error, or none of their grasps replayed to a hold) are
-left out of the open loop's pairs; the sensitivity family counts them as the open loop's failures.
+controller, the blend, the approach execution of issue 65, regrasp with the best of them); on the test split,
+touched once, every method at every level, the chosen one also with the null experience (the map trained on the
+postures with each joint column permuted), and the paired comparisons (McNemar, Holm within each family), pooled over
+the poses at 2-5 cm and per level. Poses without a plan (no tactile method held them at zero error, or none of their
+grasps replayed to a hold) are left out of the open loop's pairs, and every rate of the main table is over the poses
+with a plan (the tactile methods over every pose in a table of their own); the sensitivity family counts them as the
+open loop's failures. The covered poses (a verified grasp of the experience holds the object within 1 cm of the
+nominal pose: `grid.covered`) get their own table and family. The planned-grasp study (`studies.planned_grasps`) is
+the fair form of this comparison: there every pose has a plan chosen by no outcome.
 
 Writes `--out/study.json`, the report `--doc` and its figure beside it (hold rate against error per method).
 """
@@ -44,7 +49,9 @@ from ..base.io import (
 from ..base.validation import check_int
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..sim.hand import N_FINGER_JOINTS
+from ..manifold.experience import scrambled
 from ..trials.benchmark import OBJECTS, cells, pooled
+from ..trials.grid import COVERED_WITHIN, covered
 from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
 from ..trials.uncertainty import POSITION_ERRORS, open_loop, plan, pose_errors
@@ -53,6 +60,7 @@ from .experience import (
     SOM_DESCRIPTIONS,
     SOM_VARIANTS,
     ExperienceStudy,
+    NULL_SEED,
     ExperienceStudyConfig,
     rate,
 )
@@ -69,7 +77,7 @@ TARGET_POINTS, TARGET_P, TARGET_POSES = 0.20, 0.01, 600
 #: m, the levels the target and the selection read
 LARGE_ERRORS = (0.02, 0.03, 0.05)
 #: the one-attempt SOM controllers the selection chooses between (the restart variant left to the experience study)
-ONE_ATTEMPT = ("som_paper", "som_blend")
+ONE_ATTEMPT = ("som_paper", "som_blend", "som_approach")
 #: the order in which the tactile methods' held grasps at the nominal pose are offered as the open loop's plans (the
 #: regrasp method's name is filled in when the selection has chosen its controller)
 PLAN_ORDER = ("none", "som_paper", "som_blend", "heuristic_retried", "regrasp")
@@ -229,11 +237,17 @@ def measure(study: UncertaintyStudy) -> dict:
     # the test split, touched once: every method at every level
     true = study.true_poses("test")
     runs = {"none": study.evaluate("test", "err_none", poses=true),
-            "som_paper": study.evaluate("test", "err_som_paper", som, SOM_VARIANTS["som_paper"], poses=true),
-            "som_blend": study.evaluate("test", "err_som_blend", som, SOM_VARIANTS["som_blend"], poses=true),
+            **{m: study.evaluate("test", f"err_{m}", som, SOM_VARIANTS[m], poses=true) for m in ONE_ATTEMPT},
             "heuristic_retried": study.evaluate("test", "err_heuristic_retried", regrasp=Regrasp(ATTEMPTS), poses=true),
             regrasp_name: study.evaluate("test", f"err_{regrasp_name}", som, SOM_VARIANTS[once], regrasp=with_experience,
                                          poses=true)}
+    # the null experience: the chosen method with the map trained on the postures scrambled
+    null = train_experience_map(scrambled(union.postures, NULL_SEED))
+    null_regrasp = Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(
+        null, union.postures, np.concatenate([grasp_types_of(s) for s in sets.values()])))
+    null_name = f"{chosen}_null"
+    runs[null_name] = study.evaluate("test", f"err_{null_name}", null, SOM_VARIANTS[once], poses=true,
+                                     regrasp=null_regrasp if chosen == regrasp_name else None)
     first, second = study.plans(runs)
     plan_one = study.open_loop_run("first", first)
     plan_two = study.open_loop_run("second", second)
@@ -242,12 +256,17 @@ def measure(study: UncertaintyStudy) -> dict:
     cell = np.array([f"{k[0]}/{k[1]}" for k in cells() if k in study.errors["test"]
                      for _ in study.errors["test"][k].level])
     has_plan = _pooled({k: np.isfinite(p).all(axis=1) for k, p in first.items()})
+    # the nominal poses a verified grasp of the experience holds the object near (`grid.covered`), every level's row
+    near = _pooled({k: np.repeat(covered(OBJECTS[k[0]].object, e.nominal[e.level == 0.0], sets[k[0]].hand_poses),
+                                 len(e.level) // max(int((e.level == 0.0).sum()), 1))
+                    for k, e in study.errors["test"].items()})
     held = {m: pooled(r) for m, r in runs.items()}
     one = _pooled(plan_one)
     held["open_loop"] = (one, has_plan)
     held["open_loop_retried"] = (one | _pooled(plan_two), has_plan)
-    attempts_of = {"none": 1, "som_paper": 1, "som_blend": 1, "open_loop": 1, "heuristic_retried": ATTEMPTS,
-                   regrasp_name: ATTEMPTS, "open_loop_retried": ATTEMPTS}
+    attempts_of = {"none": 1, **{m: 1 for m in ONE_ATTEMPT}, "open_loop": 1, "heuristic_retried": ATTEMPTS,
+                   regrasp_name: ATTEMPTS, null_name: ATTEMPTS if chosen == regrasp_name else 1,
+                   "open_loop_retried": ATTEMPTS}
     opponent = {m: "open_loop" if attempts_of[m] == 1 else "open_loop_retried" for m in attempts_of}
 
     def compare(a: str, b: str, rows: np.ndarray, invalid: str = "drop"):
@@ -265,11 +284,14 @@ def measure(study: UncertaintyStudy) -> dict:
                for v in POSITION_ERRORS],
         "every tactile method against the open loop, same attempts, 2-5 cm":
             [(f"{m} against {opponent[m]}", compare(m, opponent[m], big))
-             for m in ("none", "som_paper", "som_blend", "heuristic_retried", regrasp_name) if m != chosen],
+             for m in ("none", *ONE_ATTEMPT, "heuristic_retried", regrasp_name) if m != chosen],
         "experience among the tactile controllers, 2-5 cm":
             [(f"{regrasp_name} against heuristic_retried", compare(regrasp_name, "heuristic_retried", big)),
-             ("som_paper against none", compare("som_paper", "none", big)),
-             ("som_blend against none", compare("som_blend", "none", big))],
+             *((f"{m} against none", compare(m, "none", big)) for m in ONE_ATTEMPT),
+             (f"{chosen} against itself with the null map", compare(chosen, null_name, big))],
+        "on the covered poses only (a verified grasp holds the object within 1 cm of the nominal pose), 2-5 cm":
+            [(f"{chosen} against {opponent[chosen]}, covered, 2-5 cm", compare(chosen, opponent[chosen], big & near)),
+             (f"{chosen} against itself with the null map, covered, 2-5 cm", compare(chosen, null_name, big & near))],
         "sensitivity: poses without a plan and failed physics counted as failures, 2-5 cm":
             [(f"{chosen} against {opponent[chosen]}, every pose", compare(chosen, opponent[chosen], big, "fail"))],
     }
@@ -278,11 +300,17 @@ def measure(study: UncertaintyStudy) -> dict:
     checks = {"poses": main["n"] >= TARGET_POSES, "points": main["difference"] >= TARGET_POINTS,
               "significant": main["p_holm"] < TARGET_P}
     met = all(checks.values())
-    curve = {m: {f"{100 * v:.0f}": [int((h & ok)[level == v].sum()), int(ok[level == v].sum())]
-                 for v in POSITION_ERRORS} for m, (h, ok) in held.items()}
-    by_object = {m: {name: [int((h & ok)[big & np.char.startswith(cell, name + "/")].sum()),
-                            int(ok[big & np.char.startswith(cell, name + "/")].sum())] for name in study.objects}
-                 for m, (h, ok) in held.items()}
+
+    def counts(rows: np.ndarray) -> dict:  # every method's held and valid trials over these rows, by level
+        return {m: {f"{100 * v:.0f}": [int((h & ok)[rows & (level == v)].sum()), int(ok[rows & (level == v)].sum())]
+                    for v in POSITION_ERRORS} for m, (h, ok) in held.items()}
+
+    curve = counts(has_plan)  # one denominator for every method: the poses with a plan
+    every_pose = {m: c for m, c in counts(np.ones_like(has_plan)).items() if not m.startswith("open_loop")}
+    on_covered = counts(has_plan & near)
+    by_object = {m: {name: [int((h & ok)[has_plan & big & np.char.startswith(cell, name + "/")].sum()),
+                            int(ok[has_plan & big & np.char.startswith(cell, name + "/")].sum())]
+                     for name in study.objects} for m, (h, ok) in held.items()}
     verdict = (f"Target {'met' if met else 'not met'}: under 2-5 cm of pose error (and up to 12-30 degrees of yaw), "
                f"{chosen} (chosen on the selection split) holds {100 * (main['both'] + main['only_a']) / max(main['n'], 1):.1f}"
                f"% against the open loop's {100 * (main['both'] + main['only_b']) / max(main['n'], 1):.1f}% on "
@@ -294,7 +322,10 @@ def measure(study: UncertaintyStudy) -> dict:
             "postures_per_object": study.config.postures_per_object, "levels_cm": [100 * v for v in POSITION_ERRORS],
             "nominal_poses": {s: int(sum(len(e.kept) for e in d.values())) for s, d in study.errors.items()},
             "selected": {"once": once, "chosen": chosen}, "selection_rates": rates,
-            "attempts": attempts_of, "curve": curve, "by_object": by_object, "comparisons": comparisons,
+            "attempts": attempts_of, "curve": curve, "every_pose": every_pose, "covered_curve": on_covered,
+            "covered": {"within": COVERED_WITHIN, "nominal": int(near[level == 0].sum()),
+                        "with_plan": int((near & has_plan)[level == 0].sum())},
+            "null": null_name, "by_object": by_object, "comparisons": comparisons,
             "checks": checks, "target_met": met, "verdict": verdict,
             "plans": {"poses": int((level == 0).sum()), "with_plan": int(has_plan[level == 0].sum()),
                       "second_plan": int(_pooled({k: np.isfinite(p).all(axis=1) for k, p in second.items()})[level == 0].sum())},
@@ -304,9 +335,16 @@ def measure(study: UncertaintyStudy) -> dict:
 
 #: how the figure and the tables name the methods
 LABELS = {"none": "heuristic (1)", "som_paper": "paper's controller (1)", "som_blend": "blend (1)",
-          "open_loop": "open loop (1)", "heuristic_retried": "heuristic retried (2)",
+          "som_approach": "approach (1)", "open_loop": "open loop (1)", "heuristic_retried": "heuristic retried (2)",
           "regrasp_som_paper": "regrasp with experience (2)", "regrasp_som_blend": "regrasp with experience (2)",
-          "open_loop_retried": "open loop, two plans (2)"}
+          "regrasp_som_approach": "regrasp with experience (2)", "open_loop_retried": "open loop, two plans (2)"}
+
+
+def label(method: str) -> str:
+    """A method's name in the tables and the figure (with the null map: 'null map' added)."""
+    if method.endswith("_null"):
+        return f"{label(method.removesuffix('_null'))}, null map"
+    return LABELS.get(method, method)
 
 
 def plot(info: dict, path: Path) -> str:
@@ -320,7 +358,7 @@ def plot(info: dict, path: Path) -> str:
     levels = info["levels_cm"]
     for k, (method, counts) in enumerate(info["curve"].items()):
         rate_curve(ax, np.array(levels) + 0.06 * (k - len(info["curve"]) / 2), [counts[f"{v:.0f}"] for v in levels],
-                   fmt="o--" if method.startswith("open_loop") else "o-", label=LABELS.get(method, method),
+                   fmt="o--" if method.startswith("open_loop") else "o-", label=label(method),
                    linewidth=2.2 if method == info["selected"]["chosen"] else 1.2)
     ax.set_xlabel("position error (cm), with yaw error up to 6 degrees per cm")
     ax.set_ylabel("hold rate (%), 95 % Wilson interval")
@@ -348,17 +386,33 @@ def report(config: UncertaintyStudyConfig, info: dict) -> str:
               f"attempts, pooled over at least {TARGET_POSES} paired test poses, Holm p < {TARGET_P}. Checks: "
               + ", ".join(f"{k} {'yes' if v else 'no'}" for k, v in info["checks"].items()) + ".", "",
               f"![hold rate against pose error]({info['figure']})", ""]
+    levels = info["levels_cm"]
+    every = "every_pose" in info  # a study.json of before issue 65 mixes the denominators in one table
     lines += ["## Hold rate against pose error (test split)", "",
               f"{info['nominal_poses']['test']} nominal test poses (" + ("all" if info["stride"] == 1 else
-              f"every {info['stride']}. of those") + " of the experience study's test split), each at every level; the open loop's rates are over the poses with a plan "
-              f"({info['plans']['with_plan']} of {info['plans']['poses']}; a second plan for {info['plans']['second_plan']}).", ""]
-    levels = info["levels_cm"]
+              f"every {info['stride']}. of those") + " of the experience study's test split), each at every level; "
+              + ("every rate of this table and the figure is over the poses with a plan" if every else
+                 "the open loop's rates are over the poses with a plan")
+              + f" ({info['plans']['with_plan']} of {info['plans']['poses']}; a second plan for "
+              f"{info['plans']['second_plan']}).", ""]
     lines += markdown_table(["method (attempts)", *(f"{v:.0f} cm" for v in levels)],
-                            [[LABELS.get(m, m), *(rate_text(*c[f"{v:.0f}"]) for v in levels)]
+                            [[label(m), *(rate_text(*c[f"{v:.0f}"]) for v in levels)]
                              for m, c in info["curve"].items()])
-    lines += ["", "At 2-5 cm, per object:", ""]
+    if every:
+        lines += ["", f"The tactile methods over every nominal pose ({info['plans']['poses']}), with a plan or not:", ""]
+        lines += markdown_table(["method (attempts)", *(f"{v:.0f} cm" for v in levels)],
+                                [[label(m), *(rate_text(*c[f"{v:.0f}"]) for v in levels)]
+                                 for m, c in info["every_pose"].items()])
+        cover = info["covered"]
+        lines += ["", f"On the covered poses with a plan ({cover['with_plan']} of them; {cover['nominal']} nominal poses "
+                  f"covered in all): a verified grasp of the experience holds the object within "
+                  f"{100 * cover['within']:.0f} cm of the nominal pose (`grid.covered`):", ""]
+        lines += markdown_table(["method (attempts)", *(f"{v:.0f} cm" for v in levels)],
+                                [[label(m), *(rate_text(*c[f"{v:.0f}"]) for v in levels)]
+                                 for m, c in info["covered_curve"].items()])
+    lines += ["", "At 2-5 cm, per object" + (" (the poses with a plan):" if every else ":"), ""]
     lines += markdown_table(["method (attempts)", *info["objects"]],
-                            [[LABELS.get(m, m), *(rate_text(*c[o]) for o in info["objects"])]
+                            [[label(m), *(rate_text(*c[o]) for o in info["objects"])]
                              for m, c in info["by_object"].items()])
     lines += ["", "## Selection (selection split, 2-5 cm)", ""]
     lines += markdown_table(["method", "hold"], [[m, f"{r:.1%}"] for m, r in info["selection_rates"].items()])
