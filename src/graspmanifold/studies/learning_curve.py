@@ -5,8 +5,9 @@
 On the experience study's benchmark and split (`studies.experience`): the experience of every grasp type is generated
 at the largest size (`--sizes`, verified postures per object, default 48, 200 and 1,000); an experience of a smaller
 size is a random subset of it (seeded, the same objects' shares). For each size, one SOM is trained on all objects'
-postures and the paper's literal controller, the blend and regrasp with experience (the blend's, two attempts) run
-on the test split. Then the paper's resumed learning, from the smallest experience: each round the blend grasps
+postures and the paper's literal controller, the blend, regrasp with experience (the blend's, two attempts) and the
+approach execution (issue 65) run on the test split; at the largest size each also with the null experience (the
+postures scrambled, each joint column permuted), and at every size on the test poses it covers (`grid.covered`). Then the paper's resumed learning, from the smallest experience: each round the blend grasps
 every pose of the selection split, the final postures of the grasps that held (the sensed joints when the grasp
 was done: `EvaluationResult.successful_postures`) join the experience, and the map is trained again; after every
 round the three controllers run on the test split. Nothing of the test split ever joins the experience.
@@ -29,14 +30,16 @@ from ..base.config_files import read_config
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table
 from ..base.validation import check_int
-from ..control.controller import BLEND, ControllerParams
+from ..control.controller import APPROACH, BLEND, ControllerParams
 from ..control.generator import MAX_POSTURES
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
+from ..manifold.experience import scrambled
 from ..manifold.postureset import PostureSet
-from ..trials.benchmark import cells, compare_pooled, pooled
+from ..trials.benchmark import OBJECTS, cells, compare_pooled, pooled
+from ..trials.grid import covered
 from ..trials.stats import rate_text
 from ..trials.study import train_experience_map
-from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
+from .experience import ATTEMPTS, NULL_SEED, ExperienceStudy, ExperienceStudyConfig
 from .runner import (
     comparison_table,
     holm_family,
@@ -49,7 +52,8 @@ from .runner import (
 TARGET_P = 0.01
 #: the controllers of the curve: (label, parameters, with a regrasp)
 CONTROLLERS: tuple[tuple[str, ControllerParams, bool], ...] = (
-    ("som_paper", ControllerParams(), False), ("som_blend", BLEND, False), ("regrasp_som_blend", BLEND, True))
+    ("som_paper", ControllerParams(), False), ("som_blend", BLEND, False), ("regrasp_som_blend", BLEND, True),
+    ("som_approach", APPROACH, False))
 
 
 @dataclass(frozen=True)
@@ -111,10 +115,31 @@ def subset(sets: dict[str, PostureSet], n: int) -> tuple[np.ndarray, np.ndarray]
     """
     rows, types = [], []
     for postures in sets.values():
-        keep = np.sort(np.random.default_rng([0, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
+        keep = _drawn(postures, n)
         rows.append(postures.postures[keep])
         types.append(grasp_types_of(postures)[keep])
     return np.concatenate(rows), np.concatenate(types)
+
+
+def _drawn(postures: PostureSet, n: int) -> np.ndarray:
+    """The rows of a set an experience of n postures per object keeps (seeded by n), in order."""
+    return np.sort(np.random.default_rng([0, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
+
+
+def covered_poses(sets: dict[str, PostureSet], n: int, results: dict) -> dict[tuple[str, str], np.ndarray]:
+    """Which trials of a benchmark run the experience of n postures per object covers (`grid.covered`: one of the
+    object's verified grasps kept holds it within 1 cm of where the pose puts it).
+
+    Args:
+        sets: {object: verified postures}.
+        n: postures per object (`subset`'s draw).
+        results: {(object, placement): EvaluationResult}.
+
+    Returns:
+        {(object, placement): (trials,) bool}.
+    """
+    return {key: covered(OBJECTS[key[0]].object, np.array([t.grid_pose for t in result.trials]),
+                         sets[key[0]].hand_poses[_drawn(sets[key[0]], n)]) for key, result in results.items()}
 
 
 def own_grasps(results: dict) -> np.ndarray:
@@ -184,20 +209,32 @@ def measure(study: LearningCurveStudy) -> dict:
         study.log(f"round {r}: {len(held)} held grasps of the selection split join the experience ({len(grown)})")
         by_round[r] = study.test(f"n{sizes[0]}_round{r}", grown, types)
 
-    def counts(results: dict) -> list[int]:
-        held, valid = pooled(results)
+    # the null experience: the largest experience's postures scrambled, the same training, every controller
+    largest, largest_types = subset(sets, sizes[-1])
+    null = train_experience_map(scrambled(largest, NULL_SEED))
+    null_types = reference_grasp_types(null, largest, largest_types)
+    nulls = {name: study.evaluate("test", f"{name}_n{sizes[-1]}_null", null, params,
+                                  regrasp=Regrasp(ATTEMPTS, grasp_types=null_types) if retry else None)
+             for name, params, retry in CONTROLLERS}
+    # how much of the test split each size covers, and every controller there
+    kept = {n: covered_poses(sets, n, by_size[n][CONTROLLERS[0][0]]) for n in sizes}
+
+    def counts(results: dict, keep: dict | None = None) -> list[int]:
+        held, valid = pooled(results, keep=keep)
         return [int(held[valid].sum()), int(valid.sum())]
 
     family = []
     for name, _, _ in CONTROLLERS:
         family.append((f"{name}: {sizes[-1]} against {sizes[0]} per object",
                        compare_pooled(by_size[sizes[-1]][name], by_size[sizes[0]][name])))
+        family.append((f"{name}: {sizes[-1]} per object against the null map of as many",
+                       compare_pooled(by_size[sizes[-1]][name], nulls[name])))
         if study.config.own_rounds:
             family.append((f"{name}: round {study.config.own_rounds} of own grasps against {sizes[0]} per object",
                            compare_pooled(by_round[study.config.own_rounds][name], by_size[sizes[0]][name])))
     comparisons = holm_family(family, "the largest experience, and the grown one, against the smallest")
     rises = [c for c in comparisons if " against " in c["label"] and "round" not in c["label"]
-             and c["p_holm"] < TARGET_P and c["difference"] > 0]
+             and "null" not in c["label"] and c["p_holm"] < TARGET_P and c["difference"] > 0]
     own = [c for c in comparisons if "round" in c["label"] and c["p_holm"] < 0.05 and c["difference"] > 0]
     verdict = (f"Target {'met' if rises else 'not met'}: " + "; ".join(
         f"{c['label']} {100 * c['difference']:+.1f} points (n = {c['n']}, Holm p = {c['p_holm']:.2g})"
@@ -206,6 +243,10 @@ def measure(study: LearningCurveStudy) -> dict:
             "rounds": study.config.own_rounds, "added": added,
             "by_size": {str(n): {m: counts(r) for m, r in runs.items()} for n, runs in by_size.items()},
             "by_round": {str(k): {m: counts(r) for m, r in runs.items()} for k, runs in by_round.items()},
+            "null": {m: counts(r) for m, r in nulls.items()},
+            "covered": {str(n): {"poses": [int(sum(k.sum() for k in kept[n].values())),
+                                           int(sum(len(k) for k in kept[n].values()))],
+                                 **{m: counts(r, kept[n]) for m, r in by_size[n].items()}} for n in sizes},
             "comparisons": comparisons, "target_met": bool(rises), "verdict": verdict,
             "wall_seconds": time.perf_counter() - study.started, "workers": study.workers}
 
@@ -244,6 +285,19 @@ def report(config: LearningCurveConfig, info: dict) -> str:
     names = [name for name, _, _ in CONTROLLERS]
     lines += markdown_table(["postures per object", *names],
                             [[n, *(rate_text(*info["by_size"][n][m]) for m in names)] for n in info["by_size"]])
+    if "null" in info:  # a study.json of before issue 65 has neither
+        largest = str(info["sizes"][-1])
+        lines += ["", f"With the null experience ({largest} per object, each joint column permuted, the same training):",
+                  ""]
+        lines += markdown_table(["experience", *names], [
+            [f"{largest} per object", *(rate_text(*info["by_size"][largest][m]) for m in names)],
+            [f"{largest} per object, scrambled", *(rate_text(*info["null"][m]) for m in names)]])
+        lines += ["", "## Coverage by experience size", "",
+                  "The test poses where a verified grasp of the experience holds the object within 1 cm of where the "
+                  "pose puts it (`grid.covered`), and every controller's rate there:", ""]
+        lines += markdown_table(["postures per object", "covered test poses", *names], [
+            [n, f"{c['poses'][0]} of {c['poses'][1]}", *(rate_text(*c[m]) for m in names)]
+            for n, c in info["covered"].items()])
     lines += ["", f"## Rounds of own grasps (from {info['sizes'][0]} per object)", "",
               f"Held grasps added per round: {info['added']}.", ""]
     lines += markdown_table(["round", *names],
