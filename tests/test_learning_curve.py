@@ -45,10 +45,30 @@ def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split(tmp_pa
     assert np.array_equal(grown, np.concatenate([start, np.array(held).reshape(-1, N_FINGER_JOINTS)]))
     assert info["added"] == [len(held)] and set(info["by_round"]) == {"0", "1"}
     assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)
+    # the report again from study.json, with the ceiling quoted from the planned-grasp study's report
+    learning_curve.main(["--render", "--quick", "--sizes", "3", "--rounds", "1", "--out", str(tmp_path)])
+    report = (tmp_path / "learning_curve.md").read_text()
+    top = learning_curve.ceiling()
+    assert top is not None and "## The ceiling: a perfect recall" in report
+    held, n = top["approach-recall"][0]
+    assert n >= 300 and f"approach-recall (planned-grasp study) | {100 * held / n:.0f} %" in report
+
+
+def test_the_ceiling_is_the_planned_grasp_studys_perfect_recall_or_none(tmp_path):
+    import json
+
+    from graspmanifold.studies.learning_curve import ceiling
+
+    assert ceiling(tmp_path / "absent.json") is None
+    planned = json.loads(open("docs/planned_grasps.json").read())
+    top = ceiling()
+    assert top["levels"] == [0.0, 0.01]
+    assert top["approach-recall"][0] == planned["ceiling"]["approach-recall"]  # every plan at 0 cm
+    assert top["open-loop"][1] == planned["by_level"]["open-loop"][planned["levels"].index(0.01)]
 
 
 @pytest.mark.parametrize("field, value", [("sizes", (200, 48)), ("sizes", (0, 48)), ("sizes", (True,)),
-                                          ("rounds", -2), ("every", -1)])
+                                          ("rounds", -2), ("every", -1), ("seeds", -1), ("seeds", 11)])
 def test_bad_study_settings_are_refused_by_name(field, value):
     from graspmanifold.base.errors import InvalidInput
     from graspmanifold.studies.learning_curve import LearningCurveConfig

@@ -45,6 +45,18 @@ def test_a_study_is_configured_and_extended_by_subclassing(tmp_path):
         ExperienceStudyConfig(workers=0)
 
 
+def test_a_further_seed_makes_the_experience_anew_in_its_own_files(tmp_path):
+    """The seeds of the experience study: seed 0's files keep their names, a further seed's experience is generated
+    from its own seed and kept beside them."""
+    study = ExperienceStudy(ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1, postures=1))
+    study.objects = ("box",)
+    assert study.config.seed_count == 2 and ExperienceStudyConfig().seed_count == 3
+    first, _ = study.experience()
+    again, _ = study.experience(1)
+    assert (tmp_path / "experience_box.npz").exists() and (tmp_path / "experience_box_seed1.npz").exists()
+    assert not np.array_equal(first.postures, again.postures)
+
+
 def test_a_study_run_from_python_holds_its_folder(tmp_path):
     """The lock was the command's: a study started from a notebook could write a folder another study writes."""
     from graspmanifold.base.errors import OutputInUse

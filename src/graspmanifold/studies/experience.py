@@ -34,6 +34,8 @@ never told which object it grasps. The study, in the order a careful reviewer wo
    map trained on the postures with each joint column permuted: `manifold.experience.scrambled`); an experience
    claim is a claim against it. Coverage: the test poses where a verified grasp of the experience holds the object
    within 1 cm of where the pose puts it (`grid.covered`), every method's rate and the main comparisons also there.
+8. Seeds (`--seeds`, default 3): the experience made anew from seeds 1, 2 (generator, map, null map, trials) and the
+   claims of `REPLICATED` run again on the test split with the choices of step 5; a claim needs its sign on every seed.
 
 Every finished evaluation is kept in --out under the key of what made it, so an interrupted study resumes
 and a changed one recomputes only what changed; the configuration used is written to --out/config.toml. Writes `--out/study.json`
@@ -106,6 +108,14 @@ NULL_ONCE = "the selected SOM controller against itself with the null map"
 NULL_REGRASP = "regrasp with experience against regrasp with the null map"
 #: the attempts of the regrasp methods and their controls
 ATTEMPTS = 2
+#: the family of the further seeds' comparisons
+REPLICATIONS = "further seeds: the claims again with the experience and the trials seeded anew, pooled"
+#: the primary comparison's label in the replications
+PRIMARY = "regrasp with experience against the best fixed sequence"
+#: the claims every further seed runs again (generator, map, null map and trials seeded anew; the choices the selection
+#: split made kept): {label: (method, method)} of the test runs
+REPLICATED = {PRIMARY: ("regrasp_experience", "best_sequence"), NULL_ONCE: ("som", "som_null"),
+              NULL_REGRASP: ("regrasp_experience", "regrasp_null")}
 
 
 @dataclass(frozen=True)
@@ -118,6 +128,9 @@ class ExperienceStudyConfig:
         out: the folder of kept results ('' : study, or study-quick).
         doc: the markdown report ('': docs/experience_study.md, or OUT/experience_study.md for a quick run).
         postures: verified postures per object (0: 48, or 7 for a quick run).
+        seeds: seeds of the whole experience (generator, map, null map, trials): seed 0 runs the study, every
+            further seed the test split's claims again (`REPLICATED`) with the choices seed 0's selection split made;
+            a claim needs its sign on every seed (0: 3, or 2 for a quick run).
     """
 
     #: the folder of kept results (with '-quick' for a quick run) and the report's name, when not given
@@ -129,11 +142,14 @@ class ExperienceStudyConfig:
     out: str = ""
     doc: str = ""
     postures: int = 0
+    seeds: int = 0
 
     def __post_init__(self) -> None:
         if not isinstance(self.quick, bool):
             raise InvalidInput(f"quick must be true or false, got {self.quick!r}")
         check_int(self.workers, "workers")
+        if self.seeds != 0:
+            check_int(self.seeds, "seeds", high=10)
         if self.postures != 0:
             check_int(self.postures, "postures", high=MAX_POSTURES)
         for name in ("out", "doc"):
@@ -154,6 +170,11 @@ class ExperienceStudyConfig:
     def postures_per_object(self) -> int:
         """Verified postures per object."""
         return self.postures or (7 if self.quick else 48)
+
+    @property
+    def seed_count(self) -> int:
+        """Seeds of the experience and the trials."""
+        return self.seeds or (2 if self.quick else 3)
 
 
 class ExperienceStudy(StudyRun):
@@ -188,7 +209,8 @@ class ExperienceStudy(StudyRun):
         start = time.perf_counter()
         stored = self.out / "evaluation"
         ours = [key for key in cells() if key[0] in self.objects]
-        before = sum((stored / f"{method}_{split}_{o}_{p}.npz").exists() for o, p in ours)
+        files = [stored / f"{method}_{split}_{o}_{p}.npz" for o, p in ours]
+        existed = {path: path.stat().st_mtime_ns for path in files if path.exists()}
         chosen = {key: grid for key, grid in (self.split[split] if poses is None else poses).items()
                   if key[0] in self.objects}
         results = run_benchmark(experience, split="test" if split == "test" else "selection", params=params,
@@ -196,11 +218,12 @@ class ExperienceStudy(StudyRun):
                                 every=6 if self.config.quick and poses is None else 1,
                                 workers=self.executor or self.workers, seed=seed, store=stored, method=method,
                                 regrasp=regrasp)
-        self.reused_evaluations += before
+        kept = sum(path.exists() and path.stat().st_mtime_ns == mtime for path, mtime in existed.items())
+        self.reused_evaluations += kept  # a file stored by another configuration or code is made again, not reused
         self.evaluations += len(ours)
         ledger = stored / "seconds.json"  # how long each evaluation took when it ran, for a report made from reuse
         made = json.loads(ledger.read_text()) if ledger.exists() else {}
-        if before < len(ours):
+        if kept < len(ours):
             self.evaluation_seconds += time.perf_counter() - start
             made[f"{method}_{split}"] = time.perf_counter() - start
             write_text_atomic(ledger, json.dumps(made, indent=1))
@@ -212,25 +235,29 @@ class ExperienceStudy(StudyRun):
                  f"({time.perf_counter() - start:.0f} s)")
         return results
 
-    def experience(self) -> tuple[PostureSet, dict[str, PostureSet]]:
+    def experience(self, seed: int = 0) -> tuple[PostureSet, dict[str, PostureSet]]:
         """Verified postures of every grasp type per object, kept in OUT under the key of what made them (the
-        object, the number of postures, the generator's parameters and the code), and their union."""
+        object, the number of postures, the seed, the generator's parameters and the code), and their union.
+
+        Args:
+            seed: the generator's seed (the files of a seed other than 0 are named `experience_<object>_seed<k>`).
+        """
         sets = {}
         n = self.config.postures_per_object
         params = GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if self.config.quick else 50)
         for name in self.objects:
             obj = OBJECTS[name].object
-            key = result_key({"object": obj.params(), "n": n, "seed": 0, "params": asdict(params)})
+            key = result_key({"object": obj.params(), "n": n, "seed": seed, "params": asdict(params)})
 
             def make(parts: Path, obj=obj, name=name) -> PostureSet:
                 start = time.perf_counter()
-                postures = generate_postures(obj, n, seed=0, workers=self.workers, executor=self.executor,
+                postures = generate_postures(obj, n, seed=seed, workers=self.workers, executor=self.executor,
                                              params=params, checkpoint_dir=parts)
                 self.log(f"experience {name}: {len(postures)} postures from {postures.metadata['candidates']} "
                          f"candidates ({time.perf_counter() - start:.0f} s)")
                 return postures
 
-            sets[name] = self.postures(f"experience_{name}", key, make)
+            sets[name] = self.postures(f"experience_{name}" + (f"_seed{seed}" if seed else ""), key, make)
         return PostureSet.concatenate(list(sets.values())), sets
 
     def strategies(self, preshapes: dict[str, np.ndarray]) -> dict[str, np.ndarray | None]:
@@ -282,6 +309,42 @@ def grasp_type_preshapes(sets: dict[str, PostureSet]) -> dict[str, np.ndarray]:
             if len(rows):
                 by_type.setdefault(types[name.split(":", 1)[1]], []).append(rows)
     return {f"preshape_{t}": np.concatenate(rows).mean(axis=0) for t, rows in sorted(by_type.items())}
+
+
+def sequence(strategies: dict[str, np.ndarray | None], second: str) -> Regrasp:
+    """Two attempts, the second with the strategy `second` (the plain heuristic where it is None)."""
+    row = np.full(N_FINGER_JOINTS, np.nan) if strategies[second] is None else strategies[second]
+    return Regrasp(ATTEMPTS, preshapes=row[None])
+
+
+def replicate(study: ExperienceStudy, seed: int, best: str, tuned: str, second: str) -> dict[str, dict]:
+    """The test split's runs of the replicated claims (`REPLICATED`) with the experience made again from `seed`: the
+    generator, the map, the null map and the trials seeded with it; the strategy, SOM variant and sequence that seed
+    0's selection split chose kept.
+
+    Args:
+        study: the study (its folder keeps the runs, named `<method>_seed<k>`).
+        seed: the seed (>= 1).
+        best: the best single strategy; tuned: the SOM variant; second: the sequence's second strategy.
+
+    Returns:
+        {"best_sequence" | "som" | "som_null" | "regrasp_experience" | "regrasp_null": {cell: EvaluationResult}}.
+    """
+    union, sets = study.experience(seed)
+    som, null = train_experience_map(union.postures, seed), train_experience_map(scrambled(union.postures, seed), seed)
+    types = np.concatenate([grasp_types_of(s) for s in sets.values()])
+    strategies = study.strategies(grasp_type_preshapes(sets))
+    params, tag = SOM_VARIANTS[tuned], f"_seed{seed}"
+    return {"best_sequence": study.evaluate("test", f"sequence_{best}_{second}{tag}", preshape=strategies[best],
+                                            regrasp=sequence(strategies, second), seed=seed),
+            "som": study.evaluate("test", f"{tuned}{tag}", som, params, seed=seed),
+            "som_null": study.evaluate("test", f"{tuned}_null{tag}", null, params, seed=seed),
+            "regrasp_experience": study.evaluate(
+                "test", f"regrasp_{tuned}{tag}", som, params, seed=seed,
+                regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(som, union.postures, types))),
+            "regrasp_null": study.evaluate(
+                "test", f"regrasp_{tuned}_null{tag}", null, params, seed=seed,
+                regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(null, union.postures, types)))}
 
 
 def rate(results: dict, rows: list | None = None) -> float:
@@ -346,10 +409,12 @@ def main(argv: list[str] | None = None) -> None:
                         "--quick: OUT/experience_study.md)")
     parser.add_argument("--postures", type=int, default=None, help="verified postures per object (default 48; "
                         "quick: 7)")
+    parser.add_argument("--seeds", type=int, default=None, help="seeds of the experience and the trials: seed 0 runs "
+                        "the study, every further seed its claims again (default 3; quick: 2)")
     parser.add_argument("--render", action="store_true", help="only write the report again from OUT/study.json "
                         "(the run that made it is the one it reports)")
     args = parser.parse_args(argv)
-    flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "postures") if getattr(args, k) is not None}
+    flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "postures", "seeds") if getattr(args, k) is not None}
     try:  # every setting checked before OUT is made
         config = read_config(args.config, ExperienceStudyConfig()) if args.config else ExperienceStudyConfig()
         config = replace(config, **flags)
@@ -400,13 +465,9 @@ def measure(study: ExperienceStudy) -> dict:
     order = list(SOM_VARIANTS)  # on a tie the earlier variant wins
     tuned = max(order, key=lambda m: (rate(study.results[("selection", m)]), -order.index(m)))
 
-    def sequence(second: str) -> Regrasp:
-        row = np.full(N_FINGER_JOINTS, np.nan) if strategies[second] is None else strategies[second]
-        return Regrasp(ATTEMPTS, preshapes=row[None])
-
     sequences = {f"sequence_{best}_{m}": m for m in strategies}
     for name, second in sequences.items():
-        study.evaluate("selection", name, preshape=strategies[best], regrasp=sequence(second))
+        study.evaluate("selection", name, preshape=strategies[best], regrasp=sequence(strategies, second))
     best_sequence = max(sequences, key=lambda m: (rate(study.results[("selection", m)]), m))
     study.log(f"selected: best strategy {best}; shared preshape {shared}; SOM {tuned}; sequence {best_sequence}")
 
@@ -427,7 +488,7 @@ def measure(study: ExperienceStudy) -> dict:
         test[name] = study.evaluate("test", name, som, params)
     test["heuristic_retried"] = study.evaluate("test", "heuristic_retried", regrasp=Regrasp(ATTEMPTS))
     test["best_sequence"] = study.evaluate("test", best_sequence, preshape=strategies[best],
-                                      regrasp=sequence(sequences[best_sequence]))
+                                      regrasp=sequence(strategies, sequences[best_sequence]))
     test["regrasp_experience"] = study.evaluate("test", f"regrasp_{tuned}", som, SOM_VARIANTS[tuned],
                                            regrasp=Regrasp(ATTEMPTS, grasp_types=som_types))
     test["regrasp_selector"] = study.evaluate("test", f"regrasp_selector_{best}", preshape=strategies[best],
@@ -453,6 +514,12 @@ def measure(study: ExperienceStudy) -> dict:
         "n": int(valid.sum()), "selector": int(held[np.arange(len(held)), picked][valid].sum()),
         "best": int(held[valid].sum(axis=0).max()), "oracle": int(held[valid].any(axis=1).sum()), "chance_oracle": None,
         "picked": {m: int((picked[valid] == k).sum()) for k, m in enumerate(names)}}
+
+    # the claims again with the experience and the trials seeded anew, the choices of the selection split kept
+    seeds = {0: {"best_sequence": test["best_sequence"], "som": test[tuned], "som_null": test["som_null"],
+                 "regrasp_experience": test["regrasp_experience"], "regrasp_null": test["regrasp_null"]}}
+    for k in range(1, study.config.seed_count):
+        seeds[k] = replicate(study, k, best, tuned, sequences[best_sequence])
 
     # comparisons, each family corrected by Holm
     def family(a: str, b: str) -> list:
@@ -490,7 +557,20 @@ def measure(study: ExperienceStudy) -> dict:
                 ("regrasp with experience against the best fixed sequence", "regrasp_experience", "best_sequence"),
                 ("the paper's controller against the shared preshape", "som_paper", "shared_preshape"),
                 (NULL_ONCE, tuned, "som_null"), (NULL_REGRASP, "regrasp_experience", "regrasp_null"))]}
+    if len(seeds) > 1:
+        families[REPLICATIONS] = [(f"seed {k}: {label}", compare_pooled(runs[a], runs[b]))
+                                  for k, runs in seeds.items() if k for label, (a, b) in REPLICATED.items()]
     comparisons = [row for name, tests in families.items() for row in holm_family(tests, name)]
+    by_label = {c["label"]: c for c in comparisons}
+    at_seed = {k: {label: by_label[f"seed {k}: {label}" if k else label] for label in REPLICATED if label != PRIMARY}
+               for k in seeds}
+    for k in seeds:
+        at_seed[k][PRIMARY] = by_label[f"seed {k}: {PRIMARY}"] if k else next(
+            c for c in comparisons if c["family"].endswith("(primary)") and c["label"] == "pooled")
+    replication = {label: {"seeds": [at_seed[k][label] for k in seeds],
+                           "sign_holds": len({np.sign(at_seed[k][label]["difference"]) for k in seeds} - {0.0}) == 1
+                           and all(at_seed[k][label]["difference"] for k in seeds)}
+                   for label in REPLICATED}
 
     # the target
     primary = [c for c in comparisons if c["family"].endswith("(primary)")]
@@ -516,7 +596,7 @@ def measure(study: ExperienceStudy) -> dict:
                f"p = {once_main['p_value']:.2g}, Holm {once_main['p_holm']:.2g}). Headroom beyond chance on the "
                f"selection split {100 * pooled_room['beyond_chance']:.1f} points ("
                + ("enough for" if pooled_room["sufficient"] else "below")
-               + f" the {100 * MIN_HEADROOM_BEYOND_CHANCE:.0f}-point gate).")
+               + f" the {100 * MIN_HEADROOM_BEYOND_CHANCE:.0f}-point gate)." + seeds_verdict(replication))
     by_placement = {m: {p: rate(test[m], [(o, p) for o in study.objects]) for p in PLACEMENTS}
                     for m in ("none", "shared_preshape", tuned, "heuristic_retried", "best_sequence",
                               "regrasp_experience")}
@@ -544,9 +624,22 @@ def measure(study: ExperienceStudy) -> dict:
                                        for o in study.objects}},
             "covered_counts": {m: [int(h[v].sum()), int(v.sum())] for m, (h, v) in
                                ((m, pooled(r, keep=kept)) for m, r in test.items())},
+            "replication": replication,
             "seconds": study.evaluation_seconds, "wall_seconds": time.perf_counter() - study.started,
             "workers": study.workers, "reused": study.reused_evaluations, "evaluations": study.evaluations,
             "made_seconds": sum(study.made_seconds.values())}
+
+
+def seeds_verdict(replication: dict) -> str:
+    """The verdict's sentence on the seeds: each replicated claim's difference per seed and whether its sign held on
+    every one ('' for a run of one seed)."""
+    if not replication or len(next(iter(replication.values()))["seeds"]) < 2:
+        return ""
+    count = len(next(iter(replication.values()))["seeds"])
+    return f" Over {count} seeds of the experience and the trials (a claim needs its sign on every one): " + "; ".join(
+        f"{label} " + " / ".join(f"{100 * c['difference']:+.1f}" for c in r["seeds"]) + " points ("
+        + ("the sign holds" if r["sign_holds"] else "the sign does not hold") + ", Holm p "
+        + " / ".join(f"{c['p_holm']:.2g}" for c in r["seeds"]) + ")" for label, r in replication.items()) + "."
 
 
 def reading(info: dict) -> list[str]:
@@ -615,6 +708,20 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
               f"{100 * MIN_HEADROOM_BEYOND_CHANCE:.0f} points of headroom beyond chance. Checks: " + ", ".join(
                   f"{k} {'yes' if v else 'no'}" for k, v in info["checks"].items()) + ".", ""]
     lines += ["## Reading", "", *reading(info), ""]
+    if len(next(iter(info.get("replication", {}).values()), {"seeds": []})["seeds"]) > 1:
+        count = len(next(iter(info["replication"].values()))["seeds"])
+        lines += ["## Seeds", "",
+                  "The claims again with the whole experience made anew ("
+                  + ("seed 1" if count == 2 else f"seeds 1 ... {count - 1}") + " of the generator, the "
+                  "map, the null map's permutation and the trials; seed 0 is the study above), the choices seed 0's "
+                  "selection split made kept, on the same test poses. A claim is made only where its sign holds on "
+                  "every seed. Difference in points (+ / - pairs, Holm p within the family of the further seeds; "
+                  "seed 0's within its own family).", ""]
+        lines += markdown_table(["claim", *(f"seed {k}" for k in range(count)), "sign holds"], [
+            [label, *(f"{100 * c['difference']:+.1f} (+{c['only_a']} / -{c['only_b']}, {c['p_holm']:.2g})"
+                      for c in r["seeds"]), "yes" if r["sign_holds"] else "no"]
+            for label, r in info["replication"].items()])
+        lines += [""]
     split = info["split"]
     lines += ["## The split", "",
               f"All the benchmark's poses (the lattice and its midpoints), split at random, stratified by object and "

@@ -19,6 +19,7 @@ the last round against the smallest. Writes `--out/study.json`, the report `--do
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 
 from ..base.config_files import read_config
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table
+from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, ControllerParams
 from ..control.generator import MAX_POSTURES
@@ -50,6 +51,14 @@ from .runner import (
 
 #: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
 TARGET_P = 0.01
+#: the planned-grasp study's report, whose perfect recall is the curve's ceiling (`ceiling`)
+PLANNED_REPORT = Path("docs/planned_grasps.json")
+#: the arms of the planned-grasp study the ceiling quotes: a perfect recall with the approach execution (the
+#: curve's som_approach told the very verified grasp), and the plan replayed open loop
+CEILING_ARMS = ("approach-recall", "open-loop")
+#: the displacements the ceiling quotes (m): every plan at its own palm pose, and the plans 1 cm off it (a covered
+#: pose's reach)
+CEILING_LEVELS = (0.0, 0.01)
 #: the controllers of the curve: (label, parameters, with a regrasp)
 CONTROLLERS: tuple[tuple[str, ControllerParams, bool], ...] = (
     ("som_paper", ControllerParams(), False), ("som_blend", BLEND, False), ("regrasp_som_blend", BLEND, True),
@@ -66,6 +75,7 @@ class LearningCurveConfig(ExperienceStudyConfig):
         out: the folder of kept results ('': study-learning, or study-learning-quick).
         doc: the markdown report ('': docs/learning_curve.md, or OUT/learning_curve.md for a quick run).
         postures: unused (the largest of `sizes` is generated).
+        seeds: unused (the curve runs on one seed of generator, map and trials).
         sizes: verified postures per object, ascending (empty: 48, 200, 1000; quick: 3, 7).
         rounds: rounds of the controller's own grasps on the selection split (-1: 2; quick: 1).
     """
@@ -251,6 +261,24 @@ def measure(study: LearningCurveStudy) -> dict:
             "wall_seconds": time.perf_counter() - study.started, "workers": study.workers}
 
 
+def ceiling(path: Path = PLANNED_REPORT) -> dict | None:
+    """What no experience can beat: the planned-grasp study's perfect recall (the approach execution told the very
+    verified grasp, the palm where the grasp puts it) and the open loop, at 0 and 1 cm, quoted from its report.
+
+    Args:
+        path: the planned-grasp study's JSON (`scripts/study_planned_grasps.py` writes it).
+
+    Returns:
+        {"levels": [m], arm: [[held, trials] per level]} or None where that study has not run.
+    """
+    if not path.exists():
+        return None
+    planned = json.loads(path.read_text())
+    index = planned["levels"].index(CEILING_LEVELS[1])  # at 0 cm every plan ran (its ceiling), displaced a few
+    return {"levels": list(CEILING_LEVELS), "seeds": planned["config"]["seeds"],
+            **{arm: [planned["ceiling"][arm], planned["by_level"][arm][index]] for arm in CEILING_ARMS}}
+
+
 def plot(info: dict, path: Path) -> str:
     """Hold rate against experience size and against rounds, per controller, 95 % Wilson intervals."""
     import matplotlib
@@ -261,14 +289,20 @@ def plot(info: dict, path: Path) -> str:
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.8), sharey=True)
     for ax, (key, xlabel) in zip(axes, (("by_size", "verified postures per object"), ("by_round", "rounds of own grasps"))):
         xs = list(info[key])
-        for name, _, _ in CONTROLLERS:
+        for name in info[key][xs[0]]:  # the controllers the run had
             rate_curve(ax, [float(x) for x in xs], [info[key][x][name] for x in xs], fmt="o-", label=name)
         ax.set_xlabel(xlabel)
+        top = ceiling()
+        if top is not None:  # the perfect recall of the planned-grasp study, at 0 and 1 cm
+            for (held, n), style in zip(top[CEILING_ARMS[0]], ("--", ":")):
+                ax.axhline(100 * held / n, color="k", linestyle=style, linewidth=1)
         if key == "by_size":
             ax.set_xscale("log")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("hold rate on the test split (%)")
     axes[0].legend(fontsize=8)
+    if ceiling() is not None:
+        axes[1].set_title("dashed / dotted: a perfect recall at 0 / 1 cm (planned-grasp study)", fontsize=8)
     figure.tight_layout()
     return save_figure(figure, path)
 
@@ -282,7 +316,7 @@ def report(config: LearningCurveConfig, info: dict) -> str:
               f"{info['workers']}`: {info['wall_seconds']:.0f} s. Hold test rates on the test split with 95 % Wilson "
               "intervals; paired comparisons (McNemar), Holm within the family.", "", "## Verdict", "", info["verdict"], "",
               f"![learning curve]({info['figure']})", "", "## Hold rate by experience size (test split)", ""]
-    names = [name for name, _, _ in CONTROLLERS]
+    names = list(next(iter(info["by_size"].values())))  # the controllers the run had
     lines += markdown_table(["postures per object", *names],
                             [[n, *(rate_text(*info["by_size"][n][m]) for m in names)] for n in info["by_size"]])
     if "null" in info:  # a study.json of before issue 65 has neither
@@ -298,6 +332,20 @@ def report(config: LearningCurveConfig, info: dict) -> str:
         lines += markdown_table(["postures per object", "covered test poses", *names], [
             [n, f"{c['poses'][0]} of {c['poses'][1]}", *(rate_text(*c[m]) for m in names)]
             for n, c in info["covered"].items()])
+    top = ceiling()
+    if top is not None:
+        largest = str(info["sizes"][-1])
+        lines += ["", "## The ceiling: a perfect recall", "",
+                  "What no experience can beat: the planned-grasp study ([its report](planned_grasps.md), seeds "
+                  f"{', '.join(map(str, top['seeds']))}) tells som_approach's execution the very verified grasp and "
+                  "puts the palm where that grasp puts it (a perfect recall), and replays the grasp open loop; at 0 cm "
+                  "and with the object 1 cm off, the reach of a covered pose here. Quoted from its report when this one "
+                  "was written; its plans are another benchmark's poses, so the ceiling bounds, it is not paired.", ""]
+        lines += markdown_table(["", *(f"{100 * level:.0f} cm" for level in top["levels"])], [
+            [f"{arm} (planned-grasp study)", *(rate_text(*c) for c in top[arm])] for arm in CEILING_ARMS] + ([
+            [f"som_approach, {largest} per object, covered test poses (within 1 cm)",
+             "", rate_text(*info["covered"][largest]["som_approach"])]]
+            if "som_approach" in info.get("covered", {}).get(largest, {}) else []))
     lines += ["", f"## Rounds of own grasps (from {info['sizes'][0]} per object)", "",
               f"Held grasps added per round: {info['added']}.", ""]
     lines += markdown_table(["round", *names],
@@ -317,6 +365,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=None, help="postures per object, ascending "
                         "(default 48 200 1000)")
     parser.add_argument("--rounds", type=int, default=None, help="rounds of own grasps (default 2)")
+    parser.add_argument("--render", action="store_true", help="only write the report and its figure again from "
+                        "OUT/study.json (the run that made it is the one it reports)")
     args = parser.parse_args(argv)
     flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "rounds") if getattr(args, k) is not None}
     if args.sizes is not None:
@@ -326,6 +376,15 @@ def main(argv: list[str] | None = None) -> None:
         config = replace(config, **flags)
     except InvalidInput as error:
         raise SystemExit(f"error: {error}") from None
+    if args.render:
+        stored = config.out_dir / "study.json"
+        if not stored.exists():
+            raise SystemExit(f"error: --render needs {stored}, written by a run of the study")
+        info = json.loads(stored.read_text())
+        info["figure"] = plot(info, config.doc_path.with_suffix(".png"))
+        write_text_atomic(config.doc_path, report(config, info))
+        print(f"wrote {config.doc_path} and its figure from {stored}")
+        return
     run_command(config.out_dir, lambda: LearningCurveStudy(config).run())
 
 
