@@ -137,6 +137,21 @@ def test_a_fault_in_any_arm_is_a_failure_and_is_reported():
     assert trials.held("b").tolist() == [False, False, True] and trials.faulted("b").tolist() == [True, False, False]
 
 
+def test_holds_without_force_closure_are_examined_by_what_touched_and_the_timeout():
+    from graspmanifold.studies.planned_grasps import outcomes_of, without_closure
+
+    touch = np.zeros(len(SEGMENTS), bool)
+    pinch, hook = touch.copy(), touch.copy()
+    pinch[[SEGMENTS.index("thdistal"), SEGMENTS.index("ffdistal")]] = True
+    hook[[SEGMENTS.index("palm"), SEGMENTS.index("mfmiddle")]] = True
+    closed = Trial(np.zeros(4), np.zeros(22), pinch, 0.1, True, 0.0, 1.0, 0)
+    trials = [closed, replace(closed, epsilon=0.0, time_to_grasp=3.0), replace(closed, epsilon=0.0, touching=hook),
+              replace(closed, epsilon=0.0, hold=False)]
+    result = PlanTrials(np.zeros((5, 4)), np.array([1, 1, 0, 1, 2]), {"approach-recall": trials})
+    assert without_closure({"plan": outcomes_of(result)}, "approach-recall") == {
+        "held": 3, "no_closure": 2, "at_timeout": 1, "thumb_opposed": 1, "palm_no_thumb": 1, "fingers_only": 0}
+
+
 def test_displacements_are_each_level_in_eight_directions_with_a_bounded_yaw_and_the_seed_decides():
     moved = displacements(seed=3, plan=2)
     assert moved.shape == (1 + 8 * (len(LEVELS) - 1), 4) and not moved[0].any()

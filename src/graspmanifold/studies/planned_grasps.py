@@ -26,6 +26,7 @@ import functools
 import re
 import sys
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,12 +37,16 @@ from ..base.errors import InvalidInput
 from ..base.io import load_npz, markdown_table, save_npz
 from ..base.validation import check_int
 from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasps
+from ..control.controller import ControllerParams
 from ..control.generator import GeneratorParams, generate_postures
+from ..control.judge import JUDGING
 from ..manifold.experience import Experience, scrambled
 from ..manifold.som import SOM
+from ..sim.hand import SEGMENTS
 from ..trials.benchmark import OBJECTS
 from ..trials.planned import ARMS, LEVELS, PLANNED_PROTOCOL, STARTS, PlanTrials, displacements, level_of, run_plan
 from ..trials.stats import mcnemar, rate_text
+from ..trials.trial import Trial
 from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure
 
 #: the questions of issue 65, each a pair of arms (first against second) at some levels (m)
@@ -109,11 +114,23 @@ def _plan_task(task: tuple, plans: dict[tuple[str, int], list[OpenLoopGrasp]],
     return run_plan(plans[name, seed][index], OBJECTS[name].object, tuple(ARMS), experiences[name, seed], moved, seed)
 
 
+def _per_start(result: PlanTrials, arm: str, value: Callable[[Trial], object], empty: object) -> np.ndarray:
+    """(k, ...) one value of each of an arm's trials, `empty` where no trial started."""
+    rows = [value(t) for t in result.trials[arm]]
+    out = np.array([empty] * len(result.displacements))
+    if rows:
+        out[result.started] = rows
+    return out
+
+
 def _write(result: PlanTrials, path: Path, meta: dict) -> None:
     arrays = {"displacements": result.displacements, "start": result.start}
     for arm in result.trials:
         arrays[f"held_{arm}"] = result.held(arm)
         arrays[f"faulted_{arm}"] = result.faulted(arm)
+        arrays[f"epsilon_{arm}"] = _per_start(result, arm, lambda t: t.epsilon, np.nan)
+        arrays[f"seconds_{arm}"] = _per_start(result, arm, lambda t: t.time_to_grasp, np.nan)
+        arrays[f"touching_{arm}"] = _per_start(result, arm, lambda t: t.touching, np.zeros(len(SEGMENTS), bool))
     save_npz(path, "planned_trials", arrays, {**meta, "arms": list(result.trials),
                                              "faults": {arm: [t.fault for t in trials if t.fault]
                                                         for arm, trials in result.trials.items()}})
@@ -128,6 +145,9 @@ class _Outcomes:
     held: dict[str, np.ndarray]
     faulted: dict[str, np.ndarray]
     faults: dict[str, list[str]]
+    epsilon: dict[str, np.ndarray]  # (k,) each trial's force-closure epsilon (NaN: none started)
+    seconds: dict[str, np.ndarray]  # (k,) s each trial's controller took to call its grasp done
+    touching: dict[str, np.ndarray]  # (k, len(SEGMENTS)) bool, the segments touching the object when it was
 
     @property
     def started(self) -> np.ndarray:
@@ -139,16 +159,23 @@ def _read(path: Path) -> tuple[_Outcomes, dict]:
     arrays, meta = load_npz(path, "planned_trials", {"displacements": (None, 4), "start": (None,)})
     outcomes = _Outcomes(level_of(arrays["displacements"]), arrays["start"].astype(int),
                          {arm: arrays[f"held_{arm}"].astype(bool) for arm in meta["arms"]},
-                         {arm: arrays[f"faulted_{arm}"].astype(bool) for arm in meta["arms"]}, meta["faults"])
+                         {arm: arrays[f"faulted_{arm}"].astype(bool) for arm in meta["arms"]}, meta["faults"],
+                         *({arm: arrays[f"{kind}_{arm}"].astype(dtype) for arm in meta["arms"]}
+                           for kind, dtype in (("epsilon", float), ("seconds", float), ("touching", bool))))
     return outcomes, meta
 
 
-def _as_outcomes(result: PlanTrials | _Outcomes) -> _Outcomes:
+def outcomes_of(result: PlanTrials | _Outcomes) -> _Outcomes:
+    """What the report reads of one plan's trials, from the trials or as kept on disk."""
     if isinstance(result, _Outcomes):
         return result
     return _Outcomes(level_of(result.displacements), result.start, {a: result.held(a) for a in result.trials},
                      {a: result.faulted(a) for a in result.trials},
-                     {a: [t.fault for t in ts if t.fault] for a, ts in result.trials.items()})
+                     {a: [t.fault for t in ts if t.fault] for a, ts in result.trials.items()},
+                     {a: _per_start(result, a, lambda t: t.epsilon, np.nan) for a in result.trials},
+                     {a: _per_start(result, a, lambda t: t.time_to_grasp, np.nan) for a in result.trials},
+                     {a: _per_start(result, a, lambda t: t.touching, np.zeros(len(SEGMENTS), bool))
+                      for a in result.trials})
 
 
 def run(config: PlannedStudyConfig, study: StudyRun, doc: Path) -> dict:
@@ -177,7 +204,7 @@ def run(config: PlannedStudyConfig, study: StudyRun, doc: Path) -> dict:
     kept = study.keep_each("plans", tasks, compute, _read, _write,
                            lambda task, r: f"{task[0]} seed {task[1]} plan {task[2]}: " + ", ".join(
                                f"{a} {int(r.held(a).sum())}" for a in ("open-loop", "approach-recall", "approach")))
-    outcomes = {task: _as_outcomes(result) for task, result in kept.items()}
+    outcomes = {task: outcomes_of(result) for task, result in kept.items()}
     return summarise(config, outcomes, doc)
 
 
@@ -217,6 +244,7 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
     info["faults"] = {arm: int(sum(o.faulted[arm].sum() for o in outcomes.values())) for arm in arms}
     info["fault_reasons"] = {arm: dict(Counter(_reason(f) for o in outcomes.values() for f in o.faults[arm]))
                              for arm in arms}
+    info["without_closure"] = {arm: without_closure(outcomes, arm) for arm in arms}
     family, signs = [], []
     for label, a, b, levels in QUESTIONS:
         held_a, started = _pairs(outcomes, a, levels, displaced_only=levels != (0.0,))
@@ -241,6 +269,39 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
                        f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}.")
     info["command"] = "python scripts/study_planned_grasps.py " + " ".join(sys.argv[1:])
     return info
+
+
+def without_closure(outcomes: dict, arm: str) -> dict[str, int]:
+    """The examination of an arm's holds without force closure (epsilon at most `JUDGING.epsilon_threshold`): what
+    touched the object, and how many ended at the controller's timeout (never called done).
+
+    Args:
+        outcomes: {task: _Outcomes} of the study.
+        arm: the arm.
+
+    Returns:
+        {"held", "no_closure", "at_timeout", "thumb_opposed" (a thumb segment and a finger's), "palm_no_thumb",
+        "fingers_only" (neither thumb nor palm)}: trial counts over every level.
+    """
+    thumb = np.array([name.startswith("th") for name in SEGMENTS])
+    palm = np.array([name == "palm" for name in SEGMENTS])
+    finger = ~thumb & ~palm & np.array([name not in ("forearm", "wrist") for name in SEGMENTS])
+    timeout = None if ARMS[arm].controller == "open-loop" else ControllerParams().timeout
+    counts = Counter()
+    for o in outcomes.values():
+        held = o.held[arm]
+        loose = held & ~(o.epsilon[arm] > JUDGING.epsilon_threshold)
+        touch = o.touching[arm][loose]
+        counts["held"] += int(held.sum())
+        counts["no_closure"] += int(loose.sum())
+        counts["at_timeout"] += 0 if timeout is None else int((o.seconds[arm][loose] >= timeout - 1e-6).sum())
+        opposed = touch[:, thumb].any(axis=1) & touch[:, finger].any(axis=1)
+        with_palm = ~touch[:, thumb].any(axis=1) & touch[:, palm].any(axis=1)
+        counts["thumb_opposed"] += int(opposed.sum())
+        counts["palm_no_thumb"] += int(with_palm.sum())
+        counts["fingers_only"] += int((~opposed & ~with_palm).sum())
+    return {k: counts[k] for k in ("held", "no_closure", "at_timeout", "thumb_opposed", "palm_no_thumb",
+                                   "fingers_only")}
 
 
 def _reason(fault: str) -> str:
@@ -288,6 +349,22 @@ def report(info: dict) -> str:
         info["comparisons"][0]["by_seed"])]] + ["same sign"],
         [[r["label"]] + [f"{100 * d:+.1f} pts" for d in r["by_seed"]] + ["yes" if r["same_sign"] else "no"]
          for r in info["comparisons"]])
+    if "without_closure" in info:  # a study.json of before the examination has none
+        lines += ["", "## Holds without force closure, examined", "",
+                  f"A held trial whose grasp has epsilon at most {JUDGING.epsilon_threshold:g} (no force closure in "
+                  "the grasp wrench space of its contacts) held the object through the hold test's six gravity "
+                  "directions all the same: what touched it, and how many such trials ended at the controller's "
+                  f"timeout ({ControllerParams().timeout:g} s, never called done), over every level. A thumb opposed "
+                  "to a finger is a pinch (two soft contacts: a torque about the line between them is held by "
+                  "friction the epsilon metric does not count); a palm with fingers and no thumb is a hook or a "
+                  "wrap against the palm; fingers alone hold the object between them. Each held through the same "
+                  "hold test as every other grasp, so each is counted as one (the hold test, not epsilon, is the "
+                  "outcome of every arm).", ""]
+        lines += markdown_table(["arm", "held", "without closure", "at the timeout", "thumb opposed",
+                                 "palm, no thumb", "fingers only"],
+                                [[arm, w["held"], w["no_closure"], "–" if ARMS[arm].controller == "open-loop" else
+                                  w["at_timeout"], w["thumb_opposed"], w["palm_no_thumb"], w["fingers_only"]]
+                                 for arm, w in info["without_closure"].items()])
     lines += ["", "## Faults by arm (each counted as a failure above)", ""]
     lines += markdown_table(["arm", "faults", "object: reason (count)"],
                             [[arm, info["faults"][arm], "; ".join(f"{r} ({n})" for r, n in sorted(
