@@ -687,6 +687,24 @@ def test_the_approach_takes_every_finger_to_its_recall_together_then_on_along_th
     assert max(arrivals) - min(arrivals) <= 1  # together
 
 
+def test_a_finger_the_heuristic_would_not_move_does_not_stop_the_others_on_their_way_together():
+    """A finger whose start is already the closed posture has no closing speed; its way's time was infinite and
+    held every finger of the approach where it started."""
+    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+
+    start = gm.open_posture() + 0.1 * (gm.closed_posture() - gm.open_posture())
+    first = FINGER_JOINT_MASKS[0]
+    start[first] = gm.closed_posture()[first]
+    recalled = gm.open_posture() + 0.5 * (gm.closed_posture() - gm.open_posture())
+    controller = gm.GraspController(gm.PostureDatabase(recalled[None]), APPROACH, initial_posture=start)
+    joints, forces = start.copy(), np.zeros(len(gm.SEGMENTS))
+    for _ in range(200):
+        with np.errstate(all="raise"):
+            joints = controller.step(joints, forces)  # the joints follow their targets exactly: nothing touches
+    for finger, of in zip(gm.FINGERS, FINGER_JOINT_MASKS):
+        assert np.linalg.norm(joints[of] - start[of]) > 0.1, finger  # every finger left its start
+
+
 def test_a_touching_finger_presses_on_along_its_way_and_without_a_way_the_approach_is_the_papers_closing():
     """A finger that touches holds where it touched and presses `squeeze` rad (its joints' norm) on along the way it
     came to its recall; with no experience there is no way, and the approach closes and presses exactly as the

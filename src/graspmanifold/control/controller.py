@@ -363,7 +363,8 @@ class ApproachRecall(TargetRecall):
         c.state.way[worlds] = np.where(new[:, JOINT_FINGER], c.state.recall[worlds] - c.initial, c.state.way[worlds])
         if self.together:  # the slowest finger's time at its own speed, the others slowed to it
             length = np.sqrt(((c.state.recall[worlds] - start) ** 2) @ FINGER_JOINT_MASKS.T)  # (m, 5) to travel
-            time = np.max(np.where(new, length / c.speed, 0.0), axis=1, keepdims=True)
+            moves = new & (c.speed > 0)  # a finger the heuristic would not move (start at closed) sets no time
+            time = np.max(np.where(moves, length / np.where(c.speed > 0, c.speed, 1.0), 0.0), axis=1, keepdims=True)
             pace = np.where(time > 0, length / np.where(time > 0, time, 1.0), c.speed)
             c.state.pace[worlds] = np.where(new, pace, c.state.pace[worlds])
 
