@@ -20,7 +20,7 @@ is the same controller for one world, driven one posture at a time.
        not changed for `stable_time` and every finger touches or is fully closed, or at `timeout`.
 
 What a best match does is a `RecallRule`, a value of `ControllerParams.recall` (ours by name, `RECALL_RULES`, or
-one of one's own); the two ours:
+one of one's own); ours:
 
 - `"target"` (`TargetRecall`), the paper's reading ("the resulting posture then acts as the target posture for the
   current control cycle", Section 2): each steered free finger moves to its part of the recalled
@@ -38,6 +38,11 @@ one of one's own); the two ours:
   by the arm, by the mean difference between where the touching segments are and where the recalled
   grasp puts them, `hand.SegmentKinematics`, at most `reach` at `reach_speed`, every finger following the
   recall meanwhile; `palm_offset` is where the palm is, palm frame).
+- `"approach"` (`ApproachRecall`, `APPROACH`, issue 65): the paper's reading executed as a verified grasp is:
+  the fingers that set out for a recall together arrive together (`GraspState.pace`); one that arrives untouched
+  closes on along its way (from the attempt's starting posture to the recall, `GraspState.way`, up to `overshoot`
+  ways beyond: `GraspState.aim`), not towards the closed fist; a touching finger presses `squeeze` on along that
+  way (`RecallRule.pressed`) instead of along its flexion. Without a recall it is the paper's controller.
 
 Beyond the paper, a controller with a `regrasp.Regrasp` of more than one attempt is probed once its grasp
 is done (the trials lift it: gravity on, touch watched); a failing grasp is opened and grasped again from
