@@ -336,7 +336,7 @@ def report(config: LearningCurveConfig, info: dict) -> str:
     if top is not None:
         largest = str(info["sizes"][-1])
         lines += ["", "## The ceiling: a perfect recall", "",
-                  "What no experience can beat: the planned-grasp study ([its report](planned_grasps.md), seeds "
+                  "What no experience can beat: the planned-grasp study (`docs/planned_grasps.md`, seeds "
                   f"{', '.join(map(str, top['seeds']))}) tells som_approach's execution the very verified grasp and "
                   "puts the palm where that grasp puts it (a perfect recall), and replays the grasp open loop; at 0 cm "
                   "and with the object 1 cm off, the reach of a covered pose here. Quoted from its report when this one "
