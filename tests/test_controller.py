@@ -167,7 +167,9 @@ def test_a_finger_that_loses_its_contact_closes_on_from_where_it_held(experience
                                           # not a whole number of 2 ms physics steps: the clocks would drift apart
                                           # (0.0005 once ran 24.8 s of physics for 6.2 s of controller time)
                                           ("control_period", 0.0005), ("control_period", 0.003),
-                                          ("control_period", 1e-9), ("control_period", True)])
+                                          ("control_period", 1e-9), ("control_period", True),
+                                          ("grip_force", 0.0), ("grip_force", float("nan")), ("grip_force", True),
+                                          ("grip_gain", 0.0), ("grip_press", 1.5), ("grip_press", -0.1)])
 def test_bad_controller_params_raise(field, value):
     with pytest.raises(ValueError, match=field):
         gm.ControllerParams(**{field: value})
@@ -740,3 +742,48 @@ def test_a_touching_finger_presses_on_along_its_way_and_without_a_way_the_approa
 def test_the_approach_refuses_a_bad_setting(field, value):
     with pytest.raises(ValueError, match=f"ApproachRecall.{field}"):
         gm.ApproachRecall(**{field: value})
+
+
+def test_the_grip_is_regulated_to_the_grip_force_within_its_press_bounds_while_grasping_and_once_done():
+    """A holding finger's press follows the total sensed force, while the grasp goes on and once it is done: less
+    while it is above `grip_force`, more while below, never outside [0, `grip_press`] rad; along the approach's way,
+    so the press targets stay on it. Without a grip force (inf) the press is the squeeze, and a done grasp keeps its
+    targets whatever it senses."""
+    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+
+    start = gm.open_posture()
+    recalled = start + 0.3 * (gm.closed_posture() - start)
+    tips = np.zeros((1, len(gm.SEGMENTS)))
+    tips[0, [gm.SEGMENTS.index(s) for s in ("ffdistal", "mfdistal", "rfdistal", "lfdistal", "thdistal")]] = 1.0
+
+    def grasped(params):
+        controller = BatchController(1, gm.PostureDatabase(recalled[None]), params, initial_posture=start)
+        joints = start[None].copy()
+        for cycle in range(200):
+            joints = controller.step(joints, tips * (cycle >= 30))
+            if controller.done[0]:
+                return controller, joints
+        raise AssertionError("the grasp never finished")
+
+    controller, done_targets = grasped(replace(APPROACH, grip_force=10.0, grip_gain=2.0))
+    ff = FINGER_JOINT_MASKS[gm.FINGERS.index("ff")]
+    held = controller.state.held_posture[0, ff]
+    way = controller.state.way[0, ff] / np.linalg.norm(controller.state.way[0, ff])
+    press = [controller.state.grip[0]]
+    assert APPROACH.squeeze < press[0] <= APPROACH.grip_press  # 5 N sensed while grasping, half the grip force
+    for _ in range(20):  # 40 N sensed, four times the grip force: the press eases off, down to 0
+        targets = controller.step(done_targets, tips * 8.0)
+        press.append(controller.state.grip[0])
+    assert np.all(np.diff(press) <= 0) and press[-1] == 0.0
+    np.testing.assert_allclose(targets[0, ff], held, atol=1e-12)  # back where the finger touched
+    for _ in range(40):  # 5 N sensed, half the grip force: the press grows, up to grip_press
+        targets = controller.step(done_targets, tips)
+        press.append(controller.state.grip[0])
+    assert np.all(np.diff(press[21:]) >= 0) and press[-1] == APPROACH.grip_press
+    np.testing.assert_allclose(targets[0, ff], held + APPROACH.grip_press * way, atol=1e-12)
+    assert controller.done[0]
+
+    controller, done_targets = grasped(APPROACH)
+    assert controller.state.grip[0] == APPROACH.squeeze
+    for forces in (tips * 8.0, tips * 0.0):
+        np.testing.assert_array_equal(controller.step(done_targets, forces), done_targets)

@@ -9,7 +9,7 @@ import pytest
 
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.poses import compose, invert
-from graspmanifold.control.controller import BatchController, ControllerParams, SETTLED_BLEND
+from graspmanifold.control.controller import APPROACH, BatchController, ControllerParams, SETTLED_BLEND
 from graspmanifold.control.dexgraspbench import OpenLoop, OpenLoopController, open_loop_grasps
 from graspmanifold.control.generator import GeneratorParams, generate_postures
 from graspmanifold.manifold.experience import PostureDatabase, scrambled
@@ -257,3 +257,20 @@ def test_the_null_experience_keeps_every_joints_values_and_no_posture():
     assert np.array_equal(null, scrambled(postures, seed=1)) and not np.array_equal(null, scrambled(postures, seed=2))
     with pytest.raises(InvalidInput, match="postures"):
         scrambled(np.zeros((0, 22)))
+
+
+def test_a_bounded_grip_force_grips_the_real_object_less_than_a_high_one(box_plans):
+    """The grip regulation in the physics: a perfect recall of a box plan, its press regulated to a low and to a
+    high total grip force; over the later half of each trial (the grasp's end and the hold test) the low one's fingers
+    push less (the mean of the summed segment forces)."""
+    _, plans = box_plans
+    sensed = {}
+    for force in (3.0, 200.0):
+        arm = planned.Arm(f"grip{force:g}", "approach", "plan", replace(APPROACH, grip_force=force, grip_press=0.6))
+        setup = arm_setup(arm, planned.get_object("box"), plans[0], {})
+        totals = []
+        run_trials(setup, np.zeros((1, 4)), [np.random.default_rng(0)],
+                   observer=lambda worlds: totals.append(worlds.segment_forces(np.array([0]))[0].sum()))
+        sensed[force] = np.array(totals)
+    low, high = (sensed[f][len(sensed[f]) // 2:].mean() for f in (3.0, 200.0))  # the later half of each trial
+    assert low < 0.5 * high  # measured: 3.1 N against 24 N

@@ -249,7 +249,7 @@ def test_a_controller_is_named_as_the_command_line_names_it_or_given_as_a_factor
         named = TrialSetup(object="box", controller=name)
         assert named.params == params and named.controller is None
         assert named.key(poses, 0) == TrialSetup(object="box", params=params).key(poses, 0)
-    with pytest.raises(ValueError, match=r"controller must be one of \('paper', 'blend', 'closing-recall', 'blend-settled', 'approach'\) or a factory"):
+    with pytest.raises(ValueError, match=r"controller must be one of \('paper', 'blend', 'closing-recall', 'blend-settled', 'approach', 'approach-bounded'\) or a factory"):
         TrialSetup(object="box", controller="blnd")
     with pytest.raises(ValueError, match="give no params beside it"):
         TrialSetup(object="box", controller="blend", params=BLEND)

@@ -11,8 +11,9 @@ trained on them scrambled (`manifold.experience.scrambled`). Every plan is run b
 the plan's own palm pose); the first `--displaced` plans of each object also at 1, 2, 3 and 5 cm in 8 directions
 (`trials.planned.displacements`). Every arm is judged by `trials.planned.PLANNED_PROTOCOL` (the support fading before
 the release). The approach execution (`controller.APPROACH`) was chosen on a probe of generator seed 0 (12 plans of
-each object), after traces of seed 1's first 10 plans of the marble, pen and disc; the fading release on seed 0. The
-study runs seeds 2, 3 and 4, so both are scored on plans they were neither chosen nor traced on.
+each object), after traces of seed 1's first 10 plans of the marble, pen and disc; the fading release and the bounded
+grip force (`controller.BOUNDED_APPROACH`) on seed 0. The study runs seeds 2, 3 and 4, so all are scored on plans
+they were neither chosen nor traced on.
 
 Reported: the hold rate of every arm by level (a fault is a failure, and faults are counted by arm), pooled and per
 object, with Wilson intervals; McNemar on the same trials, Holm over the family of the issue's questions. Writes
@@ -44,7 +45,17 @@ from ..manifold.experience import Experience, scrambled
 from ..manifold.som import SOM
 from ..sim.hand import SEGMENTS
 from ..trials.benchmark import OBJECTS
-from ..trials.planned import ARMS, LEVELS, PLANNED_PROTOCOL, STARTS, PlanTrials, displacements, level_of, run_plan
+from ..trials.planned import (
+    ARMS,
+    LEVELS,
+    PLANNED_PROTOCOL,
+    STARTS,
+    PlanTrials,
+    arm_params,
+    displacements,
+    level_of,
+    run_plan,
+)
 from ..trials.stats import mcnemar, rate_text
 from ..trials.trial import Trial
 from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure
@@ -60,10 +71,15 @@ QUESTIONS: tuple[tuple[str, str, str, tuple[float, ...]], ...] = (
      (0.01, 0.02, 0.03)),
     ("experience (approach) against the plain heuristic at 1-3 cm", "approach", "heuristic", (0.01, 0.02, 0.03)),
     ("experience: the approach execution against the blend at 1-3 cm", "approach", "blend", (0.01, 0.02, 0.03)),
+    ("perfect recall: the bounded grip force against the approach at 0 cm", "approach-bounded-recall",
+     "approach-recall", (0.0,)),
+    ("experience: the bounded grip force against the approach at 1-3 cm", "approach-bounded", "approach",
+     (0.01, 0.02, 0.03)),
 )
 #: the arms' colours in the figure
 _STYLE = {"open-loop": "k", "heuristic": "0.6", "paper": "tab:purple", "blend-recall": "tab:orange",
-          "blend": "tab:red", "approach-recall": "tab:cyan", "approach": "tab:blue", "approach-scrambled": "tab:green"}
+          "blend": "tab:red", "approach-recall": "tab:cyan", "approach": "tab:blue", "approach-scrambled": "tab:green",
+          "approach-bounded-recall": "tab:olive", "approach-bounded": "tab:brown"}
 
 
 @dataclass(frozen=True)
@@ -266,7 +282,9 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
     rate_recall = recall[0] / max(recall[1], 1)
     info["verdict"] = (f"Perfect recall with the approach execution holds {rate_text(*recall)} of {recall[1]} plans at 0 cm "
                        f"(target >= 90 %: {'met' if rate_recall >= 0.9 else 'not met'}); the open loop "
-                       f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}.")
+                       f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}"
+                       + (f"; with the grip force bounded {rate_text(*ceiling['approach-bounded-recall'])}"
+                          if "approach-bounded-recall" in ceiling else "") + ".")
     info["command"] = "python scripts/study_planned_grasps.py " + " ".join(sys.argv[1:])
     return info
 
@@ -286,7 +304,8 @@ def without_closure(outcomes: dict, arm: str) -> dict[str, int]:
     thumb = np.array([name.startswith("th") for name in SEGMENTS])
     palm = np.array([name == "palm" for name in SEGMENTS])
     finger = ~thumb & ~palm & np.array([name not in ("forearm", "wrist") for name in SEGMENTS])
-    timeout = None if ARMS[arm].controller == "open-loop" else ControllerParams().timeout
+    params = arm_params(ARMS[arm])
+    timeout = None if params is None else params.timeout
     counts = Counter()
     for o in outcomes.values():
         held = o.held[arm]

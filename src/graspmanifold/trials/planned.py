@@ -22,7 +22,9 @@ is a failure of its arm and is reported by arm:
 - `approach-recall`, `approach`, `approach-scrambled`: the paper's reading executed as a verified grasp is
   (`controller.APPROACH`: to the recall, on along the way there, pressing along it) with a perfect recall, the
   object's experience, or the null experience (the object's postures with each joint column permuted:
-  `manifold.experience.scrambled`).
+  `manifold.experience.scrambled`);
+- `approach-bounded-recall`, `approach-bounded`: the approach with its total grip force bounded from the segment
+  forces (`controller.BOUNDED_APPROACH`), with a perfect recall or the object's experience.
 
 No controller reads the displacement: it senses joints and touch only (the open loop senses nothing).
 """
@@ -87,6 +89,8 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("approach-recall", "approach", "plan"),
     Arm("approach", "approach", "object"),
     Arm("approach-scrambled", "approach", "scrambled"),
+    Arm("approach-bounded-recall", "approach-bounded", "plan"),
+    Arm("approach-bounded", "approach-bounded", "object"),
 )}
 #: the kinds of experience an arm names besides 'none' and 'plan'
 EXPERIENCES = ("object", "scrambled")
@@ -129,6 +133,21 @@ def level_of(displacement: np.ndarray) -> np.ndarray:
     return np.round(np.hypot(displacement[..., 0], displacement[..., 1]), 4)
 
 
+def arm_params(arm: Arm) -> ControllerParams | None:
+    """The controller parameters an arm runs with (None: the open loop, which has none).
+
+    Args:
+        arm: the arm.
+
+    Returns:
+        Its own `params`, else the named controller's (`controller.CONTROLLERS`; ours without experience for
+        'heuristic').
+    """
+    if arm.controller == "open-loop":
+        return None
+    return arm.params or (ControllerParams() if arm.controller == "heuristic" else CONTROLLERS[arm.controller])
+
+
 def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapping[str, Experience | None],
               method: str = "") -> TrialSetup:
     """The trial set-up of one arm on one plan.
@@ -155,8 +174,7 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
     else:
         raise InvalidInput(f"arm {arm.name!r} recalls from the {arm.experience!r} experience: give it "
                            f"(experiences has {sorted(experiences)})")
-    params = arm.params or (ControllerParams() if arm.controller == "heuristic" else CONTROLLERS[arm.controller])
-    return TrialSetup(object=obj, experience=experience, params=params, plan=plan, method=label,
+    return TrialSetup(object=obj, experience=experience, params=arm_params(arm), plan=plan, method=label,
                       protocol=PLANNED_PROTOCOL)
 
 
