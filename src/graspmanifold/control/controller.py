@@ -520,7 +520,7 @@ class ControllerParams:
     steered_fingers: tuple[str, ...] = FINGERS  # fingers whose recall the experience sets
     steered_joints: str = "all"  # 'all', or 'spread': only the joints that do not flex the finger (flexion: D's)
     max_match_distance: float = math.inf  # rad, RMS over the matched joints; farther matches are ignored (inf: none)
-    grip_force: float = math.inf  # N, total normal force the holding fingers are regulated to once done (inf: off)
+    grip_force: float = math.inf  # N, total normal force the holding fingers' press is regulated to (inf: off)
     grip_gain: float = 1.0  # rad/s the press changes at per unit of relative grip-force error
     grip_press: float = 0.6  # rad, the most the grip regulation presses (and 0 the least)
     recall: RecallRule = field(default_factory=lambda: TargetRecall())  # what a best match does (module doc)
@@ -769,8 +769,8 @@ class GraspState:
         previous: (N, 22) rad, the joints sensed one cycle before (NaN: none yet).
         started: (N,) s, when each world's attempt began.
         squeezing: (N,) how far each world's squeeze has come, 0 to 1 (`ControllerParams.squeeze_time`).
-        grip: (N,) rad, how far each world's holding fingers press once the grasp is done (`ControllerParams.
-            grip_force`; the squeeze until then).
+        grip: (N,) rad, how far each world's holding fingers press, while grasping and once done: the squeeze, or
+            regulated to `ControllerParams.grip_force`.
         preshapes: (N, 22) rad, each world's phase-B preshape (NaN rows: none).
         rows: the recall keys one finger can have (the experience's reference rows + 1, for the preshape).
     """
