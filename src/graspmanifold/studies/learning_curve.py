@@ -1,19 +1,28 @@
 """The learning curve: does the hold rate grow with the experience, generated and the controller's own?
 
-    python scripts/study_learning_curve.py [--quick] [--workers 2] [--out study-learning] [--doc docs/learning_curve.md]
+    python scripts/study_learning_curve.py [--quick] [--workers 2] [--seeds 3] [--sizes 12 36 108] [--rounds 1]
+                                           [--controllers som_paper som_approach] [--out study-learning]
+                                           [--doc docs/learning_curve.md]
 
-On the experience study's benchmark and split (`studies.experience`): the experience of every grasp type is generated
-at the largest size (`--sizes`, verified postures per object, default 48, 200 and 1,000); an experience of a smaller
-size is a random subset of it (seeded, the same objects' shares). For each size, one SOM is trained on all objects'
-postures and the paper's literal controller, the blend, regrasp with experience (the blend's, two attempts) and the
-approach execution (issue 65) run on the test split; at the largest size each also with the null experience (the
-postures scrambled, each joint column permuted), and at every size on the test poses it covers (`grid.covered`). Then the paper's resumed learning, from the smallest experience: each round the blend grasps
-every pose of the selection split, the final postures of the grasps that held (the sensed joints when the grasp
-was done: `EvaluationResult.successful_postures`) join the experience, and the map is trained again; after every
-round the three controllers run on the test split. Nothing of the test split ever joins the experience.
+On the experience study's benchmark and split (`studies.experience`), once per seed (`--seeds`, default 3: seeds 0,
+1, 2 of the generator, the maps, the subsets and the trials): the experience of every grasp type is generated at the
+largest size (`--sizes`, verified postures per object, default 12, 36 and 108); an experience of a smaller size is a
+random subset of it (seeded, the same objects' shares). For each size, one SOM is trained on all objects' postures and
+the controllers (`--controllers`, default the paper's literal controller and the approach execution of issue 65, whose
+ceiling the planned-grasp study measures; `CONTROLLERS` has the blend and regrasp with experience too) run on the test
+split; at the largest size each also with the null experience (the postures scrambled, each joint column permuted),
+and at every size on the test poses it covers (`grid.covered`). Then the paper's resumed learning, from the smallest
+experience: each round the blend grasps every pose of the selection split, the final postures of the grasps that held
+(the sensed joints when the grasp was done: `EvaluationResult.successful_postures`) join the experience, and the map
+is trained again; after every round the controllers run on the test split. Nothing of the test split ever joins the
+experience.
 
-The comparisons (McNemar, Holm within the family): per controller, the largest experience against the smallest, and
-the last round against the smallest. Writes `--out/study.json`, the report `--doc` and its figure beside it.
+The comparisons (McNemar on the trials of every seed pooled, Holm within the family), per controller: the largest
+experience against the smallest, against the null map of as many, and the last round against the smallest; each also
+per seed, and a difference is claimed only where its sign holds on every seed. Writes `--out/study.json`, the report
+`--doc` and its figure beside it. The default (three seeds, sizes to 108) keeps the study within 45 minutes on two
+cores; `--sizes 48 200 1000 --rounds 2 --seeds 1 --controllers som_paper som_blend regrasp_som_blend som_approach`
+is the one-seed curve of issues 51 and 65 (about an hour).
 """
 
 from __future__ import annotations
@@ -38,9 +47,9 @@ from ..manifold.experience import scrambled
 from ..manifold.postureset import PostureSet
 from ..trials.benchmark import OBJECTS, cells, compare_pooled, pooled
 from ..trials.grid import covered
-from ..trials.stats import rate_text
+from ..trials.stats import mcnemar, rate_text
 from ..trials.study import train_experience_map
-from .experience import ATTEMPTS, NULL_SEED, ExperienceStudy, ExperienceStudyConfig
+from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
 from .runner import (
     comparison_table,
     holm_family,
@@ -59,10 +68,13 @@ CEILING_ARMS = ("approach-recall", "open-loop")
 #: the displacements the ceiling quotes (m): every plan at its own palm pose, and the plans 1 cm off it (a covered
 #: pose's reach)
 CEILING_LEVELS = (0.0, 0.01)
-#: the controllers of the curve: (label, parameters, with a regrasp)
-CONTROLLERS: tuple[tuple[str, ControllerParams, bool], ...] = (
-    ("som_paper", ControllerParams(), False), ("som_blend", BLEND, False), ("regrasp_som_blend", BLEND, True),
-    ("som_approach", APPROACH, False))
+#: the controllers the curve can run: label -> (parameters, with a regrasp of two attempts)
+CONTROLLERS: dict[str, tuple[ControllerParams, bool]] = {
+    "som_paper": (ControllerParams(), False), "som_blend": (BLEND, False), "regrasp_som_blend": (BLEND, True),
+    "som_approach": (APPROACH, False)}
+#: the controllers run by default: the paper's literal one, and the approach execution whose perfect recall is the
+#: curve's ceiling (the blend and regrasp with experience are the experience study's)
+DEFAULT_CONTROLLERS = ("som_paper", "som_approach")
 
 
 @dataclass(frozen=True)
@@ -70,14 +82,17 @@ class LearningCurveConfig(ExperienceStudyConfig):
     """How the learning-curve study runs (a TOML file of these keys: `--config`).
 
     Args:
-        quick: a smoke run: two objects, a sixth of the poses, sizes 3 and 7, one round (too small to be evidence).
+        quick: a smoke run: two objects, a sixth of the poses, sizes 3 and 7, one round, two seeds (too small to be
+            evidence).
         workers: worker processes.
         out: the folder of kept results ('': study-learning, or study-learning-quick).
         doc: the markdown report ('': docs/learning_curve.md, or OUT/learning_curve.md for a quick run).
         postures: unused (the largest of `sizes` is generated).
-        seeds: unused (the curve runs on one seed of generator, map and trials).
-        sizes: verified postures per object, ascending (empty: 48, 200, 1000; quick: 3, 7).
-        rounds: rounds of the controller's own grasps on the selection split (-1: 2; quick: 1).
+        seeds: seeds of the whole curve (generator, maps, subsets, trials): the study runs once per seed 0 ... seeds-1
+            (0: 3, or 2 for a quick run).
+        sizes: verified postures per object, ascending (empty: 12, 36, 108; quick: 3, 7).
+        rounds: rounds of the controller's own grasps on the selection split (-1: 1).
+        controllers: the curve's controllers, names of `CONTROLLERS` (empty: `DEFAULT_CONTROLLERS`).
     """
 
     FOLDER: ClassVar[str] = "study-learning"
@@ -85,6 +100,7 @@ class LearningCurveConfig(ExperienceStudyConfig):
 
     sizes: tuple[int, ...] = field(default_factory=tuple)
     rounds: int = -1
+    controllers: tuple[str, ...] = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -95,12 +111,15 @@ class LearningCurveConfig(ExperienceStudyConfig):
         object.__setattr__(self, "sizes", sizes)
         if self.rounds != -1:
             check_int(self.rounds, "rounds", low=0)
-
+        names = tuple(self.controllers)
+        if any(name not in CONTROLLERS for name in names) or len(set(names)) != len(names):
+            raise InvalidInput(f"controllers must be distinct names of {sorted(CONTROLLERS)}, got {self.controllers!r}")
+        object.__setattr__(self, "controllers", names)
 
     @property
     def experience_sizes(self) -> tuple[int, ...]:
         """Verified postures per object of each experience."""
-        return self.sizes or ((3, 7) if self.quick else (48, 200, 1000))
+        return self.sizes or ((3, 7) if self.quick else (12, 36, 108))
 
     @property
     def postures_per_object(self) -> int:
@@ -110,33 +129,39 @@ class LearningCurveConfig(ExperienceStudyConfig):
     @property
     def own_rounds(self) -> int:
         """Rounds of the controller's own grasps."""
-        return self.rounds if self.rounds != -1 else (1 if self.quick else 2)
+        return self.rounds if self.rounds != -1 else 1
+
+    @property
+    def curve_controllers(self) -> tuple[str, ...]:
+        """The controllers run."""
+        return self.controllers or DEFAULT_CONTROLLERS
 
 
-def subset(sets: dict[str, PostureSet], n: int) -> tuple[np.ndarray, np.ndarray]:
-    """n postures of each object's set, drawn at random (seeded by n), and their grasp types.
+def subset(sets: dict[str, PostureSet], n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """n postures of each object's set, drawn at random (seeded by the seed and n), and their grasp types.
 
     Args:
         sets: {object: verified postures}, each of at least n.
         n: postures per object.
+        seed: the curve's seed.
 
     Returns:
         (postures (m, 22) rad, grasp types (m,)), objects in the order of `sets`.
     """
     rows, types = [], []
     for postures in sets.values():
-        keep = _drawn(postures, n)
+        keep = _drawn(postures, n, seed)
         rows.append(postures.postures[keep])
         types.append(grasp_types_of(postures)[keep])
     return np.concatenate(rows), np.concatenate(types)
 
 
-def _drawn(postures: PostureSet, n: int) -> np.ndarray:
-    """The rows of a set an experience of n postures per object keeps (seeded by n), in order."""
-    return np.sort(np.random.default_rng([0, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
+def _drawn(postures: PostureSet, n: int, seed: int) -> np.ndarray:
+    """The rows of a set an experience of n postures per object keeps (seeded by the seed and n), in order."""
+    return np.sort(np.random.default_rng([seed, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
 
 
-def covered_poses(sets: dict[str, PostureSet], n: int, results: dict) -> dict[tuple[str, str], np.ndarray]:
+def covered_poses(sets: dict[str, PostureSet], n: int, results: dict, seed: int = 0) -> dict[tuple[str, str], np.ndarray]:
     """Which trials of a benchmark run the experience of n postures per object covers (`grid.covered`: one of the
     object's verified grasps kept holds it within 1 cm of where the pose puts it).
 
@@ -144,12 +169,13 @@ def covered_poses(sets: dict[str, PostureSet], n: int, results: dict) -> dict[tu
         sets: {object: verified postures}.
         n: postures per object (`subset`'s draw).
         results: {(object, placement): EvaluationResult}.
+        seed: the curve's seed (`subset`'s draw).
 
     Returns:
         {(object, placement): (trials,) bool}.
     """
     return {key: covered(OBJECTS[key[0]].object, np.array([t.grid_pose for t in result.trials]),
-                         sets[key[0]].hand_poses[_drawn(sets[key[0]], n)]) for key, result in results.items()}
+                         sets[key[0]].hand_poses[_drawn(sets[key[0]], n, seed)]) for key, result in results.items()}
 
 
 def own_grasps(results: dict) -> np.ndarray:
@@ -175,17 +201,28 @@ class LearningCurveStudy(ExperienceStudy):
         super().__init__(config)
         self.config: LearningCurveConfig = config
 
-    def test(self, tag: str, postures: np.ndarray, types: np.ndarray) -> dict[str, dict]:
-        """The three controllers on the test split with one experience (a SOM of these postures).
+    def test(self, tag: str, postures: np.ndarray, types: np.ndarray, seed: int = 0,
+             trained_on: np.ndarray | None = None) -> dict[str, dict]:
+        """The curve's controllers on the test split with one experience.
+
+        Args:
+            tag: names the runs' files (`<controller>_<tag>`).
+            postures: the experience (m, 22) rad; its first len(types) rows are the generated ones.
+            types: the grasp types of the generated rows (own grasps carry no design's type).
+            seed: the map's and the trials' seed.
+            trained_on: the postures the SOM is trained on instead of `postures` (the null map's scrambled ones).
 
         Returns:
             {controller: {(object, placement): EvaluationResult}}.
         """
-        som = train_experience_map(postures)
-        som_types = reference_grasp_types(som, postures[:len(types)], types)  # own grasps carry no design's type
-        return {name: self.evaluate("test", f"{name}_{tag}", som, params,
-                                    regrasp=Regrasp(ATTEMPTS, grasp_types=som_types) if retry else None)
-                for name, params, retry in CONTROLLERS}
+        som = train_experience_map(postures if trained_on is None else trained_on, seed)
+        som_types = reference_grasp_types(som, postures[:len(types)], types)
+        runs = {}
+        for name in self.config.curve_controllers:
+            params, retry = CONTROLLERS[name]
+            runs[name] = self.evaluate("test", f"{name}_{tag}", som, params, seed=seed,
+                                       regrasp=Regrasp(ATTEMPTS, grasp_types=som_types) if retry else None)
+        return runs
 
     def measure(self) -> dict:
         """Every step of the study, in order (the module's docstring)."""
@@ -200,63 +237,100 @@ class LearningCurveStudy(ExperienceStudy):
         return plot(info, path)
 
 
-def measure(study: LearningCurveStudy) -> dict:
-    """Every step of the study, in order (the module's docstring); what the report shows."""
-    _, sets = study.experience()
+def measure_seed(study: LearningCurveStudy, seed: int) -> dict:
+    """The curve of one seed: the generator, the maps, the subsets and the trials seeded with it.
+
+    Args:
+        study: the study (its folder keeps the runs; a seed other than 0 names them `..._seed<k>`).
+        seed: the seed.
+
+    Returns:
+        {"by_size": {n: runs}, "by_round": {round: runs}, "null": runs, "covered": {n: {cell: (trials,) bool}},
+        "added": [held grasps per round]}, each runs {controller: {(object, placement): EvaluationResult}}.
+    """
+    tag = f"_seed{seed}" if seed else ""
+    _, sets = study.experience(seed)
     sizes = study.config.experience_sizes
-    by_size = {}
-    for n in sizes:
-        postures, types = subset(sets, n)
-        by_size[n] = study.test(f"n{n}", postures, types)
-    grown, types = subset(sets, sizes[0])
+    by_size = {n: study.test(f"n{n}{tag}", *subset(sets, n, seed), seed) for n in sizes}
+    grown, types = subset(sets, sizes[0], seed)
     by_round, added = {0: by_size[sizes[0]]}, []
     for r in range(1, study.config.own_rounds + 1):
-        som = train_experience_map(grown)
-        selection = study.evaluate("selection", f"own_round{r}", som, BLEND)
+        selection = study.evaluate("selection", f"own_round{r}{tag}", train_experience_map(grown, seed), BLEND,
+                                   seed=seed)
         held = own_grasps(selection)
         added.append(len(held))
         grown = np.concatenate([grown, held])
-        study.log(f"round {r}: {len(held)} held grasps of the selection split join the experience ({len(grown)})")
-        by_round[r] = study.test(f"n{sizes[0]}_round{r}", grown, types)
+        study.log(f"seed {seed}, round {r}: {len(held)} held grasps of the selection split join the experience "
+                  f"({len(grown)})")
+        by_round[r] = study.test(f"n{sizes[0]}_round{r}{tag}", grown, types, seed)
+    largest, largest_types = subset(sets, sizes[-1], seed)  # the null experience: scrambled, the same training
+    null = study.test(f"n{sizes[-1]}_null{tag}", largest, largest_types, seed, trained_on=scrambled(largest, seed))
+    first = study.config.curve_controllers[0]
+    return {"by_size": by_size, "by_round": by_round, "null": null, "added": added,
+            "covered": {n: covered_poses(sets, n, by_size[n][first], seed) for n in sizes}}
 
-    # the null experience: the largest experience's postures scrambled, the same training, every controller
-    largest, largest_types = subset(sets, sizes[-1])
-    null = train_experience_map(scrambled(largest, NULL_SEED))
-    null_types = reference_grasp_types(null, largest, largest_types)
-    nulls = {name: study.evaluate("test", f"{name}_n{sizes[-1]}_null", null, params,
-                                  regrasp=Regrasp(ATTEMPTS, grasp_types=null_types) if retry else None)
-             for name, params, retry in CONTROLLERS}
-    # how much of the test split each size covers, and every controller there
-    kept = {n: covered_poses(sets, n, by_size[n][CONTROLLERS[0][0]]) for n in sizes}
 
-    def counts(results: dict, keep: dict | None = None) -> list[int]:
-        held, valid = pooled(results, keep=keep)
-        return [int(held[valid].sum()), int(valid.sum())]
+def _pooled(runs: list[dict], keeps: list[dict] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(held, valid) of the trials of one controller's runs of every seed, concatenated."""
+    parts = [pooled(r, keep=None if keeps is None else k) for r, k in zip(runs, keeps or [None] * len(runs))]
+    return np.concatenate([h for h, _ in parts]), np.concatenate([v for _, v in parts])
 
+
+def _counts(runs: list[dict], keeps: list[dict] | None = None) -> list[int]:
+    """[held, valid trials] of one controller's runs of every seed."""
+    held, valid = _pooled(runs, keeps)
+    return [int(held[valid].sum()), int(valid.sum())]
+
+
+def measure(study: LearningCurveStudy) -> dict:
+    """Every step of the study, in order (the module's docstring); what the report shows."""
+    config = study.config
+    seeds = list(range(config.seed_count))
+    curves = [measure_seed(study, seed) for seed in seeds]
+    sizes, names, last = config.experience_sizes, config.curve_controllers, config.own_rounds
+
+    def runs(part: str, key: object, name: str) -> list[dict]:
+        return [c[part][name] if key is None else c[part][key][name] for c in curves]
+
+    claims = []  # (label, a's runs per seed, b's runs per seed)
+    for name in names:
+        claims.append((f"{name}: {sizes[-1]} against {sizes[0]} per object",
+                       runs("by_size", sizes[-1], name), runs("by_size", sizes[0], name)))
+        claims.append((f"{name}: {sizes[-1]} per object against the null map of as many",
+                       runs("by_size", sizes[-1], name), runs("null", None, name)))
+        if last:
+            claims.append((f"{name}: round {last} of own grasps against {sizes[0]} per object",
+                           runs("by_round", last, name), runs("by_size", sizes[0], name)))
     family = []
-    for name, _, _ in CONTROLLERS:
-        family.append((f"{name}: {sizes[-1]} against {sizes[0]} per object",
-                       compare_pooled(by_size[sizes[-1]][name], by_size[sizes[0]][name])))
-        family.append((f"{name}: {sizes[-1]} per object against the null map of as many",
-                       compare_pooled(by_size[sizes[-1]][name], nulls[name])))
-        if study.config.own_rounds:
-            family.append((f"{name}: round {study.config.own_rounds} of own grasps against {sizes[0]} per object",
-                           compare_pooled(by_round[study.config.own_rounds][name], by_size[sizes[0]][name])))
-    comparisons = holm_family(family, "the largest experience, and the grown one, against the smallest")
-    rises = [c for c in comparisons if " against " in c["label"] and "round" not in c["label"]
-             and "null" not in c["label"] and c["p_holm"] < TARGET_P and c["difference"] > 0]
-    own = [c for c in comparisons if "round" in c["label"] and c["p_holm"] < 0.05 and c["difference"] > 0]
-    verdict = (f"Target {'met' if rises else 'not met'}: " + "; ".join(
-        f"{c['label']} {100 * c['difference']:+.1f} points (n = {c['n']}, Holm p = {c['p_holm']:.2g})"
-        for c in comparisons) + f". Own grasps add significantly for {len(own)} of {len(CONTROLLERS)} controllers.")
-    return {"objects": list(study.objects), "quick": study.config.quick, "sizes": list(sizes),
-            "rounds": study.config.own_rounds, "added": added,
-            "by_size": {str(n): {m: counts(r) for m, r in runs.items()} for n, runs in by_size.items()},
-            "by_round": {str(k): {m: counts(r) for m, r in runs.items()} for k, runs in by_round.items()},
-            "null": {m: counts(r) for m, r in nulls.items()},
-            "covered": {str(n): {"poses": [int(sum(k.sum() for k in kept[n].values())),
-                                           int(sum(len(k) for k in kept[n].values()))],
-                                 **{m: counts(r, kept[n]) for m, r in by_size[n].items()}} for n in sizes},
+    for label, a, b in claims:
+        (held_a, valid_a), (held_b, valid_b) = _pooled(a), _pooled(b)
+        family.append((label, mcnemar(held_a, held_b, valid=valid_a & valid_b)))
+    comparisons = holm_family(family, f"the largest experience, the null map and the grown one, {len(seeds)} seeds "
+                                      "pooled")
+    for row, (_, a, b) in zip(comparisons, claims):
+        row["seeds"] = [compare_pooled(x, y).difference for x, y in zip(a, b)]
+        row["sign_holds"] = len(set(np.sign(row["seeds"])) - {0.0}) == 1 and all(row["seeds"])
+
+    def claimed(row: dict, level: float) -> bool:
+        return row["p_holm"] < level and row["difference"] > 0 and row["sign_holds"]
+
+    rises = [c for c in comparisons if " per object" in c["label"] and "round" not in c["label"]
+             and "null" not in c["label"] and claimed(c, TARGET_P)]
+    own = [c for c in comparisons if "round" in c["label"] and claimed(c, 0.05)]
+    verdict = (f"Target {'met' if rises else 'not met'} (a rise needs Holm p < {TARGET_P} pooled over the "
+               f"{len(seeds)} seeds and its sign on every seed): " + "; ".join(
+                   f"{c['label']} {100 * c['difference']:+.1f} points (n = {c['n']}, Holm p = {c['p_holm']:.2g}; by "
+                   "seed " + " / ".join(f"{100 * d:+.1f}" for d in c["seeds"]) + ")" for c in comparisons)
+               + f". Own grasps add significantly for {len(own)} of {len(names)} controllers.")
+    kept = {n: [c["covered"][n] for c in curves] for n in sizes}
+    return {"objects": list(study.objects), "quick": config.quick, "seeds": seeds, "sizes": list(sizes),
+            "rounds": last, "controllers": list(names), "added": [c["added"] for c in curves],
+            "by_size": {str(n): {m: _counts(runs("by_size", n, m)) for m in names} for n in sizes},
+            "by_round": {str(r): {m: _counts(runs("by_round", r, m)) for m in names} for r in range(last + 1)},
+            "null": {m: _counts(runs("null", None, m)) for m in names},
+            "covered": {str(n): {"poses": [int(sum(k.sum() for keep in kept[n] for k in keep.values())),
+                                           int(sum(len(k) for keep in kept[n] for k in keep.values()))],
+                                 **{m: _counts(runs("by_size", n, m), kept[n]) for m in names}} for n in sizes},
             "comparisons": comparisons, "target_met": bool(rises), "verdict": verdict,
             "wall_seconds": time.perf_counter() - study.started, "workers": study.workers}
 
@@ -287,10 +361,14 @@ def plot(info: dict, path: Path) -> str:
     import matplotlib.pyplot as plt
 
     figure, axes = plt.subplots(1, 2, figsize=(9, 3.8), sharey=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (key, xlabel) in zip(axes, (("by_size", "verified postures per object"), ("by_round", "rounds of own grasps"))):
         xs = list(info[key])
-        for name in info[key][xs[0]]:  # the controllers the run had
-            rate_curve(ax, [float(x) for x in xs], [info[key][x][name] for x in xs], fmt="o-", label=name)
+        for color, name in zip(colors, info["controllers"]):
+            rate_curve(ax, [float(x) for x in xs], [info[key][x][name] for x in xs], fmt="o-", label=name, color=color)
+            if key == "by_size":  # the null map at the largest size, beside it
+                rate_curve(ax, [1.08 * float(xs[-1])], [info["null"][name]], fmt="x", color=color,
+                           label=f"{name}, scrambled")
         ax.set_xlabel(xlabel)
         top = ceiling()
         if top is not None:  # the perfect recall of the planned-grasp study, at 0 and 1 cm
@@ -298,8 +376,10 @@ def plot(info: dict, path: Path) -> str:
                 ax.axhline(100 * held / n, color="k", linestyle=style, linewidth=1)
         if key == "by_size":
             ax.set_xscale("log")
+            ax.minorticks_off()
+        ax.set_xticks([float(x) for x in xs], xs)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("hold rate on the test split (%)")
+    axes[0].set_ylabel(f"hold rate, test split, {len(info['seeds'])} seeds (%)")
     axes[0].legend(fontsize=8)
     if ceiling() is not None:
         axes[1].set_title("dashed / dotted: a perfect recall at 0 / 1 cm (planned-grasp study)", fontsize=8)
@@ -312,29 +392,30 @@ def report(config: LearningCurveConfig, info: dict) -> str:
     lines = ["# Does more experience hold more? The learning curve", ""]
     if config.quick:
         lines += ["**A smoke run: too small to be evidence.**", ""]
-    lines += [f"Generated by `python scripts/study_learning_curve.py{' --quick' if config.quick else ''} --workers "
-              f"{info['workers']}`: {info['wall_seconds']:.0f} s. Hold test rates on the test split with 95 % Wilson "
-              "intervals; paired comparisons (McNemar), Holm within the family.", "", "## Verdict", "", info["verdict"], "",
-              f"![learning curve]({info['figure']})", "", "## Hold rate by experience size (test split)", ""]
-    names = list(next(iter(info["by_size"].values())))  # the controllers the run had
+    names, seeds, largest = info["controllers"], info["seeds"], str(info["sizes"][-1])
+    command = (f"python scripts/study_learning_curve.py{' --quick' if config.quick else ''} --workers {info['workers']} "
+               f"--seeds {len(seeds)} --sizes {' '.join(map(str, info['sizes']))} --rounds {info['rounds']} "
+               f"--controllers {' '.join(names)}")
+    lines += [f"Generated by `{command}`: {info['wall_seconds']:.0f} s. Seeds {', '.join(map(str, seeds))} of the "
+              "generator, the maps, the subsets and the trials, each a whole curve; every rate pools the seeds' trials "
+              "on the test split, with its 95 % Wilson interval; paired comparisons (McNemar) on the pooled trials, "
+              "Holm within the family, and a difference claimed only where its sign holds on every seed.", "",
+              "## Verdict", "", info["verdict"], "", f"![learning curve]({info['figure']})", "",
+              "## Hold rate by experience size (test split)", ""]
     lines += markdown_table(["postures per object", *names],
                             [[n, *(rate_text(*info["by_size"][n][m]) for m in names)] for n in info["by_size"]])
-    if "null" in info:  # a study.json of before issue 65 has neither
-        largest = str(info["sizes"][-1])
-        lines += ["", f"With the null experience ({largest} per object, each joint column permuted, the same training):",
-                  ""]
-        lines += markdown_table(["experience", *names], [
-            [f"{largest} per object", *(rate_text(*info["by_size"][largest][m]) for m in names)],
-            [f"{largest} per object, scrambled", *(rate_text(*info["null"][m]) for m in names)]])
-        lines += ["", "## Coverage by experience size", "",
-                  "The test poses where a verified grasp of the experience holds the object within 1 cm of where the "
-                  "pose puts it (`grid.covered`), and every controller's rate there:", ""]
-        lines += markdown_table(["postures per object", "covered test poses", *names], [
-            [n, f"{c['poses'][0]} of {c['poses'][1]}", *(rate_text(*c[m]) for m in names)]
-            for n, c in info["covered"].items()])
+    lines += ["", f"With the null experience ({largest} per object, each joint column permuted, the same training):", ""]
+    lines += markdown_table(["experience", *names], [
+        [f"{largest} per object", *(rate_text(*info["by_size"][largest][m]) for m in names)],
+        [f"{largest} per object, scrambled", *(rate_text(*info["null"][m]) for m in names)]])
+    lines += ["", "## Coverage by experience size", "",
+              "The test poses where a verified grasp of the experience holds the object within 1 cm of where the "
+              "pose puts it (`grid.covered`), over every seed, and every controller's rate there:", ""]
+    lines += markdown_table(["postures per object", "covered test poses", *names], [
+        [n, f"{c['poses'][0]} of {c['poses'][1]}", *(rate_text(*c[m]) for m in names)]
+        for n, c in info["covered"].items()])
     top = ceiling()
     if top is not None:
-        largest = str(info["sizes"][-1])
         lines += ["", "## The ceiling: a perfect recall", "",
                   "What no experience can beat: the planned-grasp study (`docs/planned_grasps.md`, seeds "
                   f"{', '.join(map(str, top['seeds']))}) tells som_approach's execution the very verified grasp and "
@@ -344,13 +425,18 @@ def report(config: LearningCurveConfig, info: dict) -> str:
         lines += markdown_table(["", *(f"{100 * level:.0f} cm" for level in top["levels"])], [
             [f"{arm} (planned-grasp study)", *(rate_text(*c) for c in top[arm])] for arm in CEILING_ARMS] + ([
             [f"som_approach, {largest} per object, covered test poses (within 1 cm)",
-             "", rate_text(*info["covered"][largest]["som_approach"])]]
-            if "som_approach" in info.get("covered", {}).get(largest, {}) else []))
+             "", rate_text(*info["covered"][largest]["som_approach"])]] if "som_approach" in names else []))
     lines += ["", f"## Rounds of own grasps (from {info['sizes'][0]} per object)", "",
-              f"Held grasps added per round: {info['added']}.", ""]
+              "Held grasps of the selection split added per round, by seed: "
+              + "; ".join(f"seed {s}: {added}" for s, added in zip(seeds, info["added"])) + ".", ""]
     lines += markdown_table(["round", *names],
                             [[r, *(rate_text(*info["by_round"][r][m]) for m in names)] for r in info["by_round"]])
-    lines += ["", "## Paired comparisons (test split)", "", *comparison_table(info["comparisons"], family=False), ""]
+    lines += ["", "## Paired comparisons (test split, seeds pooled)", "",
+              *comparison_table(info["comparisons"], family=False), "", "By seed (difference in points; a claim "
+              "needs its sign on every seed):", ""]
+    lines += markdown_table(["comparison", *(f"seed {s}" for s in seeds), "sign on every seed"], [
+        [c["label"], *(f"{100 * d:+.1f}" for d in c["seeds"]), "yes" if c["sign_holds"] else "no"]
+        for c in info["comparisons"]])
     return "\n".join(lines) + "\n"
 
 
@@ -362,15 +448,18 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default 2)")
     parser.add_argument("--out", default=None, help="data directory (default: study-learning[-quick])")
     parser.add_argument("--doc", default=None, help="markdown report (default: docs/learning_curve.md)")
+    parser.add_argument("--seeds", type=int, default=None, help="seeds of the whole curve (default 3)")
     parser.add_argument("--sizes", type=int, nargs="+", default=None, help="postures per object, ascending "
-                        "(default 48 200 1000)")
-    parser.add_argument("--rounds", type=int, default=None, help="rounds of own grasps (default 2)")
+                        "(default 12 36 108)")
+    parser.add_argument("--rounds", type=int, default=None, help="rounds of own grasps (default 1)")
+    parser.add_argument("--controllers", nargs="+", default=None, choices=sorted(CONTROLLERS),
+                        help=f"the curve's controllers (default {' '.join(DEFAULT_CONTROLLERS)})")
     parser.add_argument("--render", action="store_true", help="only write the report and its figure again from "
                         "OUT/study.json (the run that made it is the one it reports)")
     args = parser.parse_args(argv)
-    flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "rounds") if getattr(args, k) is not None}
-    if args.sizes is not None:
-        flags["sizes"] = tuple(args.sizes)
+    flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "seeds", "rounds")
+             if getattr(args, k) is not None}
+    flags.update({k: tuple(getattr(args, k)) for k in ("sizes", "controllers") if getattr(args, k) is not None})
     try:
         config = read_config(args.config, LearningCurveConfig()) if args.config else LearningCurveConfig()
         config = replace(config, **flags)
