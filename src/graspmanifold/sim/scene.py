@@ -1,8 +1,10 @@
 """A simulated grasp scene: the hand and one object, composed with mujoco.MjSpec.
 
 The object sits at the world origin (its body is named `object`); the hand hangs from the mocap
-body `hand_mount`, so placing the hand is moving that body. Hand poses are always the pose of the
-palm frame in the object frame (position in m, quaternion w x y z).
+body `hand_mount`, so placing the hand is moving that body. With a flange (`Scene(flange=FlangeLimits())`,
+`sim.flange`) the hand hangs on an arm's flange instead, whose base is the mocap body `arm_base`: placing the hand
+moves the base with the flange at home, and a controller moves the palm by the flange's servos. Hand poses are always
+the pose of the palm frame in the object frame (position in m, quaternion w x y z).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, invert
 from ..base.validation import check_choice, check_int
+from .flange import ARM_BASE, FLANGE_ACTUATORS, FLANGE_JOINTS, FlangeLimits, flanged_spec, palm_in_mount
 from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
 from .objects import GraspObject, get_object
@@ -182,7 +185,7 @@ class Scene:
 
     def __init__(self, obj: str | GraspObject = "cylinder", *, free_object: bool = False,
                  gravity: bool = False, table: bool = False, hand: str | HandModel = SHADOW_HAND.name,
-                 touch: str = "contacts"):
+                 touch: str = "contacts", flange: FlangeLimits | None = None):
         """The hand and one object in a new MuJoCo model.
 
         Args:
@@ -198,11 +201,19 @@ class Scene:
                 geoms, `TOUCH_SITE_MARGIN` larger, with a `touch` sensor on it), summed per segment (`touch()`); or
                 'contact-sensors', a MuJoCo `contact` sensor between each segment and the object, its slots'
                 normal forces summed (up to `CONTACT_SENSOR_SLOTS` contacts a segment).
+            flange: the hand on an arm's flange with these limits (`sim.flange`; `command_flange` moves it), or None:
+                the hand on its mocap mount, moved only by placing it.
         """
         self.object = get_object(obj)
         self.free_object = free_object
         self.hand = hand if isinstance(hand, HandModel) else hand_model(hand)
+        if flange is not None and not isinstance(flange, FlangeLimits):
+            raise InvalidInput(f"flange must be a FlangeLimits or None, got {flange!r}")
+        self.flange_limits = flange
         spec = self.hand.spec()
+        if flange is not None:
+            spec = flanged_spec(spec, self.hand.mount, palm_in_mount(self.hand.model, self.hand.mount, self.hand.palm),
+                                flange)
         spec.modelname = f"graspmanifold_{self.object.name}"
         body = spec.worldbody.add_body(name="object")
         if free_object:
@@ -241,7 +252,13 @@ class Scene:
         touch_sensors = _touch_sensors(self.model, self.hand)
         self._touch_adr = np.array([adr for adr, _ in touch_sensors], dtype=int)
         self._touch_segment = np.array([segment for _, segment in touch_sensors], dtype=int)
-        self.mount_id = int(self.model.body(self.hand.mount).mocapid[0])
+        self.mount_id = int(self.model.body(self.hand.mount if flange is None else ARM_BASE).mocapid[0])
+        self.flange_locked = False
+        if flange is not None:  # the flange's joints and servos (their set points are the servos' activations)
+            joints = [self.model.joint(name).id for name in FLANGE_JOINTS]
+            self.flange_qpos, self.flange_dofs = self.model.jnt_qposadr[joints], self.model.jnt_dofadr[joints]
+            self.flange_actuators = np.array([self.model.actuator(name).id for name in FLANGE_ACTUATORS])
+            self.flange_act = self.model.actuator_actadr[self.flange_actuators]
         self.palm_id = self.model.body(self.hand.palm).id
         self.object_body = self.model.body("object").id
         self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
@@ -252,7 +269,7 @@ class Scene:
 
     def __repr__(self) -> str:
         support = "free" if self.free_object else "welded"
-        extras = ", table" if self.table_geom is not None else ""
+        extras = (", table" if self.table_geom is not None else "") + (", flange" if self.flange_limits else "")
         return (f"Scene({self.object.name} ({self.object.shape}, {support}{extras}), t = {self.time:.3f} s, "
                 f"{self.data.ncon} contacts)")
 
@@ -260,6 +277,7 @@ class Scene:
     def reset(self) -> None:
         """Back to the model's initial state: hand open and straight, 5 cm in front of the object."""
         mujoco.mj_resetData(self.model, self.data)
+        self.flange_locked = False
         self.max_penetration = 0.0  # m, the deepest contact `check` has seen since the reset
         self.set_hand_pose(*facing_pose(self.object, clearance=0.05))
 
@@ -422,6 +440,9 @@ class Scene:
             pos: the palm's position (3,), m.
             quat: its orientation (4,), w x y z.
         """
+        if self.flange_limits is not None:  # placed with the flange at home, at rest, its servos holding it there
+            self.data.qpos[self.flange_qpos] = self.data.qvel[self.flange_dofs] = 0.0
+            self.data.act[self.flange_act] = self.data.ctrl[self.flange_actuators] = 0.0
         self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
         self.forward()
         self._placed = self.data.mocap_pos[self.mount_id].copy(), self.data.xmat[self.palm_id].reshape(3, 3).copy()
@@ -435,6 +456,53 @@ class Scene:
         """
         position, palm_rotation = self._placed
         self.data.mocap_pos[self.mount_id] = position + palm_rotation @ check_vec3(offset, "offset")
+
+    # -- the flange --------------------------------------------------------------------------------
+    def flange(self) -> np.ndarray:
+        """Where the flange is from home: (6,), the slides along the palm's x, y, z (m), the hinges about them (rad).
+
+        Raises:
+            InvalidInput: the scene has no flange.
+        """
+        self._check_flange()
+        return self.data.qpos[self.flange_qpos].copy()
+
+    def command_flange(self, velocity: Iterable[float]) -> None:
+        """Command the flange's servos: each set point moves at this velocity (clipped to the limits' speeds) as the
+        physics steps, and stops at the travel.
+
+        Args:
+            velocity: (6,), m/s along the palm's x, y, z and rad/s about them.
+
+        Raises:
+            InvalidInput: the scene has no flange, the flange is locked (`lock_flange`), or not 6 finite values.
+        """
+        self._check_flange()
+        try:
+            command = np.asarray(velocity, dtype=float)
+        except (TypeError, ValueError):
+            command = np.full(0, np.nan)
+        if command.shape != (6,) or not np.all(np.isfinite(command)):
+            raise InvalidInput(f"velocity must be 6 finite values (m/s, rad/s), got {velocity!r}")
+        if self.flange_locked:
+            raise InvalidInput("the flange is locked: unlock_flange() before commanding it")
+        bound = self.flange_limits.command_bounds()
+        self.data.ctrl[self.flange_actuators] = np.clip(command, -bound, bound)
+
+    def lock_flange(self) -> None:
+        """Lock the mount: the servos hold their set points (a zero command) until `unlock_flange`."""
+        self._check_flange()
+        self.data.ctrl[self.flange_actuators] = 0.0
+        self.flange_locked = True
+
+    def unlock_flange(self) -> None:
+        """Let `command_flange` move the flange again."""
+        self._check_flange()
+        self.flange_locked = False
+
+    def _check_flange(self) -> None:
+        if self.flange_limits is None:
+            raise InvalidInput("this scene has no flange: make it with Scene(..., flange=FlangeLimits())")
 
     # -- postures --------------------------------------------------------------------------------
     def distance_to_object(self, geom: int, cutoff: float = 0.05) -> float:

@@ -1,0 +1,128 @@
+"""The palm's flange (issue 66): a hand on an arm's flange is placed as before, moves no faster and pushes no harder
+than its limits, stops at its travel, and holds still when locked; every hand model hangs on it."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from graspmanifold import InvalidInput
+from graspmanifold.base.poses import compose, invert
+from graspmanifold.sim.flange import FLANGE_JOINTS, FlangeLimits
+from graspmanifold.sim.scene import Scene, facing_pose
+
+#: timesteps of half a second
+HALF_SECOND = 250
+
+
+def flanged(obj: str = "box", hand: str = "ours", **limits) -> Scene:
+    scene = Scene(obj, hand=hand, flange=FlangeLimits(**limits), gravity=True)
+    scene.set_hand_pose(*facing_pose(scene.object, clearance=0.03))
+    return scene
+
+
+def moved(scene: Scene, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The palm's pose now in the palm's frame at `start`."""
+    return compose(*invert(*start), *scene.hand_pose())
+
+
+def test_a_flanged_hand_is_placed_where_a_mounted_one_is_and_holds_still_under_gravity():
+    mounted, scene = Scene("box"), flanged()
+    mounted.set_hand_pose(*facing_pose(mounted.object, clearance=0.03))
+    for a, b in zip(mounted.hand_pose(), scene.hand_pose()):
+        assert np.allclose(a, b, atol=1e-9)
+    start = scene.hand_pose()
+    scene.step(HALF_SECOND)  # gravity on: the arm carries the hand's weight
+    assert np.linalg.norm(moved(scene, start)[0]) < 1e-4 and np.abs(scene.flange()).max() < 1e-4
+    assert "flange" in repr(scene)
+    # placed again after moving, the flange is home
+    scene.command_flange([0.1, 0, 0, 0, 0, 0])
+    scene.step(HALF_SECOND)
+    scene.set_hand_pose(*facing_pose(scene.object, clearance=0.03))
+    assert np.array_equal(scene.flange(), np.zeros(6)) and np.allclose(scene.hand_pose()[0], start[0], atol=1e-9)
+
+
+@pytest.mark.parametrize("axis", range(6))
+def test_the_flange_moves_along_the_palms_own_axes_no_faster_than_its_bound(axis):
+    scene = flanged(speed=0.05, turn_rate=0.4)
+    start = scene.hand_pose()
+    command = np.zeros(6)
+    command[axis] = 10.0  # far beyond the bound: clipped to it
+    scene.command_flange(command)
+    scene.step(HALF_SECOND)
+    bound = 0.05 if axis < 3 else 0.4
+    assert scene.data.ctrl[scene.flange_actuators][axis] == bound
+    travelled = scene.flange()
+    assert 0.7 * bound * 0.5 < travelled[axis] <= bound * 0.5 + 1e-6  # the servo lags its set point a little
+    assert np.abs(np.delete(travelled, axis)).max() < 1e-3 * max(1.0, travelled[axis])
+    position, quat = moved(scene, start)
+    if axis < 3:  # a slide moves the palm along its own axis, without turning it
+        assert np.isclose(position[axis], travelled[axis], atol=1e-6) and abs(quat[0]) > 1 - 1e-6
+    else:  # a hinge turns it about its own axis, through its origin
+        angle = 2 * np.arctan2(np.linalg.norm(quat[1:]), quat[0])
+        assert np.isclose(angle, travelled[axis], atol=1e-3) and np.linalg.norm(position) < 1e-3  # the wrist gives a little
+
+
+def test_the_flange_stops_at_its_travel():
+    scene = flanged(speed=0.1, travel=0.02)
+    scene.command_flange([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+    scene.step(4 * HALF_SECOND)
+    assert np.isclose(scene.data.act[scene.flange_act][2], 0.02) and abs(scene.flange()[2] - 0.02) < 1e-3
+
+
+def test_the_flange_pushes_the_object_no_harder_than_its_force_bound():
+    scene = Scene("box", flange=FlangeLimits(force=20.0))
+    scene.set_hand_pose(*facing_pose(scene.object, clearance=0.01))
+    scene.command_flange([0.0, -0.1, 0.0, 0.0, 0.0, 0.0])  # the palm's -y: towards the object, which is welded
+    scene.step(4 * HALF_SECOND)
+    force = scene.data.actuator_force[scene.flange_actuators]
+    assert np.isclose(force[1], -20.0) and np.all(np.abs(force[:3]) <= 20.0 + 1e-9)
+    assert scene.segment_forces().sum() > 15.0  # it does push, with what it has
+    assert scene.data.act[scene.flange_act][1] < scene.flange()[1] - 0.05  # its set point ran on; the palm did not
+
+
+def test_a_locked_flange_refuses_commands_and_holds_its_pose_under_a_push():
+    scene = flanged()
+    scene.command_flange([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+    scene.step(HALF_SECOND)
+    scene.lock_flange()
+    held = scene.flange()
+    with pytest.raises(InvalidInput, match="locked"):
+        scene.command_flange(np.zeros(6))
+    scene.data.xfrc_applied[scene.palm_id, :3] = [10.0, 10.0, 10.0]  # a 17 N push on the palm
+    scene.step(HALF_SECOND)
+    assert np.abs(scene.flange()[:3] - held[:3]).max() < 2e-3  # a stiff arm: about 0.5 mm per 10 N
+    scene.data.xfrc_applied[:] = 0.0
+    scene.unlock_flange()
+    scene.command_flange([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
+    scene.step(HALF_SECOND)
+    assert scene.flange()[0] < held[0] - 0.01
+    scene.reset()
+    assert not scene.flange_locked and np.array_equal(scene.flange(), np.zeros(6))
+
+
+def test_bad_flange_input_is_refused_by_name():
+    scene = flanged()
+    for bad in ([0.0] * 5, [np.nan] + [0.0] * 5, "fast"):
+        with pytest.raises(InvalidInput, match="velocity"):
+            scene.command_flange(bad)
+    with pytest.raises(InvalidInput, match="has no flange"):
+        Scene("box").flange()
+    for field, value in (("speed", 0.0), ("force", -1.0), ("travel", np.inf), ("turn", 4.0), ("torque", True)):
+        with pytest.raises(InvalidInput, match=field):
+            FlangeLimits(**{field: value})
+    with pytest.raises(InvalidInput, match="flange"):
+        Scene("box", flange={"speed": 0.1})
+
+
+@pytest.mark.parametrize("hand", ["ours", "gymnasium-robotics"])
+def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(hand):
+    if hand != "ours":
+        pytest.importorskip("gymnasium_robotics")
+    scene = flanged(hand=hand)
+    model = mujoco.MjModel.from_xml_string(scene.to_xml())  # the flanged scene's XML round trip
+    assert (model.nbody, model.njnt, model.nu) == (scene.model.nbody, scene.model.njnt, scene.model.nu)
+    assert all(model.joint(name).id >= 0 for name in FLANGE_JOINTS)
+    start = scene.hand_pose()
+    scene.command_flange([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
+    scene.step(HALF_SECOND)
+    assert 0.015 < moved(scene, start)[0][2] <= 0.025 + 1e-6
