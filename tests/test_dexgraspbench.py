@@ -316,7 +316,7 @@ def test_a_verifiers_outcome_does_not_depend_on_what_it_judged_before():
 
 
 def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_a_name_does():
-    """The registry holds our hold test and DexGraspBench's two versions; a protocol of one's own (here a lift: a
+    """The registry holds our hold test, the lift and DexGraspBench's two versions; a protocol of one's own (here a
     pull of 1 N along +z only, gravity off, 0.3 s) is a `Protocol` value that `evaluate` and `replay_grasp` run
     without any change to the trial loop or the replay, and that keys its results apart from ours."""
     from dataclasses import replace as changed
@@ -328,9 +328,9 @@ def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_
 
     assert PROTOCOLS[DEFAULT_PROTOCOL].rules == JUDGING and PROTOCOLS[DEFAULT_PROTOCOL].physics is None
     assert {name for name, p in PROTOCOLS.items() if p.push_test is not None} == {"dexgraspbench", "dexgraspbench-paper"}
-    lift = Protocol("lift", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
+    lift = Protocol("pull", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
     with pytest.raises(ValueError, match="protocol must be one of .* or a Protocol"):
-        TrialSetup(object="box", protocol="lift")
+        TrialSetup(object="box", protocol="pull")
     from graspmanifold.trials.grid import check_grid
 
     poses = check_grid("quick", gm.get_object("box"))[1][:4]

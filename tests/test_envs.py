@@ -14,6 +14,7 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 from graspmanifold.control.controller import BatchController  # noqa: E402
 from graspmanifold.envs import TACTILE_GRASP, TactileGraspEnv, TactileGraspVectorEnv  # noqa: E402
 from graspmanifold.trials.grid import check_grid  # noqa: E402
+from graspmanifold import InvalidInput  # noqa: E402
 
 
 def _drive(env, controller, obs):
@@ -105,3 +106,26 @@ def test_the_vector_environment_gives_each_world_the_single_environments_episode
     again, rewards, restarted, _, _ = vector.step(np.zeros((n, 23)))
     assert len(last) and not restarted[last].any() and (rewards[last] == 0).all()
     assert np.allclose(again[last, :22], gm.open_posture(), atol=0.05)
+
+
+def test_with_a_palm_the_action_steers_the_flange_and_the_lift_judges_the_episode():
+    from graspmanifold.sim.flange import FlangeLimits
+
+    env = TactileGraspEnv(object="box", palm=FlangeLimits(speed=0.05), max_seconds=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(env)
+    assert env.action_space.shape == (29,) and env.observation_space.shape == (22 + len(gm.SEGMENTS) + 6,)
+    assert np.allclose(env.action_space.high[22:28], [0.25] * 3 + [1.0] * 3)
+    obs, _ = env.reset(seed=0)
+    hold = np.append(env.scene.posture(), np.zeros(7))
+    for _ in range(10):  # the palm's target 1 cm along its x: reached at 5 cm/s, in about 0.2 s
+        obs, *_ = env.step(np.concatenate([hold[:22], [0.01, 0, 0, 0, 0, 0], [0.0]]))
+    assert abs(obs[-6] - 0.01) < 2e-3 and np.abs(obs[-5:]).max() < 1e-3 and np.allclose(obs[-6:], env.scene.flange())
+    with pytest.raises(InvalidInput, match="palm"):
+        TactileGraspEnv(palm="yes")
+    lifted = TactileGraspEnv(object="box", protocol="lift", max_seconds=0.1)  # the lift brings its arm
+    assert lifted.action_space.shape == (29,)
+    lifted.reset(seed=0)
+    *_, terminated, _, info = lifted.step(np.append(lifted.scene.posture(), np.append(np.zeros(6), 1.0)))
+    assert terminated and info["judged"] and not info["hold"]  # an open hand lifts nothing

@@ -126,3 +126,43 @@ def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(ha
     scene.command_flange([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
     scene.step(HALF_SECOND)
     assert 0.015 < moved(scene, start)[0][2] <= 0.025 + 1e-6
+
+
+def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
+    import graspmanifold as gm
+    from graspmanifold.control.dexgraspbench import open_loop_grasps, replay
+    from graspmanifold.control.judge import judge_scene, supported_scene
+    from graspmanifold.control.protocols import PROTOCOLS
+    from graspmanifold.sim.objects import get_object
+
+    lift = PROTOCOLS["lift"]
+    assert lift.rules.needs_flange and not PROTOCOLS["ours"].rules.needs_flange and "raises the palm 0.2 m" in \
+        lift.summary()
+    # an open hand: the object falls away from the rising palm, judged in the period it is 10 cm behind
+    scene = supported_scene(get_object("cylinder"), flange=FlangeLimits(), rules=lift.rules)
+    scene.set_hand_pose(*facing_pose(scene.object, clearance=0.03))
+    start = scene.data.xpos[scene.object_body, 2]
+    dropped = judge_scene(scene, lift.rules)
+    assert not dropped.hold and 0.1 < dropped.displacement < 0.12 and dropped.hold_time < 0.5
+    assert scene.data.xpos[scene.object_body, 2] < start - 0.05
+    # verified grasps, replayed open loop, hold under the lift as under our hold test; the arm raised them 0.2 m
+    grasps = open_loop_grasps(gm.generate_postures("cylinder", 3, seed=0, workers=1), obj="cylinder")
+    held, faults = replay("cylinder", grasps, "lift")
+    assert held.all() and faults == ["", "", ""]
+    with pytest.raises(InvalidInput, match="has no flange"):  # the lift needs an arm to raise the palm
+        judge_scene(supported_scene(get_object("cylinder"), rules=lift.rules), lift.rules)
+
+
+def test_a_trial_set_up_with_a_palm_runs_on_the_flange_and_keys_it():
+    import graspmanifold as gm
+    from graspmanifold.trials.trial import TrialSetup
+
+    assert TrialSetup(object="box", protocol="lift").palm == FlangeLimits()  # the lift brings its arm
+    plain, slow = TrialSetup(object="box"), TrialSetup(object="box", palm=FlangeLimits(speed=0.05))
+    assert plain.palm is None and plain.key(np.zeros((1, 4)), 0) != slow.key(np.zeros((1, 4)), 0)
+    with pytest.raises(InvalidInput, match="palm"):
+        TrialSetup(object="box", palm={"speed": 0.05})
+    result = gm.evaluate("cylinder", None, np.array([[0.0, 0.0, 0.01, 0.0], [0.005, 0.0, 0.015, 0.0]]), seed=0,
+                         protocol="lift", workers=1)
+    assert len(result.trials) == 2 and all(t.valid for t in result.trials)
+    assert all((t.hold_displacement <= 0.1) == t.hold for t in result.trials)

@@ -29,6 +29,7 @@ from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
 from .paper.report import FIGURES
 from .sim.family import FAMILY
+from .sim.flange import FlangeLimits
 from .sim.hand import SHADOW_HAND
 from .sim.hand_models import HAND_MODELS
 from .sim.objects import GraspObject, named_object, named_objects
@@ -245,7 +246,8 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.cluster or args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True,
                       backend=args.backend, hand=args.hand, controller=args.controller,
-                      margin=args.margin, protocol=args.protocol, touch=args.touch)
+                      margin=args.margin, protocol=args.protocol, touch=args.touch,
+                      palm=FlangeLimits() if args.palm else None)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -319,8 +321,9 @@ def _reproduce(args: argparse.Namespace) -> int:
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
 REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL}
 PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm), ours-faded "
-                 "(ours after a support that fades over 0.3 s before the release) or DexGraspBench's external-force "
-                 "test, its main version or its paper's (dexgraspbench-paper)")
+                 "(ours after a support that fades over 0.3 s before the release), lift (the field's closed-loop "
+                 "protocol: an arm raises the palm 0.2 m, held when the object rises 0.1 m; the hand on a flange) or "
+                 "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
                    "closing heuristic's base (our earlier variant); closing-recall, the paper's reading with recalls "
                    "that only close a finger; blend-settled, the blend whose fingers squeeze together once the grasp "
@@ -431,6 +434,9 @@ def build_parser() -> argparse.ArgumentParser:
                                "(pip install 'graspmanifold[gpu]', from a checkout '.[gpu]')")
     evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
+    evaluate.add_argument("--palm", action="store_true",
+                          help="hang the hand on an arm's flange (sim.flange.FlangeLimits: the palm's six degrees of "
+                               "freedom, servoed, bounded, lockable; the cpu backend); the lift protocol brings one")
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

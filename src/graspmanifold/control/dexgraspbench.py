@@ -385,7 +385,8 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = 
 
     Args:
         scene: a scene of the object, free (`Scene(obj, free_object=True)`); a protocol with its own physics
-            applies it to the scene for good.
+            applies it to the scene for good; one that moves the palm (the lift) needs the hand on a flange
+            (`Scene(..., flange=FlangeLimits())`).
         grasp: the grasp.
         protocol: a name in `protocols.PROTOCOLS`, or a `Protocol` (one changed for an ablation, or one's own).
         hold_seconds: s per direction of a hold test by rules (None: the protocol's rules'); an external-force
@@ -433,7 +434,7 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | 
         (held (n,) bool, faults: why a grasp could not be judged, '' where it could).
     """
     protocol = get_protocol(protocol)  # refused by name before anything runs
-    scene = Scene(obj, free_object=True, hand=hand)
+    scene = Scene(obj, free_object=True, hand=hand, flange=protocol.flange)
     replays = [replay_grasp(scene, grasp, protocol) for grasp in grasps]
     return np.array([r.held for r in replays], dtype=bool), [r.fault for r in replays]
 
@@ -555,7 +556,7 @@ class GraspVerifier:
                  hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = SHADOW_HAND.name,
                  protocol: str | Protocol = DEFAULT_PROTOCOL):
         self.protocol = get_protocol(protocol)
-        self.scene = Scene(obj, free_object=True, hand=hand)
+        self.scene = Scene(obj, free_object=True, hand=hand, flange=self.protocol.flange)
         self._shaping = Scene(obj, hand=hand) if stages.from_contacts else None
         self.stages, self.hold_seconds = stages, hold_seconds
 

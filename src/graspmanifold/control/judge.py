@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import QualityError
+from ..sim.flange import FlangeLimits
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
 from ..sim.scene import Scene
@@ -71,7 +72,8 @@ class Judgement:
 
 
 def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel = SHADOW_HAND.name,
-                    touch: str = "contacts", rules: JudgingRules = JUDGING) -> Scene:
+                    touch: str = "contacts", rules: JudgingRules = JUDGING,
+                    flange: FlangeLimits | None = None) -> Scene:
     """A scene whose free object rests on the support a grasp closes on, before judging releases it: the
     spring-damper of the judging rules with gravity off, or a table with gravity on. Trials start from it
     (`hold_on_support` sets the spring again after a reset).
@@ -82,11 +84,12 @@ def supported_scene(obj: GraspObject, table: bool = False, hand: str | HandModel
         hand: the hand model, or its name.
         touch: where the sensed segment forces come from (`scene.TOUCH_SOURCES`).
         rules: the judging rules whose support it is (`JudgingRules.support_stiffness`, `support_damping`).
+        flange: the hand on an arm's flange with these limits (`sim.flange`), or None.
 
     Returns:
         The scene.
     """
-    scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand, touch=touch)
+    scene = Scene(obj, free_object=True, gravity=table, table=table, hand=hand, touch=touch, flange=flange)
     hold_on_support(scene, rules)
     return scene
 

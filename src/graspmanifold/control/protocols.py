@@ -3,8 +3,9 @@
 A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
 closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop
 replay (`dexgraspbench.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
-`DexGraspBenchProtocol`). Three are registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`) and
-DexGraspBench's two versions, `main` (0.1 kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg,
+`DexGraspBenchProtocol`). Registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`; `ours-faded` after a
+fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object held
+when it rises at least 0.1 m; `stages.Lift`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1 kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg,
 0.10 m, 180 degrees). The physics DexGraspBench needs is a named profile: a 4 ms step, implicitfast, elliptic
 cones with impratio 10, condim 4, two noslip iterations, friction 0.6 sliding and 0.02 torsional, gravity off,
 the object's mass set by rescaling its density. Our hand keeps its own servos (DexGraspBench's Menagerie hand
@@ -23,9 +24,10 @@ import mujoco
 
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice
+from ..sim.flange import FlangeLimits
 from ..sim.scene import Scene
 from .judge import JUDGING
-from .stages import SIX_DIRECTIONS, JudgingRules
+from .stages import SIX_DIRECTIONS, JudgingRules, Lift
 
 
 @dataclass(frozen=True)
@@ -162,6 +164,12 @@ class Protocol:
         """The physics profile the scene runs under from the start (None: the scene's own)."""
         return None if self.push_test is None else self.push_test.physics
 
+    @property
+    def flange(self) -> FlangeLimits | None:
+        """The arm a scene judged by this protocol needs: the default flange where its judging moves the palm (the
+        lift: `JudgingRules.needs_flange`), else None."""
+        return FlangeLimits() if self.rules.needs_flange else None
+
     def apply(self, scene: Scene) -> None:
         """Set the protocol's physics on a scene (nothing for one that keeps the scene's own).
 
@@ -175,6 +183,10 @@ class Protocol:
         """How it judges a trial's grasp, in a sentence (the reproduction report's)."""
         rules = self.rules
         epsilon = f"force closure: ε > {rules.epsilon_threshold}"
+        if rules.needs_flange:
+            return (f"lift: gravity on, the arm raises the palm {rules.lift_height:g} m at {rules.lift_speed:g} m/s "
+                    f"and holds it {rules.hold_seconds:g} s, the object within {100 * rules.hold_limit:.0f} cm of the "
+                    f"palm's rise; {epsilon}")
         if self.push_test is None:
             return (f"hold: gravity along ±x, ±y, ±z for {rules.hold_seconds} s each, the object within "
                     f"{100 * rules.hold_limit:.0f} cm; {epsilon}")
@@ -208,8 +220,12 @@ OURS = Protocol("ours")
 #: our hold test after a support that fades over 0.3 s once the grasp is ready (`JudgingRules.release_seconds`),
 #: the hand acting on: a load the spring carried is handed to the grasp gradually (the planned-grasp benchmark's)
 OURS_FADED = Protocol("ours-faded", replace(JUDGING, release_seconds=0.3))
-#: every registered protocol by name: our hold test (at once, or after a fading support) and DexGraspBench's versions
-PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, OURS_FADED, pushed(DEXGRASPBENCH),
+#: the lift of the field's closed-loop protocol (issue 66): the support released, gravity on, the arm raises the palm
+#: 0.2 m at 0.1 m/s and holds it 0.5 s; held when the object kept within 0.1 m of the palm's rise (it rose >= 0.1 m)
+LIFT = Protocol("lift", replace(JUDGING, hold_limit=0.1, stages=(Lift,)))
+#: every registered protocol by name: our hold test (at once, or after a fading support), the lift, and
+#: DexGraspBench's versions
+PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, OURS_FADED, LIFT, pushed(DEXGRASPBENCH),
                                                       pushed(DEXGRASPBENCH_PAPER))}
 #: the registered protocols' names
 PROTOCOL_NAMES: tuple[str, ...] = tuple(PROTOCOLS)

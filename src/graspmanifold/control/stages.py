@@ -17,6 +17,8 @@ model).
   object must stay within `hold_limit` (and `angle_limit`).
 - `MarginRamp` (only where the rules ask for the margin): a grasp that held is pushed along each direction by a
   force that ramps from 0 to `margin_force`; the margin is the force at which the object first leaves the bound.
+- `Lift` (the lift protocol's, in place of the two above): gravity on, the arm raises the palm `lift_height` straight
+  up and holds it there; the object must keep up with the palm within `hold_limit` (it needs a hand on a flange).
 """
 
 from __future__ import annotations
@@ -230,6 +232,51 @@ class MarginRamp(Stage):
         return dropped
 
 
+class Lift(Stage):
+    """The lift of the field's closed-loop protocol (issue 66): gravity on (world -z), the arm raises the palm
+    `lift_height` straight up at `lift_speed` (bounded by its flange's speed) and keeps it there for `hold_seconds`.
+    The displacement is how far the object stayed below the palm's rise, at its largest; the grasp holds when that is
+    within `hold_limit` (the field's: a 0.2 m lift, held when the object rose at least 0.1 m), and a world is judged
+    in the period its object falls further behind. Needs worlds whose hands hang on a flange (`sim.flange`)."""
+
+    #: the stage moves the palm: the trial's scenes need a flange (`JudgingRules.needs_flange`)
+    needs_flange = True
+
+    def __init__(self, run: JudgingRun):
+        super().__init__(run)
+        self.rising = run.rules.cycles(run.rules.lift_height / run.rules.lift_speed, run.period)
+        self.cycles = self.rising + run.rules.cycles(run.rules.hold_seconds, run.period)
+        self.count = np.zeros(run.n, dtype=int)  # control periods done
+        self.up = np.zeros((run.n, 3))  # the world's up in the flange's slide coordinates
+        self.home = np.zeros((run.n, 3))  # the slides where the lift began
+
+    def begin(self, worlds: np.ndarray) -> None:
+        run = self.run
+        self.count[worlds] = 0
+        run.hold_time[worlds] = self.cycles * run.period
+        run.worlds.set_gravity(worlds, np.tile([0.0, 0.0, -GRAVITY], (len(worlds), 1)))
+        self.up[worlds] = run.worlds.flange_axes(worlds)[:, :, 2]  # row i: slide i's direction; column 2: its rise
+        self.home[worlds] = run.worlds.flanges(worlds)[:, :3]
+
+    def step(self, worlds: np.ndarray) -> np.ndarray:
+        run = self.run
+        rising = self.count[worlds] < self.rising
+        velocity = np.zeros((len(worlds), 6))
+        velocity[rising, :3] = run.rules.lift_speed * self.up[worlds[rising]]
+        run.worlds.command_flanges(worlds, velocity)
+        return worlds[self.count[worlds] >= self.cycles]
+
+    def done(self, worlds: np.ndarray, moved: np.ndarray) -> np.ndarray:
+        run = self.run
+        self.count[worlds] += 1
+        palm_rise = np.sum((run.worlds.flanges(worlds)[:, :3] - self.home[worlds]) * self.up[worlds], axis=1)
+        lag = palm_rise - (run.worlds.object_positions()[worlds, 2] - run.start[worlds, 2])
+        run.displacement[worlds] = np.maximum(run.displacement[worlds], lag)
+        dropped = worlds[run.displacement[worlds] > run.rules.hold_limit]
+        run.hold_time[dropped] = run.period * self.count[dropped]
+        return dropped
+
+
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 #: the same directions as a tuple of tuples, for the frozen rules that hold them
 SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
@@ -262,6 +309,8 @@ class JudgingRules:
         directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
         stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
             makes one of a `Judging`); one's own runs without a change to the loop.
+        lift_height: m the `Lift` stage raises the palm.
+        lift_speed: m/s it raises it at (the flange's `FlangeLimits.speed` bounds it).
     """
 
     hold_seconds: float = 0.5
@@ -279,6 +328,13 @@ class JudgingRules:
     release_seconds: float = 0.0
     directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
     stages: tuple[Callable[[JudgingRun], Stage], ...] = (HoldTest, MarginRamp)
+    lift_height: float = 0.2
+    lift_speed: float = 0.1
+
+    @property
+    def needs_flange(self) -> bool:
+        """Whether a stage moves the palm (`Lift`): the scenes judged need a hand on a flange."""
+        return any(getattr(stage, "needs_flange", False) for stage in self.stages)
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:

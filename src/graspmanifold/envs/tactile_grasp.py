@@ -7,7 +7,10 @@ one control period (`control_period`, 20 ms): the action sets the hand's 22 fing
 controller's interface; clipped to the hand's ranges) and says whether the grasp is done (its last element, done
 from 0.5); the observation is what a tactile hand senses, the 22 joint angles (rad) and the normal force on each
 tactile segment (N, `SEGMENTS` order), and, with `pcp=True`, the Partial Contact Posture's mask (22: 1 for a joint
-of a touching segment, Eq. 1). Once the grasp is done (or after `max_seconds`) the library's judge runs it through
+of a touching segment, Eq. 1). With `palm` (the hand on an arm's flange, `sim.flange`; the lift protocol brings one),
+the action has six more elements after the joint targets, the palm's targets from where the episode placed it (m
+along the palm's x, y, z, rad about them; reached at the flange's bounded speeds, `Scene.steer_flange`), and the
+observation ends with where the flange is (the same six). Once the grasp is done (or after `max_seconds`) the library's judge runs it through
 the protocol named (`protocols.PROTOCOLS`: our hold test by default): the episode terminates, the reward is 1 for
 a grasp that holds and 0 otherwise (sparse), and `info` carries the judgement (hold, force closure, epsilon, the
 displacement, a physics fault). A trial whose physics fails terminates with reward 0 and the fault in `info`.
@@ -33,6 +36,7 @@ from ..base.validation import check_int
 from ..control.controller import ControllerParams
 from ..control.judge import Judgement, judge_worlds
 from ..control.protocols import DEFAULT_PROTOCOL, Protocol
+from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
 from ..sim.posture import pcp_masks
@@ -50,8 +54,13 @@ class _GraspWorlds:
     period of all, the judging of those done."""
 
     def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | Protocol, grid: object,
-                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float, touch: str):
-        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table, touch=touch)
+                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float, touch: str,
+                 palm: bool | FlangeLimits):
+        if not isinstance(palm, (bool, FlangeLimits)):
+            raise InvalidInput(f"palm must be True, False or a FlangeLimits, got {palm!r}")
+        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table, touch=touch,
+                                palm=FlangeLimits() if palm is True else palm or None)
+        self.palm = self.setup.palm  # the flange's limits, or None
         self.hand = self.setup.hand
         self.poses = check_grid(grid, self.setup.object, table)[1]
         if not (isinstance(max_seconds, (int, float)) and 0 < max_seconds <= 600):
@@ -72,11 +81,22 @@ class _GraspWorlds:
         low = np.concatenate([np.full(N_FINGER_JOINTS, -math.pi), np.zeros(size - N_FINGER_JOINTS)])
         high = np.concatenate([np.full(N_FINGER_JOINTS, math.pi), np.full(len(SEGMENTS), np.inf),
                                np.ones(size - N_FINGER_JOINTS - len(SEGMENTS))])
+        if self.palm is not None:  # where the flange is: anywhere its servos can be pushed
+            low, high = np.append(low, np.full(6, -np.inf)), np.append(high, np.full(6, np.inf))
         return spaces.Box(low, high, dtype=np.float64)
 
     @property
+    def palm_reach(self) -> np.ndarray:
+        """(6,) the largest palm target each way: the flange's travel (m) and turn (rad); empty without a palm."""
+        if self.palm is None:
+            return np.zeros(0)
+        return np.array([self.palm.travel] * 3 + [self.palm.turn] * 3)
+
+    @property
     def action_space(self) -> spaces.Box:
-        return spaces.Box(np.append(self.limits[:, 0], 0.0), np.append(self.limits[:, 1], 1.0), dtype=np.float64)
+        reach = self.palm_reach
+        return spaces.Box(np.concatenate([self.limits[:, 0], -reach, [0.0]]),
+                          np.concatenate([self.limits[:, 1], reach, [1.0]]), dtype=np.float64)
 
     def reset(self, worlds: list[int], seeds: list[int | None], poses: list[np.ndarray | None]) -> None:
         """New episodes in these worlds: each its random stream (reseeded where a seed is given), its pose (drawn
@@ -97,7 +117,8 @@ class _GraspWorlds:
         cpu = CpuWorlds([self.scenes[w] for w in worlds])
         index = np.arange(len(worlds))
         joints, forces = cpu.joints(index), cpu.segment_forces(index)
-        parts = [joints, forces] + ([pcp_masks(forces > 0).astype(float)] if self.pcp else [])
+        parts = [joints, forces] + ([pcp_masks(forces > 0).astype(float)] if self.pcp else []) + \
+            ([cpu.flanges(index)] if self.palm is not None else [])
         return np.concatenate(parts, axis=1)
 
     def act(self, worlds: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, list[dict]]:
@@ -107,12 +128,16 @@ class _GraspWorlds:
             (len(worlds),) rewards and one info dict per world (a judged one's holds its judgement; `judged` says
             which were).
         """
-        actions = np.asarray(actions, dtype=float).reshape(len(worlds), N_FINGER_JOINTS + 1)
+        palm = len(self.palm_reach)
+        actions = np.asarray(actions, dtype=float).reshape(len(worlds), N_FINGER_JOINTS + palm + 1)
         if not np.all(np.isfinite(actions)):
-            raise InvalidInput("actions must be finite: 22 joint targets (rad) and a done flag (0 ... 1)")
+            raise InvalidInput("actions must be finite: 22 joint targets (rad), the palm's 6 targets where it has "
+                               "them (m, rad) and a done flag (0 ... 1)")
         cpu = CpuWorlds([self.scenes[w] for w in worlds])
         index = np.arange(len(worlds))
         cpu.set_targets(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]))
+        for scene, target in zip(cpu.scenes, actions[:, N_FINGER_JOINTS:N_FINGER_JOINTS + palm] if palm else ()):
+            scene.steer_flange(target, self.period)
         failed = cpu.step(index, self._nstep)
         self.clock[worlds] += self.period
         done = (actions[:, -1] >= 0.5) | (self.clock[worlds] >= self.max_seconds - 1e-9)
@@ -157,6 +182,8 @@ class TactileGraspEnv(gymnasium.Env):
         max_seconds: s after which a grasp is judged as it is.
         touch: where the observed segment forces come from (`scene.TOUCH_SOURCES`: the contacts', or MuJoCo's
             touch sensors).
+        palm: the hand on an arm's flange (True: `FlangeLimits()`, or the limits): the action's six palm targets
+            and the observation's six flange positions (the module doc); False: the palm stays where it was placed.
         render_mode: None or 'rgb_array'.
         camera: the camera `render` draws from (`scene.CAMERAS`).
     """
@@ -166,10 +193,10 @@ class TactileGraspEnv(gymnasium.Env):
     def __init__(self, object: str | GraspObject = "cylinder", hand: str | HandModel = SHADOW_HAND.name,
                  protocol: str | Protocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
                  table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS, touch: str = "contacts",
-                 render_mode: str | None = None, camera: str = "hand"):
+                 palm: bool | FlangeLimits = False, render_mode: str | None = None, camera: str = "hand"):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InvalidInput(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds, touch)
+        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds, touch, palm)
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.render_mode, self.camera = render_mode, camera
@@ -199,7 +226,8 @@ class TactileGraspEnv(gymnasium.Env):
         """One control period.
 
         Args:
-            action: (23,): the 22 finger joint targets (rad) and the done flag (the grasp is judged from 0.5).
+            action: (23,): the 22 finger joint targets (rad) and the done flag (the grasp is judged from 0.5); with
+                a palm (29,): the six palm targets between them (m, rad from where the episode placed it).
 
         Returns:
             (observation, reward, terminated, truncated, info): reward 1 for a grasp judged to hold.
@@ -232,12 +260,12 @@ class TactileGraspVectorEnv(VectorEnv):
         self.num_envs = check_int(num_envs, "num_envs")
         kwargs.pop("render_mode", None)
         kwargs.pop("camera", None)
-        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds", "touch")
+        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds", "touch", "palm")
         unknown = sorted(set(kwargs) - set(names))
         if unknown:
             raise InvalidInput(f"unknown argument(s) {unknown}; TactileGraspVectorEnv takes {list(names)}")
         defaults = dict(object="cylinder", hand=SHADOW_HAND.name, protocol=DEFAULT_PROTOCOL, grid="quick", noise=None,
-                        table=False, pcp=False, max_seconds=MAX_SECONDS, touch="contacts")
+                        table=False, pcp=False, max_seconds=MAX_SECONDS, touch="contacts", palm=False)
         self.task = _GraspWorlds(self.num_envs, **{**defaults, **kwargs})
         self.single_observation_space = self.task.observation_space
         self.single_action_space = self.task.action_space
@@ -272,15 +300,16 @@ class TactileGraspVectorEnv(VectorEnv):
         """One control period of every world (a world whose episode ended starts its next one instead).
 
         Args:
-            actions: (N, 23): each world's 22 finger joint targets (rad) and done flag.
+            actions: (N, 23): each world's 22 finger joint targets (rad) and done flag; with a palm (N, 29), its
+                six palm targets between them.
 
         Returns:
             (observations, rewards, terminated, truncated, infos), each over the N worlds; infos as Gymnasium's
             vector environments give them ({key: (N,) values, "_key": where set}).
         """
         actions = np.asarray(actions, dtype=float)
-        if actions.shape != (self.num_envs, N_FINGER_JOINTS + 1):
-            raise InvalidInput(f"actions must have shape ({self.num_envs}, {N_FINGER_JOINTS + 1}), got {actions.shape}")
+        if actions.shape != self.action_space.shape:
+            raise InvalidInput(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
         restarting = np.flatnonzero(self._ended)
         if len(restarting):
             self.task.reset(list(restarting), [None] * len(restarting), [None] * len(restarting))

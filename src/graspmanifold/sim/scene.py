@@ -255,8 +255,9 @@ class Scene:
         self.mount_id = int(self.model.body(self.hand.mount if flange is None else ARM_BASE).mocapid[0])
         self.flange_locked = False
         if flange is not None:  # the flange's joints and servos (their set points are the servos' activations)
-            joints = [self.model.joint(name).id for name in FLANGE_JOINTS]
-            self.flange_qpos, self.flange_dofs = self.model.jnt_qposadr[joints], self.model.jnt_dofadr[joints]
+            self.flange_joints = np.array([self.model.joint(name).id for name in FLANGE_JOINTS])
+            self.flange_qpos = self.model.jnt_qposadr[self.flange_joints]
+            self.flange_dofs = self.model.jnt_dofadr[self.flange_joints]
             self.flange_actuators = np.array([self.model.actuator(name).id for name in FLANGE_ACTUATORS])
             self.flange_act = self.model.actuator_actadr[self.flange_actuators]
         self.palm_id = self.model.body(self.hand.palm).id
@@ -467,6 +468,17 @@ class Scene:
         self._check_flange()
         return self.data.qpos[self.flange_qpos].copy()
 
+    def flange_axes(self) -> np.ndarray:
+        """The directions the flange's slides move the palm, in the world: (3, 3), one unit vector per row (the palm's
+        x, y, z where the hand was placed); they do not turn with the hinges, which follow the slides.
+
+        Raises:
+            InvalidInput: the scene has no flange.
+        """
+        self._check_flange()
+        mujoco.mj_kinematics(self.model, self.data)
+        return self.data.xaxis[self.flange_joints[:3]].copy()
+
     def command_flange(self, velocity: Iterable[float]) -> None:
         """Command the flange's servos: each set point moves at this velocity (clipped to the limits' speeds) as the
         physics steps, and stops at the travel.
@@ -488,6 +500,26 @@ class Scene:
             raise InvalidInput("the flange is locked: unlock_flange() before commanding it")
         bound = self.flange_limits.command_bounds()
         self.data.ctrl[self.flange_actuators] = np.clip(command, -bound, bound)
+
+    def steer_flange(self, target: Iterable[float], period: float) -> None:
+        """Command the flange towards a pose from home for one control period: each set point heads for the target
+        at the velocity that reaches it in `period`, bounded by the limits' speeds (`command_flange`).
+
+        Args:
+            target: (6,), m along the palm's x, y, z and rad about them, from home (clipped to the travel).
+            period: s, the control period the command holds for (> 0).
+
+        Raises:
+            InvalidInput: the scene has no flange, it is locked, or not 6 finite values; a period not > 0.
+        """
+        self._check_flange()
+        goal = np.asarray(target, dtype=float) if np.shape(target) == (6,) else np.full(6, np.nan)
+        if not np.all(np.isfinite(goal)):
+            raise InvalidInput(f"target must be 6 finite values (m, rad from home), got {target!r}")
+        if not (isinstance(period, (int, float)) and period > 0):
+            raise InvalidInput(f"period must be seconds > 0, got {period!r}")
+        reach = np.array([self.flange_limits.travel] * 3 + [self.flange_limits.turn] * 3)
+        self.command_flange((np.clip(goal, -reach, reach) - self.data.act[self.flange_act]) / period)
 
     def lock_flange(self) -> None:
         """Lock the mount: the servos hold their set points (a zero command) until `unlock_flange`."""

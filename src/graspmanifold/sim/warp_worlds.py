@@ -39,6 +39,10 @@ except ImportError as error:  # pragma: no cover - depends on the installation
 CONTACTS_PER_WORLD = 48
 CONSTRAINTS_PER_WORLD = 320
 
+#: what a flanged hand (the palm moved by an arm, `sim.flange`) on the GPU answers
+_FLANGE_ON_CPU = ("a hand on a flange (TrialSetup(palm=...), the lift protocol) runs on the CPU backend only: "
+                  "evaluate(..., backend='cpu')")
+
 
 @wp.kernel
 def _touch(nacon: wp.array(dtype=int), worldid: wp.array(dtype=int), geom: wp.array(dtype=wp.vec2i),
@@ -227,6 +231,15 @@ class WarpWorlds:
     def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
         raise NotImplementedError("the controller's reach (a recall moving the palm, ControllerParams.reach) runs on "
                                   "the CPU backend only: evaluate(..., backend='cpu')")
+
+    def flanges(self, worlds: np.ndarray) -> np.ndarray:
+        raise NotImplementedError(_FLANGE_ON_CPU)
+
+    def flange_axes(self, worlds: np.ndarray) -> np.ndarray:
+        raise NotImplementedError(_FLANGE_ON_CPU)
+
+    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None:
+        raise NotImplementedError(_FLANGE_ON_CPU)
 
     def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:
         """Step every world (the finished ones too: it costs nothing extra on a GPU); report the

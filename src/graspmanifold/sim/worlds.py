@@ -57,6 +57,12 @@ class Worlds(Protocol):
 
     def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None: ...  # palm offsets (m, palm frame)
 
+    def flanges(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 6) m and rad (`Scene.flange`)
+
+    def flange_axes(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 3, 3) the slides' world directions
+
+    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None: ...  # (len(worlds), 6) m/s, rad/s
+
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]: ...  # and the object's centre of mass
 
     def posture(self, world: int) -> np.ndarray: ...
@@ -152,6 +158,16 @@ class CpuWorlds:
     def shift_hands(self, worlds: np.ndarray, offsets: np.ndarray) -> None:
         for world, offset in zip(worlds, offsets):
             self.scenes[world].shift_hand(offset)
+
+    def flanges(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].flange() for w in worlds]).reshape(-1, 6)
+
+    def flange_axes(self, worlds: np.ndarray) -> np.ndarray:
+        return np.array([self.scenes[w].flange_axes() for w in worlds]).reshape(-1, 3, 3)
+
+    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None:
+        for world, velocity in zip(worlds, velocities):
+            self.scenes[world].command_flange(velocity)
 
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]:
         scene = self.scenes[world]

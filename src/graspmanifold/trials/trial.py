@@ -41,6 +41,7 @@ from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_proto
 from ..control.regrasp import LiftProbe, Regrasp
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
+from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
@@ -134,6 +135,10 @@ class TrialSetup:
             it for the nominal pose, and the object lies displaced; the controller is not told the displacement (ours
             starts from the pregrasp's posture). The plan's open-loop execution is the controller
             `dexgraspbench.OpenLoop(plan)`.
+        palm: the hand on an arm's flange with these limits (`sim.flange.FlangeLimits`: the palm's six degrees of
+            freedom, servoed, lockable; the cpu backend), or None: the palm stays where the trial put it. A protocol
+            whose judging moves the palm (the lift: `JudgingRules.needs_flange`) gets the default flange where none
+            is given.
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -155,6 +160,7 @@ class TrialSetup:
     batch_size: int = WARP_BATCH
     touch: str = "contacts"
     plan: OpenLoopGrasp | None = None
+    palm: FlangeLimits | None = None
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -223,6 +229,11 @@ class TrialSetup:
         if self.plan is not None and (self.noise.position or self.noise.yaw):
             raise InvalidInput("a planned trial's pose is the object's displacement itself: give no position or yaw "
                                "noise beside a plan")
+        if self.palm is None:
+            set_field("palm", self.protocol.flange)
+        if self.palm is not None and (not isinstance(self.palm, FlangeLimits) or self.backend != "cpu"):
+            raise InvalidInput(f"palm must be a FlangeLimits (the hand on an arm's flange) with the cpu backend, got "
+                               f"{self.palm!r} with backend={self.backend!r}")
         check_choice(self.touch, TOUCH_SOURCES, "touch")
         if self.touch != "contacts" and self.backend != "cpu":
             raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
@@ -285,6 +296,7 @@ class TrialSetup:
                            **({"touch": self.touch} if self.touch != "contacts" else {}),
                            **({"plan": {"poses": self.plan.poses.tolist(), "postures": self.plan.postures.tolist()}}
                               if self.plan is not None else {}),
+                           **({"palm": asdict(self.palm)} if self.palm is not None else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -385,7 +397,7 @@ def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generat
     """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
     support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the hand in the plan's
     pregrasp for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
-    scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch, setup.rules)
+    scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch, setup.rules, setup.palm)
     setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
     if setup.plan is not None:  # the palm where the plan puts it for the nominal pose; the object displaced
         scene.set_posture(setup.plan.postures[0])
