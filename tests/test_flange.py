@@ -12,6 +12,8 @@ from graspmanifold.sim.scene import Scene, facing_pose
 
 #: timesteps of half a second
 HALF_SECOND = 250
+#: s, the controller's control period
+PERIOD = 0.02
 
 
 def flanged(obj: str = "box", hand: str = "ours", **limits) -> Scene:
@@ -25,6 +27,13 @@ def moved(scene: Scene, start: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarra
     return compose(*invert(*start), *scene.hand_pose())
 
 
+def steer(scene: Scene, target, periods: int, period: float = PERIOD) -> None:
+    """Steer the flange towards a target every control period for `periods` periods."""
+    for _ in range(periods):
+        scene.steer_flange(target, period)
+        scene.step(round(period / scene.model.opt.timestep))
+
+
 def test_a_flanged_hand_is_placed_where_a_mounted_one_is_and_holds_still_under_gravity():
     mounted, scene = Scene("box"), flanged()
     mounted.set_hand_pose(*facing_pose(mounted.object, clearance=0.03))
@@ -35,66 +44,63 @@ def test_a_flanged_hand_is_placed_where_a_mounted_one_is_and_holds_still_under_g
     assert np.linalg.norm(moved(scene, start)[0]) < 1e-4 and np.abs(scene.flange()).max() < 1e-4
     assert "flange" in repr(scene)
     # placed again after moving, the flange is home
-    scene.command_flange([0.1, 0, 0, 0, 0, 0])
-    scene.step(HALF_SECOND)
+    steer(scene, [0.1, 0, 0, 0, 0, 0], 10)
     scene.set_hand_pose(*facing_pose(scene.object, clearance=0.03))
-    assert np.array_equal(scene.flange(), np.zeros(6)) and np.allclose(scene.hand_pose()[0], start[0], atol=1e-9)
+    assert np.array_equal(scene.flange(), np.zeros(6)) and np.array_equal(scene.flange_set_point(), np.zeros(6))
+    assert np.allclose(scene.hand_pose()[0], start[0], atol=1e-9)
 
 
 @pytest.mark.parametrize("axis", range(6))
 def test_the_flange_moves_along_the_palms_own_axes_no_faster_than_its_bound(axis):
     scene = flanged(speed=0.05, turn_rate=0.4)
     start = scene.hand_pose()
-    command = np.zeros(6)
-    command[axis] = 10.0  # far beyond the bound: clipped to it
-    scene.command_flange(command)
-    scene.step(HALF_SECOND)
+    target = np.zeros(6)
+    target[axis] = 0.9  # far beyond what half a second reaches
+    steer(scene, target, 25)  # 0.5 s
     bound = 0.05 if axis < 3 else 0.4
-    assert scene.data.ctrl[scene.flange_actuators][axis] == bound
+    assert np.isclose(scene.flange_set_point()[axis], bound * 0.5)
     travelled = scene.flange()
-    assert 0.7 * bound * 0.5 < travelled[axis] <= bound * 0.5 + 1e-6  # the servo lags its set point a little
+    assert 0.8 * bound * 0.5 < travelled[axis] <= 1.01 * bound * 0.5  # the servo follows its set point closely
     assert np.abs(np.delete(travelled, axis)).max() < 1e-3 * max(1.0, travelled[axis])
     position, quat = moved(scene, start)
     if axis < 3:  # a slide moves the palm along its own axis, without turning it
-        assert np.isclose(position[axis], travelled[axis], atol=1e-6) and abs(quat[0]) > 1 - 1e-6
+        assert np.isclose(position[axis], travelled[axis], atol=1e-4) and abs(quat[0]) > 1 - 1e-6  # the wrist gives
     else:  # a hinge turns it about its own axis, through its origin
         angle = 2 * np.arctan2(np.linalg.norm(quat[1:]), quat[0])
         assert np.isclose(angle, travelled[axis], atol=1e-3) and np.linalg.norm(position) < 1e-3  # the wrist gives a little
+    scene.step(HALF_SECOND)  # not steered: the set point stays, the servo settles on it
+    assert np.isclose(scene.flange()[axis], bound * 0.5, atol=1e-3)
 
 
 def test_the_flange_stops_at_its_travel():
     scene = flanged(speed=0.1, travel=0.02)
-    scene.command_flange([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
-    scene.step(4 * HALF_SECOND)
-    assert np.isclose(scene.data.act[scene.flange_act][2], 0.02) and abs(scene.flange()[2] - 0.02) < 1e-3
+    steer(scene, [0.0, 0.0, 0.1, 0.0, 0.0, 0.0], 50)
+    assert np.isclose(scene.flange_set_point()[2], 0.02) and abs(scene.flange()[2] - 0.02) < 1e-3
 
 
 def test_the_flange_pushes_the_object_no_harder_than_its_force_bound():
     scene = Scene("box", flange=FlangeLimits(force=20.0))
     scene.set_hand_pose(*facing_pose(scene.object, clearance=0.01))
-    scene.command_flange([0.0, -0.1, 0.0, 0.0, 0.0, 0.0])  # the palm's -y: towards the object, which is welded
-    scene.step(4 * HALF_SECOND)
+    steer(scene, [0.0, -0.1, 0.0, 0.0, 0.0, 0.0], 50)  # the palm's -y: towards the object, which is welded
     force = scene.data.actuator_force[scene.flange_actuators]
     assert np.isclose(force[1], -20.0) and np.all(np.abs(force[:3]) <= 20.0 + 1e-9)
     assert scene.segment_forces().sum() > 15.0  # it does push, with what it has
-    assert scene.data.act[scene.flange_act][1] < scene.flange()[1] - 0.05  # its set point ran on; the palm did not
+    assert scene.flange_set_point()[1] < scene.flange()[1] - 0.05  # its set point went on; the palm did not
 
 
-def test_a_locked_flange_refuses_commands_and_holds_its_pose_under_a_push():
+def test_a_locked_flange_refuses_to_be_steered_and_holds_its_pose_under_a_push():
     scene = flanged()
-    scene.command_flange([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
-    scene.step(HALF_SECOND)
+    steer(scene, [0.02, 0.0, 0.0, 0.0, 0.0, 0.0], 25)
     scene.lock_flange()
     held = scene.flange()
     with pytest.raises(InvalidInput, match="locked"):
-        scene.command_flange(np.zeros(6))
+        scene.steer_flange(np.zeros(6), PERIOD)
     scene.data.xfrc_applied[scene.palm_id, :3] = [10.0, 10.0, 10.0]  # a 17 N push on the palm
     scene.step(HALF_SECOND)
     assert np.abs(scene.flange()[:3] - held[:3]).max() < 2e-3  # a stiff arm: about 0.5 mm per 10 N
     scene.data.xfrc_applied[:] = 0.0
     scene.unlock_flange()
-    scene.command_flange([-0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
-    scene.step(HALF_SECOND)
+    steer(scene, [-0.05, 0.0, 0.0, 0.0, 0.0, 0.0], 25)
     assert scene.flange()[0] < held[0] - 0.01
     scene.reset()
     assert not scene.flange_locked and np.array_equal(scene.flange(), np.zeros(6))
@@ -103,8 +109,11 @@ def test_a_locked_flange_refuses_commands_and_holds_its_pose_under_a_push():
 def test_bad_flange_input_is_refused_by_name():
     scene = flanged()
     for bad in ([0.0] * 5, [np.nan] + [0.0] * 5, "fast"):
-        with pytest.raises(InvalidInput, match="velocity"):
-            scene.command_flange(bad)
+        with pytest.raises(InvalidInput, match="target"):
+            scene.steer_flange(bad, PERIOD)
+    for period in (0.0, -1.0, np.inf, True):
+        with pytest.raises(InvalidInput, match="period"):
+            scene.steer_flange(np.zeros(6), period)
     with pytest.raises(InvalidInput, match="has no flange"):
         Scene("box").flange()
     for field, value in (("speed", 0.0), ("force", -1.0), ("travel", np.inf), ("turn", 4.0), ("torque", True)):
@@ -123,9 +132,8 @@ def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(ha
     assert (model.nbody, model.njnt, model.nu) == (scene.model.nbody, scene.model.njnt, scene.model.nu)
     assert all(model.joint(name).id >= 0 for name in FLANGE_JOINTS)
     start = scene.hand_pose()
-    scene.command_flange([0.0, 0.0, 0.05, 0.0, 0.0, 0.0])
-    scene.step(HALF_SECOND)
-    assert 0.015 < moved(scene, start)[0][2] <= 0.025 + 1e-6
+    steer(scene, [0.0, 0.0, 0.02, 0.0, 0.0, 0.0], 25)
+    assert 0.018 < moved(scene, start)[0][2] <= 0.02 + 1e-4
 
 
 def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
@@ -166,3 +174,26 @@ def test_a_trial_set_up_with_a_palm_runs_on_the_flange_and_keys_it():
                          protocol="lift", workers=1)
     assert len(result.trials) == 2 and all(t.valid for t in result.trials)
     assert all((t.hold_displacement <= 0.1) == t.hold for t in result.trials)
+
+
+def test_a_recall_that_moves_the_palm_moves_it_by_the_flange_where_the_hand_has_one():
+    """BlendRecall's reach: without a flange the arm puts the palm at the controller's offset at once; on a flange,
+    the flange's set point follows the offset at its bounded speed while the grasp goes on, then stays."""
+    import graspmanifold as gm
+    from graspmanifold.trials.grid import check_grid
+    from graspmanifold.trials.trial import TrialSetup, run_trials
+
+    obj = gm.get_object("cylinder")
+    poses = check_grid("quick", obj)[1][::5]
+    params = gm.ControllerParams(recall=gm.BlendRecall(reach=0.03))
+    limits = FlangeLimits(speed=0.02)
+    experience = gm.PostureDatabase(gm.generate_postures("cylinder", 12, seed=0, workers=1).postures)
+    setup = TrialSetup(object=obj, experience=experience, params=params, palm=limits)
+    seen = []
+    trials = run_trials(setup, poses, [np.random.default_rng([3, i]) for i in range(len(poses))],
+                        observer=lambda worlds: seen.append(np.array([s.flange_set_point() for s in worlds.scenes])))
+    points = np.array(seen)  # (periods, worlds, 6)
+    assert np.abs(points[:, :, :3]).max() > 1e-3 and np.all(points[:, :, 3:] == 0)  # some palm moved, none turned
+    steps = np.abs(np.diff(points[:, :, :3], axis=0)).max()
+    assert steps <= limits.speed * params.control_period + 1e-12
+    assert all(t.valid for t in trials)

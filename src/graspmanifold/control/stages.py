@@ -248,7 +248,7 @@ class Lift(Stage):
         self.cycles = self.rising + run.rules.cycles(run.rules.hold_seconds, run.period)
         self.count = np.zeros(run.n, dtype=int)  # control periods done
         self.up = np.zeros((run.n, 3))  # the world's up in the flange's slide coordinates
-        self.home = np.zeros((run.n, 3))  # the slides where the lift began
+        self.home = np.zeros((run.n, 6))  # the flange where the lift began
 
     def begin(self, worlds: np.ndarray) -> None:
         run = self.run
@@ -256,20 +256,20 @@ class Lift(Stage):
         run.hold_time[worlds] = self.cycles * run.period
         run.worlds.set_gravity(worlds, np.tile([0.0, 0.0, -GRAVITY], (len(worlds), 1)))
         self.up[worlds] = run.worlds.flange_axes(worlds)[:, :, 2]  # row i: slide i's direction; column 2: its rise
-        self.home[worlds] = run.worlds.flanges(worlds)[:, :3]
+        self.home[worlds] = run.worlds.flanges(worlds)
 
     def step(self, worlds: np.ndarray) -> np.ndarray:
         run = self.run
-        rising = self.count[worlds] < self.rising
-        velocity = np.zeros((len(worlds), 6))
-        velocity[rising, :3] = run.rules.lift_speed * self.up[worlds[rising]]
-        run.worlds.command_flanges(worlds, velocity)
+        rise = run.rules.lift_height * np.minimum(self.count[worlds] + 1, self.rising) / self.rising
+        targets = self.home[worlds].copy()
+        targets[:, :3] += rise[:, None] * self.up[worlds]
+        run.worlds.steer_flanges(worlds, targets, run.period)
         return worlds[self.count[worlds] >= self.cycles]
 
     def done(self, worlds: np.ndarray, moved: np.ndarray) -> np.ndarray:
         run = self.run
         self.count[worlds] += 1
-        palm_rise = np.sum((run.worlds.flanges(worlds)[:, :3] - self.home[worlds]) * self.up[worlds], axis=1)
+        palm_rise = np.sum((run.worlds.flanges(worlds)[:, :3] - self.home[worlds, :3]) * self.up[worlds], axis=1)
         lag = palm_rise - (run.worlds.object_positions()[worlds, 2] - run.start[worlds, 2])
         run.displacement[worlds] = np.maximum(run.displacement[worlds], lag)
         dropped = worlds[run.displacement[worlds] > run.rules.hold_limit]

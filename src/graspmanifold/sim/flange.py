@@ -5,10 +5,11 @@ A hand grasps on an arm: the arm carries it to where a trial puts it and can mov
 the hand moves it, as placing the mount did without a flange); the flange body `FLANGE` hangs on it by three slides
 along the palm's x, y and z and then three hinges about the palm's x, y and z through the palm's origin (the palm's
 axes at rest, the flange at home: the hinges are intrinsic rotations about the palm); the hand hangs on the flange.
-Each flange joint is driven by an integrated-velocity servo (MuJoCo's `intvelocity` actuator): its command is a
-velocity bounded by `FlangeLimits.speed` (slides) or `turn_rate` (hinges), integrated into a set point bounded by
-the travel, which the servo holds with a force bounded by `force` or `torque`. Gravity on the hand is compensated
-(`gravcomp`), as an arm's controller does. A zero command holds the pose: the mount locked.
+Each flange joint is driven by a position servo (critically damped) whose force is bounded by `FlangeLimits.force`
+(slides) or `torque` (hinges) and whose set point is bounded by the travel; the set point moves only by
+`Scene.steer_flange`, at most `speed` (or `turn_rate`) times the control period each period, and stays where it was
+put between commands. Gravity on the hand is compensated (`gravcomp`), as an arm's controller does. A locked mount
+(`Scene.lock_flange`) refuses to be steered: its servos hold their set points.
 """
 
 from __future__ import annotations
@@ -44,8 +45,8 @@ class FlangeLimits:
     """What the arm can do at its flange.
 
     Args:
-        speed: m/s, the fastest a slide moves (its command is clipped to it).
-        turn_rate: rad/s, the fastest a hinge turns.
+        speed: m/s, the fastest a slide's set point moves.
+        turn_rate: rad/s, the fastest a hinge's set point turns.
         force: N, the most a slide's servo pushes.
         torque: N m, the most a hinge's servo turns.
         travel: m, how far a slide's set point goes from home, each way.
@@ -71,9 +72,14 @@ class FlangeLimits:
         if self.turn >= math.pi:
             raise InvalidInput(f"FlangeLimits.turn must be below pi rad, got {self.turn!r}")
 
-    def command_bounds(self) -> np.ndarray:
-        """The largest command of each flange joint: (6,), m/s for the slides, rad/s for the hinges."""
+    def speeds(self) -> np.ndarray:
+        """The fastest each flange joint's set point moves: (6,), m/s for the slides, rad/s for the hinges."""
         return np.array([self.speed] * 3 + [self.turn_rate] * 3)
+
+    def reach(self) -> np.ndarray:
+        """How far each flange joint's set point goes from home, each way: (6,), m for the slides, rad for the
+        hinges."""
+        return np.array([self.travel] * 3 + [self.turn] * 3)
 
 
 def palm_in_mount(model: mujoco.MjModel, mount: str, palm: str) -> tuple[np.ndarray, np.ndarray]:
@@ -130,11 +136,9 @@ def flanged_spec(hand_spec: mujoco.MjSpec, mount: str, palm_pose: tuple[np.ndarr
         flange.add_joint(name=joint, type=mujoco.mjtJoint.mjJNT_SLIDE if slide else mujoco.mjtJoint.mjJNT_HINGE,
                          axis=axes[index % 3], pos=[0.0, 0.0, 0.0] if slide else position)
         servo = spec.add_actuator(name=FLANGE_ACTUATORS[index], target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        servo.set_to_intvelocity(kp=limits.stiffness if slide else limits.rotational_stiffness, dampratio=1.0)
-        bound, reach, push = ((limits.speed, limits.travel, limits.force) if slide
-                              else (limits.turn_rate, limits.turn, limits.torque))
-        servo.ctrllimited, servo.ctrlrange = True, [-bound, bound]
-        servo.actlimited, servo.actrange = True, [-reach, reach]
+        servo.set_to_position(kp=limits.stiffness if slide else limits.rotational_stiffness, dampratio=1.0)
+        reach, push = (limits.travel, limits.force) if slide else (limits.turn, limits.torque)
+        servo.ctrllimited, servo.ctrlrange = True, [-reach, reach]
         servo.forcelimited, servo.forcerange = True, [-push, push]
     spec.attach(hand_spec, prefix="", frame=flange.add_frame())
     for body in spec.bodies:  # the arm carries the hand's weight

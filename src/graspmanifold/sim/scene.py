@@ -201,7 +201,7 @@ class Scene:
                 geoms, `TOUCH_SITE_MARGIN` larger, with a `touch` sensor on it), summed per segment (`touch()`); or
                 'contact-sensors', a MuJoCo `contact` sensor between each segment and the object, its slots'
                 normal forces summed (up to `CONTACT_SENSOR_SLOTS` contacts a segment).
-            flange: the hand on an arm's flange with these limits (`sim.flange`; `command_flange` moves it), or None:
+            flange: the hand on an arm's flange with these limits (`sim.flange`; `steer_flange` moves it), or None:
                 the hand on its mocap mount, moved only by placing it.
         """
         self.object = get_object(obj)
@@ -259,7 +259,6 @@ class Scene:
             self.flange_qpos = self.model.jnt_qposadr[self.flange_joints]
             self.flange_dofs = self.model.jnt_dofadr[self.flange_joints]
             self.flange_actuators = np.array([self.model.actuator(name).id for name in FLANGE_ACTUATORS])
-            self.flange_act = self.model.actuator_actadr[self.flange_actuators]
         self.palm_id = self.model.body(self.hand.palm).id
         self.object_body = self.model.body("object").id
         self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
@@ -443,7 +442,7 @@ class Scene:
         """
         if self.flange_limits is not None:  # placed with the flange at home, at rest, its servos holding it there
             self.data.qpos[self.flange_qpos] = self.data.qvel[self.flange_dofs] = 0.0
-            self.data.act[self.flange_act] = self.data.ctrl[self.flange_actuators] = 0.0
+            self.data.ctrl[self.flange_actuators] = 0.0
         self.data.mocap_pos[self.mount_id], self.data.mocap_quat[self.mount_id] = self.mount_pose_for(pos, quat)
         self.forward()
         self._placed = self.data.mocap_pos[self.mount_id].copy(), self.data.xmat[self.palm_id].reshape(3, 3).copy()
@@ -479,35 +478,22 @@ class Scene:
         mujoco.mj_kinematics(self.model, self.data)
         return self.data.xaxis[self.flange_joints[:3]].copy()
 
-    def command_flange(self, velocity: Iterable[float]) -> None:
-        """Command the flange's servos: each set point moves at this velocity (clipped to the limits' speeds) as the
-        physics steps, and stops at the travel.
-
-        Args:
-            velocity: (6,), m/s along the palm's x, y, z and rad/s about them.
+    def flange_set_point(self) -> np.ndarray:
+        """Where the flange's servos hold it (they pull the flange there with bounded force): (6,), m and rad.
 
         Raises:
-            InvalidInput: the scene has no flange, the flange is locked (`lock_flange`), or not 6 finite values.
+            InvalidInput: the scene has no flange.
         """
         self._check_flange()
-        try:
-            command = np.asarray(velocity, dtype=float)
-        except (TypeError, ValueError):
-            command = np.full(0, np.nan)
-        if command.shape != (6,) or not np.all(np.isfinite(command)):
-            raise InvalidInput(f"velocity must be 6 finite values (m/s, rad/s), got {velocity!r}")
-        if self.flange_locked:
-            raise InvalidInput("the flange is locked: unlock_flange() before commanding it")
-        bound = self.flange_limits.command_bounds()
-        self.data.ctrl[self.flange_actuators] = np.clip(command, -bound, bound)
+        return self.data.ctrl[self.flange_actuators].copy()
 
     def steer_flange(self, target: Iterable[float], period: float) -> None:
-        """Command the flange towards a pose from home for one control period: each set point heads for the target
-        at the velocity that reaches it in `period`, bounded by the limits' speeds (`command_flange`).
+        """Move the flange's set point towards a pose from home for one control period: each joint's by at most its
+        speed (`FlangeLimits.speeds`) times `period`, within the travel; it stays there until steered again.
 
         Args:
             target: (6,), m along the palm's x, y, z and rad about them, from home (clipped to the travel).
-            period: s, the control period the command holds for (> 0).
+            period: s, the control period (> 0).
 
         Raises:
             InvalidInput: the scene has no flange, it is locked, or not 6 finite values; a period not > 0.
@@ -516,19 +502,22 @@ class Scene:
         goal = np.asarray(target, dtype=float) if np.shape(target) == (6,) else np.full(6, np.nan)
         if not np.all(np.isfinite(goal)):
             raise InvalidInput(f"target must be 6 finite values (m, rad from home), got {target!r}")
-        if not (isinstance(period, (int, float)) and period > 0):
+        if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 < period < math.inf:
             raise InvalidInput(f"period must be seconds > 0, got {period!r}")
-        reach = np.array([self.flange_limits.travel] * 3 + [self.flange_limits.turn] * 3)
-        self.command_flange((np.clip(goal, -reach, reach) - self.data.act[self.flange_act]) / period)
+        if self.flange_locked:
+            raise InvalidInput("the flange is locked: unlock_flange() before steering it")
+        limits, now = self.flange_limits, self.data.ctrl[self.flange_actuators]
+        step = np.clip(np.clip(goal, -limits.reach(), limits.reach()) - now, -limits.speeds() * period,
+                       limits.speeds() * period)
+        self.data.ctrl[self.flange_actuators] = now + step
 
     def lock_flange(self) -> None:
-        """Lock the mount: the servos hold their set points (a zero command) until `unlock_flange`."""
+        """Lock the mount: the servos hold their set points and `steer_flange` is refused until `unlock_flange`."""
         self._check_flange()
-        self.data.ctrl[self.flange_actuators] = 0.0
         self.flange_locked = True
 
     def unlock_flange(self) -> None:
-        """Let `command_flange` move the flange again."""
+        """Let `steer_flange` move the flange again."""
         self._check_flange()
         self.flange_locked = False
 

@@ -238,7 +238,7 @@ class WarpWorlds:
     def flange_axes(self, worlds: np.ndarray) -> np.ndarray:
         raise NotImplementedError(_FLANGE_ON_CPU)
 
-    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None:
+    def steer_flanges(self, worlds: np.ndarray, targets: np.ndarray, period: float) -> None:
         raise NotImplementedError(_FLANGE_ON_CPU)
 
     def step(self, worlds: np.ndarray, nstep: int) -> dict[int, str]:

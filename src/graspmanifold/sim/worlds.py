@@ -61,7 +61,7 @@ class Worlds(Protocol):
 
     def flange_axes(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 3, 3) the slides' world directions
 
-    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None: ...  # (len(worlds), 6) m/s, rad/s
+    def steer_flanges(self, worlds: np.ndarray, targets: np.ndarray, period: float) -> None: ...  # (len(worlds), 6)
 
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]: ...  # and the object's centre of mass
 
@@ -165,9 +165,9 @@ class CpuWorlds:
     def flange_axes(self, worlds: np.ndarray) -> np.ndarray:
         return np.array([self.scenes[w].flange_axes() for w in worlds]).reshape(-1, 3, 3)
 
-    def command_flanges(self, worlds: np.ndarray, velocities: np.ndarray) -> None:
-        for world, velocity in zip(worlds, velocities):
-            self.scenes[world].command_flange(velocity)
+    def steer_flanges(self, worlds: np.ndarray, targets: np.ndarray, period: float) -> None:
+        for world, target in zip(worlds, targets):
+            self.scenes[world].steer_flange(target, period)
 
     def reading(self, world: int) -> tuple[TactileReading, np.ndarray]:
         scene = self.scenes[world]

@@ -455,7 +455,12 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
         time_to_grasp[newly_done] = clock
         worlds.set_targets(live, targets[live])
         if getattr(controller, "moves_palm", False):  # the arm carries each palm where its recalled grasp wants it
-            worlds.shift_hands(live, controller.palm_offset[live])
+            if setup.palm is None:  # at once
+                worlds.shift_hands(live, controller.palm_offset[live])
+            else:  # by its flange, at its bounded speed, while the grasp goes on
+                steered = live[grasping[live]]
+                worlds.steer_flanges(steered, np.column_stack([controller.palm_offset[steered],
+                                                               np.zeros((len(steered), 3))]), period)
         failures = worlds.step(live, nstep)
         failed.update({world: recalls(world) for world in failures})  # as they were when its physics failed
         grasping[newly_done] = grasping[list(failures)] = False
