@@ -197,3 +197,65 @@ def test_a_recall_that_moves_the_palm_moves_it_by_the_flange_where_the_hand_has_
     steps = np.abs(np.diff(points[:, :, :3], axis=0)).max()
     assert steps <= limits.speed * params.control_period + 1e-12
     assert all(t.valid for t in trials)
+
+
+def test_the_palm_approaches_until_touched_then_recentres_on_the_touch_and_stays_once_settled():
+    """PalmSteering's phases on one controller, fed what a hand would sense: the guarded approach along the palm's
+    -y at its speed, stopped by the first contact; re-centring in the palm's plane towards the touching segments'
+    centre, bounded; still once the grasp has settled."""
+    import graspmanifold as gm
+    from graspmanifold.control.controller import GRASP_CENTRE_IN_PALM
+    from graspmanifold.sim.hand import SegmentKinematics
+
+    palm = gm.PalmSteering(approach=0.02, approach_speed=0.05, reach=0.01, speed=0.04)
+    controller = gm.GraspController(None, gm.ControllerParams(palm=palm))
+    dt = controller.params.control_period
+    assert controller.moves_palm and not gm.GraspController(None).moves_palm
+    joints, forces = gm.open_posture(), np.zeros(len(gm.SEGMENTS))
+    offsets = []
+    for _ in range(45):  # nothing touches: after phase A the palm advances along -y, 1 mm a cycle, to 2 cm
+        controller.step(joints, forces)
+        offsets.append(controller.palm_offset.copy())
+    offsets = np.array(offsets)
+    assert np.isclose(offsets[-1, 1], -0.02) and np.allclose(offsets[:, [0, 2]], 0.0)
+    assert np.abs(np.diff(offsets, axis=0)).max() <= palm.approach_speed * dt + 1e-12
+    controller = gm.GraspController(None, gm.ControllerParams(palm=palm))
+    for _ in range(20):  # phase A, then 5 mm of approach
+        controller.step(joints, forces)
+    y = controller.palm_offset[1]
+    assert -0.02 < y < 0
+    touched = gm.closed_posture() * 0.5
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0  # the index finger's tip touches: the object is over there
+    centre = SegmentKinematics().positions(touched)[gm.SEGMENTS.index("ffdistal")]
+    expected = np.clip(centre[[0, 2]] - GRASP_CENTRE_IN_PALM[[0, 2]], -palm.reach, palm.reach)
+    offsets = []
+    for _ in range(40):
+        controller.step(touched, forces)
+        offsets.append(controller.palm_offset.copy())
+    offsets = np.array(offsets)
+    assert np.allclose(offsets[:, 1], y)  # the approach stopped at the contact
+    assert np.linalg.norm(np.diff(offsets, axis=0), axis=1).max() <= palm.speed * dt + 1e-12
+    assert np.sign(offsets[-1, [0, 2]]).tolist() == np.sign(expected).tolist()
+    assert np.abs(offsets[-1, [0, 2]]).max() <= palm.reach + 1e-12
+    # every finger touching (settled): the palm is locked for the squeeze
+    forces[[gm.SEGMENTS.index(f"{f}distal") for f in ("mf", "rf", "lf", "th")]] = 1.0
+    controller.step(touched, forces)
+    held = controller.palm_offset.copy()
+    for _ in range(10):
+        controller.step(touched, forces)
+    assert np.array_equal(controller.palm_offset, held)
+
+
+def test_palm_steering_is_checked_and_a_still_palm_keeps_the_trials_keys():
+    import graspmanifold as gm
+
+    assert "palm" not in gm.ControllerParams().to_table()
+    steered = gm.ControllerParams(palm=gm.PalmSteering(reach=0.02))
+    assert steered.to_table()["palm"]["reach"] == 0.02
+    for field, value in (("approach", -0.01), ("reach", 0.5), ("speed", 0.0), ("approach_speed", np.nan)):
+        with pytest.raises(InvalidInput, match=field):
+            gm.PalmSteering(**{field: value})
+    with pytest.raises(InvalidInput, match="one of them moves it"):
+        gm.ControllerParams(recall=gm.BlendRecall(reach=0.02), palm=gm.PalmSteering(reach=0.02))
+    with pytest.raises(InvalidInput, match="palm"):
+        gm.ControllerParams(palm={"reach": 0.02})

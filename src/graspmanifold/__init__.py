@@ -13,7 +13,14 @@ from .sim.render import choose_offscreen_backend
 choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
 
 from .manifold.analysis import resume_learning, smoothness  # noqa: E402
-from .control.controller import ApproachRecall, BlendRecall, ControllerParams, GraspController, TargetRecall
+from .control.controller import (
+    ApproachRecall,
+    BlendRecall,
+    ControllerParams,
+    GraspController,
+    PalmSteering,
+    TargetRecall,
+)
 from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase
@@ -34,6 +41,7 @@ from .sim.hand import (
     finger_limits,
     load_hand,
 )
+from .sim.flange import FlangeLimits
 from .sim.objects import PAPER_OBJECTS, GraspObject, get_object, make_object
 from .sim.posture import (
     clip_posture,
@@ -91,7 +99,7 @@ __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
     "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
-    "TactileSensor", "ControllerParams", "TargetRecall", "BlendRecall", "ApproachRecall", "GraspController", "Regrasp", "compare", "headroom", "holm", "mcnemar",
+    "TactileSensor", "ControllerParams", "TargetRecall", "BlendRecall", "ApproachRecall", "PalmSteering", "FlangeLimits", "GraspController", "Regrasp", "compare", "headroom", "holm", "mcnemar",
     "wilson_interval", "EvaluationResult", "Noise", "Recording", "TrialSetup", "record_trial", "clip_posture",
     "epsilon_l1", "BackendUnavailable", "GraspManifoldError", "InvalidInput", "NotFittedError", "OutputInUse", "RenderingUnavailable",
     "WorkersLost", "QualityError", "SimulationError", "evaluate", "grid_preset", "reachable", "why_unreachable", "resume_learning", "smoothness", "closed_posture", "dict_to_posture", "facing_pose", "finger_limits",

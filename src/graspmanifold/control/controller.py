@@ -81,6 +81,7 @@ from ..sim.hand import (
     finger_of,
 )
 from ..sim.posture import SEGMENT_FINGER, pcp_masks, validate_posture
+from ..sim.scene import GRASP_CENTRE_IN_PALM
 from .regrasp import Regrasp
 
 #: the index into FINGERS of each finger joint's finger: `per_finger[:, JOINT_FINGER]` spreads (n, 5) over (n, 22)
@@ -492,6 +493,49 @@ class BlendRecall(RecallRule):
         c.state.lost[world] = False
 
 
+@dataclass(frozen=True)
+class PalmSteering:
+    """The palm follows touch (issue 66): where an arm carries the hand (`TrialSetup.palm`: a flange), the controller
+    moves the palm in phases of its own beside the fingers', whatever its recall rule:
+
+    - the guarded approach (phase B, nothing touching yet): the palm advances along its normal towards the object
+      (the palm's -y) at `approach_speed`, at most `approach`, and stops at the first contact;
+    - re-centring (phase C, until the grasp settles): the palm moves in its plane (x, z) to bring its grasp centre
+      (`scene.GRASP_CENTRE_IN_PALM`) over the force-weighted centre of the touching segments, where the hand's own
+      kinematics puts them for the sensed joints (`hand.SegmentKinematics`), at `speed`, at most `reach` from where
+      the grasp put it;
+    - locked for the squeeze: once every finger touches or is fully closed, the palm stays where it is.
+
+    The default moves nothing (the palm stays where the trial put it, the paper's).
+
+    Attributes:
+        approach: m, the guarded approach's longest travel (0: none).
+        approach_speed: m/s.
+        reach: m, the longest re-centring in the palm's plane (0: none).
+        speed: m/s of the re-centring.
+    """
+
+    approach: float = 0.0
+    approach_speed: float = 0.05
+    reach: float = 0.0
+    speed: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name, high in (("approach", 0.1), ("reach", 0.1)):
+            _check_number("PalmSteering", name, getattr(self, name), 0.0, high)
+        for name in ("approach_speed", "speed"):
+            _check_number("PalmSteering", name, getattr(self, name), 0.0, 1.0, positive=True)
+
+    @property
+    def active(self) -> bool:
+        """Whether it moves the palm at all."""
+        return self.approach > 0 or self.reach > 0
+
+
+#: the palm of the fingers-only controller: it stays where the trial put it
+STILL_PALM = PalmSteering()
+
+
 #: our recall rules by name (`ControllerParams(recall="base")`, a configuration file's `recall = "base"`)
 RECALL_RULES: dict[str, type[RecallRule]] = {"target": TargetRecall, "base": BlendRecall, "approach": ApproachRecall}
 #: the flat settings of a controller table before the recall rule was a value, and their names in the rule's
@@ -524,6 +568,7 @@ class ControllerParams:
     grip_gain: float = 1.0  # rad/s the press changes at per unit of relative grip-force error
     grip_press: float = 0.6  # rad, the most the grip regulation presses (and 0 the least)
     recall: RecallRule = field(default_factory=lambda: TargetRecall())  # what a best match does (module doc)
+    palm: PalmSteering = STILL_PALM  # the palm's own phases where an arm carries the hand (issue 66)
 
     def __post_init__(self) -> None:
         if isinstance(self.recall, str):
@@ -558,6 +603,11 @@ class ControllerParams:
             raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
                                f"got {self.max_match_distance!r}")
         check_choice(self.steered_joints, STEERED_JOINTS, "ControllerParams.steered_joints")
+        if not isinstance(self.palm, PalmSteering):
+            raise InvalidInput(f"ControllerParams.palm must be a PalmSteering, got {self.palm!r}")
+        if self.palm.active and self.recall.moves_palm:
+            raise InvalidInput("ControllerParams.palm steers the palm from touch and the recall rule moves it too "
+                               f"({self.recall.name}'s reach): one of them moves it, not both")
         self.recall.check(self)
         unknown = [f for f in self.steered_fingers if f not in FINGERS]
         if unknown:
@@ -565,9 +615,14 @@ class ControllerParams:
 
     def to_table(self) -> dict:
         """The parameters as a table (TOML, run.json, the trials' key): every field, the recall rule as a table of
-        its own with its name under 'rule'."""
+        its own with its name under 'rule', the palm's steering as one where it moves the palm (a still palm is left
+        out, so that the keys of trials made before it stay)."""
         table = {f.name: getattr(self, f.name) for f in fields(self)}
         table["recall"] = self.recall.to_table()
+        if self.palm.active:
+            table["palm"] = {f.name: getattr(self.palm, f.name) for f in fields(self.palm)}
+        else:
+            del table["palm"]
         return table
 
     @staticmethod
@@ -763,6 +818,7 @@ class GraspState:
         touching, stable_since: (N, 5) the fingers touching, and (N,) s since when that set is unchanged.
         recalled: (N,) the blend's first trusted match after a contact has come.
         palm_goal, reaching: (N, 3) m, where each palm is going (`BlendRecall.reach`), and (N,) whether it is.
+        touched_once: (N,) something has touched in this attempt (the palm's guarded approach is over).
         approaching, heading, recall: (N, 5) the fingers on their way to a recalled posture ('target'), its key
             (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
         visited: the `visit` index of every (world, finger, key) recall a finger is done with.
@@ -791,6 +847,7 @@ class GraspState:
     recalled: np.ndarray
     palm_goal: np.ndarray
     reaching: np.ndarray
+    touched_once: np.ndarray
     approaching: np.ndarray
     heading: np.ndarray
     recall: np.ndarray
@@ -816,7 +873,7 @@ class GraspState:
                    way=np.zeros((n, N_FINGER_JOINTS)), pace=np.tile(speed, (n, 1)), target=np.tile(initial, (n, 1)),
                    touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
                    recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
-                   approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
+                   touched_once=np.zeros(n, dtype=bool), approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
                    recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
                    previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
                    grip=np.zeros(n),
@@ -830,7 +887,7 @@ class GraspState:
         (`palm_offset`, (N, 3) m), their recalls forgotten, started at `time` s; the preshapes stay (the regrasp
         has set them)."""
         for array in (self.closure, self.held, self.lost, self.touching, self.recalled, self.reaching,
-                      self.approaching, self.heading, self.squeezing):
+                      self.touched_once, self.approaching, self.heading, self.squeezing):
             array[worlds] = 0
         self.last_touch[worlds] = -np.inf
         self.base[worlds] = self.recall[worlds] = initial
@@ -894,7 +951,7 @@ class BatchController:
                                                           for of in FINGER_JOINT_MASKS])
         self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
         self._steered = self._steered_finger[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
-        self._kinematics = SegmentKinematics(hand) if self.params.recall.moves_palm else None
+        self._kinematics = SegmentKinematics(hand) if self.params.recall.moves_palm or self.params.palm.active else None
         #: the recall keys one world's fingers can have (a row of the references, or the preshape)
         self._rows = 1 + (0 if self.experience is None else len(self.experience.references))
         self.reset()
@@ -906,8 +963,9 @@ class BatchController:
 
     @property
     def moves_palm(self) -> bool:
-        """Whether the trials must carry each palm to `palm_offset` (its recall rule moves palms: `reach` > 0)."""
-        return self.params.recall.moves_palm
+        """Whether the trials must carry each palm to `palm_offset` (its recall rule moves palms: `reach` > 0; or its
+        palm follows touch: `ControllerParams.palm`)."""
+        return self.params.recall.moves_palm or self.params.palm.active
 
     def reset(self) -> None:
         """Start a new grasp in every world."""
@@ -1018,6 +1076,8 @@ class BatchController:
             pace = np.where(going, self.state.pace[free, finger], p.follow_speed * self.speed[finger])
             target[np.ix_(free, of)] = _bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
         self.state.target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
+        if self.params.palm.active:
+            self._steer_palm(act, joints, forces, touching)
         moving = np.flatnonzero(act & self.state.reaching)  # palms on their way to the recalled grasps' places
         if len(moving):
             self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
@@ -1042,6 +1102,39 @@ class BatchController:
         self.time_to_grasp[finished] = self.time
         self.state.previous = joints.copy()
         return self.state.target.copy()
+
+    def _steer_palm(self, act: np.ndarray, joints: np.ndarray, forces: np.ndarray, touching: np.ndarray) -> None:
+        """The palm's phases (`PalmSteering`): the guarded approach before the first contact, re-centring on the
+        touching segments while the grasp settles, still once every finger touches or is closed.
+
+        Args:
+            act: (N,) bool, the worlds acting this cycle.
+            joints: (N, 22) rad, the sensed joints.
+            forces: (N, segments) N, the segment forces.
+            touching: (N, 5) bool, the touching fingers.
+        """
+        palm, dt = self.params.palm, self.params.control_period
+        any_touch = forces.max(axis=1) > 0.0
+        settled = np.all(touching | self.params.recall.settled(self, self.state.closure >= 1.0), axis=1)
+        approaching = np.flatnonzero(act & ~any_touch & ~self.state.touched_once)
+        self.state.touched_once |= act & any_touch
+        goal = self.palm_offset.copy()
+        goal[approaching, 1] = -palm.approach
+        step = np.zeros(self.n)
+        step[approaching] = palm.approach_speed * dt
+        centring = np.flatnonzero(act & any_touch & ~settled) if palm.reach > 0 else np.zeros(0, dtype=int)
+        for world in centring:
+            weights = forces[world] * (SEGMENT_FINGER != "")  # the fingers' segments: where the object is held
+            if weights.sum() <= 0.0:
+                continue
+            centre = weights @ self._kinematics.positions(joints[world]) / weights.sum()
+            shift = np.clip(self.palm_offset[world, [0, 2]] + centre[[0, 2]] - GRASP_CENTRE_IN_PALM[[0, 2]],
+                            -palm.reach, palm.reach)
+            goal[world, [0, 2]] = shift
+            step[world] = palm.speed * dt
+        moving = np.flatnonzero(step > 0)
+        if len(moving):
+            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], goal[moving], step[moving])
 
     def _regulate_grip(self, forces: np.ndarray, acting: np.ndarray) -> None:
         """The press of the holding fingers regulated to the total grip force `ControllerParams.grip_force`: an
