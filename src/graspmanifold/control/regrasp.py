@@ -36,7 +36,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..manifold.experience import Experience
-from ..manifold.nearest import argmin_tied
+from ..manifold.nearest import argmin_tied, nearest_rows
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.scene import GRAVITY
@@ -220,9 +220,7 @@ def reference_grasp_types(experience: Experience, postures: np.ndarray, types: n
     if data.ndim != 2 or data.shape[1] != N_FINGER_JOINTS or types.shape != (len(data),) or not len(data):
         raise InvalidInput(f"postures must be (m, {N_FINGER_JOINTS}) with one type each (m >= 1), got shapes "
                            f"{data.shape} and {types.shape}")
-    references = np.asarray(experience.references, dtype=float)
-    nearest = np.array([argmin_tied(((data - row) ** 2).sum(axis=1)) for row in references], dtype=int)
-    return types[nearest]
+    return types[nearest_rows(experience.references, data)]
 
 
 class LiftProbe:

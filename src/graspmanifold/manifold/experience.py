@@ -5,6 +5,11 @@ The paper represents grasp experience either as a database of successful grasp p
 (Section 4, the same masked distance in Eq. 4). Both answer one question: which stored posture
 best matches the current partial contact posture? `Experience` is that question as a protocol;
 `SOM` and `PostureDatabase` both satisfy it.
+
+Beyond the paper (issue 66), an experience may also know where the object sat in the palm's frame in each grasp: its
+`places`, (k, 3) m aligned with `references` (None where it does not know). They are never matched, only recalled with
+the posture of the same row: a database keeps each posture's (`object_places` of a `PostureSet`), a SOM node the place
+of its nearest training posture (`SOM.carry_places`). An experience of one's own without them still runs.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, fingerprint
+from ..base.poses import invert
 from ..base.validation import check_data
 from ..sim.hand import N_FINGER_JOINTS
 from .nearest import MaskedNearest, Recall
@@ -88,20 +94,45 @@ class Experience(Protocol):
         ...
 
 
-class PostureDatabase(Recall, NpzRecord):
-    """All stored postures (n, dim); best matches are row indices into `postures`."""
+def object_places(postures: PostureSet) -> np.ndarray:
+    """Where the object sat in the palm's frame in each grasp of a set: the object frame's origin seen from the palm
+    pose the grasp was verified at (`PostureSet.hand_poses`).
 
-    def __init__(self, postures: np.ndarray):
+    Args:
+        postures: the grasps.
+
+    Returns:
+        (n, 3) m, palm frame (x across the fingers, y out of the palm's back, z along the fingers).
+    """
+    return np.array([invert(pose[:3], pose[3:])[0] for pose in postures.hand_poses]).reshape(-1, 3)
+
+
+def check_places(places: object, count: int) -> np.ndarray:
+    """Places (`object_places`) checked against the rows they belong to: (count, 3) finite, in m; read-only."""
+    array = np.array(places, dtype=float)
+    if array.shape != (count, 3) or not np.all(np.isfinite(array)):
+        raise InvalidInput(f"places must be ({count}, 3) finite positions in m, one per posture, got shape {array.shape}")
+    array.flags.writeable = False
+    return array
+
+
+class PostureDatabase(Recall, NpzRecord):
+    """All stored postures (n, dim); best matches are row indices into `postures`, and `places` where the object
+    sat in each (None: not known)."""
+
+    def __init__(self, postures: np.ndarray, places: np.ndarray | None = None):
         """The database of these postures.
 
         Args:
             postures: (n, dim) finite postures, rad; stored read-only.
+            places: (n, 3) m, where the object sat in the palm's frame in each (`object_places`), or None.
         """
         data = np.asarray(postures, dtype=float)
         if data.ndim != 2:
             raise InvalidInput(f"postures must be an (n, dim) array, got shape {data.shape}")
         self.postures = check_data(data, data.shape[1], "postures")
         self.postures.flags.writeable = False
+        self.places = None if places is None else check_places(places, len(self.postures))
         self.dim = self.postures.shape[1]
         self._search = MaskedNearest(self.postures)
 
@@ -120,15 +151,16 @@ class PostureDatabase(Recall, NpzRecord):
     NPZ_REQUIRED = {"postures": (None, None)}
 
     def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
-        return {"postures": self.postures}, {"dim": self.dim, "count": len(self),
-                                             "data_fingerprint": fingerprint(self.postures)}
+        arrays = {"postures": self.postures, **({"places": self.places} if self.places is not None else {})}
+        return arrays, {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures),
+                        "units": "postures rad; places m, the object in the palm's frame"}
 
     @classmethod
     def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> PostureDatabase:
-        return cls(arrays["postures"])
+        return cls(arrays["postures"], arrays.get("places"))
 
     def __repr__(self) -> str:
-        return f"PostureDatabase({len(self)} postures, dim={self.dim})"
+        return f"PostureDatabase({len(self)} postures, dim={self.dim}{', with places' if self.places is not None else ''})"
 
 
 _PROTOCOL_MEMBERS = tuple(dict.fromkeys([*Experience.__annotations__,
@@ -137,11 +169,11 @@ _PROTOCOL_MEMBERS = tuple(dict.fromkeys([*Experience.__annotations__,
 
 def check_experience(experience: object) -> Experience | None:
     """The experience base a controller uses: None (the purely tactile controller), any `Experience`
-    (a PostureDatabase, a SOM), or a PostureSet, which becomes the database of its postures."""
+    (a PostureDatabase, a SOM), or a PostureSet, which becomes the database of its postures and their places."""
     if experience is None:
         return None
     if isinstance(experience, PostureSet):
-        experience = PostureDatabase(experience.postures)
+        experience = PostureDatabase(experience.postures, object_places(experience))
     if not isinstance(experience, Experience):
         missing = [name for name in _PROTOCOL_MEMBERS if not hasattr(experience, name)]
         raise InvalidInput(f"experience must be None, a PostureSet or an Experience (the protocol in "

@@ -29,6 +29,22 @@ _PER_THREAD = 2048  # a batch gets one thread per this many queries, up to the u
 _RELATIVE_TOLERANCE = 1e-10  # far above the ~1e-14 relative rounding error of the expansion
 
 
+def nearest_rows(references: np.ndarray, data: np.ndarray) -> np.ndarray:
+    """For each reference row, the row of `data` nearest to it (Euclidean; a tie to the lowest index, `argmin_tied`):
+    what a SOM node inherits from the training postures it stands for (a grasp type, where the object sat).
+
+    Args:
+        references: (k, dim) rows.
+        data: (m, dim) rows, m >= 1.
+
+    Returns:
+        (k,) indices into `data`.
+    """
+    data = np.asarray(data, dtype=float)
+    return np.array([argmin_tied(((data - row) ** 2).sum(axis=1)) for row in np.asarray(references, dtype=float)],
+                    dtype=int)
+
+
 def argmin_tied(values: np.ndarray, axis: int | None = None) -> int | np.ndarray:
     """The index of the smallest value, the lowest index among those within `kernels.TIE` (relative) of it: the
     best match's rule of a tie, for any array of distances.

@@ -50,7 +50,8 @@ from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import free_cores
 from .kernels import compiled, online_epoch
-from .nearest import MaskedNearest, Recall
+from .experience import check_places
+from .nearest import MaskedNearest, Recall, nearest_rows
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -162,6 +163,8 @@ class SOM(Recall, NpzRecord):
         self.sigma = check_schedule(sigma, "sigma")
         self.algorithm = _algorithm(algorithm)
         self.history: list[dict] = []
+        #: (n_nodes, 3) m, where the object sat in the palm's frame for each node's posture (`carry_places`), or None
+        self.places: np.ndarray | None = None
         self._weights: np.ndarray | None = None
         self._search: MaskedNearest | None = None
         # lattice coordinates of every node, flat order row * cols + col
@@ -191,11 +194,28 @@ class SOM(Recall, NpzRecord):
         check_data(array.reshape(-1, self.dim), self.dim, "weights")
         self._weights = array
         self._search = None
+        self.places = None  # they belonged to the old weights
 
     @property
     def references(self) -> np.ndarray:
         """The nodes' reference vectors as rows (n_nodes, dim), in the flat order of `best_match` (read-only)."""
         return self.weights.reshape(-1, self.dim)
+
+    def carry_places(self, postures: np.ndarray, places: np.ndarray) -> SOM:
+        """Let every node know where the object sat (issue 66): the place of its nearest posture among those the map
+        stands for, never matched, recalled with the node's posture. New weights (training on) forget them.
+
+        Args:
+            postures: (m, dim) rad, the postures the map was trained on (or any it stands for).
+            places: (m, 3) m, where the object sat in the palm's frame in each (`experience.object_places`).
+
+        Returns:
+            This map, its `places` set.
+        """
+        data = self._data(postures)
+        places = check_places(places, len(data))
+        self.places = check_places(places[nearest_rows(self.references, data)], self.n_nodes)
+        return self
 
     def _require_weights(self) -> np.ndarray:
         if self._weights is None:
@@ -460,7 +480,7 @@ class SOM(Recall, NpzRecord):
                 "schedule": {"epochs": self.epochs, "learning_rate": list(self.learning_rate),
                              "sigma": list(self.sigma), "algorithm": self.algorithm},
                 "units": "as the training data (radians for postures)"}
-        return {"weights": self._require_weights()}, meta
+        return {"weights": self._require_weights(), **({"places": self.places} if self.places is not None else {})}, meta
 
     @classmethod
     def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> SOM:
@@ -470,6 +490,7 @@ class SOM(Recall, NpzRecord):
         except KeyError as missing:
             raise InvalidInput(f"{path} lacks SOM metadata {missing}") from None
         som.weights = arrays["weights"]
+        som.places = None if "places" not in arrays else check_places(arrays["places"], som.n_nodes)
         som.history = list(meta.get("history", []))
         return som
 
