@@ -259,3 +259,26 @@ def test_palm_steering_is_checked_and_a_still_palm_keeps_the_trials_keys():
         gm.ControllerParams(recall=gm.BlendRecall(reach=0.02), palm=gm.PalmSteering(reach=0.02))
     with pytest.raises(InvalidInput, match="palm"):
         gm.ControllerParams(palm={"reach": 0.02})
+
+
+def test_with_recalled_places_the_palm_recentres_on_where_the_recalled_grasp_had_the_object():
+    """The same touch, two experiences of the same posture: one that knows the object sat 2 cm further along the
+    fingers than the palm's grasp centre, one that does not (it re-centres from touch alone)."""
+    import graspmanifold as gm
+    from graspmanifold.control.controller import GRASP_CENTRE_IN_PALM
+
+    touched = gm.closed_posture() * 0.5
+    forces = np.zeros(len(gm.SEGMENTS))
+    forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+    place = GRASP_CENTRE_IN_PALM + [0.0, -0.03, 0.02]
+    palm = gm.PalmSteering(reach=0.05, speed=0.05, recalled_place=True)
+    ends = {}
+    for name, experience in (("knows", gm.PostureDatabase(touched[None], place[None])),
+                             ("does not", gm.PostureDatabase(touched[None]))):
+        controller = gm.GraspController(experience, gm.ControllerParams(palm=palm))
+        for _ in range(60):
+            controller.step(touched, forces)
+        assert controller.winners  # it recalled
+        ends[name] = controller.palm_offset.copy()
+    assert np.isclose(ends["does not"][2] - ends["knows"][2], 0.02, atol=1e-9)  # the object wanted 2 cm further out
+    assert np.isclose(ends["does not"][0], ends["knows"][0], atol=1e-9)

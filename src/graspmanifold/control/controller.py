@@ -500,10 +500,12 @@ class PalmSteering:
 
     - the guarded approach (phase B, nothing touching yet): the palm advances along its normal towards the object
       (the palm's -y) at `approach_speed`, at most `approach`, and stops at the first contact;
-    - re-centring (phase C, until the grasp settles): the palm moves in its plane (x, z) to bring its grasp centre
-      (`scene.GRASP_CENTRE_IN_PALM`) over the force-weighted centre of the touching segments, where the hand's own
-      kinematics puts them for the sensed joints (`hand.SegmentKinematics`), at `speed`, at most `reach` from where
-      the grasp put it;
+    - re-centring (phase C, until the grasp settles): the palm moves in its plane (x, z) so that the force-weighted
+      centre of the touching finger segments (where the hand's own kinematics puts them for the sensed joints:
+      `hand.SegmentKinematics`), where touch says the object is, comes where the palm wants the object: its grasp
+      centre (`scene.GRASP_CENTRE_IN_PALM`, touch alone), or with `recalled_place` where the last recalled grasp had
+      it (the experience's `places`, issue 66; touch alone where the experience does not know them); at `speed`, at
+      most `reach` from where the trial put it;
     - locked for the squeeze: once every finger touches or is fully closed, the palm stays where it is.
 
     The default moves nothing (the palm stays where the trial put it, the paper's).
@@ -513,14 +515,19 @@ class PalmSteering:
         approach_speed: m/s.
         reach: m, the longest re-centring in the palm's plane (0: none).
         speed: m/s of the re-centring.
+        recalled_place: re-centre on where the recalled grasp had the object (experience) instead of on the palm's
+            grasp centre (touch alone).
     """
 
     approach: float = 0.0
     approach_speed: float = 0.05
     reach: float = 0.0
     speed: float = 0.05
+    recalled_place: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.recalled_place, bool):
+            raise InvalidInput(f"PalmSteering.recalled_place must be True or False, got {self.recalled_place!r}")
         for name, high in (("approach", 0.1), ("reach", 0.1)):
             _check_number("PalmSteering", name, getattr(self, name), 0.0, high)
         for name in ("approach_speed", "speed"):
@@ -819,6 +826,7 @@ class GraspState:
         recalled: (N,) the blend's first trusted match after a contact has come.
         palm_goal, reaching: (N, 3) m, where each palm is going (`BlendRecall.reach`), and (N,) whether it is.
         touched_once: (N,) something has touched in this attempt (the palm's guarded approach is over).
+        palm_aim: (N, 2) m, where the palm re-centres to in its plane (x, z; NaN: nowhere yet), `PalmSteering`.
         approaching, heading, recall: (N, 5) the fingers on their way to a recalled posture ('target'), its key
             (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
         visited: the `visit` index of every (world, finger, key) recall a finger is done with.
@@ -848,6 +856,7 @@ class GraspState:
     palm_goal: np.ndarray
     reaching: np.ndarray
     touched_once: np.ndarray
+    palm_aim: np.ndarray
     approaching: np.ndarray
     heading: np.ndarray
     recall: np.ndarray
@@ -873,7 +882,7 @@ class GraspState:
                    way=np.zeros((n, N_FINGER_JOINTS)), pace=np.tile(speed, (n, 1)), target=np.tile(initial, (n, 1)),
                    touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
                    recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
-                   touched_once=np.zeros(n, dtype=bool), approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
+                   touched_once=np.zeros(n, dtype=bool), palm_aim=np.full((n, 2), np.nan), approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
                    recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
                    previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
                    grip=np.zeros(n),
@@ -893,7 +902,7 @@ class GraspState:
         self.base[worlds] = self.recall[worlds] = initial
         self.aim[worlds], self.way[worlds], self.pace[worlds] = closed, 0.0, speed
         self.palm_goal[worlds] = palm_offset[worlds]
-        self.previous[worlds] = np.nan
+        self.palm_aim[worlds] = self.previous[worlds] = np.nan
         self.started[worlds] = time
         self.visited = self.visited[~np.isin(self.visited // (len(FINGERS) * self.rows), worlds)]
 
@@ -1123,15 +1132,20 @@ class BatchController:
         step = np.zeros(self.n)
         step[approaching] = palm.approach_speed * dt
         centring = np.flatnonzero(act & any_touch & ~settled) if palm.reach > 0 else np.zeros(0, dtype=int)
-        for world in centring:
+        places = getattr(self.experience, "places", None) if palm.recalled_place else None
+        aim = self.state.palm_aim
+        for world in centring:  # where the palm goes: measured at the contact, again whenever the touching set changes
             weights = forces[world] * (SEGMENT_FINGER != "")  # the fingers' segments: where the object is held
-            if weights.sum() <= 0.0:
+            if weights.sum() <= 0.0 or not (np.isnan(aim[world, 0]) or np.any(touching[world] != self.state.touching[world])):
                 continue
             centre = weights @ self._kinematics.positions(joints[world]) / weights.sum()
-            shift = np.clip(self.palm_offset[world, [0, 2]] + centre[[0, 2]] - GRASP_CENTRE_IN_PALM[[0, 2]],
-                            -palm.reach, palm.reach)
-            goal[world, [0, 2]] = shift
-            step[world] = palm.speed * dt
+            wanted = GRASP_CENTRE_IN_PALM if places is None or not self.winners[world] else \
+                places[self.winners[world][-1]]
+            aim[world] = np.clip(self.palm_offset[world, [0, 2]] + centre[[0, 2]] - wanted[[0, 2]], -palm.reach,
+                                 palm.reach)
+        centring = centring[~np.isnan(aim[centring, 0])]
+        goal[np.ix_(centring, [0, 2])] = aim[centring]
+        step[centring] = palm.speed * dt
         moving = np.flatnonzero(step > 0)
         if len(moving):
             self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], goal[moving], step[moving])
