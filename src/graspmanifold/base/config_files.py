@@ -101,6 +101,8 @@ def read_config(path: str | os.PathLike, base: object) -> object:
 def _toml_value(value: object) -> str:
     if hasattr(value, "with_table"):  # a value of one of several kinds: an inline table that names its kind
         value = value.to_table()
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):  # a nested value: an inline table
+        value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
