@@ -31,7 +31,7 @@ def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split_on_eve
     monkeypatch.setattr(LearningCurveStudy, "test", test)
     monkeypatch.setattr(LearningCurveStudy, "evaluate", evaluate)
     study = LearningCurveStudy(LearningCurveConfig(quick=True, sizes=(3,), rounds=1, seeds=2, workers=1,
-                                                   out=str(tmp_path)))
+                                                   controllers=("som_paper",), out=str(tmp_path)))
     info = study.run()
     assert [seed for _, _, seed in given] == [0, 0, 0, 1, 1, 1] and len(rounds) == 2
     (split, selection), _ = rounds
@@ -55,7 +55,7 @@ def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split_on_eve
     assert null_tag == "n3_null" and np.array_equal(null_given, start)  # the null map: these postures, scrambled
     assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)
     # the report again from study.json, with the ceiling quoted from the planned-grasp study's report
-    learning_curve.main(["--render", "--quick", "--sizes", "3", "--rounds", "1", "--seeds", "2", "--out", str(tmp_path)])
+    learning_curve.main(["--render", "--quick", "--sizes", "3", "--rounds", "1", "--seeds", "2", "--controllers", "som_paper", "--out", str(tmp_path)])
     report = (tmp_path / "learning_curve.md").read_text()
     top = learning_curve.ceiling()
     assert top is not None and "## The ceiling: a perfect recall" in report
