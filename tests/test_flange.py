@@ -67,7 +67,8 @@ def test_the_flange_moves_along_the_palms_own_axes_no_faster_than_its_bound(axis
         assert np.isclose(position[axis], travelled[axis], atol=1e-4) and abs(quat[0]) > 1 - 1e-6  # the wrist gives
     else:  # a hinge turns it about its own axis, through its origin
         angle = 2 * np.arctan2(np.linalg.norm(quat[1:]), quat[0])
-        assert np.isclose(angle, travelled[axis], atol=1e-3) and np.linalg.norm(position) < 1e-3  # the wrist gives a little
+        # the wrist gives a little
+        assert np.isclose(angle, travelled[axis], atol=1e-3) and np.linalg.norm(position) < 1e-3
     scene.step(HALF_SECOND)  # not steered: the set point stays, the servo settles on it
     assert np.isclose(scene.flange()[axis], bound * 0.5, atol=1e-3)
 

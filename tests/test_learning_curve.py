@@ -49,13 +49,15 @@ def test_the_rounds_add_only_the_held_final_grasps_of_the_selection_split_on_eve
     assert np.array_equal(grown, np.concatenate([start, np.array(held).reshape(-1, N_FINGER_JOINTS)]))
     assert info["added"][0] == [len(held)] and set(info["by_round"]) == {"0", "1"} and info["seeds"] == [0, 1]
     for row in info["comparisons"]:  # each claim pools the seeds' pairs and carries every seed's difference
-        assert len(row["seeds"]) == 2 and row["sign_holds"] == (np.sign(row["seeds"][0]) == np.sign(row["seeds"][1]) != 0)
+        signs = np.sign(row["seeds"])
+        assert len(signs) == 2 and row["sign_holds"] == (signs[0] == signs[1] != 0)
     trials = sum(len(r.trials) for r in study.results[("test", "som_paper_n3")].values())  # seed 0's
     assert info["comparisons"][0]["n"] <= 2 * trials and info["by_size"]["3"]["som_paper"][1] > trials
     assert null_tag == "n3_null" and np.array_equal(null_given, start)  # the null map: these postures, scrambled
     assert learning_curve.own_grasps(selection).shape == (len(held), N_FINGER_JOINTS)
     # the report again from study.json, with the ceiling quoted from the planned-grasp study's report
-    learning_curve.main(["--render", "--quick", "--sizes", "3", "--rounds", "1", "--seeds", "2", "--controllers", "som_paper", "--out", str(tmp_path)])
+    learning_curve.main(["--render", "--quick", "--sizes", "3", "--rounds", "1", "--seeds", "2", "--controllers",
+                         "som_paper", "--out", str(tmp_path)])
     report = (tmp_path / "learning_curve.md").read_text()
     top = learning_curve.ceiling()
     assert top is not None and "## The ceiling: a perfect recall" in report

@@ -46,6 +46,11 @@ one of one's own); ours:
   ways beyond: `GraspState.aim`), not towards the closed fist; a touching finger presses `squeeze` on along that
   way (`RecallRule.pressed`) instead of along its flexion. Without a recall it is the paper's controller.
 
+Where an arm carries the hand (a flange: `TrialSetup.palm`), `ControllerParams.palm` (`PalmSteering`, issue 66) gives
+the palm phases of its own beside the fingers', whatever the recall rule: a guarded approach along the palm's normal
+until the first contact, re-centring in the palm's plane on the touch while the grasp settles (on the palm's grasp
+centre, or on where the recalled grasp had the object), still for the squeeze.
+
 Beyond the paper, a controller with a `regrasp.Regrasp` of more than one attempt is probed once its grasp
 is done (the trials lift it: gravity on, touch watched); a failing grasp is opened and grasped again from
 where the object lies (`restart`: phase A opens the hand whatever touches, then B, C and D as before), with
@@ -882,7 +887,8 @@ class GraspState:
                    way=np.zeros((n, N_FINGER_JOINTS)), pace=np.tile(speed, (n, 1)), target=np.tile(initial, (n, 1)),
                    touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
                    recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
-                   touched_once=np.zeros(n, dtype=bool), palm_aim=np.full((n, 2), np.nan), approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
+                   touched_once=np.zeros(n, dtype=bool), palm_aim=np.full((n, 2), np.nan),
+                   approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
                    recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
                    previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
                    grip=np.zeros(n),
@@ -1136,7 +1142,8 @@ class BatchController:
         aim = self.state.palm_aim
         for world in centring:  # where the palm goes: measured at the contact, again whenever the touching set changes
             weights = forces[world] * (SEGMENT_FINGER != "")  # the fingers' segments: where the object is held
-            if weights.sum() <= 0.0 or not (np.isnan(aim[world, 0]) or np.any(touching[world] != self.state.touching[world])):
+            renew = np.isnan(aim[world, 0]) or np.any(touching[world] != self.state.touching[world])
+            if weights.sum() <= 0.0 or not renew:
                 continue
             centre = weights @ self._kinematics.positions(joints[world]) / weights.sum()
             wanted = GRASP_CENTRE_IN_PALM if places is None or not self.winners[world] else \

@@ -1,15 +1,16 @@
 """How a grasp is judged, one value per protocol (`Protocol`), and the registry of them by name (`PROTOCOLS`).
 
 A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
-closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop
-replay (`dexgraspbench.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
+closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop replay
+(`dexgraspbench.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
 `DexGraspBenchProtocol`). Registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`; `ours-faded` after a
-fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object held
-when it rises at least 0.1 m; `stages.Lift`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1 kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg,
-0.10 m, 180 degrees). The physics DexGraspBench needs is a named profile: a 4 ms step, implicitfast, elliptic
-cones with impratio 10, condim 4, two noslip iterations, friction 0.6 sliding and 0.02 torsional, gravity off,
-the object's mass set by rescaling its density. Our hand keeps its own servos (DexGraspBench's Menagerie hand
-has kp 5 on main): the protocol judges the grasp, the hand is the one under test.
+fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object
+held when it rises at least 0.1 m; `stages.Lift`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1
+kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg, 0.10 m, 180 degrees). The physics DexGraspBench
+needs is a named profile: a 4 ms step, implicitfast, elliptic cones with impratio 10, condim 4, two noslip
+iterations, friction 0.6 sliding and 0.02 torsional, gravity off, the object's mass set by rescaling its density.
+Our hand keeps its own servos (DexGraspBench's Menagerie hand has kp 5 on main): the protocol judges the grasp, the
+hand is the one under test.
 
 A protocol of one's own is a `Protocol` value: `TrialSetup(protocol=...)`, `replay_grasp` and the generator's
 verifier take one as they take a registered name.

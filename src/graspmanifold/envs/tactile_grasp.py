@@ -7,13 +7,14 @@ one control period (`control_period`, 20 ms): the action sets the hand's 22 fing
 controller's interface; clipped to the hand's ranges) and says whether the grasp is done (its last element, done
 from 0.5); the observation is what a tactile hand senses, the 22 joint angles (rad) and the normal force on each
 tactile segment (N, `SEGMENTS` order), and, with `pcp=True`, the Partial Contact Posture's mask (22: 1 for a joint
-of a touching segment, Eq. 1). With `palm` (the hand on an arm's flange, `sim.flange`; the lift protocol brings one),
-the action has six more elements after the joint targets, the palm's targets from where the episode placed it (m
-along the palm's x, y, z, rad about them; reached at the flange's bounded speeds, `Scene.steer_flange`), and the
-observation ends with where the flange is (the same six). Once the grasp is done (or after `max_seconds`) the library's judge runs it through
-the protocol named (`protocols.PROTOCOLS`: our hold test by default): the episode terminates, the reward is 1 for
-a grasp that holds and 0 otherwise (sparse), and `info` carries the judgement (hold, force closure, epsilon, the
-displacement, a physics fault). A trial whose physics fails terminates with reward 0 and the fault in `info`.
+of a touching segment, Eq. 1). With `palm` (the hand on an arm's flange, `sim.flange`; the lift protocol brings
+one), the action has six more elements after the joint targets, the palm's targets from where the episode placed it
+(m along the palm's x, y, z, rad about them; reached at the flange's bounded speeds, `Scene.steer_flange`), and the
+observation ends with where the flange is (the same six). Once the grasp is done (or after `max_seconds`) the
+library's judge runs it through the protocol named (`protocols.PROTOCOLS`: our hold test by default): the episode
+terminates, the reward is 1 for a grasp that holds and 0 otherwise (sparse), and `info` carries the judgement (hold,
+force closure, epsilon, the displacement, a physics fault). A trial whose physics fails terminates with reward 0 and
+the fault in `info`.
 
 Our controller drives it as the trials do: `BatchController(1, experience)`'s targets and its `done` each step give
 the episode `evaluate` reports on the same pose (a test). `render_mode="rgb_array"` draws the scene offscreen.

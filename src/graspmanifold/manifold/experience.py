@@ -111,7 +111,8 @@ def check_places(places: object, count: int) -> np.ndarray:
     """Places (`object_places`) checked against the rows they belong to: (count, 3) finite, in m; read-only."""
     array = np.array(places, dtype=float)
     if array.shape != (count, 3) or not np.all(np.isfinite(array)):
-        raise InvalidInput(f"places must be ({count}, 3) finite positions in m, one per posture, got shape {array.shape}")
+        raise InvalidInput(f"places must be ({count}, 3) finite positions in m, one per posture, got shape "
+                           f"{array.shape}")
     array.flags.writeable = False
     return array
 
@@ -160,7 +161,8 @@ class PostureDatabase(Recall, NpzRecord):
         return cls(arrays["postures"], arrays.get("places"))
 
     def __repr__(self) -> str:
-        return f"PostureDatabase({len(self)} postures, dim={self.dim}{', with places' if self.places is not None else ''})"
+        places = ", with places" if self.places is not None else ""
+        return f"PostureDatabase({len(self)} postures, dim={self.dim}{places})"
 
 
 _PROTOCOL_MEMBERS = tuple(dict.fromkeys([*Experience.__annotations__,

@@ -161,7 +161,8 @@ def _drawn(postures: PostureSet, n: int, seed: int) -> np.ndarray:
     return np.sort(np.random.default_rng([seed, n]).choice(len(postures), size=min(n, len(postures)), replace=False))
 
 
-def covered_poses(sets: dict[str, PostureSet], n: int, results: dict, seed: int = 0) -> dict[tuple[str, str], np.ndarray]:
+def covered_poses(sets: dict[str, PostureSet], n: int, results: dict,
+                  seed: int = 0) -> dict[tuple[str, str], np.ndarray]:
     """Which trials of a benchmark run the experience of n postures per object covers (`grid.covered`: one of the
     object's verified grasps kept holds it within 1 cm of where the pose puts it).
 
