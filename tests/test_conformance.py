@@ -48,6 +48,15 @@ def test_the_contract_catches_worlds_that_step_too_little():
         check_worlds_contract(StepsOnce)
 
 
+def test_the_contract_catches_worlds_that_do_not_steer_their_flanges():
+    class FlangesStuck(CpuWorlds):
+        def steer_flanges(self, worlds, targets, period):
+            pass
+
+    with pytest.raises(AssertionError, match="steering a flange"):
+        check_worlds_contract(FlangesStuck)
+
+
 def test_warp_worlds_meet_the_contract():
     pytest.importorskip("mujoco_warp")
     from graspmanifold.sim.warp_worlds import WarpWorlds

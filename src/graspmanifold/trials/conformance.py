@@ -14,6 +14,7 @@ import numpy as np
 
 from ..control.controller import Controller, ControllerFactory
 from ..manifold.experience import Experience
+from ..sim.flange import FlangeLimits
 from ..sim.hand import DISTAL_SEGMENTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import closed_posture, open_posture
@@ -147,7 +148,10 @@ def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObjec
     MuJoCo as the reference. The worlds must report shapes the batched controller reads, advance the
     worlds asked for by the steps asked (others may advance too: the batched trials never read a world
     they did not step), follow the reference within `atol` (rad, m), and let a released object fall
-    under the gravity they are given; moving the palms (`shift_hands`) may be refused, with a message.
+    under the gravity they are given; moving the palms (`shift_hands`) may be refused, with a message. Worlds made
+    of scenes whose hands hang on a flange (`sim.flange`) report where the flanges are and where their slides point,
+    and move a flange its bounded step towards a target each time it is steered; a backend without flanges may
+    refuse them, with a message.
 
     Args:
         make: builds the implementation from a list of scenes (e.g. `CpuWorlds`).
@@ -193,3 +197,28 @@ def check_worlds_contract(make: Callable[[list[Scene]], Worlds], obj: GraspObjec
         assert str(error), "shift_hands, where a backend lacks it, must say what to use instead"
     worlds.step(np.array([1]), 50)
     assert worlds.object_positions()[1][2] < start[2] - 1e-3, "a released object did not fall under the gravity given"
+    _check_flanges(make, obj, poses)
+
+
+def _check_flanges(make: Callable[[list[Scene]], Worlds], obj: GraspObject, poses: np.ndarray) -> None:
+    """The flange part of `check_worlds_contract`."""
+    limits = FlangeLimits()
+    scenes = [trial_scene(TrialSetup(object=obj, palm=limits), pose, np.random.default_rng(k), open_posture())
+              for k, pose in enumerate(poses)]
+    try:
+        worlds = make(scenes)
+        everyone = np.arange(2)
+        home = worlds.flanges(everyone)
+        axes = worlds.flange_axes(everyone)
+        assert home.shape == (2, 6) and np.allclose(home, 0.0, atol=1e-6), "flanges must be (worlds, 6), home at 0"
+        assert axes.shape == (2, 3, 3) and np.allclose(axes @ axes.transpose(0, 2, 1), np.eye(3), atol=1e-9), \
+            "flange_axes must be (worlds, 3, 3), orthonormal rows"
+        period = 0.02
+        for _ in range(5):  # 5 periods towards 5 cm along the palm's x: at most 1 cm at 0.1 m/s
+            worlds.steer_flanges(np.array([0]), np.array([[0.05, 0, 0, 0, 0, 0]]), period)
+            worlds.step(np.array([0]), round(period / scenes[0].model.opt.timestep))
+        moved = worlds.flanges(np.array([0]))[0, 0]
+        assert 0.005 < moved <= 5 * limits.speed * period + 1e-3, \
+            f"steering a flange 5 periods towards 5 cm moved it {moved * 1000:.1f} mm (its speed allows 10 mm)"
+    except NotImplementedError as error:
+        assert str(error), "flanges, where a backend lacks them, must say what to use instead"
