@@ -108,7 +108,18 @@ def object_places(postures: PostureSet) -> np.ndarray:
 
 
 def check_places(places: object, count: int) -> np.ndarray:
-    """Places (`object_places`) checked against the rows they belong to: (count, 3) finite, in m; read-only."""
+    """Places (`object_places`) checked against the rows they belong to.
+
+    Args:
+        places: (count, 3) m, one per row.
+        count: how many rows they belong to.
+
+    Returns:
+        A read-only copy, (count, 3) m.
+
+    Raises:
+        InvalidInput: another shape or a value that is not finite.
+    """
     array = np.array(places, dtype=float)
     if array.shape != (count, 3) or not np.all(np.isfinite(array)):
         raise InvalidInput(f"places must be ({count}, 3) finite positions in m, one per posture, got shape "

@@ -459,7 +459,10 @@ class Scene:
 
     # -- the flange --------------------------------------------------------------------------------
     def flange(self) -> np.ndarray:
-        """Where the flange is from home: (6,), the slides along the palm's x, y, z (m), the hinges about them (rad).
+        """Where the flange is from home.
+
+        Returns:
+            (6,): the slides along the palm's x, y, z (m), the hinges about them (rad).
 
         Raises:
             InvalidInput: the scene has no flange.
@@ -468,8 +471,11 @@ class Scene:
         return self.data.qpos[self.flange_qpos].copy()
 
     def flange_axes(self) -> np.ndarray:
-        """The directions the flange's slides move the palm, in the world: (3, 3), one unit vector per row (the palm's
-        x, y, z where the hand was placed); they do not turn with the hinges, which follow the slides.
+        """The directions the flange's slides move the palm, in the world; they do not turn with the hinges, which
+        follow the slides.
+
+        Returns:
+            (3, 3): one unit vector per row, the palm's x, y, z where the hand was placed.
 
         Raises:
             InvalidInput: the scene has no flange.
@@ -479,7 +485,10 @@ class Scene:
         return self.data.xaxis[self.flange_joints[:3]].copy()
 
     def flange_set_point(self) -> np.ndarray:
-        """Where the flange's servos hold it (they pull the flange there with bounded force): (6,), m and rad.
+        """Where the flange's servos hold it (they pull the flange there with bounded force).
+
+        Returns:
+            (6,): m along the palm's x, y, z and rad about them, from home.
 
         Raises:
             InvalidInput: the scene has no flange.
