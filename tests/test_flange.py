@@ -262,24 +262,35 @@ def test_palm_steering_is_checked_and_a_still_palm_keeps_the_trials_keys():
         gm.ControllerParams(palm={"reach": 0.02})
 
 
-def test_with_recalled_places_the_palm_recentres_on_where_the_recalled_grasp_had_the_object():
-    """The same touch, two experiences of the same posture: one that knows the object sat 2 cm further along the
-    fingers than the palm's grasp centre, one that does not (it re-centres from touch alone)."""
+def test_with_recalled_places_the_palm_moves_by_where_touch_finds_the_object_against_where_the_grasp_had_it():
+    """The same touch, two experiences of the same recalled posture: one that knows where its grasp had the object
+    (the object then sits off the touching segment as it sat off the recalled posture's, and the palm moves by the
+    difference between the two), one that does not (it re-centres from touch alone, on the palm's grasp centre)."""
     import graspmanifold as gm
     from graspmanifold.control.controller import GRASP_CENTRE_IN_PALM
+    from graspmanifold.sim.hand import SegmentKinematics
 
-    touched = gm.closed_posture() * 0.5
+    recalled = gm.closed_posture() * 0.5
+    sensed = recalled.copy()
+    sensed[gm.FINGER_JOINTS.index("FFJ4")] += 0.2  # the index finger spread: it touches off its recalled place
     forces = np.zeros(len(gm.SEGMENTS))
-    forces[gm.SEGMENTS.index("ffdistal")] = 1.0
+    tip = gm.SEGMENTS.index("ffdistal")
+    forces[tip] = 1.0
     place = GRASP_CENTRE_IN_PALM + [0.0, -0.03, 0.02]
+    kinematics = SegmentKinematics()
+    found = kinematics.positions(sensed)[tip] - kinematics.positions(recalled)[tip]  # where touch finds it, relative
     palm = gm.PalmSteering(reach=0.05, speed=0.05, recalled_place=True)
-    ends = {}
-    for name, experience in (("knows", gm.PostureDatabase(touched[None], place[None])),
-                             ("does not", gm.PostureDatabase(touched[None]))):
+    ends, estimates = {}, {}
+    for name, experience in (("knows", gm.PostureDatabase(recalled[None], place[None])),
+                             ("does not", gm.PostureDatabase(recalled[None]))):
         controller = gm.GraspController(experience, gm.ControllerParams(palm=palm))
         for _ in range(60):
-            controller.step(touched, forces)
+            controller.step(sensed, forces)
         assert controller.winners  # it recalled
-        ends[name] = controller.palm_offset.copy()
-    assert np.isclose(ends["does not"][2] - ends["knows"][2], 0.02, atol=1e-9)  # the object wanted 2 cm further out
-    assert np.isclose(ends["does not"][0], ends["knows"][0], atol=1e-9)
+        ends[name], estimates[name] = controller.palm_offset.copy(), controller.batch.object_estimate[0].copy()
+    assert abs(found[0]) > 1e-3  # the spread moved the tip across the palm
+    assert np.allclose(ends["knows"][[0, 2]], found[[0, 2]], atol=1e-9)  # moved by the difference
+    assert np.allclose(estimates["knows"], place + found, atol=1e-9)  # the object where the grasp had it, moved so
+    centre = kinematics.positions(sensed)[tip]
+    assert np.allclose(ends["does not"][[0, 2]], (centre - GRASP_CENTRE_IN_PALM)[[0, 2]], atol=1e-9)
+    assert np.allclose(estimates["does not"], centre, atol=1e-9)  # touch alone: the object where it is touched

@@ -100,12 +100,17 @@ def test_the_open_loop_replays_the_plans_verification_stages(box_plans):
         OpenLoopController(1, plan.postures)
 
 
-def test_every_arm_of_one_pose_starts_from_the_same_state(box_plans):
+@pytest.mark.parametrize("family, reference", [(planned.EXECUTION_ARMS, "open-loop"),
+                                               (planned.PALM_ARMS, "flange-open-loop")], ids=["execution", "palm"])
+def test_every_arm_of_one_pose_starts_from_the_same_state(box_plans, family, reference):
     postures, plans = box_plans
     experiences = {"object": PostureDatabase(postures.postures),
                    "scrambled": PostureDatabase(scrambled(postures.postures))}
     starts, firsts = {}, {}
-    for name, arm in ARMS.items():
+    for name in family:
+        arm = ARMS[name]
+        if arm.attempts > 1:  # the same set-up but for what follows a failed probe
+            continue
         setup = arm_setup(arm, planned.get_object("box"), plans[1], experiences)
         seen = []
 
@@ -116,7 +121,7 @@ def test_every_arm_of_one_pose_starts_from_the_same_state(box_plans):
 
         run_trials(setup, BOX_MOVES[1:2], [np.random.default_rng(0)], observer=observe)
         starts[name], firsts[name] = seen[0], seen[1]
-    reference = starts["open-loop"]
+    reference = starts[reference]
     for name, start in starts.items():
         for a, b in zip(start, reference):
             assert np.array_equal(a, b), name
@@ -132,7 +137,7 @@ def test_every_arm_of_one_pose_starts_from_the_same_state(box_plans):
 def test_a_fault_in_any_arm_is_a_failure_and_is_reported():
     ok = Trial(np.zeros(4), np.zeros(22), np.zeros(len(SEGMENTS), bool), 0.1, True, 0.0, 1.0, 0)
     bad = replace(ok, fault="the physics failed")
-    trials = PlanTrials(np.zeros((3, 4)), np.array([1, 0, 2]), {"a": [ok, bad], "b": [bad, ok]})
+    trials = PlanTrials(np.zeros((3, 4)), np.array([1, 0, 2]), {"a": [ok, bad], "b": [bad, ok]}, np.zeros((3, 3)))
     assert trials.held("a").tolist() == [True, False, False] and trials.faulted("a").tolist() == [False, False, True]
     assert trials.held("b").tolist() == [False, False, True] and trials.faulted("b").tolist() == [True, False, False]
 
@@ -147,7 +152,7 @@ def test_holds_without_force_closure_are_examined_by_what_touched_and_the_timeou
     closed = Trial(np.zeros(4), np.zeros(22), pinch, 0.1, True, 0.0, 1.0, 0)
     trials = [closed, replace(closed, epsilon=0.0, time_to_grasp=3.0), replace(closed, epsilon=0.0, touching=hook),
               replace(closed, epsilon=0.0, hold=False)]
-    result = PlanTrials(np.zeros((5, 4)), np.array([1, 1, 0, 1, 2]), {"approach-recall": trials})
+    result = PlanTrials(np.zeros((5, 4)), np.array([1, 1, 0, 1, 2]), {"approach-recall": trials}, np.zeros((5, 3)))
     assert without_closure({"plan": outcomes_of(result)}, "approach-recall") == {
         "held": 3, "no_closure": 2, "at_timeout": 1, "thumb_opposed": 1, "palm_no_thumb": 1, "fingers_only": 0}
 

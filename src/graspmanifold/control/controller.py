@@ -505,12 +505,14 @@ class PalmSteering:
 
     - the guarded approach (phase B, nothing touching yet): the palm advances along its normal towards the object
       (the palm's -y) at `approach_speed`, at most `approach`, and stops at the first contact;
-    - re-centring (phase C, until the grasp settles): the palm moves in its plane (x, z) so that the force-weighted
-      centre of the touching finger segments (where the hand's own kinematics puts them for the sensed joints:
-      `hand.SegmentKinematics`), where touch says the object is, comes where the palm wants the object: its grasp
-      centre (`scene.GRASP_CENTRE_IN_PALM`, touch alone), or with `recalled_place` where the last recalled grasp had
-      it (the experience's `places`, issue 66; touch alone where the experience does not know them); at `speed`, at
-      most `reach` from where the trial put it;
+    - re-centring (phase C, until the grasp settles): the palm moves in its plane (x, z) so that the object comes
+      where the palm wants it: touch alone takes the force-weighted centre of the touching finger segments (where
+      the hand's own kinematics puts them for the sensed joints: `hand.SegmentKinematics`) for the object and
+      wants it at the palm's grasp centre (`scene.GRASP_CENTRE_IN_PALM`); with `recalled_place` the object sits off
+      those segments as it sat off the same segments of the last recalled grasp (the experience's `places`,
+      issue 66) and is wanted where that grasp had it (touch alone where the experience does not know places);
+      measured at the contact and again whenever the touching set changes (`BatchController.object_estimate`), at
+      `speed`, at most `reach` from where the trial put it;
     - locked for the squeeze: once every finger touches or is fully closed, the palm stays where it is.
 
     The default moves nothing (the palm stays where the trial put it, the paper's).
@@ -927,7 +929,9 @@ class BatchController:
         time: s since the grasp started; phase: (N,) index into `PHASES`; done: (N,) bool; time_to_grasp:
             (N,) s (NaN while not done); matches: (N,) best-match queries used; winners: per world, the best
             match of every query used (rows of `experience.references`), in order; palm_offset: (N, 3), m,
-            palm frame: how far each palm has moved (`reach`).
+            palm frame: how far each palm has moved (`reach`); object_estimate: (N, 3), m, where touch last placed
+            the object when the palm re-centred (`PalmSteering`), in the palm frame the grasp started with (NaN:
+            nowhere yet).
     """
 
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
@@ -992,6 +996,7 @@ class BatchController:
         self.matches = np.zeros(n, dtype=int)
         self.winners: list[list[int]] = [[] for _ in range(n)]
         self.palm_offset = np.zeros((n, 3))
+        self.object_estimate = np.full((n, 3), np.nan)
         self.attempt = np.ones(n, dtype=int)  # each world's attempt, 1 the first
         self.state = GraspState.new(n, self.initial, self.closed, self.speed, self.preshape, self._rows)
         self.state.grip[:] = self.params.squeeze
@@ -1146,9 +1151,14 @@ class BatchController:
             if weights.sum() <= 0.0 or not renew:
                 continue
             centre = weights @ self._kinematics.positions(joints[world]) / weights.sum()
-            wanted = GRASP_CENTRE_IN_PALM if places is None or not self.winners[world] else \
-                places[self.winners[world][-1]]
-            aim[world] = np.clip(self.palm_offset[world, [0, 2]] + centre[[0, 2]] - wanted[[0, 2]], -palm.reach,
+            if places is None or not self.winners[world]:  # touch alone: the object is where it is touched
+                estimate, wanted = centre, GRASP_CENTRE_IN_PALM
+            else:  # the object sits off these segments as it sat off them in the recalled grasp
+                row = self.winners[world][-1]
+                recalled = weights @ self._kinematics.positions(self.experience.references[row]) / weights.sum()
+                estimate, wanted = centre + places[row] - recalled, places[row]
+            self.object_estimate[world] = self.palm_offset[world] + estimate
+            aim[world] = np.clip(self.palm_offset[world, [0, 2]] + estimate[[0, 2]] - wanted[[0, 2]], -palm.reach,
                                  palm.reach)
         centring = centring[~np.isnan(aim[centring, 0])]
         goal[np.ix_(centring, [0, 2])] = aim[centring]

@@ -230,19 +230,29 @@ class LiftProbe:
     (`restart`) from where the object lies, on the support, gravity off; one that passes, or the last attempt,
     goes to the judge.
 
+    Where the trials' judging fades the support's release (`JudgingRules.release_seconds`: the planned-grasp
+    benchmark's), the probe fades it the same way before it lifts: a support let go at once threw squeezed objects
+    into the fingers; and a grasp that passes goes to the judge as the judge expects it, gravity off and the object
+    on its support caught where it lies (the judge's fade re-engaged the spring at its old anchor and yanked the
+    object into the fingers: on the box's first plan, 2 cm off, two of three grasps that held with one attempt
+    faulted so, a contact 7-14 mm deep).
+
     Args:
         regrasp: the attempts and the probe's rules.
         worlds: the trials' worlds (`sim.worlds.Worlds`).
         controller: their controller (its `done`, `attempt` and `restart`).
+        rules: the trials' judging rules (`stages.JudgingRules`: `release_seconds`, `support_stiffness`,
+            `support_damping`), None: the support let go at once.
 
     Attributes:
         failure: (n, 22 + segments): the joints (rad) and segment forces (N) sensed when each world's first attempt
             failed its probe (NaN rows: none failed).
     """
 
-    def __init__(self, regrasp: Regrasp, worlds: object, controller: object):
+    def __init__(self, regrasp: Regrasp, worlds: object, controller: object, rules: object | None = None):
         n = worlds.n
-        self.regrasp, self.worlds, self.controller = regrasp, worlds, controller
+        self.regrasp, self.worlds, self.controller, self.rules = regrasp, worlds, controller, rules
+        self._fading = np.full(n, np.nan)  # s: when each world's support began fading (NaN: none fades)
         self._probing = np.full(n, np.nan)  # s: when each world's probe began (NaN: none runs)
         self._probed = np.zeros(n, dtype=bool)  # passed the probe: the judge's turn
         self.failure = np.full((n, N_FINGER_JOINTS + len(SEGMENTS)), np.nan)
@@ -263,7 +273,17 @@ class LiftProbe:
             return done, again
         probing, probed = self._probing, self._probed
         last = np.asarray(controller.attempt) >= regrasp.attempts
-        begin = np.flatnonzero(done & ~last & ~probed & np.isnan(probing))
+        begin = np.flatnonzero(done & ~last & ~probed & np.isnan(probing) & np.isnan(self._fading))
+        fade = 0.0 if self.rules is None else self.rules.release_seconds
+        self._fading[begin] = clock
+        fading = np.flatnonzero(~np.isnan(self._fading))
+        left = 1.0 - (clock - self._fading[fading]) / fade if fade else np.zeros(len(fading))
+        if np.any(left > 1e-9):  # the support weakens to nothing first, the hand acting on
+            soft = fading[left > 1e-9]
+            worlds.soften(soft, self.rules.support_stiffness * left[left > 1e-9],
+                          self.rules.support_damping * left[left > 1e-9])
+        begin = fading[left <= 1e-9]
+        self._fading[begin] = np.nan
         if len(begin):  # support off, the object's weight on: only touch is watched from here
             worlds.release(begin)
             worlds.set_gravity(begin, np.tile(GRAVITY * PROBE_DIRECTION, (len(begin), 1)))
@@ -276,6 +296,9 @@ class LiftProbe:
             passed = watched[~failing & over]
             again = watched[failing]
             probed[passed], probing[passed] = True, np.nan
+            if len(passed) and self.rules is not None:  # the judge's start as it expects it: gravity off, the object
+                worlds.set_gravity(passed, np.zeros((len(passed), 3)))  # on its support, caught where it lies (its
+                worlds.support(passed, self.rules.support_stiffness, self.rules.support_damping)  # fade's anchor)
             if len(again):  # gravity off, the support on where the object lies, the next attempt from there
                 worlds.set_gravity(again, np.zeros((len(again), 3)))
                 worlds.support(again, regrasp.support_stiffness, regrasp.support_damping)

@@ -27,8 +27,8 @@ import functools
 import re
 import sys
 from collections import Counter
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -36,17 +36,19 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import load_npz, markdown_table, save_npz
-from ..base.validation import check_int
+from ..base.validation import check_choice, check_int
 from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasps
 from ..control.controller import ControllerParams
 from ..control.generator import GeneratorParams, generate_postures
 from ..control.judge import JUDGING
-from ..manifold.experience import Experience, scrambled
+from ..manifold.experience import Experience, object_places, scrambled
+from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..sim.hand import SEGMENTS
 from ..trials.benchmark import OBJECTS
 from ..trials.planned import (
     ARMS,
+    EXECUTION_ARMS,
     LEVELS,
     PLANNED_PROTOCOL,
     STARTS,
@@ -76,10 +78,59 @@ QUESTIONS: tuple[tuple[str, str, str, tuple[float, ...]], ...] = (
     ("experience: the bounded grip force against the approach at 1-3 cm", "approach-bounded", "approach",
      (0.01, 0.02, 0.03)),
 )
+
+
+def _execution_verdict(info: dict) -> str:
+    ceiling = info["ceiling"]
+    recall, open_loop = ceiling["approach-recall"], ceiling["open-loop"]
+    rate_recall = recall[0] / max(recall[1], 1)
+    return (f"Perfect recall with the approach execution holds {rate_text(*recall)} of {recall[1]} plans at 0 cm "
+            f"(target >= 90 %: {'met' if rate_recall >= 0.9 else 'not met'}); the open loop "
+            f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}; with the grip force "
+            f"bounded {rate_text(*ceiling['approach-bounded-recall'])}.")
+
+
+@dataclass(frozen=True)
+class Family:
+    """One study of the planned-grasp benchmark: its arms, its questions and how its verdict reads.
+
+    Attributes:
+        name: its name (`FAMILIES`, the script's `--family`).
+        title: the report's title.
+        arms: names in `trials.planned.ARMS`.
+        questions: (label, arm, against arm, levels in m): the family of paired comparisons (Holm over them).
+        every_plan_at_zero: every plan runs at 0 cm (the ceiling), not only the displaced ones.
+        verdict: the report's verdict from its numbers (`summarise`'s dict).
+        issue: the issue whose questions these are.
+        default_out: the study folder by default (`-quick` added for a smoke run).
+        default_doc: the report by default.
+        script: the script that runs it.
+    """
+
+    name: str
+    title: str
+    arms: tuple[str, ...]
+    questions: tuple[tuple[str, str, str, tuple[float, ...]], ...]
+    every_plan_at_zero: bool
+    verdict: Callable[[dict], str] = field(repr=False)
+    issue: str
+    default_out: str
+    default_doc: str
+    script: str
+
+
+EXECUTION = Family("execution", "Planned grasps: execution at the verified grasp's level, against a fair open loop",
+                   EXECUTION_ARMS, QUESTIONS, True, _execution_verdict, "issue 65", "study-planned-grasps",
+                   "docs/planned_grasps.md", "scripts/study_planned_grasps.py")
+#: the families by name; `studies.palm` adds the palm's
+FAMILIES: dict[str, Family] = {EXECUTION.name: EXECUTION}
 #: the arms' colours in the figure
 _STYLE = {"open-loop": "k", "heuristic": "0.6", "paper": "tab:purple", "blend-recall": "tab:orange",
           "blend": "tab:red", "approach-recall": "tab:cyan", "approach": "tab:blue", "approach-scrambled": "tab:green",
-          "approach-bounded-recall": "tab:olive", "approach-bounded": "tab:brown"}
+          "approach-bounded-recall": "tab:olive", "approach-bounded": "tab:brown", "flange-open-loop": "k",
+          "oracle-correction": "0.5", "fingers-only": "tab:blue", "palm-touch": "tab:orange",
+          "palm-experience": "tab:red", "fingers-only-x2": "tab:cyan", "palm-touch-x2": "gold",
+          "palm-experience-x2": "tab:pink"}
 
 
 @dataclass(frozen=True)
@@ -90,8 +141,10 @@ class PlannedStudyConfig:
         quick: a smoke run (two objects, one seed, 6 plans, 2 displaced).
         workers: worker processes.
         seeds: each the generator's, the SOMs' and the trials' seed: the study runs once per seed.
-        plans: verified grasps per object and seed (each run at 0 cm).
+        plans: verified grasps per object and seed (the experience; each run at 0 cm where the family runs every
+            plan there).
         displaced: plans per object and seed also run displaced.
+        family: the study's arms and questions (`FAMILIES`).
     """
 
     quick: bool = False
@@ -99,8 +152,10 @@ class PlannedStudyConfig:
     seeds: tuple[int, ...] = (2, 3, 4)
     plans: int = 30
     displaced: int = 3
+    family: str = "execution"
 
     def __post_init__(self) -> None:
+        check_choice(self.family, tuple(FAMILIES), "family")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds) or any(
                 isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in self.seeds):
             raise InvalidInput(f"seeds must be distinct integers >= 0, got {self.seeds!r}")
@@ -124,10 +179,10 @@ class PlannedStudyConfig:
 
 
 def _plan_task(task: tuple, plans: dict[tuple[str, int], list[OpenLoopGrasp]],
-               experiences: dict[tuple[str, int], dict[str, Experience]]) -> PlanTrials:
+               experiences: dict[tuple[str, int], dict[str, Experience]], arms: tuple[str, ...]) -> PlanTrials:
     name, seed, index, levels, _ = task
     moved = displacements(tuple(float(v) for v in levels.split(",")), seed=seed, plan=index)
-    return run_plan(plans[name, seed][index], OBJECTS[name].object, tuple(ARMS), experiences[name, seed], moved, seed)
+    return run_plan(plans[name, seed][index], OBJECTS[name].object, arms, experiences[name, seed], moved, seed)
 
 
 def _per_start(result: PlanTrials, arm: str, value: Callable[[Trial], object], empty: object) -> np.ndarray:
@@ -147,6 +202,8 @@ def _write(result: PlanTrials, path: Path, meta: dict) -> None:
         arrays[f"epsilon_{arm}"] = _per_start(result, arm, lambda t: t.epsilon, np.nan)
         arrays[f"seconds_{arm}"] = _per_start(result, arm, lambda t: t.time_to_grasp, np.nan)
         arrays[f"touching_{arm}"] = _per_start(result, arm, lambda t: t.touching, np.zeros(len(SEGMENTS), bool))
+        arrays[f"estimate_{arm}"] = _per_start(result, arm, lambda t: t.object_estimate, np.full(3, np.nan))
+    arrays["places"] = result.places
     save_npz(path, "planned_trials", arrays, {**meta, "arms": list(result.trials),
                                              "faults": {arm: [t.fault for t in trials if t.fault]
                                                         for arm, trials in result.trials.items()}})
@@ -164,6 +221,8 @@ class _Outcomes:
     epsilon: dict[str, np.ndarray]  # (k,) each trial's force-closure epsilon (NaN: none started)
     seconds: dict[str, np.ndarray]  # (k,) s each trial's controller took to call its grasp done
     touching: dict[str, np.ndarray]  # (k, len(SEGMENTS)) bool, the segments touching the object when it was
+    estimate: dict[str, np.ndarray]  # (k, 3) m, where each trial's touch first placed the object (NaN: nowhere)
+    places: np.ndarray  # (k, 3) m, where the object lay in the palm frame of each trial's start (NaN: none ran)
 
     @property
     def started(self) -> np.ndarray:
@@ -177,7 +236,8 @@ def _read(path: Path) -> tuple[_Outcomes, dict]:
                          {arm: arrays[f"held_{arm}"].astype(bool) for arm in meta["arms"]},
                          {arm: arrays[f"faulted_{arm}"].astype(bool) for arm in meta["arms"]}, meta["faults"],
                          *({arm: arrays[f"{kind}_{arm}"].astype(dtype) for arm in meta["arms"]}
-                           for kind, dtype in (("epsilon", float), ("seconds", float), ("touching", bool))))
+                           for kind, dtype in (("epsilon", float), ("seconds", float), ("touching", bool),
+                                               ("estimate", float))), arrays["places"])
     return outcomes, meta
 
 
@@ -191,23 +251,24 @@ def outcomes_of(result: PlanTrials | _Outcomes) -> _Outcomes:
                      {a: _per_start(result, a, lambda t: t.epsilon, np.nan) for a in result.trials},
                      {a: _per_start(result, a, lambda t: t.time_to_grasp, np.nan) for a in result.trials},
                      {a: _per_start(result, a, lambda t: t.touching, np.zeros(len(SEGMENTS), bool))
-                      for a in result.trials})
+                      for a in result.trials},
+                     {a: _per_start(result, a, lambda t: t.object_estimate, np.full(3, np.nan))
+                      for a in result.trials}, result.places)
 
 
-def run(config: PlannedStudyConfig, study: StudyRun, doc: Path) -> dict:
-    """Run the study (the module doc) and return what its report shows."""
+def run(config: PlannedStudyConfig, study: StudyRun) -> dict:
+    """Run the study of the config's family (the module doc) and return what its report shows."""
+    family = FAMILIES[config.family]
     n_plans, n_displaced = config.sizes
-    params = GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if config.quick else 50)
     plans, experiences, digests = {}, {}, {}
     for seed in config.run_seeds:
         for name in config.objects:
             obj = OBJECTS[name].object
-            postures = study.postures(
-                f"postures/{name}_{seed}", result_key({"object": obj.params(), "n": n_plans, "seed": seed,
-                                                       "params": repr(params)}),
-                functools.partial(_generate, obj, n_plans, seed, study.workers, params))
+            postures = study.postures(f"postures/{name}_{seed}", postures_key(name, n_plans, seed, config.quick),
+                                      functools.partial(generate, name, n_plans, seed, study.workers, config.quick))
             plans[name, seed] = open_loop_grasps(postures, obj=obj)
             som = SOM(10, 10, seed=seed).fit(postures.postures)
+            som.carry_places(postures.postures, object_places(postures))  # where each grasp had the object
             null = SOM(10, 10, seed=seed).fit(scrambled(postures.postures, seed))
             experiences[name, seed] = {"object": som, "scrambled": null}
             digests[name, seed] = result_key({"postures": postures.postures.tolist(),
@@ -215,17 +276,31 @@ def run(config: PlannedStudyConfig, study: StudyRun, doc: Path) -> dict:
             study.log(f"{name}, seed {seed}: {len(postures)} plans")
     zero, every = "0.0", ",".join(str(v) for v in LEVELS)
     tasks = [(name, seed, i, every if i < n_displaced else zero, digests[name, seed])
-             for seed in config.run_seeds for name in config.objects for i in range(n_plans)]
-    compute = functools.partial(_plan_task, plans=plans, experiences=experiences)
+             for seed in config.run_seeds for name in config.objects
+             for i in range(n_plans if family.every_plan_at_zero else n_displaced)]
+    compute = functools.partial(_plan_task, plans=plans, experiences=experiences, arms=family.arms)
     kept = study.keep_each("plans", tasks, compute, _read, _write,
                            lambda task, r: f"{task[0]} seed {task[1]} plan {task[2]}: " + ", ".join(
-                               f"{a} {int(r.held(a).sum())}" for a in ("open-loop", "approach-recall", "approach")))
+                               f"{a} {int(r.held(a).sum())}" for a in family.arms[:3]))
     outcomes = {task: outcomes_of(result) for task, result in kept.items()}
-    return summarise(config, outcomes, doc)
+    return summarise(config, outcomes)
 
 
-def _generate(obj: object, n: int, seed: int, workers: int, params: GeneratorParams, parts: Path) -> object:
-    return generate_postures(obj, n, seed=seed, workers=workers, params=params, checkpoint_dir=parts, progress=False)
+def generator_params(quick: bool) -> GeneratorParams:
+    """How the plans are generated: every grasp type's design, 50 candidates per posture (10 for a smoke run)."""
+    return GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if quick else 50)
+
+
+def postures_key(name: str, n: int, seed: int, quick: bool) -> str:
+    """The key of an object's verified grasps of one seed (`generate`)."""
+    return result_key({"object": OBJECTS[name].object.params(), "n": n, "seed": seed,
+                       "params": repr(generator_params(quick))})
+
+
+def generate(name: str, n: int, seed: int, workers: int, quick: bool, parts: Path) -> PostureSet:
+    """An object's `n` verified grasps of one seed (the plans and the experience), resumable from `parts`."""
+    return generate_postures(OBJECTS[name].object, n, seed=seed, workers=workers, params=generator_params(quick),
+                             checkpoint_dir=parts, progress=False)
 
 
 def _pairs(outcomes: dict, arm: str, levels: tuple[float, ...], objects: tuple[str, ...] | None = None,
@@ -244,10 +319,12 @@ def _pairs(outcomes: dict, arm: str, levels: tuple[float, ...], objects: tuple[s
                                                                     else np.zeros(0, bool))
 
 
-def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
+def summarise(config: PlannedStudyConfig, outcomes: dict) -> dict:
     """The report's numbers from the kept outcomes."""
-    arms, objects = tuple(ARMS), config.objects
-    info: dict = {"config": vars(config) | {"objects": list(objects)}, "levels": list(LEVELS), "arms": list(arms)}
+    family = FAMILIES[config.family]
+    arms, objects = family.arms, config.objects
+    info: dict = {"config": vars(config) | {"objects": list(objects)}, "levels": list(LEVELS), "arms": list(arms),
+                  "title": family.title}
     info["ceiling"] = {arm: [int(x) for x in _count(*_pairs(outcomes, arm, (0.0,)))] for arm in arms}
     info["ceiling_by_object"] = {name: {arm: [int(x) for x in _count(*_pairs(outcomes, arm, (0.0,), (name,)))]
                                         for arm in arms} for name in objects}
@@ -261,11 +338,11 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
     info["fault_reasons"] = {arm: dict(Counter(_reason(f) for o in outcomes.values() for f in o.faults[arm]))
                              for arm in arms}
     info["without_closure"] = {arm: without_closure(outcomes, arm) for arm in arms}
-    family, signs = [], []
-    for label, a, b, levels in QUESTIONS:
+    pairs, signs = [], []
+    for label, a, b, levels in family.questions:
         held_a, started = _pairs(outcomes, a, levels, displaced_only=levels != (0.0,))
         held_b, _ = _pairs(outcomes, b, levels, displaced_only=levels != (0.0,))
-        family.append((label, mcnemar(held_a[started], held_b[started])))
+        pairs.append((label, mcnemar(held_a[started], held_b[started])))
         per_seed = []
         for seed in config.run_seeds:
             held_a, started = _pairs(outcomes, a, levels, displaced_only=levels != (0.0,), seed=seed)
@@ -273,20 +350,45 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, doc: Path) -> dict:
             per_seed.append(float(np.mean(held_a[started])) - float(np.mean(held_b[started])) if started.any()
                             else float("nan"))
         signs.append(per_seed)
-    info["comparisons"] = holm_family(family, "issue 65")
+    info["comparisons"] = holm_family(pairs, family.issue)
     for row, per_seed in zip(info["comparisons"], signs):
         row["by_seed"] = per_seed
         row["same_sign"] = bool(all(d > 0 for d in per_seed) or all(d < 0 for d in per_seed))
-    ceiling = info["ceiling"]
-    recall, open_loop = ceiling["approach-recall"], ceiling["open-loop"]
-    rate_recall = recall[0] / max(recall[1], 1)
-    info["verdict"] = (f"Perfect recall with the approach execution holds {rate_text(*recall)} of {recall[1]} plans at 0 cm "
-                       f"(target >= 90 %: {'met' if rate_recall >= 0.9 else 'not met'}); the open loop "
-                       f"{rate_text(*open_loop)}; the old execution {rate_text(*ceiling['blend-recall'])}"
-                       + (f"; with the grip force bounded {rate_text(*ceiling['approach-bounded-recall'])}"
-                          if "approach-bounded-recall" in ceiling else "") + ".")
-    info["command"] = "python scripts/study_planned_grasps.py " + " ".join(sys.argv[1:])
+    info["place_errors"] = place_errors(outcomes, arms)
+    info["verdict"] = family.verdict(info)
+    info["command"] = f"python {family.script} " + " ".join(sys.argv[1:])
     return info
+
+
+def place_errors(outcomes: dict, arms: Sequence[str]) -> dict[str, list[dict]]:
+    """How far from the truth each arm's touch first placed the object, by level (issue 66's ceiling: how much of
+    the displacement touch finds): in the palm's plane, where the palm re-centres.
+
+    Args:
+        outcomes: {task: _Outcomes} of the study.
+        arms: the arms (those whose trials placed the object nowhere are left out).
+
+    Returns:
+        {arm: one row per level above 0: {"level" (m), "n", "median" (m, the estimate's error), "within_1cm" (its
+        share), "unmoved" (m, the median error of assuming the object where the plan had it: the level itself)}}.
+    """
+    out = {}
+    for arm in arms:
+        rows = []
+        for level in LEVELS[1:]:
+            errors = []
+            for (_, _, _, lv, _), o in outcomes.items():
+                at = (o.levels == level) & o.started & (lv != "0.0")
+                miss = (o.estimate[arm][at] - o.places[at])[:, [0, 2]]
+                errors.append(np.hypot(miss[:, 0], miss[:, 1]))
+            found = np.concatenate(errors) if errors else np.zeros(0)
+            found = found[np.isfinite(found)]
+            if len(found):
+                rows.append({"level": level, "n": int(len(found)), "median": float(np.median(found)),
+                             "within_1cm": float(np.mean(found <= 0.01)), "unmoved": level})
+        if rows:
+            out[arm] = rows
+    return out
 
 
 def without_closure(outcomes: dict, arm: str) -> dict[str, int]:
@@ -338,7 +440,7 @@ def _count(held: np.ndarray, started: np.ndarray) -> tuple[int, int]:
 def report(info: dict) -> str:
     """The markdown report."""
     arms, levels = info["arms"], info["levels"]
-    lines = ["# Planned grasps: execution at the verified grasp's level, against a fair open loop", "",
+    lines = [f"# {info.get('title', EXECUTION.title)}", "",
              f"Generated by `{info['command']}` ({info['config']}). The design: `graspmanifold.studies.planned_grasps`"
              " (module doc) and `graspmanifold.trials.planned`. Every arm starts from the same state (the hand in "
              "the plan's pregrasp, its palm where the plan puts it for the nominal object), on the same spring "
@@ -384,6 +486,16 @@ def report(info: dict) -> str:
                                 [[arm, w["held"], w["no_closure"], "–" if ARMS[arm].controller == "open-loop" else
                                   w["at_timeout"], w["thumb_opposed"], w["palm_no_thumb"], w["fingers_only"]]
                                  for arm, w in info["without_closure"].items()])
+    if info.get("place_errors"):
+        lines += ["", "## Where touch placed the object", "",
+                  "At the palm's first re-centring, where the controller's touch placed the object "
+                  "(`Trial.object_estimate`) against where it lay (the palm's plane, cm): the median error and the "
+                  "share within 1 cm, by level; assuming the object where the plan had it errs by the level itself.",
+                  ""]
+        lines += markdown_table(["arm"] + [f"{100 * r['level']:.0f} cm: median (within 1 cm), n" for r in next(
+            iter(info["place_errors"].values()))],
+            [[arm] + [f"{100 * r['median']:.1f} cm ({100 * r['within_1cm']:.0f} %), {r['n']}" for r in rows]
+             for arm, rows in info["place_errors"].items()])
     lines += ["", "## Faults by arm (each counted as a failure above)", ""]
     lines += markdown_table(["arm", "faults", "object: reason (count)"],
                             [[arm, info["faults"][arm], "; ".join(f"{r} ({n})" for r, n in sorted(
@@ -435,12 +547,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--doc", default="", help="the report (default docs/planned_grasps.md, or OUT/ for --quick)")
     args = parser.parse_args(argv)
     config = PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans, args.displaced)
-    out = Path(args.out or ("study-planned-grasps-quick" if args.quick else "study-planned-grasps"))
-    doc = Path(args.doc or (out / "planned_grasps.md" if args.quick else "docs/planned_grasps.md"))
+    out = Path(args.out or (EXECUTION.default_out + ("-quick" if args.quick else "")))
+    doc = Path(args.doc or (out / Path(EXECUTION.default_doc).name if args.quick else EXECUTION.default_doc))
 
     def body(study: StudyRun) -> None:
         study.check_writable(doc)
-        info = run(config, study, doc)
+        info = run(config, study)
         publish(study, doc, config.quick, info, report, figure)
 
     run_study(out, args.workers, body, "planned_grasps.log")

@@ -52,6 +52,8 @@ FIELDS = {
     "penetration": "m, the deepest contact at the end of any control period",
     "fault": "why the physics failed; empty when it did not",
     "winners": "the best matches of every trial's queries, one trial after the other (matches of each)",
+    "object_estimate": "(n, 3) m, where the controller's touch first placed the object, in the palm frame the trial "
+                       "put the hand in (NaN: nowhere)",
 }
 
 
@@ -230,7 +232,8 @@ class EvaluationResult(Tabular, NpzRecord):
                   "fault": np.array([x.fault for x in t], dtype=str),
                   "hold_time": np.array([x.hold_time for x in t]), "attempts": np.array([x.attempts for x in t], dtype=int),
                   "first_contact": np.array([x.first_contact for x in t]).reshape(-1, FIRST_CONTACT_FEATURES),
-                  "failure": np.array([x.failure for x in t]).reshape(-1, FAILURE_FEATURES)}
+                  "failure": np.array([x.failure for x in t]).reshape(-1, FAILURE_FEATURES),
+                  "object_estimate": np.array([x.object_estimate for x in t]).reshape(-1, 3)}
         if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
@@ -248,7 +251,8 @@ class EvaluationResult(Tabular, NpzRecord):
                 raise InvalidInput(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
                                  f"{int(ends[-1])} matches; the file is corrupt")
             winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
-        for name, width in (("first_contact", FIRST_CONTACT_FEATURES), ("failure", FAILURE_FEATURES)):
+        for name, width in (("first_contact", FIRST_CONTACT_FEATURES), ("failure", FAILURE_FEATURES),
+                            ("object_estimate", 3)):
             if name in a and np.shape(a[name]) != (len(a["epsilon"]), width):
                 raise InvalidInput(f"{path}: {name} must be ({len(a['epsilon'])}, {width}), got {np.shape(a[name])}; "
                                    "the file is corrupt")
@@ -257,7 +261,8 @@ class EvaluationResult(Tabular, NpzRecord):
                         float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i],
                         float(a["hold_time"][i]) if "hold_time" in a else float("nan"),
                         int(a["attempts"][i]) if "attempts" in a else 1,
-                        *((a[name][i] for name in ("first_contact", "failure")) if "failure" in a else ()))
+                        *((a[name][i] for name in ("first_contact", "failure")) if "failure" in a else ()),
+                        *((a["object_estimate"][i],) if "object_estimate" in a else ()))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu"))

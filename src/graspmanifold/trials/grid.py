@@ -252,6 +252,26 @@ def displaced_palm_pose(palm_pose: np.ndarray, displacement: np.ndarray) -> tupl
     return invert(centre + np.array([x, -gap, z]), turned)
 
 
+def oracle_correction(palm_pose: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+    """How an arm's flange must carry the palm to undo an object's displacement (`displaced_palm_pose`): the palm
+    turned by the object's yaw about its normal and moved so that the object sits in it as the plan had it. An
+    oracle reads this (`TrialSetup.oracle`); no controller may.
+
+    Args:
+        palm_pose: (7,) the plan's palm position (m) and orientation (w x y z) in the nominal object's frame.
+        displacement: (4,) x, z, gap in m, yaw in rad.
+
+    Returns:
+        (6,) the flange's set point from home (`Scene.steer_flange`): m along the palm's x, y, z and rad about
+        them, in the palm's frame where the trial put it.
+    """
+    palm_pose, displacement = np.asarray(palm_pose, dtype=float), np.asarray(displacement, dtype=float)
+    x, z, gap, yaw = displacement
+    centre = invert(palm_pose[:3], palm_pose[3:])[0]  # the nominal object in the palm frame
+    turn = Rotation.from_rotvec([0.0, yaw, 0.0])  # about the palm normal, as the object turned
+    return np.concatenate([centre + np.array([x, -gap, z]) - turn.apply(centre), [0.0, yaw, 0.0]])
+
+
 def planned_start_depth(obj: str | GraspObject, palm_pose: np.ndarray, posture: np.ndarray,
                         displacements: np.ndarray, table: bool = False) -> np.ndarray:
     """How deep (m) the hand lies inside the object at the start of each planned trial: the palm where the plan

@@ -24,9 +24,13 @@ is a failure of its arm and is reported by arm:
   object's experience, or the null experience (the object's postures with each joint column permuted:
   `manifold.experience.scrambled`);
 - `approach-bounded-recall`, `approach-bounded`: the approach with its total grip force bounded from the segment
-  forces (`controller.BOUNDED_APPROACH`), with a perfect recall or the object's experience.
+  forces (`controller.BOUNDED_APPROACH`), with a perfect recall or the object's experience;
+- the palm family (`PALM_ARMS`, issue 66), the hand on an arm's flange in every one of them: `flange-open-loop`,
+  `oracle-correction` (the palm moved by the true displacement first, then the open loop), `fingers-only`,
+  `palm-touch`, `palm-experience` and the last three with two attempts (`-x2`).
 
-No controller reads the displacement: it senses joints and touch only (the open loop senses nothing).
+No controller reads the displacement: it senses joints and touch only (the open loop senses nothing); the oracle
+correction, a ceiling, is the one arm whose trials read it, and says so in its name.
 """
 
 from __future__ import annotations
@@ -35,16 +39,19 @@ import functools
 import math
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.poses import invert
 from ..base.workers import parallel_map
-from ..control.controller import CONTROLLERS, ControllerParams
+from ..control.controller import APPROACH, CONTROLLERS, ControllerParams, PalmSteering
 from ..control.dexgraspbench import OpenLoop, OpenLoopGrasp
 from ..control.protocols import OURS_FADED
+from ..control.regrasp import Regrasp
 from ..manifold.experience import Experience, PostureDatabase
+from ..sim.flange import FlangeLimits
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import open_posture
 from .grid import planned_start_clear
@@ -72,14 +79,29 @@ class Arm:
         experience: what it recalls from: 'none', 'plan' (the plan's own posture: a perfect recall), 'object' (the
             object's experience) or 'scrambled' (the null experience).
         params: the controller's parameters where they are not the named controller's (None: those).
+        palm: the hand hangs on an arm's flange (`TrialSetup.palm`, the default `FlangeLimits`); False: the palm
+            stays where the trial put it unless the controller shifts it.
+        oracle: the flange first moves the palm by the true displacement (`TrialSetup.oracle`: a ceiling).
+        attempts: grasp attempts (`regrasp.Regrasp`; 2: the first attempt's way again after a failed lift probe).
     """
 
     name: str
     controller: str
     experience: str
     params: ControllerParams | None = None
+    palm: bool = False
+    oracle: bool = False
+    attempts: int = 1
 
 
+#: the palm's phases of the palm arms (issue 66): a guarded approach of at most 2 cm along the palm normal, then
+#: re-centring within 3 cm in the palm's plane at 5 cm/s; chosen on probes of generator seed 0 (the selection split,
+#: 3 plans per object at 2-5 cm, 497 trials: approach 0, 1 or 2 cm; reach 1.5, 3 or 5 cm; 5 or 10 cm/s)
+PALM_TOUCH = PalmSteering(approach=0.02, reach=0.03)
+#: the same phases steered by where the recalled grasp had the object (the experience's places)
+PALM_EXPERIENCE = replace(PALM_TOUCH, recalled_place=True)
+
+#: every arm by name: the issue 65 family (`EXECUTION_ARMS`) and the palm family (`PALM_ARMS`)
 ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("open-loop", "open-loop", "none"),
     Arm("heuristic", "heuristic", "none"),
@@ -91,7 +113,24 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("approach-scrambled", "approach", "scrambled"),
     Arm("approach-bounded-recall", "approach-bounded", "plan"),
     Arm("approach-bounded", "approach-bounded", "object"),
+    Arm("flange-open-loop", "open-loop", "none", palm=True),
+    Arm("oracle-correction", "open-loop", "none", palm=True, oracle=True),
+    Arm("fingers-only", "approach", "object", palm=True),
+    Arm("palm-touch", "approach", "object", replace(APPROACH, palm=PALM_TOUCH), palm=True),
+    Arm("palm-experience", "approach", "object", replace(APPROACH, palm=PALM_EXPERIENCE), palm=True),
+    Arm("fingers-only-x2", "approach", "object", palm=True, attempts=2),
+    Arm("palm-touch-x2", "approach", "object", replace(APPROACH, palm=PALM_TOUCH), palm=True, attempts=2),
+    Arm("palm-experience-x2", "approach", "object", replace(APPROACH, palm=PALM_EXPERIENCE), palm=True, attempts=2),
 )}
+#: the arms of issue 65's study (`studies.planned_grasps`): the execution of a plan, the palm where the trial put it
+EXECUTION_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if not arm.palm)
+#: the arms of issue 66's study (`studies.palm`), every one on the arm's flange (one physics for all): the plan
+#: open loop; the oracle correction (the palm moved by the true displacement before the open loop: a ceiling, the
+#: only arm that reads it, `TrialSetup.oracle`); the approach execution with the object's experience, its palm still
+#: (fingers only), re-centred from touch alone (`PALM_TOUCH`) or steered by the recalled object place
+#: (`PALM_EXPERIENCE`); the last three again with two attempts (`regrasp.Regrasp(attempts=2)`: the first attempt's
+#: way again after a failed lift probe, the palm staying where it went)
+PALM_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if arm.palm)
 #: the kinds of experience an arm names besides 'none' and 'plan'
 EXPERIENCES = ("object", "scrambled")
 
@@ -163,8 +202,10 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
         The `TrialSetup`.
     """
     label = method or arm.name
+    palm = FlangeLimits() if arm.palm else None
     if arm.controller == "open-loop":
-        return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label, protocol=PLANNED_PROTOCOL)
+        return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label, protocol=PLANNED_PROTOCOL,
+                          palm=palm, oracle=arm.oracle)
     if arm.experience == "plan":
         experience: Experience | None = PostureDatabase(plan.postures[1][None])
     elif arm.experience == "none":
@@ -175,7 +216,7 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
         raise InvalidInput(f"arm {arm.name!r} recalls from the {arm.experience!r} experience: give it "
                            f"(experiences has {sorted(experiences)})")
     return TrialSetup(object=obj, experience=experience, params=arm_params(arm), plan=plan, method=label,
-                      protocol=PLANNED_PROTOCOL)
+                      protocol=PLANNED_PROTOCOL, palm=palm, oracle=arm.oracle, regrasp=Regrasp(attempts=arm.attempts))
 
 
 #: how a planned trial starts (`PlanTrials.start`): not at all, in the plan's pregrasp, or in the open hand
@@ -204,11 +245,14 @@ class PlanTrials:
         start: (k,) index into `STARTS`: how each displacement's trials started (0: none ran, the hand would start
             inside the object).
         trials: {arm: one `Trial` per started displacement, in order}.
+        places: (k, 3) m, where the displaced object lies in the palm frame of each trial's start (NaN where none
+            ran): the truth the controllers' `Trial.object_estimate` is measured against.
     """
 
     displacements: np.ndarray
     start: np.ndarray
     trials: dict[str, list[Trial]]
+    places: np.ndarray
 
     @property
     def started(self) -> np.ndarray:
@@ -261,7 +305,12 @@ def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experie
                 done = run_trials(setup, moved[rows], [np.random.default_rng([seed, int(i)]) for i in rows])
                 ran.update(zip(rows.tolist(), done))
         trials[name] = [ran[i] for i in sorted(ran)]
-    return PlanTrials(moved, start, trials)
+    places = np.full((len(moved), 3), np.nan)
+    for kind, variant in enumerate(variants, start=1):
+        rows = start == kind
+        x, z, gap = moved[rows, 0], moved[rows, 1], moved[rows, 2]  # `grid.displaced_palm_pose`
+        places[rows] = invert(variant.poses[0, :3], variant.poses[0, 3:])[0] + np.column_stack([x, -gap, z])
+    return PlanTrials(moved, start, trials, places)
 
 
 def _plan_task(task: tuple[int, OpenLoopGrasp, np.ndarray], obj: GraspObject, arms: tuple[str, ...],

@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
@@ -47,7 +48,7 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import TOUCH_SOURCES, Scene
 from ..sim.worlds import CpuWorlds, Worlds
-from .grid import START_CLEARANCE, check_grid, clearance, displaced_palm_pose, palm_pose_for
+from .grid import START_CLEARANCE, check_grid, clearance, displaced_palm_pose, oracle_correction, palm_pose_for
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
 #: noise of 1e9 rad was accepted)
@@ -75,6 +76,8 @@ FAILURE_FEATURES = N_FINGER_JOINTS + len(SEGMENTS)
 
 #: s of simulated time after which a world whose controller never reports its grasp done is judged as it is
 MAX_GRASP_SECONDS = 600.0
+#: s the oracle's correction waits, after its flange's set point has arrived, for the servos to bring the palm there
+ORACLE_SETTLE_SECONDS = 0.2
 
 #: the physics engines trials run on: CPU MuJoCo, or MuJoCo Warp on an NVIDIA GPU (`warp_worlds.py`)
 BACKENDS = ("cpu", "warp")
@@ -139,6 +142,11 @@ class TrialSetup:
             freedom, servoed, lockable; the cpu backend), or None: the palm stays where the trial put it. A protocol
             whose judging moves the palm (the lift: `JudgingRules.needs_flange`) gets the default flange where none
             is given.
+        oracle: the oracle correction, a ceiling and not a controller (issue 66): with a plan and a palm, the
+            flange first carries the palm by the object's true displacement (the trial's pose, `grid.
+            oracle_correction`) to where the plan puts it for the displaced object, the fingers held in their
+            starting posture, and only then does the controller start (the palm then moves from there). The only
+            trials that read the displacement: their `method` must say 'oracle'.
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -161,6 +169,7 @@ class TrialSetup:
     touch: str = "contacts"
     plan: OpenLoopGrasp | None = None
     palm: FlangeLimits | None = None
+    oracle: bool = False
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -234,6 +243,13 @@ class TrialSetup:
         if self.palm is not None and (not isinstance(self.palm, FlangeLimits) or self.backend != "cpu"):
             raise InvalidInput(f"palm must be a FlangeLimits (the hand on an arm's flange) with the cpu backend, got "
                                f"{self.palm!r} with backend={self.backend!r}")
+        if not isinstance(self.oracle, bool):
+            raise InvalidInput(f"oracle must be True or False, got {self.oracle!r}")
+        if self.oracle and (self.plan is None or self.palm is None or "oracle" not in self.method):
+            raise InvalidInput("oracle=True moves the palm by the true displacement of a planned trial: it needs a "
+                               "plan, a palm (the flange that carries it) and a method that says 'oracle', got "
+                               f"plan={'given' if self.plan is not None else None}, palm={self.palm!r}, "
+                               f"method={self.method!r}")
         check_choice(self.touch, TOUCH_SOURCES, "touch")
         if self.touch != "contacts" and self.backend != "cpu":
             raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
@@ -297,6 +313,7 @@ class TrialSetup:
                            **({"plan": {"poses": self.plan.poses.tolist(), "postures": self.plan.postures.tolist()}}
                               if self.plan is not None else {}),
                            **({"palm": asdict(self.palm)} if self.palm is not None else {}),
+                           **({"oracle": True} if self.oracle else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -363,6 +380,10 @@ class Trial:
     #: what it sensed when its first attempt failed the lift probe: [the 22 joints (rad), the segment forces (N)]
     #: (`FAILURE_FEATURES`); NaN when no probe failed
     failure: np.ndarray = field(default_factory=lambda: np.full(FAILURE_FEATURES, np.nan))
+    #: m, where the controller's touch first placed the object (`BatchController.object_estimate`), in the palm
+    #: frame the trial put the hand in (a planned trial's: the plan's for the nominal object); NaN where it placed
+    #: it nowhere (a palm that does not re-centre) or not recorded
+    object_estimate: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
 
     def __repr__(self) -> str:
         outcome = f"invalid: {self.fault}" if self.fault else (
@@ -433,6 +454,13 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
     clock, time_to_grasp, failed = 0.0, np.full(n, np.nan), {}
     first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
+    object_estimate = np.full((n, 3), np.nan)
+    corrections = np.zeros((n, 6))  # the flange's set point the controller's palm moves are added to
+    correcting = 0  # control periods of the oracle's correction still to run, before the controller starts
+    if setup.oracle:
+        corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in poses])
+        seconds = np.max(np.abs(corrections) / setup.palm.speeds()) + ORACLE_SETTLE_SECONDS
+        correcting = math.ceil(seconds / period)
 
     def recalls(world: int) -> tuple[int, list[int]]:  # the best matches used (none, for a controller without)
         return (int(getattr(controller, "matches", np.zeros(n, dtype=int))[world]),
@@ -441,7 +469,17 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     def advance(live: np.ndarray) -> dict[int, str]:
         """One control period: the controller, then the physics. Worlds not given are not read (a failed
         world's state may not be finite); their controller's targets no longer matter."""
-        nonlocal clock
+        nonlocal clock, correcting
+        if correcting:  # the oracle's correction: the fingers held, the flange carrying the palm
+            correcting -= 1
+            worlds.set_targets(live, np.tile(controller.initial, (len(live), 1)))
+            worlds.steer_flanges(live, corrections[live], period)
+            failures = worlds.step(live, nstep)
+            failed.update({world: recalls(world) for world in failures})
+            grasping[list(failures)] = False
+            if observer is not None:
+                observer(worlds)
+            return failures
         sensed, forces = np.tile(controller.initial, (n, 1)), np.zeros((n, len(SEGMENTS)))
         sensed[live], forces[live] = worlds.joints(live), worlds.segment_forces(live)
         if setup.noise.joints:
@@ -454,13 +492,17 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
         newly_done = grasping & np.asarray(controller.done, dtype=bool)
         time_to_grasp[newly_done] = clock
         worlds.set_targets(live, targets[live])
-        if getattr(controller, "moves_palm", False):  # the arm carries each palm where its recalled grasp wants it
-            if setup.palm is None:  # at once
-                worlds.shift_hands(live, controller.palm_offset[live])
-            else:  # by its flange, at its bounded speed, while the grasp goes on
-                steered = live[grasping[live]]
-                worlds.steer_flanges(steered, np.column_stack([controller.palm_offset[steered],
-                                                               np.zeros((len(steered), 3))]), period)
+        moves_palm = getattr(controller, "moves_palm", False)  # the arm carries each palm where its grasp wants it
+        if moves_palm and setup.palm is None:  # at once
+            worlds.shift_hands(live, controller.palm_offset[live])
+        elif moves_palm or setup.oracle:  # by its flange, at its bounded speed, while the grasp goes on
+            steered = live[grasping[live]]
+            offsets = controller.palm_offset[steered] if moves_palm else np.zeros((len(steered), 3))
+            worlds.steer_flanges(steered, flange_targets(corrections[steered], offsets), period)
+        estimate = getattr(controller, "object_estimate", None)
+        if estimate is not None:  # where touch first placed the object, made (first) in the palm frame of the start
+            first = np.isnan(object_estimate[:, 0]) & ~np.isnan(estimate[:, 0])
+            object_estimate[first] = flange_targets(corrections[first], estimate[first])[:, :3]
         failures = worlds.step(live, nstep)
         failed.update({world: recalls(world) for world in failures})  # as they were when its physics failed
         grasping[newly_done] = grasping[list(failures)] = False
@@ -468,7 +510,7 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
             observer(worlds)
         return failures
 
-    probe = LiftProbe(setup.regrasp, worlds, controller)
+    probe = LiftProbe(setup.regrasp, worlds, controller, setup.rules)
 
     def ready() -> np.ndarray:
         """The worlds whose grasp goes to the judge (all after MAX_GRASP_SECONDS: a controller that never
@@ -490,8 +532,24 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
                             judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
                             matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int),
                             judged.hold_time, int(getattr(controller, "attempt", np.ones(n, dtype=int))[world]),
-                            first_contact[world], probe.failure[world]))
+                            first_contact[world], probe.failure[world], object_estimate[world]))
     return trials
+
+
+def flange_targets(corrections: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """The flange's set points of palms moved by `offsets` (palm frame) from where corrections put them.
+
+    Args:
+        corrections: (m, 6) set points from home, m and rad about the palm's x, y, z (the oracle's: a turn about
+            the palm normal, y, only; zeros otherwise).
+        offsets: (m, 3) m, palm moves in the frame of the palm as the correction turned it.
+
+    Returns:
+        (m, 6) set points from home.
+    """
+    turned = np.array([Rotation.from_rotvec([0.0, yaw, 0.0]).apply(offset)
+                       for yaw, offset in zip(corrections[:, 4], offsets)]).reshape(-1, 3)
+    return np.column_stack([corrections[:, :3] + turned, corrections[:, 3:]])
 
 
 def run_trial(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator,
