@@ -1,8 +1,4 @@
-"""Whether the start search's outcome turns on the last bits: the shipped starting postures, searched again.
-
-A thin command over `graspmanifold.studies.starts_agreement`, whose docstring says what it runs and writes; `--help`
-lists its options.
-"""
+"""Does the start search turn on the last bits: a thin command over `graspmanifold.studies.starts_agreement`."""
 
 from graspmanifold.studies.starts_agreement import main
 

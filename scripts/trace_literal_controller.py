@@ -1,8 +1,4 @@
-"""Why the paper's literal controller loses where the blend holds: traced trials of three readings of the recall.
-
-A thin command over `graspmanifold.studies.recall_trace`, whose docstring says what it runs and prints; `--help`
-lists its options.
-"""
+"""Why the literal controller loses where the blend holds: a thin command over `graspmanifold.studies.recall_trace`."""
 
 from graspmanifold.studies.recall_trace import main
 

@@ -1,6 +1,8 @@
 """Issue 66's study: the palm arms on the flange, the oracle correction (the one arm that reads the displacement, and
 says so), where touch places the object, two attempts under the faded release, the study's report."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -183,3 +185,51 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
         assert f"| {arm} |" in text
     assert "## Where touch placed the object" in text and "## The paper's grid" in text
     assert info["grid"]["verdict"] in text
+
+
+class OwnExperience:
+    """An experience of one's own: the protocol's members only, no places."""
+
+    def __init__(self, postures):
+        self._database = PostureDatabase(postures)
+        self.dim = self._database.dim
+
+    @property
+    def references(self):
+        return self._database.references
+
+    def best_match(self, x, mask=None):
+        return self._database.best_match(x, mask)
+
+    def best_match_batch(self, X, masks=None):
+        return self._database.best_match_batch(X, masks)
+
+    def complete(self, x, mask=None):
+        return self._database.complete(x, mask)
+
+    def complete_batch(self, X, masks=None):
+        return self._database.complete_batch(X, masks)
+
+
+def test_an_experience_of_ones_own_without_places_steers_the_palm_from_touch_alone(box):
+    """The palm asked to follow the recalled place, given an experience that knows none: it re-centres exactly as
+    touch alone does, and the trial runs on the flange."""
+    from graspmanifold.control.controller import APPROACH, BatchController
+    from graspmanifold.trials.planned import PALM_EXPERIENCE, PALM_TOUCH
+
+    postures, plans = box
+    params = {"own": replace(APPROACH, palm=PALM_EXPERIENCE), "touch": replace(APPROACH, palm=PALM_TOUCH)}
+    controllers = {name: BatchController(1, OwnExperience(postures.postures), p) for name, p in params.items()}
+    sensed = postures.postures[:1] * 0.6
+    forces = np.zeros((1, len(SEGMENTS)))
+    forces[0, SEGMENTS.index("ffdistal")] = 1.0
+    for cycle in range(80):
+        steps = {name: c.step(sensed, forces if cycle > 20 else 0 * forces) for name, c in controllers.items()}
+        assert np.array_equal(steps["own"], steps["touch"])
+        assert np.array_equal(controllers["own"].palm_offset, controllers["touch"].palm_offset)
+    assert np.abs(controllers["own"].palm_offset).max() > 1e-3  # it moved
+    assert np.array_equal(controllers["own"].object_estimate, controllers["touch"].object_estimate)
+    setup = TrialSetup(object="box", experience=OwnExperience(postures.postures), params=params["own"],
+                       plan=plans[0], palm=FlangeLimits(), method="own")
+    trial = run_trials(setup, MOVES[:1], [np.random.default_rng(0)])[0]
+    assert trial.valid and np.isfinite(trial.time_to_grasp)

@@ -44,8 +44,9 @@ from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import grid_preset
 from ..trials.planned import PALM_ARMS, PALM_EXPERIENCE, PALM_TOUCH
 from ..trials.stats import mcnemar, rate_text
-from . import planned_grasps
-from .planned_grasps import FAMILIES, Family, PlannedStudyConfig
+from .planned_grasps import FAMILIES, Family, PlannedStudyConfig, figure, generate, postures_key
+from .planned_grasps import report as planned_report
+from .planned_grasps import run as run_planned
 from .runner import StudyRun, comparison_table, holm_family, publish, run_study
 
 #: m, the levels the targets read
@@ -109,8 +110,8 @@ def _grid_experience(study: StudyRun, name: str, seed: int, config: PlannedStudy
     """The object's experience of part 1 (the same verified grasps, kept in the study folder), carrying places."""
     plans = config.sizes[0]
     postures: PostureSet = study.postures(
-        f"postures/{name}_{seed}", planned_grasps.postures_key(name, plans, seed, config.quick),
-        functools.partial(planned_grasps.generate, name, plans, seed, study.workers, config.quick))
+        f"postures/{name}_{seed}", postures_key(name, plans, seed, config.quick),
+        functools.partial(generate, name, plans, seed, study.workers, config.quick))
     som = SOM(10, 10, seed=seed).fit(postures.postures)
     som.carry_places(postures.postures, object_places(postures))
     return som
@@ -190,7 +191,7 @@ def grid_verdict(grid: dict) -> str:
 
 def report(info: dict) -> str:
     """The markdown report: the planned part (`planned_grasps.report`), then the paper's grid."""
-    text = planned_grasps.report(info)
+    text = planned_report(info)
     grid = info["grid"]
     lines = ["", "## The paper's grid", "",
              f"**{grid['verdict']}**", "",
@@ -226,10 +227,10 @@ def main(argv: list[str] | None = None) -> None:
 
     def body(study: StudyRun) -> None:
         study.check_writable(doc)
-        info = planned_grasps.run(config, study)
+        info = run_planned(config, study)
         info["grid"] = run_grid(config, study)
         info["verdict"] += " " + info["grid"]["verdict"]
-        publish(study, doc, config.quick, info, report, planned_grasps.figure)
+        publish(study, doc, config.quick, info, report, figure)
 
     run_study(out, args.workers, body, "palm.log")
 
