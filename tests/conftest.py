@@ -30,3 +30,14 @@ def _own_cache(tmp_path_factory):
         os.environ.pop("GRASPMANIFOLD_CACHE")
     else:
         os.environ["GRASPMANIFOLD_CACHE"] = previous
+
+
+@pytest.fixture(scope="session")
+def box_plans():
+    """Two verified grasps of the box (one of every grasp type's design) and their plans: the planned trials' tests."""
+    from graspmanifold.control.dexgraspbench import open_loop_grasps
+    from graspmanifold.control.generator import GeneratorParams, generate_postures
+
+    postures = generate_postures("box", 2, seed=0, workers=1, progress=False,
+                                 params=GeneratorParams(designs="grasp_types"))
+    return postures, open_loop_grasps(postures)

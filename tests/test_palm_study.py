@@ -8,8 +8,6 @@ import pytest
 
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.poses import compose, invert
-from graspmanifold.control.dexgraspbench import open_loop_grasps
-from graspmanifold.control.generator import GeneratorParams, generate_postures
 from graspmanifold.manifold.experience import PostureDatabase, object_places
 from graspmanifold.sim.flange import FlangeLimits
 from graspmanifold.sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
@@ -21,13 +19,6 @@ from graspmanifold.trials.planned import ARMS, PALM_ARMS, arm_setup, run_plan
 from graspmanifold.trials.trial import TrialSetup, flange_targets, run_trials
 
 MOVES = np.array([[0.02, 0.0, 0.0, 0.2], [-0.01, 0.015, 0.0, -0.1]])
-
-
-@pytest.fixture(scope="module")
-def box():
-    postures = generate_postures("box", 2, seed=0, workers=1, progress=False,
-                                 params=GeneratorParams(designs="grasp_types"))
-    return postures, open_loop_grasps(postures)
 
 
 class PalmSpy:
@@ -54,8 +45,8 @@ class PalmSpy:
         return np.tile(self.initial, (self.n, 1))
 
 
-def test_on_the_flange_a_controller_is_told_nothing_of_the_displacement_and_only_the_oracle_reads_it(box):
-    _, plans = box
+def test_on_the_flange_a_controller_is_told_nothing_of_the_displacement_and_only_the_oracle_reads_it(box_plans):
+    _, plans = box_plans
     setup = TrialSetup(object="box", plan=plans[0], controller=PalmSpy, method="spy", palm=FlangeLimits())
     PalmSpy.made = []
     run_trials(setup, MOVES, [np.random.default_rng(i) for i in range(len(MOVES))])
@@ -76,10 +67,10 @@ def test_on_the_flange_a_controller_is_told_nothing_of_the_displacement_and_only
         TrialSetup(object="box", plan=plans[0], oracle=True, method="oracle")
 
 
-def test_the_oracle_correction_undoes_the_displacement(box):
+def test_the_oracle_correction_undoes_the_displacement(box_plans):
     """Geometry first (the corrected palm sees the object as the plan did), then physics: the flange carries the
     palm there before the controller starts, and the controller's palm moves are added in the turned frame."""
-    _, plans = box
+    _, plans = box_plans
     plan = plans[0]
     for move in MOVES:
         position, quat = displaced_palm_pose(plan.poses[0], move)  # the palm in the displaced object's frame
@@ -109,10 +100,10 @@ def test_the_oracle_correction_undoes_the_displacement(box):
     assert np.linalg.norm(corrected[0][1][0] - plan.poses[0, :3]) > 0.01  # had it: turned by 0.2 rad, or 1.8 cm off
 
 
-def test_touch_places_the_object_and_the_place_is_kept_with_the_trial(box, tmp_path):
+def test_touch_places_the_object_and_the_place_is_kept_with_the_trial(box_plans, tmp_path):
     """A palm that re-centres records where touch first placed the object (in the palm frame the trial started
     with), a still palm nowhere; the estimate survives the result's file; `run_plan` knows where the object lay."""
-    postures, plans = box
+    postures, plans = box_plans
     experience = {"object": PostureDatabase(postures.postures, object_places(postures))}
     result = run_plan(plans[0], planned.get_object("box"), ("fingers-only", "palm-experience"), experience,
                       MOVES[:1])
@@ -130,11 +121,11 @@ def test_touch_places_the_object_and_the_place_is_kept_with_the_trial(box, tmp_p
     assert np.isnan(loaded.trials[1].object_estimate).all()
 
 
-def test_two_attempts_under_the_faded_release_keep_the_grasps_one_attempt_held(box):
+def test_two_attempts_under_the_faded_release_keep_the_grasps_one_attempt_held(box_plans):
     """The lift probe fades the support as the judging does, and hands a grasp that passes back on its support
     caught where it lies: before, the judge's fade re-engaged the spring at its old anchor and threw the object
     into the fingers (a contact 7-14 mm deep, a fault)."""
-    postures, plans = box
+    postures, plans = box_plans
     experience = {"object": PostureDatabase(postures.postures)}
     result = run_plan(plans[0], planned.get_object("box"), ("fingers-only", "fingers-only-x2"), experience, MOVES)
     once, twice = result.trials["fingers-only"], result.trials["fingers-only-x2"]
@@ -146,7 +137,7 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
     """The report's numbers from made-up outcomes whose rates are known: every palm arm, the comparisons with their
     seeds' signs, where touch placed the object, the verdicts; the paper grid's share no method holds."""
     from graspmanifold.studies import palm
-    from graspmanifold.studies.planned_grasps import PlannedStudyConfig, outcomes_of, report, summarise
+    from graspmanifold.studies.planned_grasps import PlannedStudyConfig, outcomes_of, summarise
     from graspmanifold.trials.planned import PlanTrials, displacements
     from graspmanifold.trials.trial import Trial
 
@@ -211,13 +202,13 @@ class OwnExperience:
         return self._database.complete_batch(X, masks)
 
 
-def test_an_experience_of_ones_own_without_places_steers_the_palm_from_touch_alone(box):
+def test_an_experience_of_ones_own_without_places_steers_the_palm_from_touch_alone(box_plans):
     """The palm asked to follow the recalled place, given an experience that knows none: it re-centres exactly as
     touch alone does, and the trial runs on the flange."""
     from graspmanifold.control.controller import APPROACH, BatchController
     from graspmanifold.trials.planned import PALM_EXPERIENCE, PALM_TOUCH
 
-    postures, plans = box
+    postures, plans = box_plans
     params = {"own": replace(APPROACH, palm=PALM_EXPERIENCE), "touch": replace(APPROACH, palm=PALM_TOUCH)}
     controllers = {name: BatchController(1, OwnExperience(postures.postures), p) for name, p in params.items()}
     sensed = postures.postures[:1] * 0.6

@@ -10,8 +10,7 @@ import pytest
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.poses import compose, invert
 from graspmanifold.control.controller import APPROACH, BatchController, ControllerParams, SETTLED_BLEND
-from graspmanifold.control.dexgraspbench import OpenLoop, OpenLoopController, open_loop_grasps
-from graspmanifold.control.generator import GeneratorParams, generate_postures
+from graspmanifold.control.dexgraspbench import OpenLoop, OpenLoopController
 from graspmanifold.manifold.experience import PostureDatabase, scrambled
 from graspmanifold.sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 from graspmanifold.sim.posture import open_posture
@@ -22,13 +21,6 @@ from graspmanifold.trials.planned import ARMS, LEVELS, PlanTrials, arm_setup, di
 from graspmanifold.trials.trial import Noise, Trial, TrialSetup, run_trials, trial_scene
 
 BOX_MOVES = np.array([[0.0, 0.0, 0.0, 0.0], [0.02, 0.0, 0.0, 0.2], [0.0, -0.01, 0.0, -0.1]])
-
-
-@pytest.fixture(scope="module")
-def box_plans():
-    postures = generate_postures("box", 2, seed=0, workers=1, progress=False,
-                                 params=GeneratorParams(designs="grasp_types"))
-    return postures, open_loop_grasps(postures)
 
 
 class Spy:
