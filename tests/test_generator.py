@@ -120,8 +120,8 @@ def test_starting_postures_are_found_for_other_sizes():
     again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
     np.testing.assert_array_equal(eval(again.stdout), np.concatenate([s.posture for s in starts]))
-    stored = list((cache_directory() / "starting_postures").glob(f"{obj.name}_five_fingertip_*.npz"))
-    assert len(stored) == 1
+    stored = [generator_module.starts_cache_path(obj, "five_fingertip")]
+    assert stored[0].parent == cache_directory() / "starting_postures" and stored[0].exists()
     # a damaged stored file is named, searched again and replaced
     stored[0].write_bytes(stored[0].read_bytes()[:100])
     generator_module._starting_postures.cache_clear()

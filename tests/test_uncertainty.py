@@ -132,7 +132,7 @@ def test_the_uncertainty_study_runs_and_reports_every_method_at_every_level(tmp_
         UncertaintyStudyConfig,
     )
 
-    config = UncertaintyStudyConfig(quick=True, workers=1, every=40, postures=3, out=str(tmp_path / "out"))
+    config = UncertaintyStudyConfig(quick=True, workers=1, every=80, postures=3, out=str(tmp_path / "out"))
     info = UncertaintyStudy(config).run()
     stored = json.loads((tmp_path / "out" / "study.json").read_text())
     assert stored["verdict"] == info["verdict"] and (tmp_path / "out" / "uncertainty_study.png").stat().st_size > 0

@@ -345,6 +345,9 @@ def open_loop_grasps(postures: PostureSet, stages: GraspStages | None = None,
             raise InvalidInput("open_loop_grasps: stages made from the contacts need the set's object (obj=): its "
                                "metadata names none")
         obj = object_from_params(postures.metadata["object"])
+        if obj.shape == "mesh" and obj.mesh is None:  # a file keeps a mesh's digest, not the mesh
+            raise InvalidInput(f"open_loop_grasps: the set's object {obj.name!r} is a mesh its file does not hold: "
+                               "give it, open_loop_grasps(postures, obj=the_mesh_object)")
     scene = None if obj is None else Scene(obj, hand=postures.hand)
     return [open_loop_grasp(pose, posture, stages, scene)
             for pose, posture in zip(postures.hand_poses, postures.postures)]

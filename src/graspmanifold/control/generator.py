@@ -72,10 +72,10 @@ from .starts import (
     check_starting_postures,
     designs_for,
     find_starting_postures,
+    geometry_params,
     read_entry,
     save_starting_postures,
     shipped_starting_postures,
-    starts_key,
     verified,
 )
 
@@ -425,8 +425,8 @@ def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") ->
     """The starting postures of an object in a design family (`starts.DESIGN_FAMILIES`): shipped for the
     paper's objects and the object family; else searched once (`search_starting_postures`: seconds to half a
     minute per object, with a progress bar) and stored in `cache_directory()`, under a key of the object's
-    parameters (a mesh's digest among them) and the library's code, so that a second process reads them
-    instead of searching again.
+    shape (`starts.geometry_params`: a mesh's digest, not its name) and the library's code, so that a second process,
+    or the same mesh under another name, reads them instead of searching again.
 
     Args:
         obj: an object or its name.
@@ -438,17 +438,33 @@ def starting_postures(obj: str | GraspObject, family: str = "five_fingertip") ->
     return list(_starting_postures(get_object(obj), check_choice(family, DESIGN_FAMILIES, "family")))
 
 
+def starts_cache_path(obj: GraspObject, family: str) -> Path:
+    """Where `starting_postures` keeps an object's searched starts: a file of its shape (`starts.geometry_params`: a
+    mesh's digest, not its name, mass or friction) and the library's code, so the same mesh under another name, or
+    given as a file and as a `Trimesh`, reads the one search.
+
+    Args:
+        obj: the object.
+        family: a design family.
+
+    Returns:
+        The file's path in `cache_directory()`.
+    """
+    shape = geometry_params(obj.params())
+    return cache_directory() / "starting_postures" / f"{obj.shape}_{family}_{result_key(shape, family)}.npz"
+
+
 @lru_cache(maxsize=64)
 def _starting_postures(obj: GraspObject, family: str) -> tuple[StartingPosture, ...]:
     shipped = shipped_starting_postures(obj, family)
     if shipped is not None:
         return tuple(shipped)
-    key = starts_key(obj.name, family)
-    cached = cache_directory() / "starting_postures" / f"{obj.name}_{family}_{result_key(obj.params(), family)}.npz"
+    cached = starts_cache_path(obj, family)
     if cached.exists():
         try:
             arrays, meta = load_npz(cached, "starting_postures", {})
-            return tuple(read_entry(arrays, key, meta["objects"][key], obj, family))
+            (key, entry), = meta["objects"].items()
+            return tuple(read_entry(arrays, key, entry, obj, family))
         except (ValueError, KeyError, OSError) as error:  # a damaged file is searched again and replaced
             warnings.warn(f"the stored starting postures {cached} cannot be read ({error}): searching again",
                           stacklevel=3)

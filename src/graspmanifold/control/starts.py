@@ -432,7 +432,7 @@ def shipped_starting_postures(obj: GraspObject, family: str) -> list[StartingPos
     entry = meta["objects"].get(key)
     if entry is None or entry["object"] != obj.params():
         key, entry = next(((k, e) for k, e in meta["objects"].items() if e.get("family", "five_fingertip") == family
-                           and _geometry(e["object"]) == _geometry(obj.params())), (key, None))
+                           and geometry_params(e["object"]) == geometry_params(obj.params())), (key, None))
     return None if entry is None else read_entry(arrays, key, entry, obj, family)
 
 
@@ -458,6 +458,14 @@ def read_entry(arrays: dict[str, np.ndarray], key: str, entry: dict, obj: GraspO
                             tuple(contacts[i]), types[i]) for i, n in enumerate(entry["names"])]
 
 
-def _geometry(params: dict) -> dict:
-    """An object's parameters less those that do not change where a grasp is (name, mass, friction)."""
+def geometry_params(params: dict) -> dict:
+    """An object's parameters less those that do not change where a grasp is (name, mass, friction): one mesh given
+    as a file and as a `Trimesh` under another name has the same.
+
+    Args:
+        params: `GraspObject.params()`.
+
+    Returns:
+        The parameters of its shape (a mesh's digest among them).
+    """
     return {k: v for k, v in params.items() if k not in ("name", "mass", "friction")}

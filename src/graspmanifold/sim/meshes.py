@@ -1,7 +1,8 @@
 """Meshes for grasp objects, through trimesh: loading, checks, the object frame, and convex parts.
 
 A mesh object must be a closed solid a hand can hold: watertight, with a positive volume, between
-`MIN_EXTENT` and `MAX_EXTENT` across (a file in millimetres needs `scale=0.001`). It is put into
+`MIN_EXTENT` and `MAX_EXTENT` across (a file in millimetres needs `scale=0.001`). Meshes as datasets ship them are
+made one first (`make_solid`: holes filled, overlapping pieces joined). It is put into
 the library's object frame (`object_frame`): the centre of mass at the origin and the axes along
 the principal axes of inertia, ordered by the mesh's extent along them, so that z is the longest
 axis (the long axis, as for the paper's box and cylinder) and x the shortest; each axis points to
@@ -11,8 +12,8 @@ depend on how the file was written.
 MuJoCo collides a mesh geom as its convex hull. A convex mesh is one geom; a non-convex one (a
 ring handle, a mug) is split into nearly convex parts by V-HACD (`trimesh.decomposition`, through
 the `vhacdx` package), run single-threaded with fixed parameters so the parts are the same on every
-run (`convex_parts`). The closest-point, signed-distance and normal queries use the mesh itself,
-not its parts.
+run (`convex_parts`); a convex decomposition given as pieces (as grasp datasets ship objects) keeps its pieces
+(`object_geometry`). The closest-point, signed-distance and normal queries use the mesh itself, not its parts.
 """
 
 from __future__ import annotations
@@ -74,6 +75,45 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
     return mesh
 
 
+def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
+    """The mesh made one closed solid, as object meshes come in the field (scans with holes, objects of several
+    overlapping pieces, convex decompositions), by a stated and deterministic repair:
+
+    - each open piece's holes are filled (`trimesh.repair.fill_holes`, fans over each boundary loop: networkx finds
+      the loops), its normals made consistent;
+    - several closed pieces become their union (`trimesh.boolean.union` with manifold3d, exact and robust).
+
+    A mesh that is already one closed solid is returned as it is. What no repair can make one solid (a piece whose
+    holes stay open, pieces that do not touch) is left for `check_solid` to refuse with its reason.
+
+    Args:
+        mesh: a mesh (not changed).
+
+    Returns:
+        (the mesh, or a repaired copy; what was done, '' when nothing).
+    """
+    if mesh.is_watertight and int(mesh.body_count) == 1:
+        return mesh, ""
+    pieces = mesh.split(only_watertight=False) if int(mesh.body_count) > 1 else [mesh.copy()]
+    done, filled = [], 0
+    for piece in pieces:
+        if not piece.is_watertight:
+            piece = piece.copy()
+            trimesh.repair.fill_holes(piece, use_fan=True)
+            trimesh.repair.fix_normals(piece)
+            filled += int(piece.is_watertight)
+        done.append(piece)
+    what = [f"the holes of {filled} open piece{'s' * (filled != 1)} filled"] if filled else []
+    closed = [piece for piece in done if piece.is_watertight and piece.is_volume]
+    if len(done) > 1 and len(closed) == len(done):
+        joined = trimesh.boolean.union(closed, engine="manifold")
+        if joined.is_watertight and joined.volume > 0:
+            return joined, "; ".join(what + [f"the union of {len(done)} closed pieces (manifold3d)"])
+    if len(done) == 1:
+        return done[0], "; ".join(what)
+    return mesh, ""
+
+
 def check_solid(mesh: trimesh.Trimesh) -> None:
     """Raise ValueError unless the mesh is a closed solid of a graspable size."""
     if len(mesh.faces) == 0 or not np.all(np.isfinite(mesh.vertices)):
@@ -82,8 +122,8 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
         raise InvalidInput(f"mesh has {len(mesh.faces)} triangles, more than {MAX_FACES}: simplify it first, e.g. "
                            "mesh.simplify_quadric_decimation(face_count=20000)")
     if not mesh.is_watertight:
-        raise InvalidInput("mesh is not watertight (it has holes or open edges): a grasp object must be a closed "
-                         "solid; repair it first, e.g. with trimesh.repair.fill_holes")
+        raise InvalidInput("mesh is not watertight (it has holes or open edges that filling each boundary loop "
+                           "does not close, `make_solid`): a grasp object must be a closed solid")
     with np.errstate(invalid="ignore", divide="ignore"):  # a flat mesh divides by its zero volume
         solid = bool(mesh.is_volume) and float(mesh.volume) > 0
     if not solid:
@@ -91,8 +131,8 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
                          "inside out or self-intersecting")
     bodies = int(mesh.body_count)
     if bodies > 1:
-        raise InvalidInput(f"mesh holds {bodies} separate solids: a grasp object is one solid (take one of "
-                           "mesh.split(), or join them into one with trimesh.boolean.union)")
+        raise InvalidInput(f"mesh holds {bodies} separate solids that do not touch (their union, `make_solid`, "
+                           "leaves them apart): a grasp object is one solid; take one of mesh.split()")
     extent = float(mesh.extents.max())
     if extent > MAX_EXTENT:
         raise InvalidInput(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "
@@ -120,24 +160,49 @@ def canonical_order(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return trimesh.Trimesh(vertices, faces[np.lexsort(faces.T[::-1])], process=False)
 
 
-def object_frame(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
-    """A checked copy of the mesh in the object frame (see the module docstring), its vertices and faces in
-    `canonical_order`."""
-    check_solid(mesh)
-    mesh = canonical_order(mesh)
-    mesh.apply_translation(-mesh.center_mass)
-    axes = np.asarray(mesh.principal_inertia_vectors, dtype=float)  # rows
-    along = mesh.vertices @ axes.T
+def object_geometry(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, list[trimesh.Trimesh], str, str]:
+    """An object's geometry from a mesh as given: the mesh made solid (`make_solid`), checked, in the object frame
+    (see the module docstring; its vertices and faces in `canonical_order`), and its convex parts for MuJoCo: a
+    convex decomposition given as pieces (several closed convex pieces) is used as given, moved into the same frame;
+    else the solid itself when convex, or its V-HACD parts (`convex_parts`).
+
+    Args:
+        mesh: the mesh (not changed).
+
+    Returns:
+        (the solid, its convex parts, its digest (`mesh_digest` of the solid, and of the parts where they were
+        given), what was done to make it solid ('' when nothing)).
+    """
+    made, repair = make_solid(mesh)
+    check_solid(made)
+    solid = canonical_order(made)
+    centre = solid.center_mass
+    solid.apply_translation(-centre)
+    axes = np.asarray(solid.principal_inertia_vectors, dtype=float)  # rows
+    along = solid.vertices @ axes.T
     axes = axes[np.argsort(np.ptp(along, axis=0), kind="stable")]  # shortest extent first, longest last
-    along = mesh.vertices @ axes.T
+    along = solid.vertices @ axes.T
     axes *= np.where(np.sum(along ** 3, axis=0) >= 0.0, 1.0, -1.0)[:, None]
     if np.linalg.det(axes) < 0:
         axes[0] *= -1.0
-    transform = np.eye(4)
-    transform[:3, :3] = axes
-    mesh.apply_transform(transform)
-    check_solid(mesh)
-    return mesh
+    rotation = np.eye(4)
+    rotation[:3, :3] = axes
+    solid.apply_transform(rotation)
+    check_solid(solid)
+    pieces = mesh.split(only_watertight=False) if int(mesh.body_count) > 1 else []
+    if pieces and all(piece.is_watertight and piece.is_convex for piece in pieces):  # a convex decomposition
+        parts = [canonical_order(piece) for piece in pieces]
+        for part in parts:  # the same two steps as the solid's
+            part.apply_translation(-centre)
+            part.apply_transform(rotation)
+        repair += f"; its {len(parts)} convex pieces kept as its collision parts"
+        return solid, parts, mesh_digest(solid, parts), repair
+    return solid, convex_parts(solid), mesh_digest(solid), repair
+
+
+def object_frame(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """A checked copy of the mesh made solid in the object frame (`object_geometry`'s solid)."""
+    return object_geometry(mesh)[0]
 
 
 def convex_parts(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
@@ -152,8 +217,11 @@ def convex_parts(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
     return [part if isinstance(part, trimesh.Trimesh) else trimesh.Trimesh(**part) for part in parts]
 
 
-def mesh_digest(mesh: trimesh.Trimesh) -> str:
-    """A short hash of the vertices and faces: two objects with the same digest are the same solid."""
-    digest = hashlib.sha256(np.ascontiguousarray(mesh.vertices, dtype=float).tobytes())
-    digest.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+def mesh_digest(mesh: trimesh.Trimesh, parts: list[trimesh.Trimesh] | tuple = ()) -> str:
+    """A short hash of the vertices and faces (and of convex parts given with the mesh): two objects with the same
+    digest are the same solid, collided the same way."""
+    digest = hashlib.sha256()
+    for each in (mesh, *parts):
+        digest.update(np.ascontiguousarray(each.vertices, dtype=float).tobytes())
+        digest.update(np.ascontiguousarray(each.faces, dtype=np.int64).tobytes())
     return digest.hexdigest()[:16]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from dataclasses import dataclass, field, replace
 from functools import cache, cached_property
 from pathlib import Path
@@ -20,7 +21,7 @@ import trimesh
 
 from ..base.errors import InvalidInput
 from .family import FAMILY, family_mesh
-from .meshes import MAX_EXTENT, MIN_EXTENT, convex_parts, load_mesh, mesh_digest, object_frame
+from .meshes import MAX_EXTENT, MIN_EXTENT, load_mesh, object_geometry
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
 
@@ -331,13 +332,14 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         extra = [k for k, v in {"radius": radius, "length": length, "size": size}.items() if v is not None]
         if extra:
             raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
-        solid = object_frame(load_mesh(mesh, 1.0 if scale is None else scale))
-        digest = mesh_digest(solid)
+        solid, parts, digest, repair = object_geometry(load_mesh(mesh, 1.0 if scale is None else scale))
         label = name or (f"mesh_{digest[:8]}" if not isinstance(mesh, (str, os.PathLike)) else Path(mesh).stem
                          + ("_mesh" if Path(mesh).stem in PAPER_SHAPES or Path(mesh).stem in FAMILY else ""))
+        if repair:  # said once, where the object is made: every result keys the repaired solid's digest
+            warnings.warn(f"mesh object {label!r} made one solid: {repair.lstrip('; ')}", stacklevel=2)
         return GraspObject(name=label, shape="mesh", half_sizes=tuple(np.abs(solid.vertices).max(axis=0).tolist()),
                            mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
-                           parts=tuple(convex_parts(solid)), mesh_digest=digest)
+                           parts=tuple(parts), mesh_digest=digest)
     if mesh is not None or scale is not None:
         raise InvalidInput(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
     given = {"radius": radius, "length": length, "size": size}
