@@ -317,8 +317,8 @@ def test_ctrl_c_of_the_study_script_ends_in_one_line_and_its_output_is_locked(tm
 
 def test_input_that_was_taken_without_a_word_is_refused_or_named(tmp_path):
     one = trimesh.creation.box(extents=(0.04, 0.04, 0.04))
-    with pytest.raises(ValueError, match="2 separate solids"):
-        gm.make_object("mesh", mesh=trimesh.util.concatenate([one, one.copy().apply_translation((0.02, 0, 0))]))
+    with pytest.raises(ValueError, match="2 separate solids that do not touch"):  # overlapping ones are joined
+        gm.make_object("mesh", mesh=trimesh.util.concatenate([one, one.copy().apply_translation((0.06, 0, 0))]))
     one.export(tmp_path / "box.stl")
     assert gm.make_object("mesh", mesh=tmp_path / "box.stl").name == "box_mesh"  # not the paper's box
     for data in (np.ones((8, 22), bool), np.ones((8, 22), complex)):

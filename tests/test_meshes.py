@@ -304,3 +304,29 @@ def test_open_loop_grasps_of_a_mesh_set_ask_for_the_mesh_it_does_not_hold():
     with pytest.raises(ValueError, match=r"'can' is a mesh its file does not hold.*obj="):
         open_loop_grasps(made)
     assert len(open_loop_grasps(made, obj=can)) == 1
+
+
+def test_an_object_file_of_a_robot_data_package_loads_by_its_file(tmp_path):
+    """A URDF whose link is two mesh pieces (a convex decomposition) and an MJCF body of a mesh and a cylinder load as
+    one object each, their pieces where the file puts them; a file MuJoCo cannot compile is refused by name."""
+    (tmp_path / "meshes").mkdir()
+    trimesh.creation.box(extents=(0.03, 0.04, 0.1)).export(tmp_path / "meshes" / "half.stl")
+    (tmp_path / "halves.urdf").write_text(
+        '<robot name="halves"><link name="base_link">' + "".join(
+            f'<collision><origin xyz="{dx} 0 0" rpy="0 0 0"/><geometry><mesh filename="meshes/half.stl"/></geometry>'
+            "</collision>" for dx in (-0.015, 0.015)) + "</link></robot>")
+    (tmp_path / "can.xml").write_text(
+        '<mujoco><asset><mesh name="half" file="meshes/half.stl"/></asset><worldbody><body name="can"><freejoint/>'
+        '<geom type="mesh" mesh="half" pos="0 0 0.05"/><geom type="cylinder" size="0.02 0.03" pos="0 0 -0.02"/>'
+        "</body></worldbody></mujoco>")
+    with pytest.warns(UserWarning, match="its 2 convex pieces kept"):
+        halves = gm.make_object("mesh", mesh=tmp_path / "halves.urdf")
+    assert halves.name == "halves" and len(halves.parts) == 2
+    assert np.isclose(halves.mesh.volume, 0.06 * 0.04 * 0.1, rtol=1e-6)
+    with pytest.warns(UserWarning, match="the union of 2 closed pieces"):
+        can = gm.make_object("mesh", mesh=tmp_path / "can.xml")
+    assert 0.03 * 0.04 * 0.1 < can.mesh.volume < 0.03 * 0.04 * 0.1 + np.pi * 0.02 ** 2 * 0.06
+    (tmp_path / "broken.urdf").write_text("<robot><link name='a'><collision><geometry><mesh filename='none.stl'/>"
+                                          "</geometry></collision></link></robot>")
+    with pytest.raises(ValueError, match="broken.urdf.*could not be compiled by MuJoCo"):
+        gm.make_object("mesh", mesh=tmp_path / "broken.urdf")

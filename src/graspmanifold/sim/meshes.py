@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -34,18 +35,78 @@ MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a 
 MAX_FACES = 200_000
 #: the file formats a mesh object is read from (trimesh's meshes; not its archives)
 MESH_FORMATS = ("stl", "obj", "ply", "off", "glb", "gltf")
+#: the object files of robot data packages a mesh object is read from, by MuJoCo (`model_file_mesh`)
+MODEL_FORMATS = ("urdf", "xml")
 
 #: V-HACD settings: enough parts for a handle or a mug, deterministic (single-threaded)
 DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64, "asyncACD": False}
 
 
+def model_file_mesh(path: Path) -> trimesh.Trimesh:
+    """The geometry an object file of a robot data package names, as one mesh: a URDF or an MJCF file compiled by
+    MuJoCo (its mesh files found as MuJoCo finds them), every geom of it (meshes and primitives) where it lies at
+    the model's reference pose, its pieces kept apart (`make_solid` joins them, or keeps a convex decomposition).
+
+    Args:
+        path: the .urdf or .xml file.
+
+    Returns:
+        The pieces, in the file's units and frame.
+
+    Raises:
+        InvalidInput: a file MuJoCo cannot compile, or one with no geometry.
+    """
+    import mujoco
+
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except Exception as error:  # MuJoCo raises ValueError for a file it cannot compile, with its reason
+        raise InvalidInput(f"object file {str(path)!r} could not be compiled by MuJoCo: {error}") from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pieces = []
+    for geom in range(model.ngeom):
+        kind, size = model.geom_type[geom], model.geom_size[geom]
+        if kind == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh_id = model.geom_dataid[geom]
+            first, count = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
+            face, faces = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
+            piece = trimesh.Trimesh(model.mesh_vert[first:first + count].astype(float),
+                                    model.mesh_face[face:face + faces], process=False)
+        elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+            piece = trimesh.creation.box(extents=2 * size)
+        elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+            piece = trimesh.creation.icosphere(subdivisions=3, radius=size[0])
+        elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            piece = trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=48)
+        elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            piece = trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[24, 24])
+        elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+            piece = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+            piece.apply_scale(size)
+        else:  # a plane, a height field: not part of an object
+            continue
+        transform = np.eye(4)
+        transform[:3, :3] = data.geom_xmat[geom].reshape(3, 3)
+        transform[:3, 3] = data.geom_xpos[geom]
+        piece.apply_transform(transform)
+        pieces.append(piece)
+    if not pieces:
+        raise InvalidInput(f"object file {str(path)!r} names no geometry (no mesh, box, sphere, cylinder, capsule "
+                           "or ellipsoid geom)")
+    return trimesh.util.concatenate(pieces)
+
+
 def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> trimesh.Trimesh:
-    """A copy of `mesh` (a trimesh, or a path to a .stl/.obj/.ply/... file), scaled by `scale`."""
+    """A copy of `mesh` (a trimesh, a path to a .stl/.obj/.ply/... file, or an object file, .urdf or MJCF .xml,
+    that names its mesh pieces: `model_file_mesh`), scaled by `scale`."""
+    if isinstance(mesh, (str, os.PathLike)) and Path(mesh).suffix.lower().lstrip(".") in MODEL_FORMATS:
+        mesh = model_file_mesh(check_input_file(mesh, "object file"))
     if isinstance(mesh, (str, os.PathLike)):
         path = check_input_file(mesh, "mesh file")
         if path.suffix.lower().lstrip(".") not in MESH_FORMATS:
             raise InvalidInput(f"mesh file {str(mesh)!r}: {path.suffix or 'no suffix'} is not a mesh format the library "
-                               f"reads ({', '.join('.' + f for f in MESH_FORMATS)})")
+                               f"reads ({', '.join('.' + f for f in MESH_FORMATS + MODEL_FORMATS)})")
         try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
             loaded = trimesh.load(path, force="mesh", process=False)
         except Exception as error:  # trimesh raises many kinds for a file it cannot parse
@@ -105,8 +166,9 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
         done.append(piece)
     what = [f"the holes of {filled} open piece{'s' * (filled != 1)} filled"] if filled else []
     closed = [piece for piece in done if piece.is_watertight and piece.is_volume]
-    if len(done) > 1 and len(closed) == len(done):
-        joined = trimesh.boolean.union(closed, engine="manifold")
+    if len(done) > 1 and len(closed) == len(done):  # on a 0.1 um grid first: pieces that touch (a decomposition's,
+        snapped = [trimesh.Trimesh(np.round(piece.vertices, 7), piece.faces, process=False) for piece in closed]
+        joined = trimesh.boolean.union(snapped, engine="manifold")  # float32 in a model file) do not stay apart
         if joined.is_watertight and joined.volume > 0:
             return joined, "; ".join(what + [f"the union of {len(done)} closed pieces (manifold3d)"])
     if len(done) == 1:

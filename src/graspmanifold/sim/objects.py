@@ -307,7 +307,8 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         radius: a cylinder's or a sphere's, m.
         length: a cylinder's, m.
         size: a box's full x, y, z extents, m.
-        mesh: a `trimesh.Trimesh` or a mesh file (.stl, .obj, .ply, ...).
+        mesh: a `trimesh.Trimesh`, a mesh file (.stl, .obj, .ply, ...) or an object file of a robot data package
+            (.urdf, MJCF .xml: `meshes.model_file_mesh`).
         scale: metres per unit of the mesh (0.001 for a file in mm; default 1).
         mass: kg (default 0.1).
         friction: the sliding friction coefficient, at most `MAX_FRICTION` (default `DEFAULT_FRICTION`).
@@ -410,7 +411,7 @@ def named_object(text: str, scale: float = 1.0) -> GraspObject:
     mesh file by its path (anything with a suffix or a folder: `make_object("mesh", mesh=text, scale=scale)`).
 
     Args:
-        text: a name, or the path of a mesh file (.stl, .obj, .ply, ...: a watertight solid).
+        text: a name, or the path of a mesh file (.stl, .obj, .ply, ...) or of an object file (.urdf, MJCF .xml).
         scale: metres per unit of a mesh file (0.001 for mm); a named object takes none.
 
     Returns:
