@@ -78,13 +78,20 @@ GRID_OBJECTS = ("box", "cylinder", "sphere")
 
 
 def _pooled(info: dict, arm: str, levels: tuple[float, ...] = TARGET_LEVELS) -> tuple[int, int]:
-    """(held, trials) of an arm over these levels of the displaced plans."""
+    """(held, trials) of an arm over these levels (m) of the displaced plans."""
     rows = [info["by_level"][arm][info["levels"].index(level)] for level in levels]
     return sum(r[0] for r in rows), sum(r[1] for r in rows)
 
 
 def palm_verdict(info: dict) -> str:
-    """The verdicts on issue 66's targets from the planned part's numbers (`planned_grasps.summarise`)."""
+    """The verdicts on issue 66's targets from the planned part's numbers.
+
+    Args:
+        info: `planned_grasps.summarise` of the palm family (its "by_level" counts and Holm "comparisons").
+
+    Returns:
+        One paragraph: the rates at 2-5 cm, the share of the oracle's, each target met or not.
+    """
     rows = {row["label"]: row for row in info["comparisons"]}
     main, pays = rows[QUESTIONS[0][0]], rows[QUESTIONS[1][0]]
     held, n = _pooled(info, "palm-experience")
@@ -119,6 +126,10 @@ def _grid_experience(study: StudyRun, name: str, seed: int, config: PlannedStudy
 
 def run_grid(config: PlannedStudyConfig, study: StudyRun) -> dict:
     """Part 2: the paper's grid, every arm of `GRID_ARMS` on the flange, per seed and object.
+
+    Args:
+        config: the study's configuration (its seeds; a quick run: the quick grid on the cylinder).
+        study: the run (its folder keeps every evaluation; its workers).
 
     Returns:
         `grid_summary` of the outcomes.
@@ -181,7 +192,14 @@ def grid_summary(held: dict[str, dict[tuple[str, int], np.ndarray]], seeds: tupl
 
 
 def grid_verdict(grid: dict) -> str:
-    """The verdict on the paper grid's target: the share of poses no method holds falls by half."""
+    """The verdict on the paper grid's target: the share of poses no method holds falls by half.
+
+    Args:
+        grid: `grid_summary`'s dict (its "no_method" counts).
+
+    Returns:
+        One sentence.
+    """
     (before, n), (after, _) = grid["no_method"]["fingers_only"], grid["no_method"]["with_palm"]
     met = "met" if 0 < before and after <= before / 2 else "not met" if before else "nothing to halve"
     return (f"On the paper's grid the paper's controller with its palm still leaves {rate_text(before, n)} of {n} "
@@ -190,7 +208,14 @@ def grid_verdict(grid: dict) -> str:
 
 
 def report(info: dict) -> str:
-    """The markdown report: the planned part (`planned_grasps.report`), then the paper's grid."""
+    """The markdown report: the planned part (`planned_grasps.report`), then the paper's grid.
+
+    Args:
+        info: the planned part's numbers with the grid's under "grid".
+
+    Returns:
+        The report's text.
+    """
     text = planned_report(info)
     grid = info["grid"]
     lines = ["", "## The paper's grid", "",

@@ -287,18 +287,47 @@ def run(config: PlannedStudyConfig, study: StudyRun) -> dict:
 
 
 def generator_params(quick: bool) -> GeneratorParams:
-    """How the plans are generated: every grasp type's design, 50 candidates per posture (10 for a smoke run)."""
+    """How the plans are generated.
+
+    Args:
+        quick: a smoke run.
+
+    Returns:
+        Every grasp type's design, 50 candidates per posture (10 for a smoke run).
+    """
     return GeneratorParams(designs="grasp_types", max_candidates_per_posture=10 if quick else 50)
 
 
 def postures_key(name: str, n: int, seed: int, quick: bool) -> str:
-    """The key of an object's verified grasps of one seed (`generate`)."""
+    """The key of an object's verified grasps of one seed (`generate`).
+
+    Args:
+        name: a benchmark object (`trials.benchmark.OBJECTS`).
+        n: grasps.
+        seed: the generator's seed.
+        quick: a smoke run.
+
+    Returns:
+        A hexadecimal key (`checkpoints.result_key`).
+    """
     return result_key({"object": OBJECTS[name].object.params(), "n": n, "seed": seed,
                        "params": repr(generator_params(quick))})
 
 
 def generate(name: str, n: int, seed: int, workers: int, quick: bool, parts: Path) -> PostureSet:
-    """An object's `n` verified grasps of one seed (the plans and the experience), resumable from `parts`."""
+    """An object's verified grasps of one seed: the plans and the experience.
+
+    Args:
+        name: a benchmark object (`trials.benchmark.OBJECTS`).
+        n: grasps.
+        seed: the generator's seed.
+        workers: worker processes.
+        quick: a smoke run (`generator_params`).
+        parts: the checkpoint folder an interrupted generation resumes from.
+
+    Returns:
+        The `PostureSet`.
+    """
     return generate_postures(OBJECTS[name].object, n, seed=seed, workers=workers, params=generator_params(quick),
                              checkpoint_dir=parts, progress=False)
 
