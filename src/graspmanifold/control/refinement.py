@@ -25,9 +25,6 @@ from ..sim.objects import GraspObject
 from ..sim.scene import Scene
 from .search_geometry import SearchGeometry, hinge_bend, hinge_slope, soft_hinge
 
-#: the forward-difference step of the pushes' Jacobian on a mesh object (rad for joints and turns, m for the palm's
-#: position)
-JACOBIAN_STEP = 1e-6
 #: the trust-region search's most iterations (`_search`)
 SEARCH_ITERATIONS = 300
 #: `_polish`: Newton's steps at most, the step of its Hessian's differences, its first trust region (in units of
@@ -231,7 +228,7 @@ class Refiner:
     def __call__(self, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray, name: str = "start",
                  grasp_type: str = "power", balance: float = 0.0, press: float = 0.0) -> StartingPosture:
         """The refined start of a rough grasp (arguments as `refine`'s)."""
-        obj, geometry = self.obj, self.geometry
+        geometry = self.geometry
         limits = self.scene.hand.limits()
         lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
         pos = np.asarray(pos, dtype=float)
@@ -251,12 +248,7 @@ class Refiner:
                                   + ([geometry.pressing(joints, pushes)] if press else []))
 
         def pushing_jacobian(v: np.ndarray, balance: float, press: float) -> np.ndarray:
-            """The Jacobian of `pushing` (exact on a primitive, `push_jacobians`; by forward differences of
-            `JACOBIAN_STEP` on a mesh, whose pushes turn with its faces)."""
-            if obj.mesh is not None:
-                pushed = pushing(v, balance, press)
-                steps = v + JACOBIAN_STEP * np.eye(v.size)
-                return np.column_stack([(pushing(step, balance, press) - pushed) / JACOBIAN_STEP for step in steps])
+            """The Jacobian of `pushing` (the pushes' own, `push_jacobians`, chained through the squeeze's cosines)."""
             joints, p, q = unpack(v)
             geometry.place(joints, p, q)
             pushes, push_rows = geometry.push_jacobians()
@@ -331,7 +323,7 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     `search_geometry`), its Jacobian exact, and the search runs to its local minimum, so that its
     result does not turn on the last bits of the inputs or of the arithmetic. With `balance` or `press` it runs
     twice: first to touch, then, from there, with those terms (whose pushes are defined only while the contacts'
-    cores are outside the object; their Jacobian is by forward differences of `JACOBIAN_STEP`).
+    cores are outside the object; on a mesh their Jacobian is by forward differences, `search_geometry.PUSH_STEP`).
 
     Args:
         obj: the object.

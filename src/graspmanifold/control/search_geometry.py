@@ -17,6 +17,7 @@ import copy
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
@@ -37,6 +38,10 @@ BOX_ROUNDING = 0.004
 #: falls with its distance to the object (m)
 PUSH_SAMPLES = 9
 PUSH_REACH = 0.002
+#: the forward-difference step of a mesh object's pushes' Jacobian (`push_jacobians`): m for a geom's move, rad for
+#: its turn
+PUSH_STEP = 1e-6
+_PUSH_TURNS = Rotation.from_rotvec(PUSH_STEP * np.eye(3)).as_matrix()  # a turn of PUSH_STEP about each axis
 #: the bend of a primitive's smooth outward directions at its edges (`outward`), m
 PUSH_BEND = 0.001
 #: `SearchGeometry.pressing`'s squeeze: how far it turns each flexion joint towards the closed hand (rad, or as far
@@ -208,21 +213,31 @@ class SearchGeometry:
 
     def pushes(self) -> np.ndarray:
         """Unit directions (len(distal), 3) in which the contact geoms (`pushing`) press the object at the current
-        placement. On a mesh object: from the point of a geom's core (a capsule's segment, a sphere's centre)
-        nearest the object towards the object's nearest point (its collision geometry: the convex parts). On a
-        primitive (`push_jacobians`): the mean of the directions at `PUSH_SAMPLES` points along the core towards
-        the object (`outward`), weighed by exp(-distance / `PUSH_REACH`): the nearer points count, and the
-        direction turns smoothly where the nearest point reaches a segment's end or an edge of the object."""
-        if self.scene.object.mesh is not None:
-            points = np.array([self._nearest_part(geom, 1.0)[1] for geom in self.pushing]).reshape(-1, 6)
-            return _unit(points[:, 3:] - points[:, :3])
+        placement (`push_jacobians` says how: on a mesh object the direction between the nearest points, on a
+        primitive a smooth blend of directions along each contact)."""
         return self.push_jacobians(rows=False)[0]
 
+    def _mesh_pushes(self, geoms: list[int]) -> np.ndarray:
+        """On a mesh object, unit directions (len(geoms), 3) from the point of each geom's core nearest the object
+        towards the object's nearest point (its collision geometry: the convex parts)."""
+        points = np.array([self._nearest_part(geom, 1.0)[1] for geom in geoms]).reshape(-1, 6)
+        return _unit(points[:, 3:] - points[:, :3])
+
     def push_jacobians(self, rows: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        """A primitive's `pushes` (len(distal), 3) and their Jacobians (len(distal), 3, 28) with respect to the
-        finger joints, the palm's translation and its rotation (as `distance_jacobians`), exact: each sample point's
-        motion (mj_jac), the weights' change with the samples' distances, the outward directions' change with
-        the samples (central differences of the closed form, `_outward`)."""
+        """The `pushes` (len(distal), 3) and their Jacobians (len(distal), 3, 28) with respect to the finger joints,
+        the palm's translation and its rotation (as `distance_jacobians`).
+
+        On a mesh object a push is the direction between the nearest points of a contact's core and the object,
+        which turns with the faces the nearest point crosses: its Jacobian is by forward differences of
+        `PUSH_STEP` of each contact geom's own pose (three moves and three turns, MuJoCo's convex distance
+        measured again, no kinematics), chained with how the geom moves and turns with the joints and the palm.
+        On a primitive the pushes are the mean of the directions at `PUSH_SAMPLES` points along the core towards
+        the object (`outward`), weighed by exp(-distance / `PUSH_REACH`): the nearer points count, and the
+        direction turns smoothly where the nearest point reaches a segment's end or an edge of the object; their
+        Jacobian is exact: each sample point's motion (mj_jac), the weights' change with the samples' distances,
+        the outward directions' change with the samples (central differences of the closed form, `_outward`)."""
+        if self.scene.object.mesh is not None:
+            return self._mesh_push_jacobians(rows)
         obj, geoms = self.scene.object, self.pushing
         half = self.data.geom_xmat[geoms].reshape(-1, 3, 3)[:, :, 2] * self.model.geom_size[geoms, 1][:, None]
         along = np.linspace(-1.0, 1.0, PUSH_SAMPLES)
@@ -250,6 +265,32 @@ class SearchGeometry:
         length = np.linalg.norm(total, axis=1)
         project = (np.eye(3) - pushes[:, :, None] * pushes[:, None, :]) / length[:, None, None]
         return pushes, np.einsum("gij,gjk->gik", project, change)
+
+    def _mesh_push_jacobians(self, rows: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """`push_jacobians` on a mesh object."""
+        geoms, data = self.pushing, self.data
+        pushes = self._mesh_pushes(geoms)
+        if not rows:
+            return pushes, None
+        frames = self._frames()
+        moves = self._points_jacobian(data.geom_xpos[geoms], geoms, frames)  # (g, 3, 28): each geom's centre
+        turns = np.zeros((len(geoms), 3, 28))
+        turns[:, :, :22] = frames[1][self.model.geom_bodyid[geoms]]
+        turns[:, :, 25:28] = np.eye(3)
+        push_rows = np.zeros((len(geoms), 3, 28))
+        for i, geom in enumerate(geoms):
+            position, orientation = data.geom_xpos[geom].copy(), data.geom_xmat[geom].copy()
+            change = np.zeros((3, 6))
+            for k, axis in enumerate(np.eye(3)):
+                data.geom_xpos[geom] = position + PUSH_STEP * axis
+                change[:, k] = self._mesh_pushes([geom])[0]
+                data.geom_xpos[geom] = position
+                data.geom_xmat[geom] = (_PUSH_TURNS[k] @ orientation.reshape(3, 3)).ravel()
+                change[:, 3 + k] = self._mesh_pushes([geom])[0]
+                data.geom_xmat[geom] = orientation
+            change = (change - pushes[i][:, None]) / PUSH_STEP
+            push_rows[i] = change[:, :3] @ moves[i] + change[:, 3:] @ turns[i]
+        return pushes, push_rows
 
     def _nearest_on_cores(self, geoms: list[int], cores: np.ndarray) -> np.ndarray:
         """The points (len(geoms), 3) of these capsules' or spheres' cores nearest a primitive object, exact:

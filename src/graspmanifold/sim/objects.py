@@ -3,8 +3,7 @@
 An object is centred at its origin with its long axis along z (a mesh: at its centre of mass, on
 its principal axes, see `meshes.py`). Besides what MuJoCo needs to simulate it, each object answers
 the geometric queries the posture generator's springs rely on through one interface (closest
-surface point, signed distance, surface normal): exact formulas for the primitives, trimesh's
-proximity queries for a mesh.
+surface point, signed distance, surface normal): exact formulas for the primitives, `mesh_queries` for a mesh.
 """
 
 from __future__ import annotations
@@ -21,6 +20,7 @@ import trimesh
 
 from ..base.errors import InvalidInput
 from .family import FAMILY, family_mesh
+from .mesh_queries import MeshQueries
 from .meshes import MAX_EXTENT, MIN_EXTENT, load_mesh, object_geometry
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
@@ -29,12 +29,6 @@ SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
 #: measures about 0.5-0.8; 0.6 sits inside that range. The scene gives every hand geom the object's
 #: friction, so the simulation and the force-closure test (epsilon) use one coefficient.
 DEFAULT_FRICTION = 0.6
-
-#: up to this many point-triangle pairs a mesh's closest points are found in one vectorised pass over
-#: all triangles' bounding boxes, above it through trimesh's R-tree, whose per-point Python calls cost
-#: about 1 ms for the five fingertips of a spring step (the vectorised pass: 0.2-0.3 ms for 256-512
-#: triangles; they are about equal near 4 000 pairs)
-SMALL_QUERY_PAIRS = 4096
 
 
 @dataclass(frozen=True)
@@ -113,7 +107,7 @@ class GraspObject:
         """
         p, single = _check_points(points)
         if self.mesh is not None:
-            distance = -trimesh.proximity.signed_distance(self.mesh, p)  # trimesh counts inside as positive
+            distance = self._surface.signed_distance(p)
         else:
             distance = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[1]
         return distance[0] if single else distance
@@ -129,7 +123,7 @@ class GraspObject:
         """
         p, single = _check_points(points)
         if self.mesh is not None:
-            closest = self._mesh_closest(p)[0]
+            closest = self._surface.closest(p)[0]
         else:
             closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
         return closest[0] if single else closest
@@ -146,7 +140,7 @@ class GraspObject:
         """
         p, single = _check_points(points)
         if self.mesh is not None:
-            normal = self.mesh.face_normals[self._mesh_closest(p)[1]]
+            normal = self._surface.normal(p)
         else:
             closest = _SURFACE_QUERIES[self.shape](p, self.half_sizes)[0]
             step = 1e-6 * np.eye(3)
@@ -156,39 +150,9 @@ class GraspObject:
         return normal[0] if single else normal
 
     @cached_property
-    def _triangles(self) -> np.ndarray:
-        """The mesh's triangles (faces, 3, 3) as a plain array (trimesh re-validates its cache on each access)."""
-        return np.array(self.mesh.triangles)
-
-    @cached_property
-    def _triangle_boxes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (faces, 3) of each triangle's axis-aligned bounding box."""
-        return self._triangles.min(axis=1), self._triangles.max(axis=1)
-
-    def _mesh_closest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Closest surface points (n, 3) and their triangles (n,). The point-triangle distances are
-        trimesh's (`triangles.closest_point`); which triangles to test comes from trimesh's R-tree
-        (`proximity.closest_point`) for large queries, and for small ones (the generator asks for five
-        fingertips every physics step) from one vectorised pass over the bounding boxes, the same
-        pruning the R-tree does: only triangles whose box lies no farther than an exact distance to some
-        triangle can hold the closest point, so the answer is exact (tested against testing every pair)."""
-        triangles = self._triangles
-        faces = len(triangles)
-        if faces * len(p) > SMALL_QUERY_PAIRS:
-            closest, _, triangle = trimesh.proximity.closest_point(self.mesh, p)
-            return closest, triangle
-        lower, upper = self._triangle_boxes
-        box_distance = np.linalg.norm(p[:, None] - np.clip(p[:, None], lower, upper), axis=2)  # (n, faces)
-        nearest_box = np.argmin(box_distance, axis=1)
-        bound = np.linalg.norm(trimesh.triangles.closest_point(triangles[nearest_box], p) - p, axis=1)
-        rows, cols = np.nonzero(box_distance <= bound[:, None])
-        on_candidate = trimesh.triangles.closest_point(triangles[cols], p[rows])
-        squared = np.full((len(p), faces), np.inf)
-        squared[rows, cols] = np.sum((on_candidate - p[rows]) ** 2, axis=1)
-        triangle = np.argmin(squared, axis=1)
-        index = np.zeros((len(p), faces), dtype=np.intp)
-        index[rows, cols] = np.arange(len(rows))
-        return on_candidate[index[np.arange(len(p)), triangle]], triangle
+    def _surface(self) -> MeshQueries:
+        """The mesh's query structures (`mesh_queries`), built on first use and kept with the object."""
+        return MeshQueries(self.mesh)
 
 
 def _check_points(points: object) -> tuple[np.ndarray, bool]:
