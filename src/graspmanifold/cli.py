@@ -1,8 +1,8 @@
 """graspmanifold: experience-based tactile grasping with the Shadow Hand in MuJoCo.
 
 Commands: `reproduce` regenerates the paper's figures and tables, `generate` makes grasp postures,
-`evaluate` runs the controller over a grid of object poses, `demo` closes the hand once, `view`
-opens MuJoCo's viewer. `graspmanifold COMMAND --help` shows each command's options and defaults.
+`evaluate` runs the controller over a grid of object poses, `dataset` takes a folder of dataset objects to
+experience and a comparison of controllers, `demo` closes the hand once, `view` opens MuJoCo's viewer. `graspmanifold COMMAND --help` shows each command's options and defaults.
 """
 
 from __future__ import annotations
@@ -35,6 +35,8 @@ from .sim.hand_models import HAND_MODELS
 from .sim.objects import GraspObject, named_object, named_objects
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import TOUCH_SOURCES, Scene, facing_pose
+from .studies.dataset import add_arguments as dataset_arguments
+from .studies.dataset import run as run_dataset
 from .trials.grid import GRID_PRESETS
 
 HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
@@ -441,6 +443,11 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)
 
+    dataset = command("dataset", "a folder of dataset objects as they ship (meshes, URDF or MJCF files) to verified "
+                      "grasps, a map and a comparison of controllers on each, with a table at the end")
+    dataset_arguments(dataset)
+    dataset.set_defaults(run=run_dataset)
+
     demo = command("demo", "close the hand on an object and print the touching segments")
     object_options(demo)
     demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close")
@@ -467,6 +474,7 @@ _ON_INTERRUPT = {
     "generate": "finished jobs are kept in {out}.parts; run the same command again to resume",
     "reproduce": "finished stages are kept in {out}; run the same command again to resume",
     "evaluate": "finished trials are kept in {out}/trials.parts; run the same command again to resume",
+    "dataset": "finished objects are kept in {out}; run the same command again to resume",
 }
 
 

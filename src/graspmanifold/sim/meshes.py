@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.validation import check_input_file
@@ -37,6 +38,9 @@ MAX_FACES = 200_000
 MESH_FORMATS = ("stl", "obj", "ply", "off", "glb", "gltf")
 #: the object files of robot data packages a mesh object is read from, by MuJoCo (`model_file_mesh`)
 MODEL_FORMATS = ("urdf", "xml")
+#: m: closed pieces at most this far apart are one object (a convex decomposition's hulls leave gaps of up to
+#: about half a millimetre between them; a hand's contact cannot tell them apart)
+PIECE_GAP = 0.001
 
 #: V-HACD settings: enough parts for a handle or a mug, deterministic (single-threaded)
 DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64, "asyncACD": False}
@@ -59,7 +63,12 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
     import mujoco
 
     try:
-        model = mujoco.MjModel.from_xml_path(str(path))
+        spec = mujoco.MjSpec.from_file(str(path))
+        # only the geometry is read: the file's masses and inertias (often placeholders) are not
+        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_TRUE
+        for body in spec.bodies:
+            body.explicitinertial, body.fullinertia = False, np.full(6, np.nan)
+        model = spec.compile()
     except Exception as error:  # MuJoCo raises ValueError for a file it cannot compile, with its reason
         raise InvalidInput(f"object file {str(path)!r} could not be compiled by MuJoCo: {error}") from None
     data = mujoco.MjData(model)
@@ -68,11 +77,7 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
     for geom in range(model.ngeom):
         kind, size = model.geom_type[geom], model.geom_size[geom]
         if kind == mujoco.mjtGeom.mjGEOM_MESH:
-            mesh_id = model.geom_dataid[geom]
-            first, count = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
-            face, faces = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
-            piece = trimesh.Trimesh(model.mesh_vert[first:first + count].astype(float),
-                                    model.mesh_face[face:face + faces], process=False)
+            piece = _mesh_file_piece(model, int(model.geom_dataid[geom]), path.parent / spec.compiler.meshdir)
         elif kind == mujoco.mjtGeom.mjGEOM_BOX:
             piece = trimesh.creation.box(extents=2 * size)
         elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
@@ -97,6 +102,54 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
     return trimesh.util.concatenate(pieces)
 
 
+def _mesh_file_piece(model: object, mesh_id: int, folder: Path) -> trimesh.Trimesh:
+    """A mesh geom's mesh read from its file by trimesh (every object of an .obj: MuJoCo's own reader keeps the
+    faces of the first), scaled as the model scales it, and placed as MuJoCo's compiled mesh is in its geom's frame
+    (MuJoCo moves a mesh's vertices into its inertial frame, `mesh_pos` and `mesh_quat`)."""
+    name = model.paths[model.mesh_pathadr[mesh_id]:].split(b"\x00", 1)[0].decode()
+    file = folder / name
+    piece = read_mesh_file(check_input_file(file, "mesh file named by an object file"))
+    turn = Rotation.from_quat(model.mesh_quat[mesh_id], scalar_first=True).as_matrix()
+    piece.vertices = (np.asarray(piece.vertices) * model.mesh_scale[mesh_id] - model.mesh_pos[mesh_id]) @ turn
+    return piece
+
+
+def read_mesh_file(path: Path) -> trimesh.Trimesh:
+    """A mesh file's triangles, its objects (an .obj's `o` groups, a glTF's nodes) kept apart: each object's
+    duplicate vertices merged, but not one object's with another's, so that the pieces of a convex decomposition
+    that touch along their cuts stay pieces (`make_solid`).
+
+    Args:
+        path: the file (`MESH_FORMATS`).
+
+    Returns:
+        The mesh, in the file's units.
+
+    Raises:
+        InvalidInput: a file that cannot be read, holds no triangles or too many, or has non-finite vertices.
+    """
+    try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
+        loaded = trimesh.load(path, process=False, split_object=True, group_material=False)
+    except Exception as error:  # trimesh raises many kinds for a file it cannot parse
+        raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
+    pieces = list(loaded.dump()) if isinstance(loaded, trimesh.Scene) else [loaded]
+    pieces = [p for p in pieces if isinstance(p, trimesh.Trimesh) and len(p.faces)]
+    faces = sum(len(p.faces) for p in pieces)
+    if not faces:
+        raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
+    if faces > MAX_FACES:
+        raise InvalidInput(f"mesh file {str(path)!r} has {faces} triangles, more than {MAX_FACES}: a grasp object "
+                           "needs far fewer (its collision parts keep at most 64 vertices each); simplify it first, "
+                           "e.g. mesh.simplify_quadric_decimation(face_count=20000)")
+    for piece in pieces:
+        bad = np.flatnonzero(~np.isfinite(piece.vertices).all(axis=1))
+        if len(bad):
+            raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
+                               f"inf), the first at index {bad[0]}")
+        piece.process()
+    return trimesh.util.concatenate(pieces) if len(pieces) > 1 else pieces[0]
+
+
 def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> trimesh.Trimesh:
     """A copy of `mesh` (a trimesh, a path to a .stl/.obj/.ply/... file, or an object file, .urdf or MJCF .xml,
     that names its mesh pieces: `model_file_mesh`), scaled by `scale`."""
@@ -107,22 +160,7 @@ def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> 
         if path.suffix.lower().lstrip(".") not in MESH_FORMATS:
             raise InvalidInput(f"mesh file {str(mesh)!r}: {path.suffix or 'no suffix'} is not a mesh format the library "
                                f"reads ({', '.join('.' + f for f in MESH_FORMATS + MODEL_FORMATS)})")
-        try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
-            loaded = trimesh.load(path, force="mesh", process=False)
-        except Exception as error:  # trimesh raises many kinds for a file it cannot parse
-            raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
-        if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-            raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
-        if len(loaded.faces) > MAX_FACES:
-            raise InvalidInput(f"mesh file {str(path)!r} has {len(loaded.faces)} triangles, more than {MAX_FACES}: "
-                               "a grasp object needs far fewer (its collision parts keep at most 64 vertices each); "
-                               "simplify it first, e.g. mesh.simplify_quadric_decimation(face_count=20000)")
-        bad = np.flatnonzero(~np.isfinite(loaded.vertices).all(axis=1))
-        if len(bad):
-            raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
-                             f"inf), the first at index {bad[0]}")
-        loaded.process()
-        mesh = loaded
+        mesh = read_mesh_file(path)
     elif not isinstance(mesh, trimesh.Trimesh):
         raise InvalidInput(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
     try:
@@ -142,7 +180,8 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
 
     - each open piece's holes are filled (`trimesh.repair.fill_holes`, fans over each boundary loop: networkx finds
       the loops), its normals made consistent;
-    - several closed pieces become their union (`trimesh.boolean.union` with manifold3d, exact and robust).
+    - several closed pieces become their union (`trimesh.boolean.union` with manifold3d, exact and robust); pieces
+      their union leaves apart by at most `PIECE_GAP` (a convex decomposition's hulls) stay one object.
 
     A mesh that is already one closed solid is returned as it is. What no repair can make one solid (a piece whose
     holes stay open, pieces that do not touch) is left for `check_solid` to refuse with its reason.
@@ -169,11 +208,39 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
     if len(done) > 1 and len(closed) == len(done):  # on a 0.1 um grid first: pieces that touch (a decomposition's,
         snapped = [trimesh.Trimesh(np.round(piece.vertices, 7), piece.faces, process=False) for piece in closed]
         joined = trimesh.boolean.union(snapped, engine="manifold")  # float32 in a model file) do not stay apart
-        if joined.is_watertight and joined.volume > 0:
+        solid = joined.is_watertight and joined.volume > 0
+        if solid and int(joined.body_count) == 1:
             return joined, "; ".join(what + [f"the union of {len(done)} closed pieces (manifold3d)"])
+        if solid and (gap := piece_gap(joined.split())) <= PIECE_GAP:
+            return joined, "; ".join(what + [f"the union of {len(done)} closed pieces (manifold3d), "
+                                             f"{int(joined.body_count)} solids at most {gap * 1000:.2g} mm apart kept "
+                                             "as one object"])
     if len(done) == 1:
         return done[0], "; ".join(what)
     return mesh, ""
+
+
+def piece_gap(pieces: list[trimesh.Trimesh]) -> float:
+    """The largest gap (m) that joins closed pieces into one group: the longest edge of the minimum spanning tree of
+    their distances (each pair's: the nearest of one's vertices to the other's surface, both ways).
+
+    Args:
+        pieces: closed meshes.
+
+    Returns:
+        The gap (0 for one piece).
+    """
+    from scipy.sparse.csgraph import minimum_spanning_tree
+
+    from .mesh_queries import MeshQueries
+
+    queries = [MeshQueries(piece) for piece in pieces]
+    apart = np.zeros((len(pieces), len(pieces)))
+    for i, j in zip(*np.triu_indices(len(pieces), 1)):
+        nearest = min(np.abs(queries[j].signed_distance(pieces[i].vertices)).min(),
+                      np.abs(queries[i].signed_distance(pieces[j].vertices)).min())
+        apart[i, j] = max(float(nearest), 1e-300)  # touching pieces: an edge of (almost) no length
+    return float(minimum_spanning_tree(apart).max()) if len(pieces) > 1 else 0.0
 
 
 def check_solid(mesh: trimesh.Trimesh) -> None:
@@ -192,9 +259,10 @@ def check_solid(mesh: trimesh.Trimesh) -> None:
         raise InvalidInput(f"mesh encloses no positive volume (volume {mesh.volume:.3g} m^3): it is flat, "
                          "inside out or self-intersecting")
     bodies = int(mesh.body_count)
-    if bodies > 1:
+    if bodies > 1 and (gap := piece_gap(mesh.split(only_watertight=False))) > PIECE_GAP:
         raise InvalidInput(f"mesh holds {bodies} separate solids that do not touch (their union, `make_solid`, "
-                           "leaves them apart): a grasp object is one solid; take one of mesh.split()")
+                           f"leaves them {gap * 1000:.3g} mm apart, more than the {PIECE_GAP * 1000:g} mm a "
+                           "decomposition's pieces may be): a grasp object is one solid; take one of mesh.split()")
     extent = float(mesh.extents.max())
     if extent > MAX_EXTENT:
         raise InvalidInput(f"mesh is {extent:.2f} m across; a hand grasps objects of at most {MAX_EXTENT:.2f} m "

@@ -1,0 +1,224 @@
+"""A dataset's objects as they ship to experience: verified grasps, a map and a comparison of controllers on each.
+
+    graspmanifold dataset FOLDER [--postures 20] [--grid quick] [--poses N] [--scale 1] [--workers 2] [--out dataset]
+
+The objects are the files under FOLDER (`object_files`): its object files (.urdf, MJCF .xml: a robot data package's,
+which name their mesh pieces) and the mesh files no object file names, each loaded as it comes
+(`make_object`: overlapping pieces joined, holes filled, a convex decomposition kept as its pieces; what was
+repaired is said). On each object that loads: `--postures` verified postures with the generator's defaults (the
+start search first, for an object that ships none), a 25 x 25 map trained on them, and three controllers on the
+same grid poses: the plain tactile controller (`none`), the database of the postures and the map (`som`, the
+paper's). A progress bar counts the objects; the table at the end gives per object how it loaded, its triangles,
+its verified postures and each controller's hold rate [95 % Wilson interval], with McNemar's test of the map
+against `none` (Holm over the objects). An object that is refused, or gets no starting posture, is a row that says
+why. Writes OUT/dataset.md and OUT/dataset.json (with the software versions); the posture sets, maps and
+evaluations are kept in OUT under keys of what made them, so a rerun (or an interrupted run run again) takes what
+is done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..base.checkpoints import result_key
+from ..base.errors import GenerationError, InvalidInput
+from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.progress import progress_bar
+from ..control.generator import generate_postures
+from ..manifold.postureset import PostureSet
+from ..manifold.som import SOM
+from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
+from ..sim.objects import GraspObject, make_object
+from ..trials.evaluation import evaluate
+from ..trials.grid import GRID_PRESETS, grid_preset
+from ..trials.stats import rate_text
+from ..trials.study import compare, train_experience_map
+from ..trials.trial import TrialSetup
+from .runner import StudyRun, comparison_table, holm_family, run_study
+
+#: the controllers compared on each object, by the experience they recall
+METHODS = ("none", "database", "som")
+
+
+def object_files(folder: str | Path) -> list[Path]:
+    """The object files of a dataset folder and the folders under it, in sorted order: its object files
+    (`meshes.MODEL_FORMATS`), and its mesh files (`meshes.MESH_FORMATS`) but those an object file names (a robot
+    data package keeps an object's meshes beside or below the file that names and scales them: they are that
+    object's pieces, not objects of their own).
+
+    Args:
+        folder: the dataset's folder.
+
+    Returns:
+        The files.
+
+    Raises:
+        InvalidInput: the folder does not exist or holds no object.
+    """
+    root = Path(folder)
+    if not root.is_dir():
+        raise InvalidInput(f"dataset folder {str(folder)!r} is not a folder")
+    files = sorted(p for p in root.rglob("*") if p.is_file())
+    models = [p for p in files if p.suffix.lower().lstrip(".") in MODEL_FORMATS]
+    named = " ".join(p.read_text(errors="replace") for p in models)
+    meshes = [p for p in files if p.suffix.lower().lstrip(".") in MESH_FORMATS and p.name not in named]
+    if not models + meshes:
+        raise InvalidInput(f"dataset folder {str(folder)!r} holds no object file ("
+                           f"{', '.join('.' + f for f in MODEL_FORMATS + MESH_FORMATS)})")
+    return sorted(models + meshes)
+
+
+def object_names(files: list[Path], root: Path) -> list[str]:
+    """A name for each file: its stem, or its path under the root (folders joined by '_') where stems repeat.
+
+    Args:
+        files: the object files.
+        root: the dataset's folder.
+
+    Returns:
+        The names, in order.
+    """
+    stems = [p.stem for p in files]
+    return [p.stem if stems.count(p.stem) == 1 else "_".join(p.relative_to(root).with_suffix("").parts)
+            for p in files]
+
+
+def load_object(path: Path, name: str, scale: float) -> tuple[GraspObject | None, str]:
+    """An object file loaded as it ships, and how: 'as shipped', what was repaired (`make_object`'s warning), or
+    'refused: ' and the reason.
+
+    Args:
+        path: the file.
+        name: the object's name.
+        scale: metres per unit of a mesh file.
+
+    Returns:
+        The object (None when refused) and how it loaded.
+    """
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        try:
+            obj = make_object("mesh", mesh=path, scale=scale, name=name)
+        except InvalidInput as error:
+            return None, f"refused: {error}"
+    repairs = [str(w.message).split(": ", 1)[-1] for w in said if "made one solid" in str(w.message)
+               or "kept as its collision parts" in str(w.message)]
+    return obj, "; ".join(repairs) or "as shipped"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The command's options (`graspmanifold dataset`).
+
+    Args:
+        parser: the parser to add them to.
+    """
+    parser.add_argument("folder", help="the dataset's folder: object files (.urdf, .xml) or mesh files (.stl, .obj, "
+                        ".ply, ...) in it and in the folders under it")
+    parser.add_argument("--postures", type=int, default=20, help="verified postures per object")
+    parser.add_argument("--grid", choices=GRID_PRESETS, default="quick", help="the grid of object poses")
+    parser.add_argument("--poses", type=int, help="at most this many of the grid's poses, evenly spread over it "
+                        "(default: all)")
+    parser.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (an object file "
+                        "gives its own)")
+    parser.add_argument("--seed", type=int, default=0, help="the generator's and the trials' seed")
+    parser.add_argument("--workers", type=int, default=2, help="parallel worker processes")
+    parser.add_argument("--out", default="dataset", help="output directory")
+
+
+def run(args: argparse.Namespace) -> int:
+    """The command: every object of the folder to experience and a comparison (module doc).
+
+    Args:
+        args: the parsed options (`add_arguments`).
+
+    Returns:
+        0 (the exit status).
+    """
+    for option in ("postures", "poses"):
+        if getattr(args, option) is not None and getattr(args, option) < 1:
+            raise SystemExit(f"error: --{option} must be at least 1, got {getattr(args, option)}")
+    root = Path(args.folder)
+    try:
+        files = object_files(root)
+    except InvalidInput as error:
+        raise SystemExit(f"error: {error}") from None
+    run_study(args.out, args.workers, lambda study: _run(args, study, root, files), pool=False)
+    return 0
+
+
+def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path]) -> None:
+    rows, tests = [], []
+    with progress_bar(len(files), f"dataset {root.name}", "objects") as bar:
+        for path, name in zip(files, object_names(files, root)):
+            obj, loaded = load_object(path, name, args.scale)
+            row = {"object": name, "file": str(path.relative_to(root)), "loaded": loaded}
+            if obj is not None:
+                row |= _experience(args, study, obj)
+                if "som" in row.get("results", {}):
+                    tests.append((name, row.pop("comparison")))
+            rows.append(row)
+            study.log(f"{name}: {loaded}; {row.get('postures', 0)} verified postures")
+            bar.update(1)
+    tested = {r["label"]: r for r in holm_family(tests)}
+    lines = [f"# Dataset {root.name}: experience and controllers on each object", "",
+             f"{len(files)} object files; {args.postures} verified postures each (seed {args.seed}), the {args.grid} "
+             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `som` against `none` on the same poses (McNemar, Holm over the objects).",
+             "", *markdown_table(["object", "loaded", "triangles", "verified postures", *METHODS,
+                                  "som - none (p Holm)"], [_table_row(r, tested) for r in rows]), ""]
+    loaded = [r for r in rows if not r["loaded"].startswith("refused")]
+    lines += [f"Loaded {len(loaded)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
+              f"{args.postures} verified postures.", "", *comparison_table(list(tested.values()))]
+    write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
+    write_text_atomic(study.out / "dataset.json", json.dumps(
+        {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"}, "objects": rows,
+         "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
+    print("\n".join(lines))
+    print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")
+
+
+def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> dict:
+    """One object's verified postures, map and controllers' trials (a row of the table, with 'comparison' the map
+    against `none` when both ran)."""
+    row: dict = {"triangles": len(obj.mesh.faces)}
+    key = result_key({"object": obj.params(), "n": args.postures, "seed": args.seed})
+    try:
+        postures = study.postures(f"postures/{obj.name}", key, lambda parts: generate_postures(
+            obj, args.postures, seed=args.seed, workers=study.workers, checkpoint_dir=parts, progress=False))
+    except GenerationError as error:
+        return row | {"postures": 0, "note": str(error)}
+    row["postures"] = len(postures)
+    experience: dict[str, PostureSet | SOM | None] = {"none": None}
+    if len(postures):
+        experience["database"] = postures
+        experience["som"] = som = train_experience_map(postures.postures, seed=args.seed)
+        (study.out / "maps").mkdir(exist_ok=True)
+        som.save(study.out / "maps" / f"{obj.name}.npz", extra={"object": obj.params(), "postures_key": key})
+    poses = grid_preset(args.grid, obj)
+    if args.poses is not None and args.poses < len(poses):
+        poses = poses[np.linspace(0, len(poses) - 1, args.poses).round().astype(int)]
+    results = {}
+    for method, recalled in experience.items():
+        setup = TrialSetup(object=obj, experience=recalled, method=method)
+        results[method] = study.evaluation(f"evaluation/{obj.name}_{method}", setup.key(poses, args.seed),
+                                           lambda parts: evaluate(setup, grid=poses, seed=args.seed,
+                                                                  workers=study.workers, checkpoint_dir=parts,
+                                                                  progress=False))
+    row["results"] = {m: [int(r.outcomes("hold").sum()), len(r.trials)] for m, r in results.items()}
+    if "som" in results:
+        row["comparison"] = compare(results["som"], results["none"])
+    return row
+
+
+def _table_row(row: dict, tested: dict) -> list:
+    results = row.get("results", {})
+    rates = [rate_text(*results[m]) if m in results else "-" for m in METHODS]
+    test = tested.get(row["object"])
+    versus = f"{100 * test['difference']:+.1f} pts ({test['p_holm']:.2g})" if test else "-"
+    loaded = row["loaded"] if len(row["loaded"]) < 90 else row["loaded"][:87] + "..."
+    return [row["object"], loaded + (f"; {row['note']}" if row.get("note") else ""), row.get("triangles", "-"),
+            row.get("postures", "-"), *rates, versus]
