@@ -344,6 +344,10 @@ def test_an_object_of_ones_own_mesh_file_runs_from_the_command_line_and_its_expe
     assert first.metadata["object"]["shape"] == "mesh" and len(first) == 12
     written = read_config(out / "config.toml", PRESETS["quick"])
     assert written.meshes == {"part": {"file": str(mesh.resolve()), "scale": 0.001}} and written.postures == {"part": 12}
+    for name in ("config.toml", "report.md"):  # the file named from the run's folder, not by this machine's path
+        assert str(tmp_path) not in (out / name).read_text(), name
+    assert '"file" = "../part.stl"' in (out / "config.toml").read_text()
+    assert "(cylinder)" in (out / "report.md").read_text() and "other objects: |" not in (out / "report.md").read_text()
     assert written.object("part").mesh_digest == first.metadata["object"]["mesh_digest"]
     trimesh.creation.capsule(height=110.0, radius=20.0).export(mesh)  # the file edited in place; the run again from
     assert main(["reproduce", "--config", str(out / "config.toml"), "--out", str(out), "--workers", "1"]) == 0  # its file

@@ -118,18 +118,20 @@ def _toml_value(value: object) -> str:
     raise InvalidInput(f"a configuration value must be a number, a string, a list or a table, got {value!r}")
 
 
-def to_toml(config: object) -> str:
+def to_toml(config: object, written: dict | None = None) -> str:
     """A configuration (a dataclass, nested ones as tables) as TOML text that `read_config` reads back.
 
     Args:
         config: the configuration.
+        written: values to write for some fields instead of the configuration's own (a file's path relative to
+            the folder the text goes to, say).
 
     Returns:
         The text.
     """
     plain, tables = [], []
     for field in dataclasses.fields(config):
-        value = getattr(config, field.name)
+        value = (written or {}).get(field.name, getattr(config, field.name))
         if dataclasses.is_dataclass(value) and not hasattr(value, "with_table"):
             tables.append(f"\n[{field.name}]\n" + "".join(
                 f"{f.name} = {_toml_value(getattr(value, f.name))}\n" for f in dataclasses.fields(value)))

@@ -102,6 +102,7 @@ class SearchGeometry:
         self._dofs = np.asarray(scene.hand_dofs[2:])  # the finger joints' degrees of freedom
         self._bodies = sorted({int(model.geom_bodyid[g]) for g in hand_geoms})
         self._palm = np.zeros(3)
+        self._placed_frames: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # `_frames` of this placement
         self._witnesses: list[list] = [[], [], []]
         mujoco.mj_kinematics(model, data)  # the palm's place on the mount (the wrist does not move)
         mount = data.mocap_pos[scene.mount_id].copy(), data.mocap_quat[scene.mount_id].copy()
@@ -114,6 +115,7 @@ class SearchGeometry:
         data.mocap_pos[scene.mount_id], data.mocap_quat[scene.mount_id] = compose(pos, quat, *self._palm_to_mount)
         mujoco.mj_kinematics(model, data)  # the geoms' poses are all the distances need
         self._palm = np.array(pos, dtype=float)
+        self._placed_frames = None
 
     def _nearest_part(self, geom: int, cutoff: float) -> tuple[float, np.ndarray]:
         """The distance (m) from a geom's core to the nearest part of the object, and the two nearest points (6,),
@@ -155,6 +157,12 @@ class SearchGeometry:
         return distal, other, pairs
 
     def _frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`_body_frames` of the hand where `place` put it, computed once per placement."""
+        if self._placed_frames is None:
+            self._placed_frames = self._body_frames()
+        return self._placed_frames
+
+    def _body_frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """How each hand body's origin moves and turns with the finger joints at the current kinematics ((nbody, 3,
         22) each: MuJoCo's body Jacobians), and where the origins are (nbody, 3)."""
         model, data = self.model, self.data
@@ -217,11 +225,12 @@ class SearchGeometry:
         primitive a smooth blend of directions along each contact)."""
         return self.push_jacobians(rows=False)[0]
 
-    def _mesh_pushes(self, geoms: list[int]) -> np.ndarray:
-        """On a mesh object, unit directions (len(geoms), 3) from the point of each geom's core nearest the object
-        towards the object's nearest point (its collision geometry: the convex parts)."""
-        points = np.array([self._nearest_part(geom, 1.0)[1] for geom in geoms]).reshape(-1, 6)
-        return _unit(points[:, 3:] - points[:, :3])
+    def _mesh_push(self, geom: int) -> np.ndarray:
+        """On a mesh object, the unit direction (3,) from the point of a geom's core nearest the object towards the
+        object's nearest point (its collision geometry: the convex parts)."""
+        points = self._nearest_part(geom, 1.0)[1]
+        towards = points[3:] - points[:3]
+        return towards / max(float(np.sqrt(towards @ towards)), 1e-9)
 
     def push_jacobians(self, rows: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """The `pushes` (len(distal), 3) and their Jacobians (len(distal), 3, 28) with respect to the finger joints,
@@ -269,7 +278,7 @@ class SearchGeometry:
     def _mesh_push_jacobians(self, rows: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """`push_jacobians` on a mesh object."""
         geoms, data = self.pushing, self.data
-        pushes = self._mesh_pushes(geoms)
+        pushes = np.array([self._mesh_push(geom) for geom in geoms])
         if not rows:
             return pushes, None
         frames = self._frames()
@@ -283,10 +292,10 @@ class SearchGeometry:
             change = np.zeros((3, 6))
             for k, axis in enumerate(np.eye(3)):
                 data.geom_xpos[geom] = position + PUSH_STEP * axis
-                change[:, k] = self._mesh_pushes([geom])[0]
+                change[:, k] = self._mesh_push(geom)
                 data.geom_xpos[geom] = position
                 data.geom_xmat[geom] = (_PUSH_TURNS[k] @ orientation.reshape(3, 3)).ravel()
-                change[:, 3 + k] = self._mesh_pushes([geom])[0]
+                change[:, 3 + k] = self._mesh_push(geom)
                 data.geom_xmat[geom] = orientation
             change = (change - pushes[i][:, None]) / PUSH_STEP
             push_rows[i] = change[:, :3] @ moves[i] + change[:, 3:] @ turns[i]
@@ -339,7 +348,7 @@ class SearchGeometry:
         mujoco.mj_kinematics(model, data)
         after = data.geom_xpos[geoms].copy()
         if push_rows is not None:
-            moves_after = self._points_jacobian(after, geoms, self._frames())
+            moves_after = self._points_jacobian(after, geoms, self._body_frames())  # of the squeezed hand
             moves_after[:, :, :22] *= slope
         data.qpos[:] = saved
         mujoco.mj_kinematics(model, data)

@@ -265,6 +265,8 @@ def _config_text(config: dict) -> str:
     it is in run.json)."""
     shown = {k: f"{len(v)} custom poses" if k == "grid" and isinstance(v, list) else v for k, v in config.items()
              if not (k == "meshes" and not v)}  # objects of one's own mesh files, where there are
+    if config.get("meshes"):  # by their file's name (run.json has the whole path)
+        shown["meshes"] = {name: {**mesh, "file": Path(mesh["file"]).name} for name, mesh in config["meshes"].items()}
     shown["generator"] = f"mode {config['generator'].get('mode', 'settled')}"
     shown["controller"] = f"recall {_controller_params(config.get('controller')).recall.name}"
     return ", ".join(f"{k} {json.dumps(v) if isinstance(v, dict) else v}" for k, v in shown.items())

@@ -339,7 +339,10 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
         stale.unlink()
     run_record = {"config": config.to_json(), "library_version": library_version(), "versions": software_versions()}
     write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))
-    write_text_atomic(out / "config.toml", to_toml(config))  # the experiment file of this run (`--config` reads it)
+    # the experiment file of this run (`--config` reads it), its mesh files named from its folder
+    relative = {name: mesh | {"file": os.path.relpath(mesh["file"], out.resolve())}
+                for name, mesh in config.meshes.items()}
+    write_text_atomic(out / "config.toml", to_toml(config, {"meshes": relative}))
     objects = tuple(config.postures)
     verified = config.procedure == "verified"
     methods = run_methods(config.controller)

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 
 from ..base.paper_numbers import (
     DATASET_SIZES as PAPER_DATASET_SIZES,
+    FIGURE_OBJECT,
     MAX_DISTANCE_DEG as PAPER_MAX_DISTANCE_DEG,
     MIN_DISTANCE_DEG as PAPER_MIN_DISTANCE_DEG,
 )
@@ -197,6 +198,11 @@ def _fig5_interpolation(run: _Run) -> Verdict | None:
         "" if verdict == REPRODUCED else cause)
 
 
+def _others(texts: list[str]) -> str:
+    """'; other objects: ' and the texts, or nothing when the run has no other object."""
+    return "; other objects: " + ", ".join(texts) if texts else ""
+
+
 def _fig6_matches(run: _Run) -> Verdict | None:
     """Fig. 6: the evaluation grasps match mainly inter-cluster nodes."""
     objects, figure, o = run.objects, run.figure, run.figure_summary
@@ -205,10 +211,10 @@ def _fig6_matches(run: _Run) -> Verdict | None:
     k, n = o.get("force_closure_on_unsupported", [0, 0])
     mainly = n > 0 and wilson_interval(k, n)[0] > MAINLY
     return Verdict(
-        "evaluation grasps match mainly inter-cluster nodes (Fig. 6)", f"mainly ({figure})",
-        f"{figure}: {_share(k, n)} force-closure grasps of the SOM controller; other objects: " + ", ".join(
+        "evaluation grasps match mainly inter-cluster nodes (Fig. 6)", f"mainly ({FIGURE_OBJECT})",
+        f"{figure}: {_share(k, n)} force-closure grasps of the SOM controller" + _others([
             f"{name} {_share(*objects[name].get('force_closure_on_unsupported', [0, 0]))}"
-            for name in objects if name != figure),
+            for name in objects if name != figure]),
         NOT_ENOUGH_DATA if o.get("low_data") else REPRODUCED if mainly else NOT_REPRODUCED,
         f"on the figure's object, the 95 % Wilson interval of the share of the SOM controller's force-closure "
         f"grasps (epsilon > 0.01, as the caption counts) whose best match is a node without training data lies "
@@ -225,7 +231,7 @@ def _fig6_winners(run: _Run) -> Verdict | None:
     more_often = trials > 0 and wilson_interval(mostly, trials)[0] > MAINLY
     return Verdict(
         "while the controller runs, inter-cluster nodes are more often winners than cluster nodes "
-        "(Section 5, Fig. 6)", f"more often winners ({figure})",
+        "(Section 5, Fig. 6)", f"more often winners ({FIGURE_OBJECT})",
         f"{figure}: {_share(mostly, trials)} trials of the SOM controller mostly on nodes without training "
         f"data; {_share(winners['winners_unsupported'], winners['winners'])} per-cycle winners, on "
         f"{winners['unsupported_nodes']} of {winners['nodes']} nodes",
@@ -259,9 +265,9 @@ def _fig8a_homogeneous(run: _Run) -> Verdict | None:
     return Verdict(
         "resumed learning homogenises the inter-node distances (Fig. 8a)", "very homogeneous",
         f"{figure}: CV {_fmt(o['map']['distance_cv'])} → {_fmt(resumed['distance_cv'])}, max "
-        f"{_fmt(o['map']['distance_max_deg'])} → {_fmt(resumed['distance_max_deg'])}°; other objects: "
-        + ", ".join(f"{name} CV {_fmt(p['map']['distance_cv'])} → {_fmt(p['resumed_map']['distance_cv'])}"
-                    for name, p in objects.items() if name != figure),
+        f"{_fmt(o['map']['distance_max_deg'])} → {_fmt(resumed['distance_max_deg'])}°"
+        + _others([f"{name} CV {_fmt(p['map']['distance_cv'])} → {_fmt(p['resumed_map']['distance_cv'])}"
+                   for name, p in objects.items() if name != figure]),
         NOT_ENOUGH_DATA if o.get("low_data") else REPRODUCED
         if resumed["distance_cv"] < o["map"]["distance_cv"]
         and resumed["distance_max_deg"] < o["map"]["distance_max_deg"] else NOT_REPRODUCED,

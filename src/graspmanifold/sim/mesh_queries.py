@@ -2,22 +2,30 @@
 
 The posture generator's springs ask for the closest surface point of five fingertips every physics step, and a
 scan or a dataset's mesh has thousands of triangles. `MeshQueries` answers from structures built once per object
-(in milliseconds, kept with the object): a k-d tree of points on the surface (the vertices and the triangles'
-centroids) gives every query point an upper bound of its distance; only triangles whose bounding box lies within that bound can hold the
-closest point, and a second k-d tree over the boxes' centres finds them; the closest point on each is computed
-exactly (the projection onto its plane, else the nearest of its edges, vectorised) and the nearest taken. So the answers are the exact ones (tested
-against every point-triangle pair: equal distances to 1e-12 m), not a grid's interpolation. The sign of the
-distance comes from the angle-weighted pseudo-normal of the nearest feature (face, edge or vertex; Baerentzen and
-Aanaes 2005), which is exact for a closed, consistently wound mesh, as every grasp object is (`meshes.make_solid`).
+and process (`mesh_queries`), in two ways with one rule, the exact closest point of each candidate triangle (its
+plane's projection where that falls inside it, else the nearest of its edges' closest points):
 
-Triangles far larger than the typical one (a CAD model's long facets) would widen every ball search; they are kept
-apart and tested by their boxes directly.
+- near the object (its box grown by `GRID_MARGIN`, where the fingertips are) a compiled query (numba): a grid of
+  cells, each with the triangles that can hold the closest point of any point in it (those whose box lies within
+  a bound of the cell centre's distance plus the cell's diagonal), a few microseconds a point;
+- anywhere (the points outside the grid, or in a cell of more than `GRID_MOST` candidates), a k-d tree of points
+  on the surface (vertices and centroids) bounds each point's distance, and a k-d tree of the triangles' box
+  centres finds the triangles within the bound (triangles far larger than the typical one are tested by their
+  boxes directly).
+
+Both are exact (tested against every point-triangle pair: equal distances to 1e-12 m), not a grid's interpolation.
+The sign of the distance comes from the angle-weighted pseudo-normal of the nearest feature (face, edge or vertex;
+Baerentzen and Aanaes 2005), which is exact for a closed, consistently wound mesh, as every grasp object is
+(`meshes.make_solid`; tested against the winding number).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import trimesh
+from numba import njit
 from scipy.spatial import cKDTree
 
 #: triangles whose bounding box is more than this many times the median's (half diagonal) are tested by their
@@ -25,6 +33,36 @@ from scipy.spatial import cKDTree
 LARGE_TRIANGLE = 4.0
 #: barycentric weights below this put the closest point on an edge or a vertex (for the sign's pseudo-normal)
 FEATURE_TOLERANCE = 1e-9
+#: the compiled query's grid: the object's box grown by this margin (m) on every side, in cells of its largest
+#: extent over `GRID_CELLS`
+GRID_MARGIN = 0.03
+GRID_CELLS = 24
+#: a cell that would hold more candidate triangles than this (deep inside the object, where no fingertip goes) is
+#: left to the k-d tree query
+GRID_MOST = 2048
+
+
+#: the queries built in this process, by mesh digest (a worker process builds an object's once, not once per task)
+_BUILT: dict[str, MeshQueries] = {}
+#: the most kept (an object's are megabytes)
+BUILT_KEPT = 8
+
+
+def mesh_queries(mesh: trimesh.Trimesh, digest: str) -> MeshQueries:
+    """The queries of a mesh, built once per process and digest (the most recent `BUILT_KEPT` kept).
+
+    Args:
+        mesh: a watertight, consistently wound triangle mesh (m).
+        digest: what tells this mesh from others (`meshes.mesh_digest`).
+
+    Returns:
+        Its `MeshQueries`.
+    """
+    if digest not in _BUILT:
+        while len(_BUILT) >= BUILT_KEPT:
+            _BUILT.pop(next(iter(_BUILT)))
+        _BUILT[digest] = MeshQueries(mesh)
+    return _BUILT[digest]
 
 
 class MeshQueries:
@@ -51,9 +89,20 @@ class MeshQueries:
         self._edge_normals, self._vertex_normals = _pseudo_normals(mesh)
         self._face_edges = np.asarray(mesh.faces_unique_edges)
         self._faces = faces
+        self._corners = np.ascontiguousarray(triangles)
+        self._cell = float(np.max(mesh.extents)) / GRID_CELLS
+        self._origin = np.asarray(mesh.bounds[0], dtype=float) - GRID_MARGIN
+        self._shape = np.ceil((np.asarray(mesh.extents) + 2 * GRID_MARGIN) / self._cell).astype(np.int64)
+        axes = [self._origin[k] + (np.arange(self._shape[k]) + 0.5) * self._cell for k in range(3)]
+        centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        bound = self._sample_tree.query(centres)[0]  # a surface point's distance: at least the centre's own
+        reach = bound + math.sqrt(3.0) * self._cell  # and twice the cell's half diagonal
+        self._starts, self._candidates = _grid_candidates(centres, reach * (1.0 + 1e-9) + 1e-12, lower, upper,
+                                                          GRID_MOST)
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The closest surface points, their triangles and the features they lie on.
+        """The closest surface points, their triangles and the features they lie on: from the compiled grid query
+        for points near the object, from the k-d tree query (`_closest_reference`) for the others.
 
         Args:
             points: (n, 3), m, finite.
@@ -62,6 +111,17 @@ class MeshQueries:
             Closest points (n, 3), m; their triangles (n,); their features (n,): 0 the face's interior, 1-3 its
             corners, 4-6 its edges (first-second, second-third, third-first corner).
         """
+        p = np.ascontiguousarray(points, dtype=float)
+        on, triangle, feature = np.empty_like(p), np.empty(len(p), np.int64), np.empty(len(p), np.int64)
+        _grid_closest(p, self._origin, self._cell, self._shape, self._starts, self._candidates, self._corners,
+                      FEATURE_TOLERANCE, on, triangle, feature)
+        outside = np.flatnonzero(triangle < 0)
+        if len(outside):
+            on[outside], triangle[outside], feature[outside] = self._closest_reference(p[outside])
+        return on, triangle, feature
+
+    def _closest_reference(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`closest` by the k-d trees, for any point (the points outside the grid, and the grid's own build)."""
         p = np.asarray(points, dtype=float)
         n = len(p)
         bound = self._sample_tree.query(p)[0] * (1.0 + 1e-12) + 1e-15  # a surface point's distance: an upper bound
@@ -142,7 +202,8 @@ class _Triangles:
         e0, e1 = np.einsum("ij,ij->i", offset, self.ab[index]), np.einsum("ij,ij->i", offset, self.ac[index])
         gram = self.gram[index]
         v, w = gram[:, 0] * e0 + gram[:, 1] * e1, gram[:, 1] * e0 + gram[:, 2] * e1
-        inside = self.usable[index] & (v > FEATURE_TOLERANCE) & (w > FEATURE_TOLERANCE) & (v + w < 1.0 - FEATURE_TOLERANCE)
+        inside = (self.usable[index] & (v > FEATURE_TOLERANCE) & (w > FEATURE_TOLERANCE)
+                  & (v + w < 1.0 - FEATURE_TOLERANCE))
         closest = self.a[index] + v[:, None] * self.ab[index] + w[:, None] * self.ac[index]
         feature = np.zeros(len(index), dtype=np.intp)
         rim = np.flatnonzero(~inside)
@@ -159,3 +220,97 @@ class _Triangles:
             # an edge's ends are corners: edge e runs from corner e to corner (e + 1) % 3
             feature[rim] = np.where(t <= 0.0, 1 + edge, np.where(t >= 1.0, 1 + (edge + 1) % 3, 4 + edge))
         return closest, feature
+
+
+@njit(cache=True)
+def _grid_candidates(centres: np.ndarray, reach: np.ndarray, lower: np.ndarray, upper: np.ndarray, most: int
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell, the triangles whose box lies within `reach` of its centre, ascending (none for a cell of more than
+    `most`): the offsets (cells + 1,) and the triangles' indices."""
+    cells, faces = len(centres), len(lower)
+    counts = np.zeros(cells, np.int64)
+    for twice in range(2):
+        starts = np.zeros(cells + 1, np.int64)
+        starts[1:] = np.cumsum(counts)
+        found = np.empty(starts[-1], np.int32)
+        for c in range(cells):
+            if twice and counts[c] == 0:
+                continue
+            limit, count = reach[c] * reach[c], 0
+            for t in range(faces):
+                gap = 0.0
+                for k in range(3):
+                    x = centres[c, k]
+                    if x < lower[t, k]:
+                        gap += (lower[t, k] - x) ** 2
+                    elif x > upper[t, k]:
+                        gap += (x - upper[t, k]) ** 2
+                if gap <= limit:
+                    if twice:
+                        found[starts[c] + count] = t
+                    count += 1
+            if not twice:
+                counts[c] = count if count <= most else 0
+    return starts, found
+
+
+@njit(cache=True)
+def _grid_closest(points: np.ndarray, origin: np.ndarray, cell: float, shape: np.ndarray, starts: np.ndarray,
+                  candidates: np.ndarray, corners: np.ndarray, tolerance: float, on: np.ndarray, triangle: np.ndarray,
+                  feature: np.ndarray) -> None:
+    """`MeshQueries.closest` of each point in the grid, into `on`, `triangle`, `feature`; -1 in `triangle` for a point
+    outside it or in a cell left to the k-d tree (no candidates). The rule is `_Triangles.closest`'s: the projection
+    onto the plane where its barycentric weights are all above `tolerance`, else the nearest of the edges' closest
+    points; of the candidates the nearest, ties to the lowest triangle."""
+    for i in range(len(points)):
+        index = 0
+        inside = True
+        for k in range(3):
+            at = int(math.floor((points[i, k] - origin[k]) / cell))
+            if at < 0 or at >= shape[k]:
+                inside = False
+            index = index * shape[k] + at
+        triangle[i] = -1
+        if not inside:
+            continue
+        best = np.inf
+        for m in range(starts[index], starts[index + 1]):
+            t = candidates[m]
+            x, y, z, code = _on_triangle(points[i], corners[t], tolerance)
+            d = (x - points[i, 0]) ** 2 + (y - points[i, 1]) ** 2 + (z - points[i, 2]) ** 2
+            if d < best:
+                best = d
+                on[i, 0], on[i, 1], on[i, 2] = x, y, z
+                triangle[i], feature[i] = t, code
+
+
+@njit(cache=True)
+def _on_triangle(p: np.ndarray, corner: np.ndarray, tolerance: float) -> tuple[float, float, float, int]:
+    """The closest point of one triangle (3, 3) to p (3,) and its feature code, by `_Triangles.closest`'s rule
+    (scalar arithmetic: no arrays made)."""
+    ax, ay, az = corner[0, 0], corner[0, 1], corner[0, 2]
+    bx, by, bz = corner[1, 0] - ax, corner[1, 1] - ay, corner[1, 2] - az
+    cx, cy, cz = corner[2, 0] - ax, corner[2, 1] - ay, corner[2, 2] - az
+    px, py, pz = p[0] - ax, p[1] - ay, p[2] - az
+    d00, d01, d11 = bx * bx + by * by + bz * bz, bx * cx + by * cy + bz * cz, cx * cx + cy * cy + cz * cz
+    determinant = d00 * d11 - d01 * d01
+    if determinant > 1e-30 * max(d00 * d11, 1e-300):
+        e0, e1 = px * bx + py * by + pz * bz, px * cx + py * cy + pz * cz
+        v = (d11 * e0 - d01 * e1) / determinant
+        w = (d00 * e1 - d01 * e0) / determinant
+        if v > tolerance and w > tolerance and v + w < 1.0 - tolerance:
+            return ax + v * bx + w * cx, ay + v * by + w * cy, az + v * bz + w * cz, 0
+    best, code = np.inf, 0
+    x = y = z = 0.0
+    for e in range(3):
+        sx, sy, sz = corner[e, 0], corner[e, 1], corner[e, 2]
+        f = (e + 1) % 3
+        ex, ey, ez = corner[f, 0] - sx, corner[f, 1] - sy, corner[f, 2] - sz
+        length = max(ex * ex + ey * ey + ez * ez, 1e-300)
+        along = min(max(((p[0] - sx) * ex + (p[1] - sy) * ey + (p[2] - sz) * ez) / length, 0.0), 1.0)
+        qx, qy, qz = sx + along * ex, sy + along * ey, sz + along * ez
+        d = (qx - p[0]) ** 2 + (qy - p[1]) ** 2 + (qz - p[2]) ** 2
+        if d < best:
+            best, x, y, z = d, qx, qy, qz
+            code = 1 + e if along <= 0.0 else (1 + f if along >= 1.0 else 4 + e)
+    return x, y, z, code

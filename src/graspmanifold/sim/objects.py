@@ -20,7 +20,7 @@ import trimesh
 
 from ..base.errors import InvalidInput
 from .family import FAMILY, family_mesh
-from .mesh_queries import MeshQueries
+from .mesh_queries import MeshQueries, mesh_queries
 from .meshes import MAX_EXTENT, MIN_EXTENT, load_mesh, object_geometry
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "mesh")
@@ -151,8 +151,12 @@ class GraspObject:
 
     @cached_property
     def _surface(self) -> MeshQueries:
-        """The mesh's query structures (`mesh_queries`), built on first use and kept with the object."""
-        return MeshQueries(self.mesh)
+        """The mesh's query structures (`mesh_queries`), built on first use in a process and kept with the object."""
+        return mesh_queries(self.mesh, self.mesh_digest)
+
+    def __getstate__(self) -> dict:
+        """What a worker process gets: the object without its query structures (megabytes; it builds its own)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_surface"}
 
 
 def _check_points(points: object) -> tuple[np.ndarray, bool]:

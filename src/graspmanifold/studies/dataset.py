@@ -167,7 +167,8 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
     tested = {r["label"]: r for r in holm_family(tests)}
     lines = [f"# Dataset {root.name}: experience and controllers on each object", "",
              f"{len(files)} object files; {args.postures} verified postures each (seed {args.seed}), the {args.grid} "
-             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `som` against `none` on the same poses (McNemar, Holm over the objects).",
+             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `som` against "
+             "`none` on the same poses (McNemar, Holm over the objects).",
              "", *markdown_table(["object", "loaded", "triangles", "verified postures", *METHODS,
                                   "som - none (p Holm)"], [_table_row(r, tested) for r in rows]), ""]
     loaded = [r for r in rows if not r["loaded"].startswith("refused")]
