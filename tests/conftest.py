@@ -10,11 +10,11 @@ def rng() -> np.random.Generator:
 @pytest.fixture(params=["compiled", "numpy"])
 def engine(request) -> str:
     """Run a test with the compiled kernels and again with their NumPy references."""
-    from graspmanifold.manifold import kernels
+    from graspmanifold.base import compiled as switch
 
-    previous = kernels.use_compiled(request.param == "compiled")
+    previous = switch.use_compiled(request.param == "compiled")
     yield request.param
-    kernels.use_compiled(previous)
+    switch.use_compiled(previous)
 
 
 @pytest.fixture(autouse=True, scope="session")

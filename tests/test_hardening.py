@@ -276,7 +276,7 @@ def test_a_bad_environment_is_named_and_does_not_stop_what_it_does_not_touch(tmp
     assert demo.returncode == 0 and "segments touch the object" in out, err
     assert "MUJOCO_GL='bogus' is not a value MuJoCo takes" in err and "Traceback" not in err
     switches = _command("-c", "from graspmanifold.base.progress import progress_bar\n"
-                        "from graspmanifold.manifold.kernels import compiled\n"
+                        "from graspmanifold.base.compiled import compiled\n"
                         "progress_bar(1, 'x', 'y').__enter__(); print(compiled())",
                         env={"GRASPMANIFOLD_COMPILED": "sometimes", "GRASPMANIFOLD_PROGRESS": "maybe"})
     out, err = switches.communicate(timeout=120)

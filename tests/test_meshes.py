@@ -162,9 +162,9 @@ def winding_number(mesh: trimesh.Trimesh, points: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.filterwarnings("ignore:.*made one solid")
-def test_fast_mesh_queries_agree_with_every_point_triangle_pair_on_every_test_object():
-    """Issue 67: the query structures (`mesh_queries`) give the exact closest distance (1e-12 m: the same as testing
-    every point-triangle pair), a closest point on the surface, and the sign of a point's containment (the winding
+def test_fast_mesh_queries_agree_with_every_point_triangle_pair_on_every_test_object(engine):
+    """Issue 67: the query structures (`mesh_queries`: the compiled grid near the object and the k-d trees beyond it,
+    or the k-d trees alone) give the exact closest distance (1e-12 m: the same as testing every point-triangle pair), a closest point on the surface, and the sign of a point's containment (the winding
     number) wherever a point is more than 1e-9 m from the surface; near, far, inside and outside points."""
     objects = [gm.get_object(name) for name in ("ring_m", "cylinder_mesh", "bottle_m", "mug_m")]
     objects += [gm.make_object("mesh", mesh=mesh, name=name) for name, mesh in dataset_kinds().items()]

@@ -18,5 +18,5 @@ def test_the_recipes_run_as_written(tmp_path):
                               timeout=600)
         assert done.returncode == 0, f"recipe {number} failed:\n{block}\n{done.stderr[-3000:]}"
         assert done.stdout.strip(), f"recipe {number} printed nothing"
-    assert (tmp_path / "part.stl").is_file() and len(list((tmp_path / "grasps").glob("*.npy"))) == 4
+    assert (tmp_path / "bottle.urdf").is_file() and len(list((tmp_path / "grasps").glob("*.npy"))) == 4
     assert (tmp_path / "cylinder.gif").stat().st_size > 1000

@@ -102,7 +102,7 @@ def test_online_training_equals_the_textbook_update_and_is_no_worse(rng, engine)
 
 
 def test_compiled_best_match_equals_the_numpy_reference_on_large_batches(rng):
-    from graspmanifold.manifold import kernels
+    from graspmanifold.base import compiled as switch
     from graspmanifold.manifold.nearest import _PER_THREAD
 
     data = clustered_postures(rng, n=500, clusters=6)
@@ -112,11 +112,11 @@ def test_compiled_best_match_equals_the_numpy_reference_on_large_batches(rng):
     masks[:, 5] = True
     som, winners = gm.SOM(9, 11, 22, seed=2).fit(data, epochs=5), {}
     for compiled in (True, False):
-        previous = kernels.use_compiled(compiled)
+        previous = switch.use_compiled(compiled)
         try:
             winners[compiled] = som.best_match_batch(queries, masks)
         finally:
-            kernels.use_compiled(previous)
+            switch.use_compiled(previous)
     np.testing.assert_array_equal(winners[True], winners[False])
     assert len(np.unique(winners[True])) > 20  # the queries spread over the map
 

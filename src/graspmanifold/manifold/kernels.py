@@ -3,56 +3,27 @@
 They run in every control cycle of every grasp trial and in every step of SOM training, where
 NumPy pays its call overhead on vectors of a few hundred entries. Each kernel has a NumPy
 reference next to its caller (`nearest.MaskedNearest.query_reference`, `som.online_epoch_reference`)
-and the tests compare the two; `GRASPMANIFOLD_COMPILED=0` in the environment (read at import)
-makes the library use the references, and `use_compiled` switches this process (and the workers
-it forks afterwards; a Dask worker reads the environment) at run time.
+and the tests compare the two; `base.compiled` switches between them.
 
 The kernels compute the masked distance directly over the masked dimensions only,
 sum_k p_k (w_k - x_k)^2 in increasing k, vectorised across points (points are stored transposed,
-(dim, n)), and take the lowest index of a tie (distances within `TIE` of the smallest). They release the GIL, so batches are split across
-threads (not numba's own parallel layer, which is not safe in forked worker processes).
-Compiled code is cached on disk (numba's `cache=True`): the first call in a fresh environment
-compiles for a few seconds, later processes load it. Where numba finds no writable place for its cache
-(a read-only install without a writable HOME or NUMBA_CACHE_DIR), the kernels compile in memory instead.
+(dim, n)), and take the lowest index of a tie (distances within `TIE` of the smallest). They release the GIL, so
+batches are split across threads (not numba's own parallel layer, which is not safe in forked worker processes).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
-from numba import njit
 
-from ..base.validation import env_switch
+from ..base.compiled import compiled_kernel
 
 #: error codes of `masked_argmin` (non-negative values are indices)
 BAD_WEIGHT, EMPTY_MASK, BAD_QUERY = -1, -2, -3
 
-_enabled: bool | None = None  # set by use_compiled; until then GRASPMANIFOLD_COMPILED says
 
-
-def compiled() -> bool:
-    """Whether the library uses the compiled kernels (True unless switched off)."""
-    return env_switch("GRASPMANIFOLD_COMPILED") if _enabled is None else _enabled
-
-
-def use_compiled(enabled: bool) -> bool:
-    """Switch the compiled kernels on or off (off: the NumPy references); returns the previous setting."""
-    global _enabled
-    previous, _enabled = compiled(), bool(enabled)
-    return previous
-
-
-def _kernel(function: Callable) -> Callable:
-    """`function` compiled without the GIL, its machine code cached on disk where numba can write a cache."""
-    try:
-        return njit(cache=True, nogil=True)(function)
-    except RuntimeError:  # "cannot cache function ...: no locator available": compile in memory
-        return njit(nogil=True)(function)
-
-
-@_kernel
+@compiled_kernel
 def _checked_dimensions(query: np.ndarray, weights: np.ndarray) -> int:
     """Number of dimensions with weight > 0, or an error code: a negative or non-finite weight,
     no weight > 0, a non-finite query value where the weight is > 0."""
@@ -68,7 +39,7 @@ def _checked_dimensions(query: np.ndarray, weights: np.ndarray) -> int:
     return used if used > 0 else EMPTY_MASK
 
 
-@_kernel
+@compiled_kernel
 def _masked_distances(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray, out: np.ndarray) -> None:
     """out[j] = sum over k with weights[k] > 0 of weights[k] (points_t[k, j] - query[k])^2."""
     out[:] = 0.0
@@ -88,7 +59,7 @@ def _masked_distances(points_t: np.ndarray, query: np.ndarray, weights: np.ndarr
 TIE = 1e-9
 
 
-@_kernel
+@compiled_kernel
 def _argmin(values: np.ndarray) -> int:
     """Index of the smallest value: the lowest index among the values within `TIE` (relative) of it."""
     low = values[0]
@@ -102,7 +73,7 @@ def _argmin(values: np.ndarray) -> int:
     return 0
 
 
-@_kernel
+@compiled_kernel
 def masked_argmin(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray) -> int:
     """Index of the point (a column of points_t, (dim, n)) nearest to `query` under the masked
     distance with `weights` (dim,), bool or float; validates as it goes and returns an error code
@@ -115,7 +86,7 @@ def masked_argmin(points_t: np.ndarray, query: np.ndarray, weights: np.ndarray) 
     return _argmin(distances)
 
 
-@_kernel
+@compiled_kernel
 def masked_argmin_rows(points_t: np.ndarray, queries: np.ndarray, weights: np.ndarray, out: np.ndarray,
                        start: int, stop: int) -> None:
     """out[i] = masked_argmin of queries[i] with weights[i] (or weights[0] for every row when it has
@@ -132,7 +103,7 @@ def masked_argmin_rows(points_t: np.ndarray, queries: np.ndarray, weights: np.nd
         out[i] = _argmin(distances)
 
 
-@_kernel
+@compiled_kernel
 def online_epoch(weights_t: np.ndarray, data: np.ndarray, order: np.ndarray, rate: float, sigma: float,
                  rows: int, cols: int, negligible: float) -> None:
     """One online SOM epoch in place: for each sample data[i], i in `order`, find the winner b

@@ -22,7 +22,8 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.workers import usable_cores
-from .kernels import TIE, compiled, masked_argmin, masked_argmin_rows
+from ..base.compiled import compiled
+from .kernels import TIE, masked_argmin, masked_argmin_rows
 
 _CHUNK = 4096  # queries per matrix product: bounds memory at CHUNK x n distances
 _PER_THREAD = 2048  # a batch gets one thread per this many queries, up to the usable cores

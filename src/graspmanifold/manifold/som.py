@@ -49,7 +49,8 @@ from ..base.paper_numbers import RESUME_SCHEDULE, TRAINING_SCHEDULE
 from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import free_cores
-from .kernels import compiled, online_epoch
+from ..base.compiled import compiled
+from .kernels import online_epoch
 from .experience import check_places
 from .nearest import MaskedNearest, Recall, nearest_rows
 

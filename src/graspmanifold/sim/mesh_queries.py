@@ -25,8 +25,9 @@ import math
 
 import numpy as np
 import trimesh
-from numba import njit
 from scipy.spatial import cKDTree
+
+from ..base.compiled import compiled, compiled_kernel
 
 #: triangles whose bounding box is more than this many times the median's (half diagonal) are tested by their
 #: boxes directly, not found through the k-d tree of box centres
@@ -93,12 +94,17 @@ class MeshQueries:
         self._cell = float(np.max(mesh.extents)) / GRID_CELLS
         self._origin = np.asarray(mesh.bounds[0], dtype=float) - GRID_MARGIN
         self._shape = np.ceil((np.asarray(mesh.extents) + 2 * GRID_MARGIN) / self._cell).astype(np.int64)
-        axes = [self._origin[k] + (np.arange(self._shape[k]) + 0.5) * self._cell for k in range(3)]
-        centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        bound = self._sample_tree.query(centres)[0]  # a surface point's distance: at least the centre's own
-        reach = bound + math.sqrt(3.0) * self._cell  # and twice the cell's half diagonal
-        self._starts, self._candidates = _grid_candidates(centres, reach * (1.0 + 1e-9) + 1e-12, lower, upper,
-                                                          GRID_MOST)
+        self._grid: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
+        """The grid's candidate triangles (`_grid_candidates`), made on the first compiled query."""
+        if self._grid is None:
+            axes = [self._origin[k] + (np.arange(self._shape[k]) + 0.5) * self._cell for k in range(3)]
+            centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+            bound = self._sample_tree.query(centres)[0]  # a surface point's distance: at least the centre's own
+            reach = bound + math.sqrt(3.0) * self._cell  # and twice the cell's half diagonal
+            self._grid = _grid_candidates(centres, reach * (1.0 + 1e-9) + 1e-12, self._lower, self._upper, GRID_MOST)
+        return self._grid
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The closest surface points, their triangles and the features they lie on: from the compiled grid query
@@ -112,9 +118,11 @@ class MeshQueries:
             corners, 4-6 its edges (first-second, second-third, third-first corner).
         """
         p = np.ascontiguousarray(points, dtype=float)
+        if not compiled():
+            return self._closest_reference(p)
         on, triangle, feature = np.empty_like(p), np.empty(len(p), np.int64), np.empty(len(p), np.int64)
-        _grid_closest(p, self._origin, self._cell, self._shape, self._starts, self._candidates, self._corners,
-                      FEATURE_TOLERANCE, on, triangle, feature)
+        _grid_closest(p, self._origin, self._cell, self._shape, *self._candidates(), self._corners, FEATURE_TOLERANCE,
+                      on, triangle, feature)
         outside = np.flatnonzero(triangle < 0)
         if len(outside):
             on[outside], triangle[outside], feature[outside] = self._closest_reference(p[outside])
@@ -222,7 +230,7 @@ class _Triangles:
         return closest, feature
 
 
-@njit(cache=True)
+@compiled_kernel
 def _grid_candidates(centres: np.ndarray, reach: np.ndarray, lower: np.ndarray, upper: np.ndarray, most: int
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Per cell, the triangles whose box lies within `reach` of its centre, ascending (none for a cell of more than
@@ -254,7 +262,7 @@ def _grid_candidates(centres: np.ndarray, reach: np.ndarray, lower: np.ndarray, 
     return starts, found
 
 
-@njit(cache=True)
+@compiled_kernel
 def _grid_closest(points: np.ndarray, origin: np.ndarray, cell: float, shape: np.ndarray, starts: np.ndarray,
                   candidates: np.ndarray, corners: np.ndarray, tolerance: float, on: np.ndarray, triangle: np.ndarray,
                   feature: np.ndarray) -> None:
@@ -284,7 +292,7 @@ def _grid_closest(points: np.ndarray, origin: np.ndarray, cell: float, shape: np
                 triangle[i], feature[i] = t, code
 
 
-@njit(cache=True)
+@compiled_kernel
 def _on_triangle(p: np.ndarray, corner: np.ndarray, tolerance: float) -> tuple[float, float, float, int]:
     """The closest point of one triangle (3, 3) to p (3,) and its feature code, by `_Triangles.closest`'s rule
     (scalar arithmetic: no arrays made)."""

@@ -27,7 +27,7 @@ from threadpoolctl import threadpool_limits
 
 from ..base.io import markdown_row, markdown_table
 from ..base.workers import usable_cores
-from ..manifold import kernels
+from ..base import compiled as kernels_switch
 from ..manifold.som import SOM, decay_schedule
 from ..sim.hand import SEGMENTS, finger_limits
 from ..sim.posture import pcp_mask
@@ -78,11 +78,11 @@ def median_seconds(call: Callable[[], object], repeats: int) -> float:
 def with_engine(compiled: bool, call: Callable[[], object]) -> Callable[[], object]:
     """`call` run with the compiled kernels or with their NumPy references."""
     def run() -> object:
-        previous = kernels.use_compiled(compiled)
+        previous = kernels_switch.use_compiled(compiled)
         try:
             return call()
         finally:
-            kernels.use_compiled(previous)
+            kernels_switch.use_compiled(previous)
     return run
 
 
