@@ -49,6 +49,20 @@ def test_meshes_as_datasets_ship_them_are_made_one_solid_and_what_none_saves_is_
         gm.make_object("mesh", mesh=apart)
 
 
+def test_pieces_that_touch_at_an_edge_or_lie_a_hair_apart_are_one_object_and_stay_closed():
+    """Issue 67: a decomposition's hulls touch at edges or leave gaps of micrometres (pybullet's teddy: four solids
+    0.0011 mm apart); they are one object of several closed solids, not welded into an open surface; a millimetre
+    and more apart they are refused with the gap."""
+    rod = trimesh.creation.box(extents=(0.02, 0.02, 0.06))
+    with pytest.warns(UserWarning, match="2 solids at most 0 mm apart kept as one object"):
+        edge = gm.make_object("mesh", mesh=trimesh.util.concatenate([rod, rod.copy().apply_translation([0.02, 0.02, 0])]))
+    assert edge.mesh.is_watertight and int(edge.mesh.body_count) == 2 and len(edge.parts) == 2
+    with pytest.warns(UserWarning, match="at most 0.0005 mm apart"):
+        gm.make_object("mesh", mesh=trimesh.util.concatenate([rod, rod.copy().apply_translation([0.0200005, 0, 0])]))
+    with pytest.raises(ValueError, match="2 mm apart, more than the 1 mm"):
+        gm.make_object("mesh", mesh=trimesh.util.concatenate([rod, rod.copy().apply_translation([0.022, 0, 0])]))
+
+
 def test_one_mesh_under_two_names_shares_its_searched_starts():
     from graspmanifold.control.generator import starts_cache_path
 

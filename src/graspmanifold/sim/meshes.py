@@ -277,14 +277,33 @@ def canonical_order(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     lowest vertex on (its orientation kept): a mesh library that lists them in another order (trimesh 5 does,
     against 4) gives the same arrays, so the same object frame, convex parts and digest.
 
+    A mesh of several solids (a decomposition's, at most `PIECE_GAP` apart) is ordered solid by solid, the solids by
+    their first vertex, so that two that touch at a point or an edge are not welded into one non-manifold surface.
+
     Args:
         mesh: a mesh.
 
     Returns:
-        A new mesh (duplicate vertices merged).
+        A new mesh (duplicate vertices merged within each solid, but where a solid touches itself).
     """
-    vertices, inverse = np.unique(np.asarray(mesh.vertices, dtype=float) + 0.0, axis=0, return_inverse=True)
-    faces = inverse.reshape(-1)[np.asarray(mesh.faces)]
+    if int(mesh.body_count) > 1:
+        solids = sorted((canonical_order(body) for body in mesh.split(only_watertight=False)),
+                        key=lambda body: tuple(body.vertices[0]))
+        return trimesh.util.concatenate(solids)
+    points = np.asarray(mesh.vertices, dtype=float) + 0.0
+    vertices, inverse = np.unique(points, axis=0, return_inverse=True)
+    ordered = _sorted_faces(vertices, inverse.reshape(-1)[np.asarray(mesh.faces)])
+    if ordered.is_watertight or not mesh.is_watertight:
+        return ordered
+    # a solid that touches itself at a point or an edge keeps two vertices there: merged, it would not be closed
+    order = np.lexsort(points.T[::-1])
+    rank = np.empty(len(order), dtype=np.intp)
+    rank[order] = np.arange(len(order))
+    return _sorted_faces(points[order], rank[np.asarray(mesh.faces)])
+
+
+def _sorted_faces(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
+    """A mesh of these vertices and faces, each face listed from its lowest vertex on, the faces sorted."""
     first = np.argmin(faces, axis=1)
     faces = np.take_along_axis(faces, (first[:, None] + np.arange(3)) % 3, axis=1)
     return trimesh.Trimesh(vertices, faces[np.lexsort(faces.T[::-1])], process=False)
