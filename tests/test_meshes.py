@@ -91,6 +91,10 @@ def test_missing_and_unreadable_files_are_refused(tmp_path):
     garbage.write_bytes(b"\x00\x01 this is not a mesh")
     with pytest.raises(ValueError, match="garbage.stl"):
         gm.make_object("mesh", mesh=garbage)
+    sheet = tmp_path / "sheet.obj"  # read, but no repair makes it a solid: the file and the reason
+    trimesh.Trimesh(vertices=[[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], faces=[[0, 1, 2]]).export(sheet)
+    with pytest.raises(ValueError, match=r"sheet\.obj'?: mesh is not watertight"):
+        gm.make_object("mesh", mesh=sheet)
     with pytest.raises(ValueError, match="mesh must be"):
         gm.make_object("mesh", mesh=np.zeros((3, 3)))
     with pytest.raises(ValueError, match="needs mesh="):

@@ -301,7 +301,13 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         extra = [k for k, v in {"radius": radius, "length": length, "size": size}.items() if v is not None]
         if extra:
             raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
-        solid, parts, digest, repair = object_geometry(load_mesh(mesh, 1.0 if scale is None else scale))
+        loaded = load_mesh(mesh, 1.0 if scale is None else scale)
+        try:
+            solid, parts, digest, repair = object_geometry(loaded)
+        except InvalidInput as error:  # what no repair saves, said of the file it came from
+            if not isinstance(mesh, (str, os.PathLike)):
+                raise
+            raise InvalidInput(f"{str(mesh)!r}: {error}") from None
         label = name or (f"mesh_{digest[:8]}" if not isinstance(mesh, (str, os.PathLike)) else Path(mesh).stem
                          + ("_mesh" if Path(mesh).stem in PAPER_SHAPES or Path(mesh).stem in FAMILY else ""))
         if repair:  # said once, where the object is made: every result keys the repaired solid's digest
