@@ -73,12 +73,14 @@ def test_a_dataset_folder_to_verified_grasps_a_map_and_controllers_in_one_comman
     command = ["dataset", str(folder), "--postures", "2", "--poses", "1", "--workers", "1", "--out", str(out)]
     assert main(command) == 0
     table = capsys.readouterr().out
-    rows = {row["object"]: row for row in json.loads((out / "dataset.json").read_text())["objects"]}
+    report = json.loads((out / "dataset.json").read_text())
+    rows = {row["object"]: row for row in report["objects"]}
     assert "refused" in rows["sheet"]["loaded"] and "not watertight" in rows["sheet"]["loaded"]
     assert rows["box"]["loaded"] == "as shipped" and rows["box"]["postures"] == 2
     assert {m: n for m, (_, n) in rows["box"]["results"].items()} == {"none": 1, "database": 1, "som": 1}
     assert (out / "maps" / "box.npz").exists()
     assert "Loaded 1 of 2; 1 got 2 verified postures." in table and "| sheet | refused:" in table
-    report = (out / "dataset.json").read_text()
+    assert "Every object's trials together" in table and [row[:2] for row in report["pooled"]] == [["database", 1],
+                                                                                                    ["som", 1]]
     assert main(command) == 0  # a rerun takes what is done
-    assert json.loads((out / "dataset.json").read_text())["objects"] == json.loads(report)["objects"]
+    assert json.loads((out / "dataset.json").read_text())["objects"] == report["objects"]

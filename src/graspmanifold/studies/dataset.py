@@ -36,7 +36,7 @@ from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
 from ..sim.objects import GraspObject, make_object
 from ..trials.evaluation import evaluate
 from ..trials.grid import GRID_PRESETS, grid_preset
-from ..trials.stats import rate_text
+from ..trials.stats import mcnemar, rate_text
 from ..trials.study import compare, train_experience_map
 from ..trials.trial import TrialSetup
 from .runner import StudyRun, comparison_table, holm_family, run_study
@@ -173,11 +173,16 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
                                   "som - none (p Holm)"], [_table_row(r, tested) for r in rows]), ""]
     loaded = [r for r in rows if not r["loaded"].startswith("refused")]
     lines += [f"Loaded {len(loaded)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
-              f"{args.postures} verified postures.", "", *comparison_table(list(tested.values()))]
+              f"{args.postures} verified postures.", "", "Every object's trials together (paired by pose):", "",
+              *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"],
+                              pooled := pooled_rows(rows)), "", "Per object:", "",
+              *comparison_table(list(tested.values()))]
+    for row in rows:
+        row.pop("outcomes", None)
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
     write_text_atomic(study.out / "dataset.json", json.dumps(
         {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"}, "objects": rows,
-         "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
+         "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
     print("\n".join(lines))
     print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")
 
@@ -210,9 +215,34 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
                                                                   workers=study.workers, checkpoint_dir=parts,
                                                                   progress=False))
     row["results"] = {m: [int(r.outcomes("hold").sum()), len(r.trials)] for m, r in results.items()}
+    row["outcomes"] = {m: (r.outcomes("hold"), r.valid) for m, r in results.items()}
     if "som" in results:
         row["comparison"] = compare(results["som"], results["none"])
     return row
+
+
+def pooled_rows(rows: list[dict]) -> list[list]:
+    """Each controller against `none` over the trials of every object that ran all three (McNemar, paired by pose).
+
+    Args:
+        rows: the table's rows, with their 'outcomes'.
+
+    Returns:
+        Table rows: method, trials, its hold and `none`'s [95 % Wilson CI], the difference and the p-value.
+    """
+    ran = [row["outcomes"] for row in rows if set(row.get("outcomes", {})) == set(METHODS)]
+    if not ran:
+        return []
+    none = np.concatenate([r["none"][0] for r in ran])
+    table = []
+    for method in METHODS[1:]:
+        held = np.concatenate([r[method][0] for r in ran])
+        valid = np.concatenate([r[method][1] & r["none"][1] for r in ran])
+        test = mcnemar(held, none, valid=valid)
+        table.append([method, int(valid.sum()), rate_text(int(held[valid].sum()), int(valid.sum())),
+                      rate_text(int(none[valid].sum()), int(valid.sum())),
+                      f"{100 * test.difference:+.1f} pts", f"{test.p_value:.3g}"])
+    return table
 
 
 def _table_row(row: dict, tested: dict) -> list:
@@ -221,5 +251,7 @@ def _table_row(row: dict, tested: dict) -> list:
     test = tested.get(row["object"])
     versus = f"{100 * test['difference']:+.1f} pts ({test['p_holm']:.2g})" if test else "-"
     loaded = row["loaded"] if len(row["loaded"]) < 90 else row["loaded"][:87] + "..."
-    return [row["object"], loaded + (f"; {row['note']}" if row.get("note") else ""), row.get("triangles", "-"),
+    if row.get("note"):  # no starting posture: the reason's first clause
+        loaded += "; " + row["note"].split(":", 1)[0]
+    return [row["object"], loaded, row.get("triangles", "-"),
             row.get("postures", "-"), *rates, versus]
