@@ -7,7 +7,8 @@ plane's projection where that falls inside it, else the nearest of its edges' cl
 
 - near the object (its box grown by `GRID_MARGIN`, where the fingertips are) a compiled query (numba): a grid of
   cells, each with the triangles that can hold the closest point of any point in it (those whose box lies within
-  a bound of the cell centre's distance plus the cell's diagonal), a few microseconds a point;
+  a bound of the cell centre's distance plus the cell's diagonal), found when a query first falls in the cell, a
+  few microseconds a point;
 - anywhere (the points outside the grid, or in a cell of more than `GRID_MOST` candidates), a k-d tree of points
   on the surface (vertices and centroids) bounds each point's distance, and a k-d tree of the triangles' box
   centres finds the triangles within the bound (triangles far larger than the typical one are tested by their
@@ -41,6 +42,8 @@ GRID_CELLS = 24
 #: a cell that would hold more candidate triangles than this (deep inside the object, where no fingertip goes) is
 #: left to the k-d tree query
 GRID_MOST = 2048
+#: `_grid_closest`'s mark of a point in a cell whose candidates are not found yet
+UNFILLED = -2
 
 
 #: the queries built in this process, by mesh digest (a worker process builds an object's once, not once per task)
@@ -94,21 +97,26 @@ class MeshQueries:
         self._cell = float(np.max(mesh.extents)) / GRID_CELLS
         self._origin = np.asarray(mesh.bounds[0], dtype=float) - GRID_MARGIN
         self._shape = np.ceil((np.asarray(mesh.extents) + 2 * GRID_MARGIN) / self._cell).astype(np.int64)
-        self._grid: tuple[np.ndarray, np.ndarray] | None = None
+        cells = int(np.prod(self._shape))
+        #: each cell's candidates, `_found[_starts[c]:_starts[c] + _counts[c]]`, filled on a cell's first query
+        #: (a start of -1: not yet; a count of 0: left to the k-d trees)
+        self._starts, self._counts = np.full(cells, -1, np.int64), np.zeros(cells, np.int64)
+        self._found = np.zeros(0, np.int32)
 
-    def _candidates(self) -> tuple[np.ndarray, np.ndarray]:
-        """The grid's candidate triangles (`_grid_candidates`), made on the first compiled query."""
-        if self._grid is None:
-            axes = [self._origin[k] + (np.arange(self._shape[k]) + 0.5) * self._cell for k in range(3)]
-            centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-            bound = self._sample_tree.query(centres)[0]  # a surface point's distance: at least the centre's own
-            reach = bound + math.sqrt(3.0) * self._cell  # and twice the cell's half diagonal
-            self._grid = _grid_candidates(centres, reach * (1.0 + 1e-9) + 1e-12, self._lower, self._upper, GRID_MOST)
-        return self._grid
+    def _fill(self, cells: np.ndarray) -> None:
+        """Find the candidate triangles of these cells (`_grid_candidates`)."""
+        ijk = np.stack(np.unravel_index(cells, tuple(self._shape)), axis=1)
+        centres = self._origin + (ijk + 0.5) * self._cell
+        bound = self._sample_tree.query(centres)[0]  # a surface point's distance: at least the centre's own
+        reach = bound + math.sqrt(3.0) * self._cell  # and twice the cell's half diagonal
+        starts, found = _grid_candidates(centres, reach * (1.0 + 1e-9) + 1e-12, self._lower, self._upper, GRID_MOST)
+        self._starts[cells], self._counts[cells] = len(self._found) + starts[:-1], np.diff(starts)
+        self._found = np.concatenate([self._found, found])
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The closest surface points, their triangles and the features they lie on: from the compiled grid query
-        for points near the object, from the k-d tree query (`_closest_reference`) for the others.
+        for points near the object, from the k-d tree query (`_closest_reference`) for the others (for all, with the
+        compiled code switched off: `base.compiled`).
 
         Args:
             points: (n, 3), m, finite.
@@ -121,8 +129,17 @@ class MeshQueries:
         if not compiled():
             return self._closest_reference(p)
         on, triangle, feature = np.empty_like(p), np.empty(len(p), np.int64), np.empty(len(p), np.int64)
-        _grid_closest(p, self._origin, self._cell, self._shape, *self._candidates(), self._corners, FEATURE_TOLERANCE,
+        grid = (self._origin, self._cell, self._shape)
+        _grid_closest(p, *grid, self._starts, self._counts, self._found, self._corners, FEATURE_TOLERANCE,
                       on, triangle, feature)
+        new = np.flatnonzero(triangle == UNFILLED)
+        if len(new):  # cells met for the first time: find their candidates, then ask again
+            ijk = np.floor((p[new] - self._origin) / self._cell).astype(np.int64)
+            self._fill(np.unique(np.ravel_multi_index(tuple(ijk.T), tuple(self._shape))))
+            again = [np.empty((len(new), 3)), np.empty(len(new), np.int64), np.empty(len(new), np.int64)]
+            _grid_closest(np.ascontiguousarray(p[new]), *grid, self._starts, self._counts, self._found,
+                          self._corners, FEATURE_TOLERANCE, *again)
+            on[new], triangle[new], feature[new] = again
         outside = np.flatnonzero(triangle < 0)
         if len(outside):
             on[outside], triangle[outside], feature[outside] = self._closest_reference(p[outside])
@@ -264,12 +281,13 @@ def _grid_candidates(centres: np.ndarray, reach: np.ndarray, lower: np.ndarray, 
 
 @compiled_kernel
 def _grid_closest(points: np.ndarray, origin: np.ndarray, cell: float, shape: np.ndarray, starts: np.ndarray,
-                  candidates: np.ndarray, corners: np.ndarray, tolerance: float, on: np.ndarray, triangle: np.ndarray,
-                  feature: np.ndarray) -> None:
+                  counts: np.ndarray, candidates: np.ndarray, corners: np.ndarray, tolerance: float, on: np.ndarray,
+                  triangle: np.ndarray, feature: np.ndarray) -> None:
     """`MeshQueries.closest` of each point in the grid, into `on`, `triangle`, `feature`; -1 in `triangle` for a point
-    outside it or in a cell left to the k-d tree (no candidates). The rule is `_Triangles.closest`'s: the projection
-    onto the plane where its barycentric weights are all above `tolerance`, else the nearest of the edges' closest
-    points; of the candidates the nearest, ties to the lowest triangle."""
+    outside it or in a cell left to the k-d tree (no candidates), `UNFILLED` for one in a cell not filled yet. The
+    rule is `_Triangles.closest`'s: the projection onto the plane where its barycentric weights are all above
+    `tolerance`, else the nearest of the edges' closest points; of the candidates the nearest, ties to the lowest
+    triangle."""
     for i in range(len(points)):
         index = 0
         inside = True
@@ -281,8 +299,11 @@ def _grid_closest(points: np.ndarray, origin: np.ndarray, cell: float, shape: np
         triangle[i] = -1
         if not inside:
             continue
+        if starts[index] < 0:
+            triangle[i] = UNFILLED
+            continue
         best = np.inf
-        for m in range(starts[index], starts[index + 1]):
+        for m in range(starts[index], starts[index] + counts[index]):
             t = candidates[m]
             x, y, z, code = _on_triangle(points[i], corners[t], tolerance)
             d = (x - points[i, 0]) ** 2 + (y - points[i, 1]) ** 2 + (z - points[i, 2]) ** 2
