@@ -68,7 +68,7 @@ def test_a_package_folder_lists_its_object_files_not_the_meshes_they_name(tmp_pa
 def test_a_dataset_folder_to_verified_grasps_a_map_and_controllers_in_one_command(tmp_path, capsys):
     folder, out = tmp_path / "objects", tmp_path / "run"
     folder.mkdir()
-    box().export(folder / "box.stl")  # the geometry of the test above: its searched starts are kept
+    box().export(folder / "box.obj")  # the solid of the test above (to the last bit: .obj keeps it): its starts kept
     trimesh.Trimesh(vertices=[[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], faces=[[0, 1, 2]]).export(folder / "sheet.stl")
     command = ["dataset", str(folder), "--postures", "2", "--poses", "1", "--workers", "1", "--out", str(out)]
     assert main(command) == 0
