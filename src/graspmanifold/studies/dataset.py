@@ -181,7 +181,8 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
         row.pop("outcomes", None)
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
     write_text_atomic(study.out / "dataset.json", json.dumps(
-        {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"}, "objects": rows,
+        {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"},
+         "trials": _setup_record(), "objects": rows,
          "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
     print("\n".join(lines))
     print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")
@@ -190,7 +191,7 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
 def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> dict:
     """One object's verified postures, map and controllers' trials (a row of the table, with 'comparison' the map
     against `none` when both ran)."""
-    row: dict = {"triangles": len(obj.mesh.faces)}
+    row: dict = {"triangles": len(obj.mesh.faces), "digest": obj.mesh_digest}
     key = result_key({"object": obj.params(), "n": args.postures, "seed": args.seed})
     try:
         postures = study.postures(f"postures/{obj.name}", key, lambda parts: generate_postures(
@@ -243,6 +244,13 @@ def pooled_rows(rows: list[dict]) -> list[list]:
                       rate_text(int(none[valid].sum()), int(valid.sum())),
                       f"{100 * test.difference:+.1f} pts", f"{test.p_value:.3g}"])
     return table
+
+
+def _setup_record() -> dict:
+    """What the trials ran with (`TrialSetup`'s defaults, the same for every object and controller)."""
+    setup = TrialSetup(object=make_object("box", size=(0.04, 0.04, 0.16)))
+    return {"hand": setup.hand.name, "protocol": setup.protocol.name, "touch": setup.touch, "backend": setup.backend,
+            "controller": setup.params.to_table()}
 
 
 def _table_row(row: dict, tested: dict) -> list:
