@@ -24,10 +24,12 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from scipy.sparse.csgraph import minimum_spanning_tree
 from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.validation import check_input_file
+from .mesh_queries import MeshQueries
 
 MIN_EXTENT = 0.005  # m: smaller than this is below what the fingertips can resolve
 MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a unit error)
@@ -230,10 +232,6 @@ def piece_gap(pieces: list[trimesh.Trimesh]) -> float:
     Returns:
         The gap (0 for one piece).
     """
-    from scipy.sparse.csgraph import minimum_spanning_tree
-
-    from .mesh_queries import MeshQueries
-
     queries = [MeshQueries(piece) for piece in pieces]
     apart = np.zeros((len(pieces), len(pieces)))
     for i, j in zip(*np.triu_indices(len(pieces), 1)):
