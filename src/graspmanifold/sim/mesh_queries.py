@@ -146,7 +146,7 @@ class MeshQueries:
         return on, triangle, feature
 
     def _closest_reference(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """`closest` by the k-d trees, for any point (the points outside the grid, and the grid's own build)."""
+        """`closest` by the k-d trees, for any point (those outside the grid or in a cell left to the trees)."""
         p = np.asarray(points, dtype=float)
         n = len(p)
         bound = self._sample_tree.query(p)[0] * (1.0 + 1e-12) + 1e-15  # a surface point's distance: an upper bound
