@@ -12,12 +12,14 @@ from graspmanifold.sim.worlds import CpuWorlds
 from graspmanifold.trials.conformance import check_controller_contract, check_experience_contract, check_worlds_contract
 
 
-@pytest.mark.parametrize("kind", ["database", "som", "posture_set"])
+@pytest.mark.parametrize("kind", ["database", "som", "ukr", "linear", "posture_set"])
 def test_every_experience_meets_the_contract(kind, rng):
     postures = rng.uniform(-0.2, 1.2, (80, 22))
     experience = {
         "database": lambda: gm.PostureDatabase(postures),
         "som": lambda: gm.SOM(5, 6, 22, seed=0).fit(postures, epochs=3),
+        "ukr": lambda: gm.UKR(2, iterations=5).fit(postures, progress=False),
+        "linear": lambda: gm.LinearManifold(4).fit(postures),
         "posture_set": lambda: check_experience(gm.PostureSet(
             postures=postures, hand_poses=np.tile([0, 0, 0, 1, 0, 0, 0.0], (80, 1)), start_ids=np.zeros(80, int),
             contacts=np.ones((80, len(gm.SEGMENTS)), bool), epsilon=np.zeros(80), hold_displacement=np.zeros(80),

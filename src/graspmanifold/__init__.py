@@ -59,6 +59,8 @@ from .manifold.postureset import PostureSet
 from .control.quality import epsilon_l1
 from .sim.scene import Scene, facing_pose
 from .manifold.som import SOM, SOMSchedule
+from .manifold.ukr import UKR
+from .manifold.linear import LinearManifold
 from .control.refinement import StartingPosture
 from .sim.tactile import TactileReading, TactileSensor
 from .trials.trial import Noise, Recording, TrialSetup, record_trial
@@ -97,7 +99,8 @@ def __dir__() -> list[str]:
 
 __all__ = [
     "ACTUATORS", "DISTAL_SEGMENTS", "FINGER_JOINTS", "FINGER_SEGMENTS", "FINGERS", "FINGERTIP_SITES",
-    "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "Experience", "GraspObject",
+    "HAND_JOINTS", "HandModel", "SHADOW_HAND", "JOINT_RANGES", "PAPER_OBJECTS", "SEGMENTS", "SOM", "UKR", "LinearManifold", "Experience",
+    "GraspObject",
     "PostureDatabase", "PostureSet", "SOMSchedule", "DATASET_PRESETS", "GeneratorParams", "Scene", "StartingPosture", "TactileReading",
     "TactileSensor", "ControllerParams", "TargetRecall", "BlendRecall", "ApproachRecall",
     "PalmSteering", "FlangeLimits", "GraspController", "Regrasp", "compare", "headroom", "holm", "mcnemar",

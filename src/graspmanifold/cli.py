@@ -19,7 +19,6 @@ from pathlib import Path
 from .base.errors import GraspManifoldError, InvalidInput
 from .base.config_files import read_config
 from .base.io import LOCK_FILE, check_writable_folder, output_lock
-from .base.paper_numbers import MAP_SIZE
 from .base.version import __version__
 from .base.workers import default_workers
 from .control.dexgraspbench import GRASP_STAGES, VERIFY_STAGES
@@ -27,6 +26,7 @@ from .control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from .control.controller import CONTROLLERS
 from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .control.starts import DESIGN_FAMILIES
+from .manifold.representations import REPRESENTATIONS
 from .paper.report import FIGURES
 from .sim.family import FAMILY
 from .sim.flange import FlangeLimits
@@ -176,18 +176,18 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path
 
 
 def _experience_files(args: argparse.Namespace):
-    """The files of the experience base the evaluate command asks for, read and checked: None, a SOM, or the
-    posture sets (of --hand's postures) for a database or a map to train."""
+    """The files of the experience base the evaluate command asks for, read and checked: None, a trained
+    representation (--map), or the posture sets (of --hand's postures) for a database or a representation to train."""
     from .manifold.postureset import PostureSet
-    from .manifold.som import SOM
+    from .manifold.representations import load_representation
     from .sim.hand_models import hand_name
 
     if args.experience == "none":
         return None
-    if args.experience == "som" and args.som:
-        return SOM.load(args.som)
+    if args.map:
+        return load_representation(args.map)
     if not args.postures:
-        raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --som MAP.npz)")
+        raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --map FILE.npz)")
     sets = [PostureSet.load(p) for p in args.postures]
     hand = hand_name(args.hand, "--hand")
     foreign = [f"{p} ({s.hand})" for p, s in zip(args.postures, sets) if s.hand != hand]
@@ -197,18 +197,16 @@ def _experience_files(args: argparse.Namespace):
 
 
 def _experience(args: argparse.Namespace, files):
-    """The experience base from its files (`_experience_files`): as read, a database of the posture sets, or a
-    SOM trained on them."""
-    from .manifold.experience import PostureDatabase
+    """The experience base from its files (`_experience_files`): as read, or the representation --experience
+    names trained on the posture sets."""
     from .manifold.postureset import PostureSet
-    from .manifold.som import SOM
+    from .manifold.representations import fit_representation
 
     if not isinstance(files, PostureSet):
         return files
-    if args.experience == "database":
-        return PostureDatabase(files.postures)
-    print(f"training a {MAP_SIZE[0]}x{MAP_SIZE[1]} SOM on {len(files)} postures (paper schedule) ...", file=sys.stderr)
-    return SOM(*MAP_SIZE, files.postures.shape[1], seed=args.seed).fit(files.postures, progress=True)
+    if args.experience != "database":
+        print(f"training the {args.experience} representation on {len(files)} postures ...", file=sys.stderr)
+    return fit_representation(args.experience, files.postures, seed=args.seed, progress=True)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -412,10 +410,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     evaluate = command("evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
     object_options(evaluate)
-    evaluate.add_argument("--experience", choices=("none", "database", "som"), default="som",
-                          help="none (plain tactile heuristic), a database of --postures, or a SOM")
-    evaluate.add_argument("--postures", nargs="*", help="posture set file(s) for the database or the SOM")
-    evaluate.add_argument("--som", help="a trained SOM file (instead of training one on --postures)")
+    evaluate.add_argument("--experience", choices=("none", *REPRESENTATIONS), default="som",
+                          help="none (plain tactile heuristic) or what the controller recalls from: "
+                               + "; ".join(f"{k}: {v}" for k, v in REPRESENTATIONS.items()))
+    evaluate.add_argument("--postures", nargs="*", help="posture set file(s) the experience is made of")
+    evaluate.add_argument("--map", "--som", dest="map", help="a trained SOM, UKR or linear manifold file (instead "
+                          "of training one on --postures); --som is its old name")
     evaluate.add_argument("--grid", choices=GRID_PRESETS, default="quick")
     evaluate.add_argument("--table", action="store_true",
                           help="the object stands on a table (gravity on) instead of a spring support")

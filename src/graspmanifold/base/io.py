@@ -325,6 +325,33 @@ def _read_file(path: Path, kind: str, required: dict[str, tuple[int | None, ...]
         return {name[:-4]: _read_member(archive, info, headers[name[:-4]]) for name, info in members.items()}, meta
 
 
+def npz_kind(path: str | os.PathLike) -> str:
+    """The kind a file written by `save_npz` declares ("som", "ukr", ...), its data unread.
+
+    Args:
+        path: the .npz file.
+
+    Returns:
+        The kind.
+
+    Raises:
+        InvalidInput: no such file, or one that is not a readable file of the library's; the message names it.
+    """
+    path = check_input_file(path, "path")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            info = archive.getinfo(f"{_METADATA_KEY}.npy")
+            if info.file_size > MAX_METADATA_BYTES:
+                raise _Refused(f"its metadata declares {info.file_size} bytes, more than {MAX_METADATA_BYTES}")
+            meta = json.loads(str(_read_member(archive, info)))
+        return str(meta["kind"])
+    except _Refused as error:
+        raise InvalidInput(f"{path}: {error}") from None
+    except Exception as error:  # noqa: BLE001 - whatever a corrupt file does to the parser, the file is at fault
+        raise InvalidInput(f"{path} is not a readable .npz file of graspmanifold's (truncated, corrupt or "
+                           f"foreign?): {type(error).__name__}: {error}") from None
+
+
 class _Refused(InvalidInput):
     """A file refused for what it declares (another kind, a missing array, a bomb): said as it is, not as
     corruption."""

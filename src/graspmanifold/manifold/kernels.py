@@ -142,3 +142,224 @@ def online_epoch(weights_t: np.ndarray, data: np.ndarray, order: np.ndarray, rat
                 segment = weights_t[k, start:start + width]
                 for c in range(width):
                     segment[c] += step[c] * (xk - segment[c])
+
+
+#: a UKR kernel weight exp(-e) with e beyond this is dropped (below 4e-18 of the nearest latent point's)
+UKR_CUT = 40.0
+#: a masked completion stops when a step lowers its error by less than this fraction
+STEP_GAIN = 1e-6
+
+
+@compiled_kernel
+def ukr_point(latent: np.ndarray, postures: np.ndarray, z: np.ndarray, kernel: np.ndarray, kept: np.ndarray,
+              f: np.ndarray, jacobian: np.ndarray, centre: np.ndarray) -> int:
+    """The UKR manifold at the latent point z (q,): f = sum_i K_i y_i / sum_i K_i, K_i = exp(-|z - x_i|^2 / 2)
+    (`UKR_CUT` applied), into f (dim,), its Jacobian df/dz = sum_i K_i (y_i - f)(x_i - centre)^T / sum_i K_i into
+    jacobian (dim, q) and the kernel-weighted latent centre into centre (q,). kernel (n,) and kept (n,) are scratch:
+    the first `count` entries of kept name the training points kept, kernel their weights; returns count."""
+    n, q = latent.shape
+    dim = postures.shape[1]
+    nearest = math.inf
+    for i in range(n):
+        s = 0.0
+        for a in range(q):
+            t = latent[i, a] - z[a]
+            s += t * t
+        kernel[i] = s
+        nearest = min(nearest, s)
+    count = 0
+    total = 0.0
+    for i in range(n):
+        e = 0.5 * (kernel[i] - nearest)
+        if e < UKR_CUT:
+            kept[count] = i
+            kernel[count] = math.exp(-e)  # count <= i: the distances still to read lie beyond
+            total += kernel[count]
+            count += 1
+    f[:] = 0.0
+    centre[:] = 0.0
+    for c in range(count):
+        w = kernel[c] / total
+        kernel[c] = w
+        i = kept[c]
+        for k in range(dim):
+            f[k] += w * postures[i, k]
+        for a in range(q):
+            centre[a] += w * latent[i, a]
+    jacobian[:] = 0.0
+    for c in range(count):
+        w = kernel[c]
+        i = kept[c]
+        for k in range(dim):
+            dk = w * (postures[i, k] - f[k])
+            for a in range(q):
+                jacobian[k, a] += dk * (latent[i, a] - centre[a])
+    return count
+
+
+@compiled_kernel
+def _masked_error(f: np.ndarray, query: np.ndarray, weights: np.ndarray) -> float:
+    """sum_k weights_k (f_k - query_k)^2 over the dimensions with weight > 0 (the others never read)."""
+    error = 0.0
+    for k in range(f.shape[0]):
+        if weights[k] > 0.0:
+            d = f[k] - query[k]
+            error += weights[k] * d * d
+    return error
+
+
+@compiled_kernel
+def _solve_damped(normal: np.ndarray, gradient: np.ndarray, damping: float, step: np.ndarray) -> bool:
+    """step = -(normal + damping * trace(normal) / q * I)^-1 gradient by Cholesky (q <= 3); False where the
+    normal matrix is zero (no direction to go)."""
+    q = gradient.shape[0]
+    scale = 0.0
+    for a in range(q):
+        scale += normal[a, a]
+    if not scale > 0.0:
+        return False
+    m = normal.copy()
+    for a in range(q):
+        m[a, a] += damping * scale / q
+    lower = np.zeros((q, q))
+    for a in range(q):
+        for b in range(a + 1):
+            s = m[a, b]
+            for c in range(b):
+                s -= lower[a, c] * lower[b, c]
+            if a == b:
+                if not s > 0.0:
+                    return False
+                lower[a, a] = math.sqrt(s)
+            else:
+                lower[a, b] = s / lower[b, b]
+    y = np.empty(q)
+    for a in range(q):
+        s = -gradient[a]
+        for c in range(a):
+            s -= lower[a, c] * y[c]
+        y[a] = s / lower[a, a]
+    for a in range(q - 1, -1, -1):
+        s = y[a]
+        for c in range(a + 1, q):
+            s -= lower[c, a] * step[c]
+        step[a] = s / lower[a, a]
+    return True
+
+
+@compiled_kernel
+def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, queries: np.ndarray, weights: np.ndarray,
+                      starts: np.ndarray, iterations: int, out_latent: np.ndarray, out_postures: np.ndarray,
+                      start: int, stop: int) -> None:
+    """Masked completion on the UKR manifold for rows start <= r < stop: from the latent point of training point
+    starts[r], Levenberg-Marquardt steps on sum_k p_k (f_k(z) - x_k)^2 (p = weights[r], or weights[0] for every row
+    when it has one row), a step kept only where it lowers the error; stops after `iterations` steps, when a step
+    gains less than `STEP_GAIN` of the error, or when the damping passes 1e8. Writes z (q,) and f(z) (dim,)."""
+    n, q = latent.shape
+    dim = postures.shape[1]
+    kernel = np.empty(n)
+    kept = np.empty(n, dtype=np.int64)
+    f, f_new = np.empty(dim), np.empty(dim)
+    jacobian, jacobian_new = np.empty((dim, q)), np.empty((dim, q))
+    centre = np.empty(q)
+    normal, gradient, step, z_new = np.empty((q, q)), np.empty(q), np.empty(q), np.empty(q)
+    shared = weights.shape[0] == 1
+    for r in range(start, stop):
+        p = weights[0] if shared else weights[r]
+        x = queries[r]
+        z = latent[starts[r]].copy()
+        ukr_point(latent, postures, z, kernel, kept, f, jacobian, centre)
+        error = _masked_error(f, x, p)
+        damping = 1e-3
+        for _ in range(iterations):
+            normal[:] = 0.0
+            gradient[:] = 0.0
+            for k in range(dim):
+                if p[k] > 0.0:
+                    residual = p[k] * (f[k] - x[k])
+                    for a in range(q):
+                        gradient[a] += jacobian[k, a] * residual
+                        for b in range(q):
+                            normal[a, b] += p[k] * jacobian[k, a] * jacobian[k, b]
+            if not _solve_damped(normal, gradient, damping, step):
+                break
+            for a in range(q):
+                z_new[a] = z[a] + step[a]
+            ukr_point(latent, postures, z_new, kernel, kept, f_new, jacobian_new, centre)
+            error_new = _masked_error(f_new, x, p)
+            if error_new < error:
+                gain = error - error_new
+                z[:] = z_new
+                f[:] = f_new
+                jacobian[:] = jacobian_new
+                error = error_new
+                damping = max(damping * 0.3, 1e-9)
+                if gain <= STEP_GAIN * (error + gain):
+                    break
+            else:
+                damping *= 10.0
+                if damping > 1e8:
+                    break
+        out_latent[r] = z
+        out_postures[r] = f
+
+
+@compiled_kernel
+def ukr_loo(latent: np.ndarray, postures: np.ndarray, gradient: np.ndarray, with_gradient: bool) -> float:
+    """The UKR leave-one-out error (1/n) sum_i |y_i - f_{-i}(x_i)|^2 and, `with_gradient`, its gradient (n, q) into
+    `gradient`: each point's own kernel term left out, weights beyond `UKR_CUT` of the row's nearest dropped, so a
+    row costs n q for its distances and (its kept pairs) x dim for the rest (`ukr.loo_error_reference` is the same
+    in NumPy, over the full n x n matrices)."""
+    n, q = latent.shape
+    dim = postures.shape[1]
+    squared = np.empty(n)
+    weights = np.empty(n)
+    kept = np.empty(n, dtype=np.int64)
+    recon = np.empty(dim)
+    residual = np.empty(dim)
+    error = 0.0
+    if with_gradient:
+        gradient[:] = 0.0
+    for i in range(n):
+        nearest = math.inf
+        for j in range(n):
+            s = 0.0
+            for a in range(q):
+                t = latent[i, a] - latent[j, a]
+                s += t * t
+            squared[j] = s
+            if j != i and s < nearest:
+                nearest = s
+        count = 0
+        total = 0.0
+        for j in range(n):
+            e = 0.5 * (squared[j] - nearest)
+            if j != i and e < UKR_CUT:
+                kept[count] = j
+                weights[count] = math.exp(-e)
+                total += weights[count]
+                count += 1
+        recon[:] = 0.0
+        for c in range(count):
+            weights[c] /= total
+            j = kept[c]
+            for k in range(dim):
+                recon[k] += weights[c] * postures[j, k]
+        own = 0.0  # r_i . f_i
+        for k in range(dim):
+            residual[k] = recon[k] - postures[i, k]
+            error += residual[k] * residual[k]
+            own += residual[k] * recon[k]
+        if not with_gradient:
+            continue
+        for c in range(count):  # M_ij = b_ij (2/n) (r_i . y_j - r_i . f_i); d/dx_i and d/dx_j of K_ij
+            j = kept[c]
+            dot = 0.0
+            for k in range(dim):
+                dot += residual[k] * postures[j, k]
+            m = weights[c] * (2.0 / n) * (dot - own)
+            for a in range(q):
+                t = m * (latent[i, a] - latent[j, a])
+                gradient[i, a] -= t
+                gradient[j, a] += t
+    return error / n

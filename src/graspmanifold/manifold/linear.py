@@ -1,0 +1,196 @@
+"""A linear grasp manifold: the postures' first principal components (PCA hand synergies, "eigengrasps").
+
+    linear = LinearManifold(components=2).fit(postures)
+    posture = linear.complete(pcp, mask)                      # masked completion in closed form
+
+The manifold is the affine subspace mean + span(first k principal axes) (`embeddings.principal_axes`). Masked
+completion finds the subspace point closest to the query over its specified joints, z = argmin sum_k p_k (mean_k +
+(W z)_k - x_k)^2, in closed form: (W^T P W + r I) z = W^T P (x - mean), with a ridge r = 1e-9 (rad^2) that picks the
+smallest z where fewer joints are specified than there are components. The posture read off is mean + W z.
+
+It is the plain linear reference beside the SOM and UKR: an `experience.Experience` whose `references` are the
+training postures projected onto the subspace (`best_match` the nearest of them under the masked distance).
+`explained` holds the share of the variance each principal axis explains (the human hand's figure: 80 % with two,
+Santello, Flanders and Soechting, 1998).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..base.errors import InvalidInput, NotFittedError
+from ..base.io import NpzRecord, fingerprint
+from ..base.validation import check_data, check_int
+from .embeddings import principal_axes
+from .nearest import MaskedNearest, Recall, check_queries, check_query
+
+RIDGE = 1e-9  # rad^2: the ridge of the closed-form completion (see the module doc)
+_BLOCK = 4096  # queries per stacked solve: bounds memory at BLOCK x k x k
+
+
+class LinearManifold(Recall, NpzRecord):
+    """The affine subspace of the postures' first `components` principal axes (see the module doc).
+
+    Attributes (fitted): `mean` (dim,) rad, `axes` (components, dim) orthonormal rows, `explained` (min(n, dim),)
+    the variance share of every principal axis (not only the kept ones), `references` (n, dim) the training
+    postures projected, rad.
+    """
+
+    def __init__(self, components: int = 5):
+        """An unfitted linear manifold.
+
+        Args:
+            components: the principal axes kept, k >= 1.
+        """
+        self.components = check_int(components, "components")
+        self.mean: np.ndarray | None = None
+        self.axes: np.ndarray | None = None
+        self.explained: np.ndarray | None = None
+        self._references: np.ndarray | None = None
+        self._search: MaskedNearest | None = None
+        self.data_fingerprint = ""
+
+    @property
+    def is_fitted(self) -> bool:
+        """Whether it has its axes."""
+        return self.axes is not None
+
+    @property
+    def dim(self) -> int:
+        """The posture's dimensions (22 for the hand's postures)."""
+        return self._require().shape[1]
+
+    def _require(self) -> np.ndarray:
+        if self.axes is None:
+            raise NotFittedError("this LinearManifold is not fitted yet; call fit(postures) first")
+        return self.axes
+
+    def fit(self, postures: np.ndarray) -> LinearManifold:
+        """The principal axes of the postures.
+
+        Args:
+            postures: (n, dim) training postures, rad, n >= 2 and components <= min(n, dim).
+
+        Returns:
+            Itself, fitted.
+        """
+        data = np.asarray(postures)
+        data = check_data(data, data.shape[-1] if data.ndim == 2 else -1, "postures")
+        if self.components > min(data.shape) or len(data) < 2:
+            raise InvalidInput(f"components ({self.components}) must be at most min(n, dim) of postures, got shape "
+                               f"{data.shape}")
+        mean, axes, explained = principal_axes(data)
+        self._set(mean, axes[:self.components], explained)
+        self._references = self.project(data)
+        self._references.flags.writeable = False
+        self._search = MaskedNearest(self._references)
+        self.data_fingerprint = fingerprint(data)
+        return self
+
+    def _set(self, mean: np.ndarray, axes: np.ndarray, explained: np.ndarray) -> None:
+        self.mean, self.axes, self.explained = (np.array(a, dtype=float) for a in (mean, axes, explained))
+
+    def components_for(self, share: float) -> int:
+        """The fewest principal axes that explain at least `share` of the variance.
+
+        Args:
+            share: in (0, 1].
+
+        Returns:
+            The count.
+        """
+        self._require()
+        if not 0 < share <= 1:
+            raise InvalidInput(f"share must be in (0, 1], got {share!r}")
+        return int(np.searchsorted(np.cumsum(self.explained), share - 1e-12) + 1)
+
+    def project(self, postures: np.ndarray) -> np.ndarray:
+        """Postures projected onto the subspace (every joint specified).
+
+        Args:
+            postures: (m, dim), rad.
+
+        Returns:
+            (m, dim), rad.
+        """
+        data = check_data(postures, self.dim, "postures")
+        return self.mean + ((data - self.mean) @ self.axes.T) @ self.axes
+
+    @property
+    def references(self) -> np.ndarray:
+        """The training postures projected onto the subspace (n, dim), rad, read-only."""
+        self._require()
+        return self._references
+
+    def _nearest(self) -> MaskedNearest:
+        self._require()
+        return self._search
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The subspace's posture closest to the query over its specified joints (closed form).
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (every joint), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
+        query, weights = check_query(x, mask, self.dim)
+        return self.complete_batch(query[None], weights[None])[0]
+
+    def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
+        """`complete` of every query.
+
+        Args:
+            X: queries (m, dim), rad.
+            masks: None, one mask (dim,) for every query, or one per query (m, dim).
+
+        Returns:
+            Postures (m, dim), rad.
+        """
+        self._require()
+        queries, weights = check_queries(X, masks, self.dim)
+        out = np.empty_like(queries)
+        ridge = RIDGE * np.eye(self.components)
+        for start in range(0, len(queries), _BLOCK):
+            block = slice(start, start + _BLOCK)
+            p = weights[block]
+            offset = np.where(p > 0, queries[block] - self.mean, 0.0)
+            normal = np.einsum("kd,md,ld->mkl", self.axes, p, self.axes) + ridge
+            right = np.einsum("kd,md->mk", self.axes, p * offset)
+            latent = np.linalg.solve(normal, right[..., None])[..., 0]
+            out[block] = self.mean + latent @ self.axes
+        return out
+
+    # -- files -----------------------------------------------------------------------------------
+    NPZ_KIND = "linear_manifold"
+    NPZ_REQUIRED = {"mean": (None,), "axes": (None, None), "explained": (None,), "references": (None, None)}
+
+    def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
+        self._require()
+        return ({"mean": self.mean, "axes": self.axes, "explained": self.explained, "references": self.references},
+                {"components": self.components, "dim": self.dim, "data_fingerprint": self.data_fingerprint,
+                 "units": "mean, references rad; axes orthonormal; explained variance shares"})
+
+    @classmethod
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> LinearManifold:
+        axes = arrays["axes"]
+        linear = cls(len(axes))
+        dim = axes.shape[1]
+        if arrays["mean"].shape != (dim,) or arrays["references"].shape[1:] != (dim,) \
+                or not np.allclose(axes @ axes.T, np.eye(len(axes)), atol=1e-8):
+            raise InvalidInput(f"{path}: a linear manifold needs a mean ({dim},), orthonormal axes and references "
+                               f"(n, {dim})")
+        linear._set(arrays["mean"], axes, arrays["explained"])
+        linear._references = check_data(arrays["references"], dim, f"{path} references")
+        linear._references.flags.writeable = False
+        linear._search = MaskedNearest(linear._references)
+        linear.data_fingerprint = str(meta.get("data_fingerprint", ""))
+        return linear
+
+    def __repr__(self) -> str:
+        state = f"{self.explained[:self.components].sum():.0%} of the variance" if self.is_fitted else "unfitted"
+        return f"LinearManifold(components={self.components}, {state})"

@@ -1,0 +1,79 @@
+"""The experience representations by name: what `--experience`, `--manifold`, experiment files and studies say.
+
+    experience = fit_representation("ukr", postures, seed=0)        # trained with the library's defaults
+    experience = load_representation("maps/cylinder.npz")           # whichever kind the file holds
+
+Each is an `experience.Experience` the controller recalls from: the raw database (the paper's Section 2), the
+paper's 25 x 25 SOM with its schedule (Sections 3-5), a 2-d UKR manifold (the paper's future work, `ukr.UKR`) and
+a 5-component linear manifold (PCA hand synergies, `linear.LinearManifold`).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..base.errors import InvalidInput
+from ..base.io import npz_kind
+from ..base.paper_numbers import MAP_SIZE
+from ..base.validation import check_choice
+from .experience import Experience, PostureDatabase, object_places
+from .linear import LinearManifold
+from .postureset import PostureSet
+from .som import SOM
+from .ukr import UKR
+
+#: the representations by name, with what each is
+REPRESENTATIONS: dict[str, str] = {
+    "database": "every training posture, matched as stored (the paper's Section 2)",
+    "som": f"a {MAP_SIZE[0]} x {MAP_SIZE[1]} SOM on the paper's schedule (Sections 3-5)",
+    "ukr": "a 2-d Unsupervised Kernel Regression manifold (the paper's future work)",
+    "linear": "a 5-component linear manifold (PCA hand synergies)",
+}
+_FILE_KINDS = {SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: LinearManifold,
+               PostureDatabase.NPZ_KIND: PostureDatabase}
+
+
+def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progress: bool | None = None
+                       ) -> Experience:
+    """A representation of these postures, trained with the library's defaults.
+
+    Args:
+        name: one of `REPRESENTATIONS`.
+        postures: (n, 22) training postures, rad.
+        seed: the SOM's presentation order (the others draw no random numbers).
+        progress: show a progress bar while training (None: as `progress.show_progress` says).
+
+    Returns:
+        The experience.
+    """
+    check_choice(name, REPRESENTATIONS, "representation")
+    data = np.asarray(postures, dtype=float)
+    if name == "database":
+        return PostureDatabase(data)
+    if name == "som":
+        return SOM(*MAP_SIZE, data.shape[-1], seed=seed).fit(data, progress=progress)
+    if name == "ukr":
+        return UKR().fit(data, progress=progress)
+    return LinearManifold().fit(data)
+
+
+def load_representation(path: str | os.PathLike) -> Experience:
+    """The experience a file holds: a SOM, a UKR or linear manifold, a posture database, or a posture set (read as
+    the database of its postures).
+
+    Args:
+        path: the .npz file.
+
+    Returns:
+        The experience.
+    """
+    kind = npz_kind(path)
+    if kind == PostureSet.NPZ_KIND:
+        postures = PostureSet.load(path)
+        return PostureDatabase(postures.postures, object_places(postures))
+    if kind not in _FILE_KINDS:
+        raise InvalidInput(f"{path} holds a {kind!r}; an experience file holds one of "
+                           f"{(*_FILE_KINDS, PostureSet.NPZ_KIND)}")
+    return _FILE_KINDS[kind].load(path)
