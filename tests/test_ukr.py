@@ -134,12 +134,15 @@ def test_the_linear_manifold_completes_in_closed_form(rng, tmp_path):
     assert linear.components_for(linear.explained[:2].sum()) == 2
     mask = pcp_mask(["ffdistal", "thdistal"])
     x = postures[5]
-    latent = np.linalg.lstsq(linear.axes[:, mask].T, (x - linear.mean)[mask], rcond=None)[0]
+    given = linear.axes[:, mask]  # the conditional mean of probabilistic PCA, written out
+    latent = np.linalg.solve(given @ given.T + linear.residual * np.diag(1 / linear.variances),
+                             given @ (x - linear.mean)[mask])
     np.testing.assert_allclose(linear.complete(np.where(mask, x, np.nan), mask), linear.mean + latent @ linear.axes,
-                               atol=1e-7)
+                               atol=1e-9)
     few = np.zeros(22, bool)
-    few[0] = True  # fewer specified joints than components: the ridge picks the smallest latent point
-    assert np.all(np.isfinite(linear.complete(x, few)))
+    few[0] = True  # fewer specified joints than components: the prior keeps the posture near the data
+    assert np.abs(linear.complete(x, few) - linear.mean).max() < np.abs(postures - linear.mean).max()
+    np.testing.assert_allclose(linear.complete(x), linear.project(x[None])[0], atol=1e-3)  # shrinkage only
     again = load_representation(linear.save(tmp_path / "linear.npz"))
     np.testing.assert_array_equal(again.complete_batch(postures[:9], mask), linear.complete_batch(postures[:9], mask))
 

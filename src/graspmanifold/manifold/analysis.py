@@ -1,5 +1,6 @@
-"""Analyses of SOM grasp manifolds behind the paper's Section 5: smoothness and data support,
-before and after resuming the learning with postures from the grasp controller."""
+"""Analyses of grasp manifolds behind the paper's Section 5: smoothness and data support, before and after resuming
+the learning with postures from the grasp controller; for a continuous manifold (`ukr.UKR`), postures sampled on a
+grid of its latent space (Fig. 3's view) and along a path between two clusters (Fig. 5's)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .som import RESUME, SOM
+from .ukr import UKR
 
 
 def node_distances(som: SOM) -> np.ndarray:
@@ -136,3 +138,53 @@ def resume_learning(som: SOM, postures: np.ndarray, *, epochs: int = RESUME.epoc
     before = smoothness(som, training, postures)
     resumed = copy.deepcopy(som).resume(postures, epochs=epochs, learning_rate=learning_rate, sigma=sigma)
     return resumed, {"before": before, "after": smoothness(resumed, training, postures)}
+
+
+def latent_grid(ukr: UKR, size: int = 6, spread: float = 90.0) -> tuple[np.ndarray, np.ndarray]:
+    """Fig. 3 for a continuous manifold: its postures on a size x size grid over the central `spread` percent of the
+    training latent points along the first two latent axes (a 1-d manifold: one row; a 3-d one: the third axis at
+    its median).
+
+    Args:
+        ukr: the fitted manifold.
+        size: grid points along an axis.
+        spread: percent of the latent points the grid spans along each axis.
+
+    Returns:
+        The latent points (rows, size, q) and the postures there (rows, size, dim), rad.
+    """
+    latent = ukr.latent
+    low, high = np.percentile(latent, [50 - spread / 2, 50 + spread / 2], axis=0)
+    axes = [np.linspace(low[a], high[a], size) for a in range(latent.shape[1])]
+    if latent.shape[1] == 1:
+        points = axes[0][None, :, None]
+    else:
+        rows, cols = np.meshgrid(axes[1], axes[0], indexing="ij")
+        rest = np.broadcast_to(np.median(latent[:, 2:], axis=0), (size, size, latent.shape[1] - 2))
+        points = np.concatenate([cols[..., None], rows[..., None], rest], axis=2)
+    return points, ukr.manifold(points.reshape(-1, latent.shape[1])).reshape(*points.shape[:2], -1)
+
+
+def latent_path(ukr: UKR, start: np.ndarray, end: np.ndarray, steps: int = 6) -> dict:
+    """Fig. 5 for a continuous manifold: postures along the straight latent path between two latent points (two
+    clusters' centres), with the steps between neighbours and whether each inner posture is intermediate (closer to
+    each end than the ends are to each other: `border_measures`' rule).
+
+    Args:
+        ukr: the fitted manifold.
+        start: (q,) a latent point.
+        end: (q,) another.
+        steps: postures along the path, ends included (>= 3).
+
+    Returns:
+        {latent (steps, q), postures (steps, dim) rad, steps_deg (steps - 1,), intermediate (steps - 2,) bool,
+        support (steps,): the latent distance to the nearest training latent point (kernel bandwidths)}.
+    """
+    points = np.linspace(np.asarray(start, dtype=float), np.asarray(end, dtype=float), steps)
+    postures = ukr.manifold(points)
+    span = np.linalg.norm(postures[0] - postures[-1])
+    return {"latent": points, "postures": postures,
+            "steps_deg": np.degrees(np.linalg.norm(np.diff(postures, axis=0), axis=1)),
+            "intermediate": np.array([np.linalg.norm(p - postures[0]) < span and np.linalg.norm(p - postures[-1]) < span
+                                      for p in postures[1:-1]]),
+            "support": cKDTree(ukr.latent).query(points)[0]}

@@ -3,10 +3,16 @@
     linear = LinearManifold(components=2).fit(postures)
     posture = linear.complete(pcp, mask)                      # masked completion in closed form
 
-The manifold is the affine subspace mean + span(first k principal axes) (`embeddings.principal_axes`). Masked
-completion finds the subspace point closest to the query over its specified joints, z = argmin sum_k p_k (mean_k +
-(W z)_k - x_k)^2, in closed form: (W^T P W + r I) z = W^T P (x - mean), with a ridge r = 1e-9 (rad^2) that picks the
-smallest z where fewer joints are specified than there are components. The posture read off is mean + W z.
+The manifold is the affine subspace mean + span(first k principal axes) (`embeddings.principal_axes`), read as
+probabilistic PCA (Tipping and Bishop, 1999): the coordinates z along the axes have the variances the axes explain,
+lambda_1..k, and each joint an independent residual variance s^2, the mean variance of the axes left out (at least
+`MIN_RESIDUAL`). Masked completion is the posture's conditional mean given its specified joints, in closed form:
+
+    (W^T P W + s^2 diag(1 / lambda)) z = W^T P (x - mean),    posture = mean + W z
+
+(P the mask's weights). With every joint specified it is the projection, shrunk towards the mean by
+lambda / (lambda + s^2) along each axis; with few specified joints the prior keeps z where the postures lie (a plain
+least-squares fit over the specified joints would let the unconstrained coordinates run off).
 
 It is the plain linear reference beside the SOM and UKR: an `experience.Experience` whose `references` are the
 training postures projected onto the subspace (`best_match` the nearest of them under the masked distance).
@@ -26,16 +32,17 @@ from ..base.validation import check_data, check_int
 from .embeddings import principal_axes
 from .nearest import MaskedNearest, Recall, check_queries, check_query
 
-RIDGE = 1e-9  # rad^2: the ridge of the closed-form completion (see the module doc)
+MIN_RESIDUAL = 1e-6  # rad^2: the smallest residual variance per joint (see the module doc)
 _BLOCK = 4096  # queries per stacked solve: bounds memory at BLOCK x k x k
 
 
 class LinearManifold(Recall, NpzRecord):
     """The affine subspace of the postures' first `components` principal axes (see the module doc).
 
-    Attributes (fitted): `mean` (dim,) rad, `axes` (components, dim) orthonormal rows, `explained` (min(n, dim),)
-    the variance share of every principal axis (not only the kept ones), `references` (n, dim) the training
-    postures projected, rad.
+    Attributes (fitted): `mean` (dim,) rad, `axes` (components, dim) orthonormal rows, `variances` (components,)
+    rad^2 along them, `residual` the residual variance per joint (rad^2), `explained` (min(n, dim),) the variance
+    share of every principal axis (not only the kept ones), `references` (n, dim) the training postures projected,
+    rad.
     """
 
     def __init__(self, components: int = 5):
@@ -46,6 +53,8 @@ class LinearManifold(Recall, NpzRecord):
         """
         self.components = check_int(components, "components")
         self.mean: np.ndarray | None = None
+        self.variances: np.ndarray | None = None
+        self.residual = self.total_variance = 0.0
         self.axes: np.ndarray | None = None
         self.explained: np.ndarray | None = None
         self._references: np.ndarray | None = None
@@ -82,15 +91,21 @@ class LinearManifold(Recall, NpzRecord):
             raise InvalidInput(f"components ({self.components}) must be at most min(n, dim) of postures, got shape "
                                f"{data.shape}")
         mean, axes, explained = principal_axes(data)
-        self._set(mean, axes[:self.components], explained)
+        total = float(((data - mean) ** 2).sum() / (len(data) - 1))  # the variance, rad^2
+        self._set(mean, axes[:self.components], explained, total)
         self._references = self.project(data)
         self._references.flags.writeable = False
         self._search = MaskedNearest(self._references)
         self.data_fingerprint = fingerprint(data)
         return self
 
-    def _set(self, mean: np.ndarray, axes: np.ndarray, explained: np.ndarray) -> None:
+    def _set(self, mean: np.ndarray, axes: np.ndarray, explained: np.ndarray, total: float) -> None:
         self.mean, self.axes, self.explained = (np.array(a, dtype=float) for a in (mean, axes, explained))
+        self.total_variance = float(total)
+        self.variances = np.maximum(self.explained[:self.components] * total, MIN_RESIDUAL)
+        left = len(self.mean) - self.components
+        self.residual = max(float(self.explained[self.components:].sum() * total / left) if left else 0.0,
+                            MIN_RESIDUAL)
 
     def components_for(self, share: float) -> int:
         """The fewest principal axes that explain at least `share` of the variance.
@@ -107,7 +122,7 @@ class LinearManifold(Recall, NpzRecord):
         return int(np.searchsorted(np.cumsum(self.explained), share - 1e-12) + 1)
 
     def project(self, postures: np.ndarray) -> np.ndarray:
-        """Postures projected onto the subspace (every joint specified).
+        """Postures projected onto the subspace (orthogonally: no shrinkage).
 
         Args:
             postures: (m, dim), rad.
@@ -154,12 +169,12 @@ class LinearManifold(Recall, NpzRecord):
         self._require()
         queries, weights = check_queries(X, masks, self.dim)
         out = np.empty_like(queries)
-        ridge = RIDGE * np.eye(self.components)
+        prior = np.diag(self.residual / self.variances)
         for start in range(0, len(queries), _BLOCK):
             block = slice(start, start + _BLOCK)
             p = weights[block]
             offset = np.where(p > 0, queries[block] - self.mean, 0.0)
-            normal = np.einsum("kd,md,ld->mkl", self.axes, p, self.axes) + ridge
+            normal = np.einsum("kd,md,ld->mkl", self.axes, p, self.axes) + prior
             right = np.einsum("kd,md->mk", self.axes, p * offset)
             latent = np.linalg.solve(normal, right[..., None])[..., 0]
             out[block] = self.mean + latent @ self.axes
@@ -173,6 +188,7 @@ class LinearManifold(Recall, NpzRecord):
         self._require()
         return ({"mean": self.mean, "axes": self.axes, "explained": self.explained, "references": self.references},
                 {"components": self.components, "dim": self.dim, "data_fingerprint": self.data_fingerprint,
+                 "total_variance": self.total_variance,
                  "units": "mean, references rad; axes orthonormal; explained variance shares"})
 
     @classmethod
@@ -184,7 +200,10 @@ class LinearManifold(Recall, NpzRecord):
                 or not np.allclose(axes @ axes.T, np.eye(len(axes)), atol=1e-8):
             raise InvalidInput(f"{path}: a linear manifold needs a mean ({dim},), orthonormal axes and references "
                                f"(n, {dim})")
-        linear._set(arrays["mean"], axes, arrays["explained"])
+        try:
+            linear._set(arrays["mean"], axes, arrays["explained"], float(meta["total_variance"]))
+        except (KeyError, TypeError, ValueError):
+            raise InvalidInput(f"{path} lacks the linear manifold's total_variance") from None
         linear._references = check_data(arrays["references"], dim, f"{path} references")
         linear._references.flags.writeable = False
         linear._search = MaskedNearest(linear._references)

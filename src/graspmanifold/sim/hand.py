@@ -398,6 +398,22 @@ class SegmentKinematics:
         segment_of = segment_of_geoms(self.model, hand)
         self._geoms = np.array([int(np.flatnonzero(segment_of == i)[0]) for i in range(len(hand.segments))])
         self._palm = self.model.body(hand.palm).id
+        self._tips = np.array([self.model.site(site).id for site in hand.fingertip_sites])
+
+    def fingertips(self, posture: np.ndarray) -> np.ndarray:
+        """Where the fingertips are for a posture, the wrist straight.
+
+        Args:
+            posture: the 22 finger joint angles, radians, the paper's sense.
+
+        Returns:
+            The fingertip sites (5, 3), m, in the palm frame, in `fingertip_sites` order.
+        """
+        self.data.qpos[:] = 0.0
+        self.data.qpos[self._qpos] = self.hand.to_model(posture)
+        mujoco.mj_kinematics(self.model, self.data)
+        rotation = self.data.xmat[self._palm].reshape(3, 3)
+        return (self.data.site_xpos[self._tips] - self.data.xpos[self._palm]) @ rotation
 
     def positions(self, posture: np.ndarray) -> np.ndarray:
         """Where the segments are for a posture, the wrist straight.
