@@ -137,6 +137,29 @@ def test_the_verified_procedure_trains_on_the_candidates_that_hold(finished, tmp
         ReproduceConfig(**{**REDUCED.__dict__, "procedure": "verified", "generator": gm.GeneratorParams()})
 
 
+def test_the_ukr_manifold_runs_beside_the_som_and_the_report_gives_its_figures(finished, tmp_path):
+    out = tmp_path / "ukr"
+    shutil.copytree(finished[0], out)
+    summary, ran, _ = run(out, ReproduceConfig(**{**REDUCED.__dict__, "manifold": "ukr"}), force=True)
+    assert not any(name.startswith(("generate", "train", "resume_box")) for name in ran)  # the SOM's stages kept
+    assert {"fit_ukr_all", "fit_ukr_cylinder", "evaluate_box_ukr_all", "resume_ukr_sphere"} <= set(ran)
+    assert set(summary["manifolds"]) == {"box", "cylinder", "sphere", "all"}
+    for name in ("box", "cylinder", "sphere"):
+        fitted = gm.UKR.load(out / "manifolds" / f"{name}.npz")
+        assert fitted.latent_dim == 2 and summary["manifolds"][name]["loo"] < summary["manifolds"][name]["loo_start"]
+        assert (out / "manifolds" / f"{name}_resumed.npz").exists()
+    assert {(r["method"], r["control"]) for r in summary["manifold_comparisons"]} == {("ukr", "som"),
+                                                                                      ("ukr_all", "som_all")}
+    report = (out / "report.md").read_text()
+    assert "## The continuous manifold beside the SOM" in report and "| ukr |" in report
+    if summary["figures"]["rendered"]:
+        assert "ukr_cylinder_latent" in summary["figures"]["figures"]
+        assert (out / "figures" / "ukr_cylinder_latent.png").exists()
+    assert 'manifold = "ukr"' in (out / "config.toml").read_text()
+    with pytest.raises(ValueError, match="manifold must be one of"):
+        ReproduceConfig(**{**REDUCED.__dict__, "manifold": "gtm"})
+
+
 def test_a_run_interrupted_during_evaluation_resumes(finished):
     out, _, _ = finished
     # as if killed while evaluating the sphere with the SOM: no manifest, no result file

@@ -167,3 +167,38 @@ def test_every_representation_is_made_by_name_and_recalled_in_a_trial(tmp_path):
     ukr = fit_representation("ukr", postures, progress=False)
     result = gm.evaluate("cylinder", ukr, np.array([[0.0, 0.0, 0.01, 0.0]]), workers=1, progress=False, method="ukr")
     assert result.summary["trials"] == 1 and result.method == "ukr"
+
+
+def test_touch_masks_hide_each_finger_from_its_tip_and_random_masks_anywhere():
+    from graspmanifold.studies.completion import masks
+
+    for level, hidden in ((0.25, 6), (0.5, 11), (0.75, 16)):
+        touch = masks("touch", level, 200, seed=0)
+        assert np.all((~touch).sum(axis=1) == hidden)
+        for chain in (slice(0, 4), slice(4, 8), slice(8, 12), slice(12, 17), slice(17, 22)):  # base to tip
+            given = touch[:, chain].astype(int)
+            assert np.all(np.diff(given, axis=1) <= 0), "a specified joint beyond a hidden one of its finger"
+        assert np.all((~masks("random", level, 50, seed=0)).sum(axis=1) == hidden)
+    np.testing.assert_array_equal(masks("touch", 0.5, 10, seed=3), masks("touch", 0.5, 10, seed=3))
+    with pytest.raises(gm.InvalidInput, match="scheme must be one of"):
+        masks("touch", 1.0, 3, seed=0)
+
+
+def test_the_completion_study_runs_on_posture_files(tmp_path):
+    from graspmanifold.studies.completion import main
+
+    for seed in (0, 1):
+        for k, name in enumerate(("box", "pen")):
+            postures = sheet(70, seed=10 * seed + k)
+            gm.PostureSet(postures=postures, hand_poses=np.tile([0, 0, 0.1, 1, 0, 0, 0.0], (70, 1)),
+                          start_ids=np.zeros(70, int), contacts=np.ones((70, len(gm.SEGMENTS)), bool),
+                          epsilon=np.zeros(70), hold_displacement=np.zeros(70), start_names=("s",),
+                          metadata={}).save(tmp_path / f"experience_{name}{f'_seed{seed}' if seed else ''}.npz")
+    doc = tmp_path / "report.md"
+    main(["--quick", "--no-trials", "--postures", str(tmp_path), "--out", str(tmp_path / "out"), "--doc", str(doc)])
+    text = doc.read_text()
+    assert "| ukr2 | touch/0.50 | 280 |" in text and "components for 90 %" in text
+    assert (tmp_path / "report_errors.png").exists() and "Target" in text
+    info = __import__("json").loads((tmp_path / "out" / "study.json").read_text())
+    rows = {(r["representation"], r["condition"]): r for r in info["completion"]["rows"]}
+    assert rows[("ukr2", "touch/0.25")]["deg_mean"] < rows[("pca2", "touch/0.25")]["deg_mean"]  # a bent sheet

@@ -299,7 +299,7 @@ def _reproduce(args: argparse.Namespace) -> int:
                              meshes=meshes)
         elif args.scale != 1.0:
             raise InvalidInput("--scale is for the mesh files --object names")
-        given = {"hand": args.hand, "controller": args.controller, "protocol": args.protocol}
+        given = {"hand": args.hand, "controller": args.controller, "protocol": args.protocol, "manifold": args.manifold}
         given = {k: v for k, v in given.items() if not args.config or v != REPRODUCE_DEFAULTS[k]}
         if "controller" in given:
             given["controller"] = CONTROLLERS[given["controller"]]
@@ -319,7 +319,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
-REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL}
+REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL, "manifold": "som"}
 PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm), ours-faded "
                  "(ours after a support that fades over 0.3 s before the release), lift (the field's closed-loop "
                  "protocol: an arm raises the palm 0.2 m, held when the object rises 0.1 m; the hand on a flange) or "
@@ -370,10 +370,14 @@ def build_parser() -> argparse.ArgumentParser:
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
+    reproduce.add_argument("--manifold", choices=("som", "ukr"), default="som",
+                           help="the grasp manifold: som (the paper's), or ukr: a continuous UKR manifold trained beside "
+                           "the SOM on the same postures, run by the same controller (methods ukr, ukr_all), resumed "
+                           "with its own grasps; the report gives its figures beside the SOM's")
     reproduce.add_argument("--config", metavar="FILE.toml",
                            help="an experiment file: the preset's configuration changed by its keys (ReproduceConfig's "
                            "fields; [generator] and [controller] tables); a run writes the one it used to "
-                           "OUT/config.toml. --hand, --controller and --protocol change it again where given")
+                           "OUT/config.toml. --hand, --controller, --protocol and --manifold change it again where given")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")

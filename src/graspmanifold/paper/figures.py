@@ -4,7 +4,9 @@ Fig. 3 / 7: a 10 x 10 extract of a map as hand pictures (seen from the thumb sid
 flexion shows), cell borders coloured by the node's mean distance to its neighbours on one colour
 scale with a colourbar, a black bar for the training data per node; Fig. 7 shows Fig. 3's window on
 Fig. 3's scale. Fig. 4 / 6 / 8: lattice plots (`plots.plot_lattice`). Fig. 5: 1 x 4 runs across a
-cluster border, chosen by the rule of `analysis.border_runs`.
+cluster border, chosen by the rule of `analysis.border_runs`. A continuous manifold (`manifold.ukr.UKR`) gets both
+views in one figure (`latent_figure`): a grid of postures over its latent space, and the latent path between two
+clusters' centres with the step between neighbours.
 """
 
 from __future__ import annotations
@@ -18,9 +20,10 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from ..manifold.analysis import border_measures, border_runs, node_distances
+from ..manifold.analysis import border_measures, border_runs, latent_grid, latent_path, node_distances
 from ..manifold.plots import plot_lattice
 from ..manifold.som import SOM
+from ..manifold.ukr import UKR
 from ..trials.stats import wilson_interval
 
 #: the border colour of a node picture: its mean distance to its neighbours, small to large. The
@@ -151,4 +154,65 @@ def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure
         ax.set_yticks(np.linspace(0, 1, 6))
         ax.set_ylabel(f"{label} rate (95 % CI)")
     axes[0].legend(fontsize=8, ncol=len(methods), loc="upper center")
+    return figure
+
+
+def cluster_ends(ukr: UKR, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The latent centres of the two largest clusters of a manifold's training postures (ties: the lower label).
+
+    Args:
+        ukr: the fitted manifold.
+        labels: (n,) a cluster label per training posture, in its order (a posture set's `start_ids`).
+
+    Returns:
+        The two latent points (q,), (q,); one cluster: its centre and the training point farthest from it.
+    """
+    labels = np.asarray(labels)
+    values, counts = np.unique(labels, return_counts=True)
+    order = values[np.lexsort((values, -counts))]
+    first = ukr.latent[labels == order[0]].mean(axis=0)
+    if len(order) > 1:
+        return first, ukr.latent[labels == order[1]].mean(axis=0)
+    return first, ukr.latent[np.argmax(np.linalg.norm(ukr.latent - first, axis=1))]
+
+
+def latent_figure(ukr: UKR, render: Renderer, start: np.ndarray, end: np.ndarray, title: str = "",
+                  size: int = 5, steps: int = 6) -> Figure:
+    """Figs. 3 and 5 for a continuous manifold: hand pictures of its postures on a size x size grid over its latent
+    space (`analysis.latent_grid`), and along the latent path from `start` to `end` (`analysis.latent_path`) with
+    the step between neighbours and each point's distance to the nearest training latent point.
+
+    Args:
+        ukr: the fitted manifold.
+        render: postures to pictures.
+        start: (q,) the path's first latent point.
+        end: (q,) its last.
+        title: the figure's title.
+        size: grid points along an axis.
+        steps: pictures along the path.
+
+    Returns:
+        The figure.
+    """
+    _, grid = latent_grid(ukr, size)
+    path = latent_path(ukr, start, end, steps)
+    flat = grid.reshape(-1, grid.shape[-1])
+    pictures = render(np.concatenate([flat, path["postures"]]))
+    rows, cols = grid.shape[:2]
+    figure = Figure(figsize=(1.5 * max(cols, steps), 1.5 * rows + 2.4))
+    height = 1.5 * rows + 2.4
+    for k, picture in enumerate(pictures[:len(flat)]):
+        ax = figure.add_axes([(k % cols) / max(cols, steps), 1 - (0.4 + 1.5 * (k // cols + 1)) / height,
+                              1 / max(cols, steps), 1.45 / height])
+        ax.imshow(picture)
+        ax.set_axis_off()
+    for k, picture in enumerate(pictures[len(flat):]):
+        ax = figure.add_axes([k / max(cols, steps), 0.02, 1 / max(cols, steps), 1.45 / height])
+        ax.imshow(picture)
+        ax.set_axis_off()
+        step = f"+{path['steps_deg'][k - 1]:.0f}°, " if k else ""
+        ax.set_title(f"{step}{path['support'][k]:.1f} from data", fontsize=7)
+    figure.text(0.01, 1 - 0.3 / height, f"{title}: a {rows} x {cols} grid over the latent space", fontsize=9)
+    figure.text(0.01, 1.9 / height, "the latent path between two clusters: step from the previous posture; "
+                "latent distance to the nearest training point (bandwidths)", fontsize=9)
     return figure

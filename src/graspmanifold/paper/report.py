@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +20,7 @@ from ..control.controller import BLEND, ControllerParams
 from ..control.judge import JUDGING
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
+from ..manifold.ukr import UKR
 from ..sim.hand import SHADOW_HAND
 from ..sim.objects import DEFAULT_FRICTION, make_object
 from ..trials.evaluation import EvaluationResult, trial_count
@@ -39,9 +40,13 @@ RUN_METHODS = ("none", "database", "som", "som_all")
 BLEND_METHODS = ("database_blend", "som_blend")  # the database and the SOM under `BLEND`, beside another controller
 
 
-def run_methods(controller: ControllerParams) -> tuple[str, ...]:
-    """The evaluation methods of a run with this controller: `BLEND_METHODS` too beside any other than `BLEND`."""
-    return RUN_METHODS + (() if controller == BLEND else BLEND_METHODS)
+UKR_METHODS = ("ukr", "ukr_all")  # the UKR manifolds of a run with `--manifold ukr`, beside the SOMs
+
+
+def run_methods(controller: ControllerParams, manifold: str = "som") -> tuple[str, ...]:
+    """The evaluation methods of a run with this controller and manifold: `BLEND_METHODS` too beside any controller
+    other than `BLEND`, `UKR_METHODS` too with the UKR manifold."""
+    return RUN_METHODS + (UKR_METHODS if manifold == "ukr" else ()) + (() if controller == BLEND else BLEND_METHODS)
 #: the figures that draw the hand (they need offscreen OpenGL), by the paper's figure number
 RENDERED_KINDS = ("fig3", "fig5", "fig7")
 
@@ -67,6 +72,8 @@ class RunData:
     maps: dict[str, SOM]
     resumed: dict[str, SOM]
     results: dict[tuple[str, str], EvaluationResult]
+    manifolds: dict[str, UKR] = field(default_factory=dict)  # a `--manifold ukr` run's, by object (and "all")
+    resumed_manifolds: dict[str, UKR] = field(default_factory=dict)
 
     @classmethod
     def load(cls, out: str | os.PathLike) -> RunData:
@@ -89,11 +96,23 @@ class RunData:
         for path in sorted((out / "evaluation").glob("*.npz")):  # each result names its object and method
             result = EvaluationResult.load(path)
             results[(result.object.name, result.method)] = result
-        return cls(config, sets, maps, resumed, results)
+        files = sorted((out / "manifolds").glob("*.npz"))
+        manifolds = {p.stem: UKR.load(p) for p in files if not p.stem.endswith("_resumed")}
+        resumed_manifolds = {p.stem[: -len("_resumed")]: UKR.load(p) for p in files if p.stem.endswith("_resumed")}
+        return cls(config, sets, maps, resumed, results, manifolds, resumed_manifolds)
 
 
 def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callable]:
-    from .figures import border_figure, choose_extract, distance_scale, extract_figure, lattice_panels, rates_figure
+    from .figures import (
+        border_figure,
+        choose_extract,
+        cluster_ends,
+        distance_scale,
+        extract_figure,
+        latent_figure,
+        lattice_panels,
+        rates_figure,
+    )
 
     obj = figure_object(list(run.sets))
     train_hits = {name: run.maps[name].hit_counts(s.postures) for name, s in run.sets.items()}
@@ -111,7 +130,7 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
     builders[f"fig8_{obj}_resumed"] = lambda: lattice_panels(
         resumed, [("a) inter-node distances", None), ("b) training data", resumed_train),
                   ("c) evaluation postures", resumed_eval)], f"Fig. 8: {obj} map after resumed learning")
-    methods = RUN_METHODS + tuple(m for m in BLEND_METHODS if (obj, m) in run.results)
+    methods = RUN_METHODS + tuple(m for m in (*UKR_METHODS, *BLEND_METHODS) if (obj, m) in run.results)
     builders["rates"] = lambda: rates_figure([r.summary for r in run.results.values()], methods)
     if render is not None:
         corner, scale = choose_extract(run.maps[obj]), distance_scale(run.maps[obj])  # Fig. 7 shares both
@@ -121,6 +140,10 @@ def _figure_builders(run: RunData, render: Callable | None) -> dict[str, Callabl
                                                                "Fig. 5: across cluster borders", scale)
         builders[f"fig7_{obj}_resumed_extract"] = lambda: extract_figure(
             resumed, resumed_train, render, corner, title=f"Fig. 7: {obj} map after resumed learning", scale=scale)
+        if obj in run.manifolds:
+            ends = cluster_ends(run.manifolds[obj], run.sets[obj].start_ids)
+            builders[f"ukr_{obj}_latent"] = lambda: latent_figure(
+                run.manifolds[obj], render, *ends, title=f"{obj}: the UKR manifold (Figs. 3 and 5 for a continuous map)")
     return builders
 
 
@@ -343,6 +366,7 @@ def _markdown(run: RunData, summary: dict) -> str:
                       f"{r['p_value']:.3g}", f"{h:.3g}", r["verdict"] if h < 0.05 else "no difference"] for r, h in
                      zip(summary["comparisons"], holm([r["p_value"] for r in summary["comparisons"]]))]),
              f"{summary['verdict']}\n\n",
+             *_manifold_section(summary),
              "## Where the evaluation grasps land (Section 5)\n\n",
              "The paper observed that successful grasps of the experience-based controller match mostly "
              "inter-cluster nodes, which no training posture falls on.\n\n",
@@ -374,6 +398,30 @@ def _markdown(run: RunData, summary: dict) -> str:
     for name in info.get("figures", []):
         parts.append(f"![{name}](figures/{name}.png)\n\n")
     return "".join(parts)
+
+
+def _manifold_section(summary: dict) -> list[str]:
+    """The report's section on a `--manifold ukr` run's continuous manifolds (none for a SOM-only run)."""
+    manifolds = summary.get("manifolds") or {}
+    if not manifolds:
+        return []
+    return ["## The continuous manifold beside the SOM (UKR, the paper's future work)\n\n",
+            "A UKR manifold (`manifold.ukr.UKR`) trained on each map's postures, run by the same controller "
+            "(`ukr`, `ukr_all`) and resumed with its own successful grasps as the SOM is. Its fit: the spectral "
+            "start it chose and the leave-one-out reconstruction error (rad², mean squared norm) from that start, "
+            "fitted, and after the resumed learning.\n\n",
+            _table(["postures of", "postures", "latent dimensions", "start", "leave-one-out start → fitted",
+                    "resumed: postures added, leave-one-out"],
+                   [[n, m["postures"], m["latent_dim"], m["start"], f"{_fmt(m['loo_start'])} → {_fmt(m['loo'])}",
+                     f"{m.get('resumed_postures', '–')}, {_fmt(m.get('loo_resumed'))}"] for n, m in manifolds.items()]),
+            "Each UKR method against the SOM method of the same postures, on the same poses (McNemar's exact test, "
+            "Holm over these rows):\n\n",
+            _table(["object", "method", "hold", "SOM's", "only UKR held", "only SOM held", "p", "Holm p", "verdict"],
+                   [[r["object"], f"{r['method']} vs {r['control']}", r["rate_text"], r["control_text"],
+                     r["only_method"], r["only_control"], f"{r['p_value']:.3g}", f"{h:.3g}",
+                     r["verdict"] if h < 0.05 else "no difference"]
+                    for r, h in zip(summary["manifold_comparisons"],
+                                    holm([r["p_value"] for r in summary["manifold_comparisons"]]))])]
 
 
 def figure_from_run(run_dir: str | os.PathLike, name: str, out_dir: str | os.PathLike | None = None) -> dict:

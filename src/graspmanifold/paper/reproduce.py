@@ -44,6 +44,7 @@ from ..control.generator import (
 )
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
+from ..manifold.ukr import UKR
 from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
 from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, hand_name
@@ -57,6 +58,9 @@ from .summary import summarize
 #: five fingertip contacts, as the paper did (Section 5 describes no verification); `verified`, our extension,
 #: keeps those of them that hold when replayed (`generator.verify_postures`)
 PROCEDURES: tuple[str, ...] = ("paper", "verified")
+#: the grasp manifolds a run trains: the paper's SOMs, or beside them continuous UKR manifolds (`manifold.ukr.UKR`,
+#: its defaults) of the same postures, evaluated and resumed as the SOMs are
+MANIFOLDS: tuple[str, ...] = ("som", "ukr")
 
 
 @dataclass(frozen=True)
@@ -71,7 +75,8 @@ class ReproduceConfig:
     the hand model the postures are generated and the trials run on (`hand_models.HAND_MODELS`, or an MJCF file);
     `controller` the controller's (the paper's reading; beside any but `BLEND`, also `report.BLEND_METHODS`);
     `protocol` how the trials are judged (`protocols.PROTOCOLS`: our hold test, with the margin the report
-    shows, or a DexGraspBench version, without it)."""
+    shows, or a DexGraspBench version, without it); `manifold` the grasp manifolds (`MANIFOLDS`: the paper's SOMs, or
+    beside them UKR manifolds of the same postures, `report.UKR_METHODS`)."""
 
     postures: dict[str, int]
     grid: str | tuple = "quick"
@@ -87,6 +92,7 @@ class ReproduceConfig:
     controller: ControllerParams = field(default_factory=ControllerParams)
     protocol: str = DEFAULT_PROTOCOL
     meshes: dict[str, dict] = field(default_factory=dict)
+    manifold: str = "som"
 
     def __post_init__(self) -> None:
         if not isinstance(self.meshes, dict):
@@ -105,6 +111,7 @@ class ReproduceConfig:
                                         .resolve()), "scale": float(scale)}
         object.__setattr__(self, "meshes", meshes)
         check_choice(self.protocol, PROTOCOL_NAMES, "ReproduceConfig.protocol")
+        check_choice(self.manifold, MANIFOLDS, "ReproduceConfig.manifold")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
         if not isinstance(self.controller, ControllerParams):
             raise InvalidInput(f"ReproduceConfig.controller must be ControllerParams (controller.CONTROLLERS names "
@@ -345,8 +352,10 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     write_text_atomic(out / "config.toml", to_toml(config, {"meshes": relative}))
     objects = tuple(config.postures)
     verified = config.procedure == "verified"
-    methods = run_methods(config.controller)
-    stages = _Stages(out, log, total=(3 + verified) * len(objects) + 2 + len(objects) * len(methods))
+    methods = run_methods(config.controller, config.manifold)
+    continuous = config.manifold == "ukr"
+    stages = _Stages(out, log, total=(3 + verified + 2 * continuous) * len(objects) + 2 + continuous
+                     + len(objects) * len(methods))
     started = time.perf_counter()
 
     # 1. posture sets
@@ -391,17 +400,26 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
         stages.run(f"train_{name}", result_key(config.map_size, schedule, config.seed, *inputs), [path], train)
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
+    manifold_paths = {name: out / "manifolds" / f"{name}.npz" for name in (*objects, "all")} if continuous else {}
+    for name, path in manifold_paths.items():
+        def fit(name=name, path=path):
+            data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
+            UKR().fit(data, progress=True).save(path)
+        inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
+        stages.run(f"fit_ukr_{name}", result_key("ukr", *inputs), [path], fit)
+    manifolds = {name: UKR.load(path) for name, path in manifold_paths.items()}
 
     # 3. evaluation of every method on every object
     eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in objects for m in methods}
     for (name, method), path in eval_paths.items():
         kind = method.removesuffix("_blend")  # a `_blend` method: the same experience under the BLEND controller
         params = BLEND if method.endswith("_blend") else config.controller
-        inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]]}
+        inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]],
+                  **({"ukr": [manifold_paths[name]], "ukr_all": [manifold_paths["all"]]} if continuous else {})}
 
         def run_evaluation(name=name, method=method, path=path, kind=kind, params=params):
-            experience = {"none": None, "database": PostureDatabase(sets[name].postures),
-                          "som": maps[name], "som_all": maps["all"]}[kind]
+            experience = {"none": None, "database": PostureDatabase(sets[name].postures), "som": maps[name],
+                          "som_all": maps["all"], "ukr": manifolds.get(name), "ukr_all": manifolds.get("all")}[kind]
             parts = path.with_name(path.stem + ".parts")
             result = evaluate(config.object(name), experience, _grid(config), seed=config.seed, workers=executor or workers,
                               checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
@@ -427,11 +445,24 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
             return {"postures": int(len(successes))}
         stages.run(f"resume_{name}", result_key(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]), [path], resume)
     resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
+    resumed_manifold_paths = {name: out / "manifolds" / f"{name}_resumed.npz" for name in objects} if continuous else {}
+    for name, path in resumed_manifold_paths.items():
+        def resume_manifold(name=name, path=path):
+            successes = results[(name, "ukr")].successful_postures()
+            resumed = copy.copy(manifolds[name])  # `resume` replaces its (read-only) arrays: the original keeps its own
+            if len(successes):
+                resumed.resume(successes, progress=True)
+            resumed.save(path)
+            return {"postures": int(len(successes))}
+        stages.run(f"resume_ukr_{name}", result_key("ukr", manifold_paths[name], eval_paths[(name, "ukr")]), [path],
+                   resume_manifold)
+    resumed_manifolds = {name: UKR.load(path) for name, path in resumed_manifold_paths.items()}
 
     # 5. figures, 6. report
-    run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results)
+    run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results, manifolds,
+                  resumed_manifolds)
     figure_key = result_key(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
-                         *eval_paths.values())
+                            *eval_paths.values(), *manifold_paths.values())
     figure_info = stages.run("figures", figure_key, [out / "figures"],
                              lambda: write_figures(out / "figures", run, log))
     summary = summarize(run, figure_info).to_json()

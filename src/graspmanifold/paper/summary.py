@@ -5,7 +5,7 @@ the report only writes it.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -17,9 +17,10 @@ from ..base.paper_numbers import (
 )
 from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_deg, node_distances, smoothness
 from ..manifold.som import SOM
+from ..manifold.ukr import UKR
 from ..trials.evaluation import EvaluationResult
 from ..trials.study import comparison_rows, judge_target
-from .report import BLEND_METHODS, RunData, figure_object
+from .report import BLEND_METHODS, UKR_METHODS, RunData, figure_object
 from .verdicts import judge_claims, verdict_rows
 
 
@@ -83,6 +84,8 @@ class RunSummary:
         comparisons: the paired comparisons of the experience-based methods against the plain controller.
         verdict: does experience beat the plain controller (`study.judge_target`).
         claims: the verdict per claim of the paper (`verdicts.judge_claims`).
+        manifolds: a `--manifold ukr` run's UKR manifolds per object: their fit and resumed learning.
+        manifold_comparisons: each UKR method against the SOM method of the same data on the same poses.
     """
 
     library_version: str
@@ -95,6 +98,8 @@ class RunSummary:
     comparisons: list[dict]
     verdict: str
     claims: list[dict]
+    manifolds: dict = field(default_factory=dict)
+    manifold_comparisons: list[dict] = field(default_factory=list)
 
     def to_json(self) -> dict:
         """The summary as plain data, as `summary.json` holds it.
@@ -178,11 +183,26 @@ def summarize(run: RunData, figure_info: dict) -> RunSummary:
     obj = figure_object(names)
     obj_hits = run.maps[obj].hit_counts(run.sets[obj].postures)
     keyed = {(o, run.results[(o, m)].grid_name, m): r for (o, m), r in run.results.items()}
-    rows = comparison_rows(keyed, ("database", "som", "som_all", *BLEND_METHODS), ("none",))
+    rows = comparison_rows(keyed, ("database", "som", "som_all", *UKR_METHODS, *BLEND_METHODS), ("none",))
     summary = RunSummary(
         library_version=library_version(), procedure=run.config.get("procedure", "paper"), objects=objects,
         evaluation=[result.summary for result in run.results.values()], figures=figure_info, figure_object=obj,
         fig5={"object": obj, "runs": border_measures(run.maps[obj], obj_hits, border_runs(run.maps[obj], obj_hits))},
         comparisons=rows, verdict=judge_target(rows).text, claims=[])
     summary.claims = verdict_rows(judge_claims(summary.to_json()))
+    if run.manifolds:
+        summary.manifolds = {name: _manifold_summary(run.manifolds[name], run.resumed_manifolds.get(name))
+                             for name in run.manifolds}
+        summary.manifold_comparisons = [*comparison_rows(keyed, ("ukr",), ("som",)),
+                                        *comparison_rows(keyed, ("ukr_all",), ("som_all",))]
     return summary
+
+
+def _manifold_summary(ukr: UKR, resumed: UKR | None) -> dict:
+    """A UKR manifold's fit (its start, leave-one-out errors) and its resumed learning."""
+    fit = ukr.history[0]
+    out = {"postures": len(ukr.postures), "latent_dim": ukr.latent_dim, "start": fit.get("start"),
+           "scale": fit.get("scale"), "loo_start": fit.get("loo_start"), "loo": fit.get("loo")}
+    if resumed is not None:
+        out |= {"resumed_postures": len(resumed.postures) - len(ukr.postures), "loo_resumed": resumed.loo_error()}
+    return out

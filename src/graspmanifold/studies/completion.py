@@ -51,7 +51,7 @@ from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import fingerprint, load_npz, markdown_table, save_npz
 from ..control.controller import APPROACH, ControllerParams
 from ..control.dexgraspbench import open_loop_grasps
-from ..manifold.analysis import latent_grid, latent_path
+from ..manifold.analysis import latent_path
 from ..manifold.experience import Experience, PostureDatabase
 from ..manifold.linear import LinearManifold
 from ..manifold.postureset import PostureSet
@@ -346,36 +346,21 @@ def figures(info: dict, path: Path, ukr: UKR | None, sets: list[dict[str, Postur
 
 
 def rendered_figures(ukr: UKR, path: Path, sets: list[dict[str, PostureSet]], image: int = 96) -> dict:
-    """Figs. 3 and 5 for the 2-d UKR (hand pictures, offscreen OpenGL): a 5 x 5 grid over its latent space, and the
-    path between the latent centres of the box's and the sphere's postures; returns what they show."""
-    from matplotlib.figure import Figure
-
+    """Figs. 3 and 5 for the 2-d UKR of fold 0 (`paper.figures.latent_figure`: hand pictures, offscreen OpenGL): a
+    grid over its latent space and the path between the latent centres of the box's and the sphere's postures;
+    returns what the path shows."""
+    from ..paper.figures import latent_figure
     from ..sim.render import render_postures
 
-    _, grid = latent_grid(ukr, 5)
-    seed1 = list(sets[1])
-    offsets = np.cumsum([0] + [len(s) for s in sets[1].values()])
-    centre = {name: ukr.latent[offsets[i]:offsets[i + 1]].mean(axis=0) for i, name in enumerate(seed1)}
-    ends = ("box", "sphere") if {"box", "sphere"} <= set(centre) else tuple(seed1[:2])
-    path_info = latent_path(ukr, centre[ends[0]], centre[ends[1]], 6)
-    pictures = render_postures(np.concatenate([grid.reshape(-1, N_FINGER_JOINTS), path_info["postures"]]), image)
-    figure = Figure(figsize=(12, 7.5))
-    for k, picture in enumerate(pictures[:25]):
-        ax = figure.add_axes([0.01 + 0.095 * (k % 5), 0.9 - 0.18 * (k // 5 + 1) + 0.08, 0.093, 0.17])
-        ax.imshow(picture)
-        ax.set_axis_off()
-    for k, picture in enumerate(pictures[25:]):
-        ax = figure.add_axes([0.5 + 0.082 * k, 0.42, 0.08, 0.2])
-        ax.imshow(picture)
-        ax.set_axis_off()
-        if k:
-            ax.set_title(f"+{path_info['steps_deg'][k - 1]:.0f}°", fontsize=8)
-    figure.text(0.03, 0.97, "Fig. 3 for UKR: postures on a 5 x 5 grid over the latent space", fontsize=10)
-    figure.text(0.5, 0.66, f"Fig. 5 for UKR: the latent path from the {ends[0]}'s postures to the {ends[1]}'s",
-                fontsize=10)
+    labels = np.concatenate([np.full(len(s), name) for held in sets[1:] for name, s in held.items()])
+    ends = ("box", "sphere") if {"box", "sphere"} <= set(labels) else tuple(sets[1])[:2]
+    start, end = (ukr.latent[labels == name].mean(axis=0) for name in ends)
+    figure = latent_figure(ukr, lambda postures: render_postures(postures, image), start, end,
+                           title="the 2-d UKR of all seven objects", steps=6)
     figure.savefig(path, dpi=110)
-    return {"file": path.name, "ends": list(ends), "steps_deg": path_info["steps_deg"].tolist(),
-            "intermediate": path_info["intermediate"].tolist(), "support": path_info["support"].tolist()}
+    measures = latent_path(ukr, start, end, 6)
+    return {"file": path.name, "ends": list(ends), "steps_deg": measures["steps_deg"].tolist(),
+            "intermediate": measures["intermediate"].tolist(), "support": measures["support"].tolist()}
 
 
 def report(info: dict) -> str:
