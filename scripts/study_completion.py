@@ -1,4 +1,6 @@
-"""The completion study (`graspmanifold.studies.completion`: its docstring says what it runs, `--help` its options)."""
+"""The completion study (issue 68): a thin command over `graspmanifold.studies.completion`."""
+
 from graspmanifold.studies.completion import main
+
 if __name__ == "__main__":
     main()

@@ -1,8 +1,4 @@
-"""The experience study: does recalling experience choose better grasps than fixed preshapes, once and with a regrasp?
-
-A thin command over `graspmanifold.studies.experience`, whose docstring says what it runs and writes; `--help` lists
-its options.
-"""
+"""The experience study (does recalled experience choose better grasps?): a thin command over its module."""
 
 from graspmanifold.studies.experience import main
 

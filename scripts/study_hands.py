@@ -1,8 +1,4 @@
-"""The library on the community's Shadow Hands beside ours: the cross-model table (issue 28).
-
-A thin command over `graspmanifold.studies.hands`, whose docstring says what it runs and writes; `--help` lists
-its options.
-"""
+"""The community's Shadow Hands beside ours (issue 28): a thin command over `graspmanifold.studies.hands`."""
 
 from graspmanifold.studies.hands import main
 

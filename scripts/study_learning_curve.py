@@ -1,8 +1,4 @@
-"""The learning curve: does the hold rate grow with the experience, generated and the controller's own?
-
-A thin command over `graspmanifold.studies.learning_curve`, whose docstring says what it runs and writes; `--help`
-lists its options.
-"""
+"""The learning curve (issue 51): a thin command over `graspmanifold.studies.learning_curve`."""
 
 from graspmanifold.studies.learning_curve import main
 

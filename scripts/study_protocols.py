@@ -1,8 +1,4 @@
-"""Our grasps judged the way the field judges them: DexGraspBench's protocol beside our hold test.
-
-A thin command over `graspmanifold.studies.protocols`, whose docstring says what it runs and writes; `--help` lists
-its options.
-"""
+"""DexGraspBench's protocol beside our hold test: a thin command over `graspmanifold.studies.protocols`."""
 
 from graspmanifold.studies.protocols import main
 
