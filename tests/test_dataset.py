@@ -79,9 +79,13 @@ def test_a_dataset_folder_to_verified_grasps_a_map_and_controllers_in_one_comman
     assert rows["box"]["loaded"] == "as shipped" and rows["box"]["postures"] == 2 and len(rows["box"]["digest"]) == 16
     assert report["trials"]["hand"] == "ours" and report["trials"]["protocol"] == "ours" and report["versions"]["code"]
     assert {m: n for m, (_, n) in rows["box"]["results"].items()} == {"none": 1, "database": 1, "som": 1}
-    assert (out / "maps" / "box.npz").exists()
+    assert (out / "maps" / "box_som.npz").exists()
     assert "Loaded 1 of 2; 1 got 2 verified postures." in table and "| sheet | refused:" in table
     assert "Every object's trials together" in table and [row[:2] for row in report["pooled"]] == [["database", 1],
                                                                                                     ["som", 1]]
     assert main(command) == 0  # a rerun takes what is done
     assert json.loads((out / "dataset.json").read_text())["objects"] == report["objects"]
+    assert main([*command, "--manifold", "linear"]) == 0  # another manifold by name: only its trials run
+    rows = {row["object"]: row for row in json.loads((out / "dataset.json").read_text())["objects"]}
+    assert set(rows["box"]["results"]) == {"none", "database", "linear"} and (out / "maps" / "box_linear.npz").exists()
+    assert "| linear |" in capsys.readouterr().out

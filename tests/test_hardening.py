@@ -219,6 +219,8 @@ CLI_MISTAKES = [
     (["evaluate", "--experience", "none", "--out", "{tmp}/loop"], "symbolic link that leads nowhere"),
     (["evaluate", "--experience", "som", "--som", "/dev/zero", "--out", "{tmp}/eval"], "/dev/zero is a device"),
     (["evaluate", "--experience", "som", "--som", "{tmp}/fifo.stl", "--out", "{tmp}/eval"], "is a FIFO"),
+    (["evaluate", "--experience", "ukr", "--map", "{tmp}/picture.png", "--out", "{tmp}/eval"],
+     "not a readable .npz file of graspmanifold's"),
     (["evaluate", "--experience", "database", "--postures", "{tmp}/absent.npz", "--out", "{tmp}/eval"],
      "no such file: .*absent.npz"),
     (["demo", "--object", "{tmp}/picture.png"], ".png is not a mesh format"),

@@ -37,7 +37,8 @@ _FILE_KINDS = {SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: Li
 
 def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progress: bool | None = None
                        ) -> Experience:
-    """A representation of these postures, trained with the library's defaults.
+    """A representation of these postures, trained with the library's defaults (on fewer postures than they need,
+    a UKR or linear manifold of fewer dimensions: at least 3 postures for a UKR, 2 for a linear one).
 
     Args:
         name: one of `REPRESENTATIONS`.
@@ -54,9 +55,9 @@ def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progre
         return PostureDatabase(data)
     if name == "som":
         return SOM(*MAP_SIZE, data.shape[-1], seed=seed).fit(data, progress=progress)
-    if name == "ukr":
-        return UKR().fit(data, progress=progress)
-    return LinearManifold().fit(data)
+    if name == "ukr":  # a handful of postures: as many latent dimensions as they carry
+        return UKR(max(1, min(2, len(data) - 2))).fit(data, progress=progress)
+    return LinearManifold(max(1, min(5, len(data) - 1, data.shape[-1]))).fit(data)
 
 
 def load_representation(path: str | os.PathLike) -> Experience:

@@ -31,18 +31,33 @@ from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.progress import progress_bar
 from ..control.generator import generate_postures
 from ..manifold.postureset import PostureSet
-from ..manifold.som import SOM
+from ..manifold.experience import Experience
+from ..manifold.representations import fit_representation
 from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
 from ..sim.objects import GraspObject, make_object
 from ..trials.evaluation import evaluate
 from ..trials.grid import GRID_PRESETS, grid_preset
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import compare, train_experience_map
+from ..trials.study import compare
 from ..trials.trial import TrialSetup
 from .runner import StudyRun, comparison_table, holm_family, run_study
 
 #: the controllers compared on each object, by the experience they recall
 METHODS = ("none", "database", "som")
+#: the grasp manifolds `--manifold` may name instead of the SOM (`manifold.representations.REPRESENTATIONS`)
+MANIFOLDS = ("som", "ukr", "linear")
+
+
+def methods(manifold: str = "som") -> tuple[str, ...]:
+    """The controllers compared, by the experience they recall: `METHODS` with the manifold `--manifold` names.
+
+    Args:
+        manifold: one of `MANIFOLDS`.
+
+    Returns:
+        ('none', 'database', manifold).
+    """
+    return (*METHODS[:2], manifold)
 
 
 def object_files(folder: str | Path) -> list[Path]:
@@ -126,6 +141,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (an object file "
                         "gives its own)")
     parser.add_argument("--seed", type=int, default=0, help="the generator's and the trials' seed")
+    parser.add_argument("--manifold", choices=MANIFOLDS, default="som", help="the grasp manifold trained on each "
+                        "object's postures: the paper's 25 x 25 SOM, a 2-d UKR or a 5-component linear one (PCA)")
     parser.add_argument("--workers", type=int, default=2, help="parallel worker processes")
     parser.add_argument("--out", default="dataset", help="output directory")
 
@@ -159,7 +176,7 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
             row = {"object": name, "file": str(path.relative_to(root)), "loaded": loaded}
             if obj is not None:
                 row |= _experience(args, study, obj)
-                if "som" in row.get("results", {}):
+                if args.manifold in row.get("results", {}):
                     tests.append((name, row.pop("comparison")))
             rows.append(row)
             study.log(f"{name}: {loaded}; {row.get('postures', 0)} verified postures")
@@ -167,15 +184,16 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
     tested = {r["label"]: r for r in holm_family(tests)}
     lines = [f"# Dataset {root.name}: experience and controllers on each object", "",
              f"{len(files)} object files; {args.postures} verified postures each (seed {args.seed}), the {args.grid} "
-             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `som` against "
+             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `{args.manifold}` against "
              "`none` on the same poses (McNemar, Holm over the objects).",
-             "", *markdown_table(["object", "loaded", "triangles", "verified postures", *METHODS,
-                                  "som - none (p Holm)"], [_table_row(r, tested) for r in rows]), ""]
+             "", *markdown_table(["object", "loaded", "triangles", "verified postures", *methods(args.manifold),
+                                  f"{args.manifold} - none (p Holm)"], [_table_row(r, tested, args.manifold)
+                                                                         for r in rows]), ""]
     loaded = [r for r in rows if not r["loaded"].startswith("refused")]
     lines += [f"Loaded {len(loaded)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
               f"{args.postures} verified postures.", "", "Every object's trials together (paired by pose):", "",
               *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"],
-                              pooled := pooled_rows(rows)), "", "Per object:", "",
+                              pooled := pooled_rows(rows, args.manifold)), "", "Per object:", "",
               *comparison_table(list(tested.values()))]
     for row in rows:
         row.pop("outcomes", None)
@@ -199,12 +217,18 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
     except GenerationError as error:
         return row | {"postures": 0, "note": str(error)}
     row["postures"] = len(postures)
-    experience: dict[str, PostureSet | SOM | None] = {"none": None}
+    experience: dict[str, PostureSet | Experience | None] = {"none": None}
     if len(postures):
         experience["database"] = postures
-        experience["som"] = som = train_experience_map(postures.postures, seed=args.seed)
-        (study.out / "maps").mkdir(exist_ok=True)
-        som.save(study.out / "maps" / f"{obj.name}.npz", extra={"object": obj.params(), "postures_key": key})
+        try:
+            made = fit_representation(args.manifold, postures.postures, seed=args.seed, progress=False)
+        except InvalidInput as error:  # too few postures for the manifold: its controller does not run here
+            row["note"] = f"no {args.manifold}: {error}"
+        else:
+            experience[args.manifold] = made
+            (study.out / "maps").mkdir(exist_ok=True)
+            made.save(study.out / "maps" / f"{obj.name}_{args.manifold}.npz",
+                      extra={"object": obj.params(), "postures_key": key})
     poses = grid_preset(args.grid, obj)
     if args.poses is not None and args.poses < len(poses):
         poses = poses[np.linspace(0, len(poses) - 1, args.poses).round().astype(int)]
@@ -217,26 +241,27 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
                                                                   progress=False))
     row["results"] = {m: [int(r.outcomes("hold").sum()), len(r.trials)] for m, r in results.items()}
     row["outcomes"] = {m: (r.outcomes("hold"), r.valid) for m, r in results.items()}
-    if "som" in results:
-        row["comparison"] = compare(results["som"], results["none"])
+    if args.manifold in results:
+        row["comparison"] = compare(results[args.manifold], results["none"])
     return row
 
 
-def pooled_rows(rows: list[dict]) -> list[list]:
+def pooled_rows(rows: list[dict], manifold: str = "som") -> list[list]:
     """Each controller against `none` over the trials of every object that ran all three (McNemar, paired by pose).
 
     Args:
         rows: the table's rows, with their 'outcomes'.
+        manifold: the grasp manifold of the third controller (`MANIFOLDS`).
 
     Returns:
         Table rows: method, trials, its hold and `none`'s [95 % Wilson CI], the difference and the p-value.
     """
-    ran = [row["outcomes"] for row in rows if set(row.get("outcomes", {})) == set(METHODS)]
+    ran = [row["outcomes"] for row in rows if set(row.get("outcomes", {})) == set(methods(manifold))]
     if not ran:
         return []
     none = np.concatenate([r["none"][0] for r in ran])
     table = []
-    for method in METHODS[1:]:
+    for method in methods(manifold)[1:]:
         held = np.concatenate([r[method][0] for r in ran])
         valid = np.concatenate([r[method][1] & r["none"][1] for r in ran])
         test = mcnemar(held, none, valid=valid)
@@ -253,9 +278,9 @@ def _setup_record() -> dict:
             "controller": setup.params.to_table()}
 
 
-def _table_row(row: dict, tested: dict) -> list:
+def _table_row(row: dict, tested: dict, manifold: str) -> list:
     results = row.get("results", {})
-    rates = [rate_text(*results[m]) if m in results else "-" for m in METHODS]
+    rates = [rate_text(*results[m]) if m in results else "-" for m in methods(manifold)]
     test = tested.get(row["object"])
     versus = f"{100 * test['difference']:+.1f} pts ({test['p_holm']:.2g})" if test else "-"
     loaded = row["loaded"] if len(row["loaded"]) < 90 else row["loaded"][:87] + "..."
