@@ -147,33 +147,47 @@ def online_epoch(weights_t: np.ndarray, data: np.ndarray, order: np.ndarray, rat
 #: a UKR kernel weight exp(-e) with e beyond this is dropped (below 4e-18 of the nearest latent point's)
 UKR_CUT = 40.0
 #: a masked completion stops when a step lowers its error by less than this fraction
-STEP_GAIN = 1e-6
+STEP_GAIN = 1e-4
 
 
 @compiled_kernel
-def ukr_point(latent: np.ndarray, postures: np.ndarray, z: np.ndarray, kernel: np.ndarray, kept: np.ndarray,
-              f: np.ndarray, jacobian: np.ndarray, centre: np.ndarray) -> int:
+def ukr_point(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray, z: np.ndarray, near: int,
+              kernel: np.ndarray, kept: np.ndarray, f: np.ndarray, jacobian: np.ndarray, centre: np.ndarray
+              ) -> tuple[int, int]:
     """The UKR manifold at the latent point z (q,): f = sum_i K_i y_i / sum_i K_i, K_i = exp(-|z - x_i|^2 / 2)
     (`UKR_CUT` applied), into f (dim,), its Jacobian df/dz = sum_i K_i (y_i - f)(x_i - centre)^T / sum_i K_i into
-    jacobian (dim, q) and the kernel-weighted latent centre into centre (q,). kernel (n,) and kept (n,) are scratch:
-    the first `count` entries of kept name the training points kept, kernel their weights; returns count."""
+    jacobian (dim, q) and the kernel-weighted latent centre into centre (q,).
+
+    The training points (latent, postures) come sorted by their first latent coordinate (`keys`); training point
+    `near` bounds the nearest one's squared distance b, so every point the kernel keeps (and the nearest) lies within
+    sqrt(b + 2 UKR_CUT) of z along the first coordinate: only that window is read (the same points and weights as
+    reading all). kernel (n,) and kept (n,) are scratch: the first `count` entries of kept name the training points
+    kept, kernel their weights. Returns count and the nearest point's index."""
     n, q = latent.shape
     dim = postures.shape[1]
-    nearest = math.inf
-    for i in range(n):
+    bound = 0.0
+    for a in range(q):
+        t = latent[near, a] - z[a]
+        bound += t * t
+    reach = math.sqrt(bound + 2.0 * UKR_CUT)
+    low = np.searchsorted(keys, z[0] - reach)
+    high = np.searchsorted(keys, z[0] + reach, side="right")
+    nearest, nearest_index = math.inf, near
+    for i in range(low, high):
         s = 0.0
         for a in range(q):
             t = latent[i, a] - z[a]
             s += t * t
-        kernel[i] = s
-        nearest = min(nearest, s)
+        kernel[i - low] = s
+        if s < nearest:
+            nearest, nearest_index = s, i
     count = 0
     total = 0.0
-    for i in range(n):
-        e = 0.5 * (kernel[i] - nearest)
+    for i in range(low, high):
+        e = 0.5 * (kernel[i - low] - nearest)
         if e < UKR_CUT:
             kept[count] = i
-            kernel[count] = math.exp(-e)  # count <= i: the distances still to read lie beyond
+            kernel[count] = math.exp(-e)  # count <= i - low: the distances still to read lie beyond
             total += kernel[count]
             count += 1
     f[:] = 0.0
@@ -194,7 +208,7 @@ def ukr_point(latent: np.ndarray, postures: np.ndarray, z: np.ndarray, kernel: n
             dk = w * (postures[i, k] - f[k])
             for a in range(q):
                 jacobian[k, a] += dk * (latent[i, a] - centre[a])
-    return count
+    return count, nearest_index
 
 
 @compiled_kernel
@@ -248,13 +262,14 @@ def _solve_damped(normal: np.ndarray, gradient: np.ndarray, damping: float, step
 
 
 @compiled_kernel
-def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, queries: np.ndarray, weights: np.ndarray,
-                      starts: np.ndarray, iterations: int, out_latent: np.ndarray, out_postures: np.ndarray,
-                      start: int, stop: int) -> None:
+def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray, queries: np.ndarray,
+                      weights: np.ndarray, starts: np.ndarray, iterations: int, out_latent: np.ndarray,
+                      out_postures: np.ndarray, start: int, stop: int) -> None:
     """Masked completion on the UKR manifold for rows start <= r < stop: from the latent point of training point
     starts[r], Levenberg-Marquardt steps on sum_k p_k (f_k(z) - x_k)^2 (p = weights[r], or weights[0] for every row
     when it has one row), a step kept only where it lowers the error; stops after `iterations` steps, when a step
-    gains less than `STEP_GAIN` of the error, or when the damping passes 1e8. Writes z (q,) and f(z) (dim,)."""
+    gains less than `STEP_GAIN` of the error, or when the damping passes 1e8. Writes z (q,) and f(z) (dim,). The
+    training points come sorted by their first latent coordinate, `keys` (`ukr_point`); starts index them so."""
     n, q = latent.shape
     dim = postures.shape[1]
     kernel = np.empty(n)
@@ -268,7 +283,7 @@ def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, queries: np.ndar
         p = weights[0] if shared else weights[r]
         x = queries[r]
         z = latent[starts[r]].copy()
-        ukr_point(latent, postures, z, kernel, kept, f, jacobian, centre)
+        _, near = ukr_point(latent, postures, keys, z, starts[r], kernel, kept, f, jacobian, centre)
         error = _masked_error(f, x, p)
         damping = 1e-3
         for _ in range(iterations):
@@ -285,11 +300,12 @@ def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, queries: np.ndar
                 break
             for a in range(q):
                 z_new[a] = z[a] + step[a]
-            ukr_point(latent, postures, z_new, kernel, kept, f_new, jacobian_new, centre)
+            _, near_new = ukr_point(latent, postures, keys, z_new, near, kernel, kept, f_new, jacobian_new, centre)
             error_new = _masked_error(f_new, x, p)
             if error_new < error:
                 gain = error - error_new
                 z[:] = z_new
+                near = near_new
                 f[:] = f_new
                 jacobian[:] = jacobian_new
                 error = error_new

@@ -200,6 +200,8 @@ class UKR(Recall, NpzRecord):
         self.history: list[dict] = []
         self._references: np.ndarray | None = None
         self._search: MaskedNearest | None = None
+        self._sorted: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
+        self._rank: np.ndarray | None = None
 
     # -- fitting ---------------------------------------------------------------------------------
     @property
@@ -293,6 +295,10 @@ class UKR(Recall, NpzRecord):
         self._references = self.manifold(self.latent)
         self._references.flags.writeable = False
         self._search = MaskedNearest(self._references)
+        order = np.argsort(self.latent[:, 0], kind="stable")  # the completion kernel reads a window of them
+        self._sorted = (np.ascontiguousarray(self.latent[order]), np.ascontiguousarray(self.postures[order]),
+                        np.ascontiguousarray(self.latent[order, 0]))
+        self._rank = np.argsort(order)
 
     def _require(self) -> np.ndarray:
         if self.postures is None:
@@ -380,7 +386,7 @@ class UKR(Recall, NpzRecord):
         out_latent, out_postures = np.empty((len(queries), self.latent_dim)), np.empty_like(queries)
         parts = max(1, min(usable_cores(), len(queries) // _PER_THREAD))
         bounds = np.linspace(0, len(queries), parts + 1).astype(int)
-        work = [(self.latent, self.postures, queries, weights, starts, self.completion_steps, out_latent,
+        work = [(*self._sorted, queries, weights, self._rank[starts], self.completion_steps, out_latent,
                  out_postures, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
         if parts == 1:
             ukr_complete_rows(*work[0])

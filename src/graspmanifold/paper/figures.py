@@ -157,22 +157,30 @@ def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure
     return figure
 
 
-def cluster_ends(ukr: UKR, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The latent centres of the two largest clusters of a manifold's training postures (ties: the lower label).
+def cluster_ends(ukr: UKR, labels: np.ndarray, ends: tuple[object, object] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Two clusters of a manifold's training postures as latent points: each cluster's training point nearest its
+    latent centre (a centre itself may lie where no posture is, between a cluster's parts).
 
     Args:
         ukr: the fitted manifold.
         labels: (n,) a cluster label per training posture, in its order (a posture set's `start_ids`).
+        ends: the two labels (None: the two largest clusters, ties to the lower label).
 
     Returns:
-        The two latent points (q,), (q,); one cluster: its centre and the training point farthest from it.
+        The two latent points (q,), (q,); a single cluster: its point and the training point farthest from it.
     """
     labels = np.asarray(labels)
     values, counts = np.unique(labels, return_counts=True)
-    order = values[np.lexsort((values, -counts))]
-    first = ukr.latent[labels == order[0]].mean(axis=0)
-    if len(order) > 1:
-        return first, ukr.latent[labels == order[1]].mean(axis=0)
+    chosen = list(ends) if ends is not None else list(values[np.lexsort((values, -counts))][:2])
+
+    def medoid(label: object) -> np.ndarray:
+        members = ukr.latent[labels == label]
+        return members[np.argmin(np.linalg.norm(members - members.mean(axis=0), axis=1))]
+
+    first = medoid(chosen[0])
+    if len(chosen) > 1:
+        return first, medoid(chosen[1])
     return first, ukr.latent[np.argmax(np.linalg.norm(ukr.latent - first, axis=1))]
 
 
