@@ -197,7 +197,7 @@ def test_the_completion_study_runs_on_posture_files(tmp_path):
     doc = tmp_path / "report.md"
     main(["--quick", "--no-trials", "--postures", str(tmp_path), "--out", str(tmp_path / "out"), "--doc", str(doc)])
     text = doc.read_text()
-    assert "| ukr2 | touch/0.50 | 280 |" in text and "components for 90 %" in text
+    assert "| ukr2 - som | touch/0.50 | 280 |" in text and "| ukr2 - database |" in text and "components for 90 %" in text
     assert (tmp_path / "report_errors.png").exists() and "Target" in text
     info = __import__("json").loads((tmp_path / "out" / "study.json").read_text())
     rows = {(r["representation"], r["condition"]): r for r in info["completion"]["rows"]}
