@@ -58,7 +58,7 @@ from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..manifold.ukr import UKR
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SegmentKinematics, finger_of
-from ..trials.benchmark import OBJECTS, compare_pooled, pooled, run_benchmark
+from ..trials.benchmark import OBJECTS, pooled, run_benchmark
 from ..trials.planned import run_planned
 from ..trials.stats import holm, mcnemar, rate_text
 from .runner import StudyRun, comparison_table, holm_family, publish, run_study, save_figure
@@ -257,48 +257,71 @@ def _outcomes_file(run: StudyRun, name: str, key: str, compute: Callable[[], dic
                     lambda arrays, path, meta: save_npz(path, "completion_outcomes", arrays, meta))
 
 
-def measure_trials(run: StudyRun, sets: list[dict[str, PostureSet]], trained: dict, quick: bool, plans: int) -> dict:
-    """The trials part (module doc): the benchmark and the planned grasps, the SOM against the 2-d UKR."""
-    experiences = {"som": trained[("som", 0)], "ukr2": trained[("ukr2", 0)]}
-    every = 6 if quick else 1
-    objects = tuple(sets[0])
-    benchmark = {}
+def _fold_trials(run: StudyRun, fold: int, sets: list[dict[str, PostureSet]], trained: dict, every: int,
+                 plans: int) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict]:
+    """One fold's trials (fold k's SOM and 2-d UKR, trial seed k, plans from seed k's held-out postures): outcomes
+    {run: (held, valid)} and the approach controller's benchmark results with the UKR."""
+    experiences = {"som": trained[("som", fold)], "ukr2": trained[("ukr2", fold)]}
+    objects, tag = tuple(sets[fold]), f"_fold{fold}" if fold else ""
+    outcomes, own = {}, {}
     for label, params in CONTROLLERS.items():
         for name, experience in experiences.items():
-            method = f"{name}_{label}"
-            benchmark[method] = run_benchmark(experience, split="test", objects=objects, every=every, params=params,
-                                              method=method, workers=run.executor or run.workers,
-                                              store=run.out / "benchmark")
-            held, valid = pooled(benchmark[method])
-            run.log(f"benchmark {method}: hold {rate_text(int(held[valid].sum()), int(valid.sum()))}")
-    family = [(f"benchmark, {label}: ukr2 vs som", compare_pooled(benchmark[f"ukr2_{label}"], benchmark[f"som_{label}"]))
-              for label in CONTROLLERS]
-    rates = {method: [int(pooled(r)[0][pooled(r)[1]].sum()), int(pooled(r)[1].sum())] for method, r in benchmark.items()}
+            results = run_benchmark(experience, split="test", objects=objects, every=every, params=params, seed=fold,
+                                    method=f"{name}_{label}{tag}", workers=run.executor or run.workers,
+                                    store=run.out / "benchmark")
+            outcomes[f"benchmark_{name}_{label}"] = held, valid = pooled(results)
+            own = results if (name, label) == ("ukr2", "approach") else own
+            run.log(f"fold {fold} benchmark {name}_{label}: hold {rate_text(int(held[valid].sum()), int(valid.sum()))}")
     planned: dict[str, list[np.ndarray]] = {}
     for obj in objects:
-        chosen = open_loop_grasps(sets[0][obj].subset(np.arange(min(plans, len(sets[0][obj])))))
+        chosen = open_loop_grasps(sets[fold][obj].subset(np.arange(min(plans, len(sets[fold][obj])))))
         for name, experience in experiences.items():
             def compute(obj=obj, chosen=chosen, experience=experience) -> dict[str, np.ndarray]:
-                done = run_planned(OBJECTS[obj].object, chosen, tuple(CONTROLLERS), {"object": experience}, seed=0,
+                done = run_planned(OBJECTS[obj].object, chosen, tuple(CONTROLLERS), {"object": experience}, seed=fold,
                                    workers=run.workers, executor=run.executor)
                 return {f"{arm}_{kind}": np.concatenate([getattr(t, kind)(arm) for t in done])
                         for arm in CONTROLLERS for kind in ("held", "faulted")} | {
                     "started": np.concatenate([t.started for t in done])}
-            arrays = _outcomes_file(run, f"planned/{obj}_{name}.npz",
-                                    result_key(obj, name, plans, [p.postures.tolist() for p in chosen],
+            arrays = _outcomes_file(run, f"planned/{obj}_{name}{tag}.npz",
+                                    result_key(obj, name, fold, [p.postures.tolist() for p in chosen],
                                                fingerprint(experience.references)), compute)
-            for arm in CONTROLLERS:
-                planned.setdefault(f"{name}_{arm}", []).append(arrays[f"{arm}_held"][arrays["started"]])
-            run.log(f"planned {obj} {name}: " + ", ".join(
-                f"{arm} {rate_text(int(arrays[f'{arm}_held'][arrays['started']].sum()), int(arrays['started'].sum()))}"
-                for arm in CONTROLLERS))
-    planned_all = {method: np.concatenate(parts) for method, parts in planned.items()}
-    family += [(f"planned grasps, {arm}: ukr2 vs som", mcnemar(planned_all[f"ukr2_{arm}"], planned_all[f"som_{arm}"]))
-               for arm in CONTROLLERS]
-    rates |= {f"planned_{method}": [int(v.sum()), len(v)] for method, v in planned_all.items()}
-    resumed = _resumed(run, experiences["ukr2"], benchmark["ukr2_approach"], sets[0])
-    return {"rates": rates, "comparisons": holm_family(family, "ukr2 vs som"), "resumed": resumed,
-            "every": every, "plans_per_object": plans}
+            for arm in CONTROLLERS:  # a fault is a failure of its arm; a displacement where no trial started is none
+                planned.setdefault(f"planned_{name}_{arm}", []).append(arrays[f"{arm}_held"][arrays["started"]])
+        run.log(f"fold {fold} planned {obj}: done")
+    for method, parts in planned.items():
+        held = np.concatenate(parts)
+        outcomes[method] = (held, np.ones_like(held))
+    return outcomes, own
+
+
+def measure_trials(run: StudyRun, sets: list[dict[str, PostureSet]], trained: dict, quick: bool, plans: int) -> dict:
+    """The trials part (module doc): the benchmark and the planned grasps, the SOM against the 2-d UKR, once per
+    fold, pooled over the folds (McNemar, Holm over the four comparisons) with each fold's difference."""
+    every, folds = (6, 1) if quick else (1, len(sets))
+    per_fold, own = [], {}
+    for fold in range(folds):
+        outcomes, mine = _fold_trials(run, fold, sets, trained, every, plans)
+        per_fold.append(outcomes)
+        own = own or mine
+
+    def rate(held: np.ndarray, valid: np.ndarray) -> list[int]:
+        return [int(held[valid].sum()), int(valid.sum())]
+
+    pooled_outcomes = {m: tuple(np.concatenate([f[m][k] for f in per_fold]) for k in (0, 1)) for m in per_fold[0]}
+    family, differences = [], {}
+    for kind in ("benchmark", "planned"):
+        for label in CONTROLLERS:
+            (a, va), (b, vb) = pooled_outcomes[f"{kind}_ukr2_{label}"], pooled_outcomes[f"{kind}_som_{label}"]
+            name = f"{kind}, {label}: ukr2 vs som"
+            family.append((name, mcnemar(a, b, valid=va & vb)))
+            differences[name] = [mcnemar(f[f"{kind}_ukr2_{label}"][0], f[f"{kind}_som_{label}"][0],
+                                         valid=f[f"{kind}_ukr2_{label}"][1] & f[f"{kind}_som_{label}"][1]).difference
+                                 for f in per_fold]
+    resumed = _resumed(run, trained[("ukr2", 0)], own, sets[0])
+    return {"rates": {m: rate(*v) for m, v in pooled_outcomes.items()},
+            "rates_by_fold": [{m: rate(*v) for m, v in f.items()} for f in per_fold],
+            "comparisons": holm_family(family, "ukr2 vs som"), "fold_differences": differences, "resumed": resumed,
+            "every": every, "plans_per_object": plans, "folds": folds}
 
 
 def _resumed(run: StudyRun, ukr: UKR, results: dict, held: dict[str, PostureSet]) -> dict:
@@ -414,11 +437,19 @@ def report(info: dict) -> str:
     if info.get("trials"):
         trials = info["trials"]
         poses = "every test pose" if trials["every"] == 1 else f"every {trials['every']}th test pose"
-        lines += ["", "## Trials", "", f"Hold rates [95 % Wilson interval] with fold 0's experiences ({poses} of "
-                  f"the benchmark; {trials['plans_per_object']} plans per object, every displacement level):", ""]
-        lines += markdown_table(["run", "hold"], [[k, rate_text(*v)] for k, v in trials["rates"].items()])
-        lines += ["", "UKR against the SOM on the same trials (McNemar, Holm over the four):", ""]
+        lines += ["", "## Trials", "", f"Hold rates [95 % Wilson interval], each fold's SOM and 2-d UKR with the trials "
+                  f"seeded by the fold ({poses} of the benchmark; the planned grasps: {trials['plans_per_object']} "
+                  "held-out postures of each object as plans, at every displacement level; a fault counts as a "
+                  "failure), pooled over the folds and per fold:", ""]
+        folds = trials["rates_by_fold"]
+        lines += markdown_table(["run", "pooled", *(f"fold {k}" for k in range(len(folds)))],
+                                [[k, rate_text(*v), *(rate_text(*f[k]) for f in folds)]
+                                 for k, v in trials["rates"].items()])
+        lines += ["", "UKR against the SOM on the same trials, pooled over the folds (McNemar, Holm over the four), "
+                  "with each fold's difference:", ""]
         lines += comparison_table(trials["comparisons"])
+        lines += ["", *(f"- {name}: " + ", ".join(f"{100 * d:+.1f}" for d in values) + " points by fold"
+                        for name, values in trials["fold_differences"].items())]
         resumed = trials["resumed"]
         if resumed.get("own_grasps"):
             lines += ["", f"Resumed learning with the approach controller's {resumed['own_grasps']} successful "
