@@ -30,13 +30,13 @@ from ..base.errors import InvalidInput, NotFittedError
 from ..base.io import NpzRecord, fingerprint
 from ..base.validation import check_data, check_int
 from .embeddings import principal_axes
-from .nearest import MaskedNearest, Recall, check_queries, check_query
+from .nearest import ManifoldRecall, check_queries
 
 MIN_RESIDUAL = 1e-6  # rad^2: the smallest residual variance per joint (see the module doc)
 _BLOCK = 4096  # queries per stacked solve: bounds memory at BLOCK x k x k
 
 
-class LinearManifold(Recall, NpzRecord):
+class LinearManifold(ManifoldRecall, NpzRecord):
     """The affine subspace of the postures' first `components` principal axes (see the module doc).
 
     Attributes (fitted): `mean` (dim,) rad, `axes` (components, dim) orthonormal rows, `variances` (components,)
@@ -57,8 +57,6 @@ class LinearManifold(Recall, NpzRecord):
         self.residual = self.total_variance = 0.0
         self.axes: np.ndarray | None = None
         self.explained: np.ndarray | None = None
-        self._references: np.ndarray | None = None
-        self._search: MaskedNearest | None = None
         self.data_fingerprint = ""
 
     @property
@@ -93,9 +91,7 @@ class LinearManifold(Recall, NpzRecord):
         mean, axes, explained = principal_axes(data)
         total = float(((data - mean) ** 2).sum() / (len(data) - 1))  # the variance, rad^2
         self._set(mean, axes[:self.components], explained, total)
-        self._references = self.project(data)
-        self._references.flags.writeable = False
-        self._search = MaskedNearest(self._references)
+        self._keep_references(self.project(data))
         self.data_fingerprint = fingerprint(data)
         return self
 
@@ -132,29 +128,6 @@ class LinearManifold(Recall, NpzRecord):
         """
         data = check_data(postures, self.dim, "postures")
         return self.mean + ((data - self.mean) @ self.axes.T) @ self.axes
-
-    @property
-    def references(self) -> np.ndarray:
-        """The training postures projected onto the subspace (n, dim), rad, read-only."""
-        self._require()
-        return self._references
-
-    def _nearest(self) -> MaskedNearest:
-        self._require()
-        return self._search
-
-    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The subspace's posture closest to the query over its specified joints (closed form).
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (every joint), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            The posture (dim,), rad.
-        """
-        query, weights = check_query(x, mask, self.dim)
-        return self.complete_batch(query[None], weights[None])[0]
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """`complete` of every query.
@@ -204,9 +177,7 @@ class LinearManifold(Recall, NpzRecord):
             linear._set(arrays["mean"], axes, arrays["explained"], float(meta["total_variance"]))
         except (KeyError, TypeError, ValueError):
             raise InvalidInput(f"{path} lacks the linear manifold's total_variance") from None
-        linear._references = check_data(arrays["references"], dim, f"{path} references")
-        linear._references.flags.writeable = False
-        linear._search = MaskedNearest(linear._references)
+        linear._keep_references(check_data(arrays["references"], dim, f"{path} references"))
         linear.data_fingerprint = str(meta.get("data_fingerprint", ""))
         return linear
 

@@ -226,3 +226,44 @@ class Recall:
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """`complete` of every query: (m, dim), rad."""
         return self.references[self.best_match_batch(X, masks)]
+
+
+class ManifoldRecall(Recall):
+    """What a fitted manifold that completes postures on itself shares of the `experience.Experience` protocol
+    (`ukr.UKR`, `linear.LinearManifold`): its `references` are postures on the manifold (kept by
+    `_keep_references`), `best_match` the nearest of them (`Recall`), and `complete` one query of the subclass's
+    `complete_batch`, which completes on the manifold instead of returning a reference."""
+
+    dim: int
+    _search: MaskedNearest | None = None
+
+    def _require(self) -> object:
+        raise NotImplementedError
+
+    def _keep_references(self, references: np.ndarray) -> None:
+        """The manifold's postures that `best_match` indexes, kept read-only."""
+        self._search = MaskedNearest(references)
+        self._search.points.flags.writeable = False
+
+    @property
+    def references(self) -> np.ndarray:
+        """The manifold's postures at its training data (k, dim), rad, read-only: `best_match` gives a row of them."""
+        self._require()
+        return self._search.points
+
+    def _nearest(self) -> MaskedNearest:
+        self._require()
+        return self._search
+
+    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """The manifold's posture that best fits the query's specified joints (masked completion).
+
+        Args:
+            x: the query (dim,), rad; it may hold NaN where the mask is 0.
+            mask: None (every joint), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
+
+        Returns:
+            The posture (dim,), rad.
+        """
+        query, weights = check_query(x, mask, self.dim)
+        return self.complete_batch(query[None], weights[None])[0]

@@ -48,7 +48,7 @@ from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import usable_cores
 from .embeddings import isomap, pca_embedding, squared_distances
 from .kernels import STEP_GAIN, UKR_CUT, ukr_complete_rows, ukr_loo
-from .nearest import MaskedNearest, Recall, check_queries, check_query
+from .nearest import ManifoldRecall, check_queries
 
 #: the embeddings a fit may start from (`embeddings.pca_embedding`, `embeddings.isomap`)
 STARTS: tuple[str, ...] = ("pca", "isomap")
@@ -170,7 +170,7 @@ def complete_reference(latent: np.ndarray, postures: np.ndarray, queries: np.nda
     return out_latent, out_postures
 
 
-class UKR(Recall, NpzRecord):
+class UKR(ManifoldRecall, NpzRecord):
     """A continuous grasp manifold fitted by Unsupervised Kernel Regression (see the module doc).
 
     Attributes (fitted): `latent` (n, q) the training postures' latent points, `postures` (n, dim) the training
@@ -201,8 +201,6 @@ class UKR(Recall, NpzRecord):
         self.latent: np.ndarray | None = None
         self.postures: np.ndarray | None = None
         self.history: list[dict] = []
-        self._references: np.ndarray | None = None
-        self._search: MaskedNearest | None = None
         self._sorted: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
         self._rank: np.ndarray | None = None
 
@@ -295,9 +293,7 @@ class UKR(Recall, NpzRecord):
         self.latent = np.ascontiguousarray(latent, dtype=float)
         self.postures = np.ascontiguousarray(data, dtype=float)
         self.latent.flags.writeable = self.postures.flags.writeable = False
-        self._references = self.manifold(self.latent)
-        self._references.flags.writeable = False
-        self._search = MaskedNearest(self._references)
+        self._keep_references(self.manifold(self.latent))
         order = np.argsort(self.latent[:, 0], kind="stable")  # the completion kernel reads a window of them
         self._sorted = (np.ascontiguousarray(self.latent[order]), np.ascontiguousarray(self.postures[order]),
                         np.ascontiguousarray(self.latent[order, 0]))
@@ -309,17 +305,6 @@ class UKR(Recall, NpzRecord):
         return self.postures
 
     # -- the manifold ----------------------------------------------------------------------------
-    @property
-    def references(self) -> np.ndarray:
-        """The manifold's postures at the training latent points (n, dim), rad, read-only: `best_match` gives a
-        row of them."""
-        self._require()
-        return self._references
-
-    def _nearest(self) -> MaskedNearest:
-        self._require()
-        return self._search
-
     def manifold(self, latent: np.ndarray) -> np.ndarray:
         """The manifold's postures at latent points.
 
@@ -346,19 +331,6 @@ class UKR(Recall, NpzRecord):
         return float(loo_error(self.latent, self.postures))
 
     # -- masked completion (the Experience protocol) ----------------------------------------------
-    def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
-        """The manifold's posture that best fits the query's specified joints (masked completion).
-
-        Args:
-            x: the query (dim,), rad; it may hold NaN where the mask is 0.
-            mask: None (every joint), boolean, or weights p_k >= 0, not all zero (the PCP mask, Eq. 2).
-
-        Returns:
-            The posture (dim,), rad.
-        """
-        query, weights = check_query(x, mask, self.dim)
-        return self.complete_latent_batch(query[None], weights[None])[1][0]
-
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """`complete` of every query.
 
@@ -383,7 +355,7 @@ class UKR(Recall, NpzRecord):
         """
         self._require()
         queries, weights = check_queries(X, masks, self.dim)
-        starts = self._search.nearest_batch(queries, weights)
+        starts = self._nearest().nearest_batch(queries, weights)
         if not compiled():
             return complete_reference(self.latent, self.postures, queries, weights, starts, self.completion_steps)
         out_latent, out_postures = np.empty((len(queries), self.latent_dim)), np.empty_like(queries)
