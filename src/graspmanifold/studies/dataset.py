@@ -1,14 +1,16 @@
 """A dataset's objects as they ship to experience: verified grasps, a map and a comparison of controllers on each.
 
-    graspmanifold dataset FOLDER [--postures 20] [--grid quick] [--poses N] [--scale 1] [--workers 2] [--out dataset]
+    graspmanifold dataset FOLDER [--postures 20] [--grid quick] [--poses N] [--scale 1] [--manifold som|ukr|linear]
+                                 [--workers 2] [--out dataset]
 
 The objects are the files under FOLDER (`object_files`): its object files (.urdf, MJCF .xml: a robot data package's,
 which name their mesh pieces) and the mesh files no object file names, each loaded as it comes
 (`make_object`: overlapping pieces joined, holes filled, a convex decomposition kept as its pieces; what was
 repaired is said). On each object that loads: `--postures` verified postures with the generator's defaults (the
-start search first, for an object that ships none), a 25 x 25 map trained on them, and three controllers on the
-same grid poses: the plain tactile controller (`none`), the database of the postures and the map (`som`, the
-paper's). A progress bar counts the objects; the table at the end gives per object how it loaded, its triangles,
+start search first, for an object that ships none), a 25 x 25 map trained on them (`--manifold`: or a UKR or linear
+manifold, `manifold.representations`; kept in OUT/maps/<object>_<manifold>.npz), and three controllers on the same
+grid poses: the plain tactile controller (`none`), the database of the postures and the map (`som`, the paper's, or
+the manifold's name). A progress bar counts the objects; the table at the end gives per object how it loaded, its triangles,
 its verified postures and each controller's hold rate [95 % Wilson interval], with McNemar's test of the map
 against `none` (Holm over the objects). An object that is refused, or gets no starting posture, is a row that says
 why. Writes OUT/dataset.md and OUT/dataset.json (with the software versions); the posture sets, maps and
