@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.base import compiled as switch
 from graspmanifold.manifold.embeddings import isomap, pca_embedding, principal_axes
 from graspmanifold.manifold.linear import LinearManifold
 from graspmanifold.manifold.representations import REPRESENTATIONS, fit_representation, load_representation
