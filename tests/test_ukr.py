@@ -99,7 +99,9 @@ def test_save_load_round_trip_and_resume(fitted, tmp_path):
     mask = pcp_mask(["ffdistal", "thdistal"])
     np.testing.assert_array_equal(again.complete_batch(postures[:10], mask), ukr.complete_batch(postures[:10], mask))
     more = sheet(40, seed=1)
+    before = __import__("copy").copy(again)
     again.resume(more, iterations=10)
+    assert len(before.history) == 1 and len(before.postures) == 160  # a shallow copy keeps what it had
     assert len(again.postures) == 200 and again.history[-1]["kind"] == "resume"
     assert again.history[-1]["loo"] <= again.history[-1]["loo_start"]
 

@@ -201,7 +201,7 @@ class UKR(ManifoldRecall, NpzRecord):
         self.latent: np.ndarray | None = None
         self.postures: np.ndarray | None = None
         self.history: list[dict] = []
-        self._sorted: tuple[np.ndarray, np.ndarray, np.ndarray] = ()  # type: ignore[assignment]
+        self._sorted: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # by the first latent coordinate
         self._rank: np.ndarray | None = None
 
     # -- fitting ---------------------------------------------------------------------------------
@@ -265,8 +265,8 @@ class UKR(ManifoldRecall, NpzRecord):
         latent, error, steps = self._refine(np.vstack([self.latent, places]), data, progress, "UKR resume",
                                             iterations)
         self._set(latent, data)
-        self.history.append({"kind": "resume", "postures": len(new), "loo_start": before, "loo": error,
-                             "iterations": steps, "data_fingerprint": fingerprint(new)})
+        self.history = [*self.history, {"kind": "resume", "postures": len(new), "loo_start": before, "loo": error,
+                                        "iterations": steps, "data_fingerprint": fingerprint(new)}]  # a copy's own
         return self
 
     def _refine(self, latent: np.ndarray, data: np.ndarray, progress: bool | None, label: str,
