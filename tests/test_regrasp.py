@@ -124,12 +124,12 @@ def test_the_probe_fails_a_grasp_without_opposition_or_force():
 
 
 @pytest.mark.parametrize("arguments, message", [
-    ({"attempts": 0}, r"attempts must be an integer in 1 \.\.\. 10"),
-    ({"attempts": 2, "probe_seconds": float("nan")}, "probe_seconds must be a positive"),
+    ({"attempts": 0}, r"attempts must be a whole number >= 1 and at most 10"),
+    ({"attempts": 2, "probe_seconds": float("nan")}, "probe_seconds must be a finite number > 0"),
     ({"attempts": 2, "preshapes": np.zeros((2, 22))}, r"preshapes must be \(1, 22\)"),
     ({"attempts": 2, "preshapes": np.zeros((1, 22)), "grasp_types": ["power"]}, "one way to choose"),
     ({"attempts": 2, "chooser": 3}, "chooser must be callable"),
-    ({"attempts": 2, "support_stiffness": -1.0}, r"support_stiffness must be a finite number in 0 \.\.\. 100000"),
+    ({"attempts": 2, "support_stiffness": -1.0}, r"support_stiffness must be a finite number >= 0 and at most 100000"),
     ({"attempts": 2, "support_damping": float("inf")}, "support_damping must be a finite number"),
 ])
 def test_bad_regrasp_arguments_are_named(arguments, message):

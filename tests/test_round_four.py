@@ -129,7 +129,7 @@ def test_an_object_path_that_leaves_the_objects_folder_is_refused_not_searched(t
     ("image_size = 100000", r"image_size \(pixels\) must be a whole number in 16 \.\.\. 4096"),  # met at the figures
     ("seed = -1", r"seed must be a whole number >= 0"),  # met only once the first stage ran
     ("[postures]\nbox = 100000000", r"postures\['box'\] must be a whole number in 1 \.\.\. 1000000"),  # the same
-    ("[controller]\nclosing_rate = 1e300", r"closing_rate must be at most 50"),  # taken
+    ("[controller]\nclosing_rate = 1e300", r"closing_rate must be a finite number > 0 and at most 50"),  # taken
     ('grid = "nowhere"', r"unknown grid preset 'nowhere'"),  # met after the maps were trained
     ('grid = [[0.0, 0.0, 0.0, "nan"]]', r"grid poses must be finite"),  # the same
 ])
@@ -153,7 +153,7 @@ def test_a_som_or_a_schedule_beyond_any_study_is_refused_with_its_bound():
 def test_regrasp_arguments_out_of_bounds_are_refused_before_any_trial():
     """A million attempts (each failing its probe) ran a two-pose evaluation for minutes; a preshape of 100 rad
     was taken (the servos clip it); grasp types that do not fit the experience were met only inside a trial."""
-    with pytest.raises(ValueError, match=r"attempts must be an integer in 1 \.\.\. 10"):
+    with pytest.raises(ValueError, match=r"attempts must be a whole number >= 1 and at most 10"):
         gm.Regrasp(attempts=10**6)
     with pytest.raises(ValueError, match=r"probe_seconds must be .* at most 5"):
         gm.Regrasp(attempts=2, probe_seconds=1e4)

@@ -4,11 +4,13 @@ the argument and say what was expected."""
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
 import stat
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,112 @@ def check_int(value: object, name: str, low: int = 1, high: int | None = None) -
                     else "a positive whole number" if low == 1 else f"a whole number >= {low}")
         raise InvalidInput(f"{name} must be {expected}, got {value!r}")
     return int(value)
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The range a numeric setting of a value must lie in (`check_fields`).
+
+    Attributes:
+        low: the least value.
+        high: the largest finite value.
+        above_low: the value must be greater than `low`, not equal to it.
+        whole: the value must be a whole number.
+        infinite: +inf is taken too (e.g. 'no limit').
+        unit: the unit, for the message ('s', 'N', 'm').
+    """
+
+    low: float = 0.0
+    high: float = math.inf
+    above_low: bool = False
+    whole: bool = False
+    infinite: bool = False
+    unit: str = ""
+
+    def describe(self) -> str:
+        """The range in words: 'a number > 0 and at most 60 s (or inf)'."""
+        kind = "a whole number" if self.whole else "a finite number"
+        text = f"{kind} {'>' if self.above_low else '>='} {self.low:g}"
+        if math.isfinite(self.high):
+            text += f" and at most {self.high:g}"
+        return text + (f" {self.unit}" if self.unit else "") + (" (or inf)" if self.infinite else "")
+
+    def holds(self, value: object) -> bool:
+        """Whether `value` is a number in this range (a bool is not a number here)."""
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer) if self.whole
+                                                     else (int, float, np.integer, np.floating)):
+            return False
+        if self.infinite and value == math.inf:
+            return True
+        if not math.isfinite(value) or value < self.low or (self.above_low and value == self.low) or value > self.high:
+            return False
+        return True
+
+
+def check_number(value: object, name: str, bounds: Bounds) -> float:
+    """`value` as a number in `bounds`; an error naming `name` and the range otherwise.
+
+    Args:
+        value: the value given.
+        name: the setting's name, for the message ('JudgingRules.hold_seconds').
+        bounds: its range.
+
+    Returns:
+        The value (an int where `bounds.whole`).
+
+    Raises:
+        InvalidInput: not a number in the range (NaN, a bool, a string, out of range).
+    """
+    if not bounds.holds(value):
+        raise InvalidInput(f"{name} must be {bounds.describe()}, got {value!r}")
+    return int(value) if bounds.whole else value  # type: ignore[return-value]
+
+
+def check_fields(value: object, numbers: Mapping[str, Bounds], flags: Iterable[str] = ()) -> None:
+    """The one check of a configuring value's fields, called from its `__post_init__` (so `dataclasses.replace`
+    checks too): each numeric field within its bounds, each flag True or False; the message names the class, the
+    field and its range.
+
+    Args:
+        value: the value (a dataclass instance).
+        numbers: its numeric fields and their bounds.
+        flags: its on/off fields.
+
+    Raises:
+        InvalidInput: the first field that is out of its range.
+    """
+    owner = type(value).__name__
+    for field_name, bounds in numbers.items():
+        check_number(getattr(value, field_name), f"{owner}.{field_name}", bounds)
+    for field_name in flags:
+        if not isinstance(getattr(value, field_name), (bool, np.bool_)):
+            raise InvalidInput(f"{owner}.{field_name} must be True or False, got {getattr(value, field_name)!r}")
+
+
+def check_directions(value: object, name: str) -> tuple[tuple[float, float, float], ...]:
+    """Disturbance directions: at least one, each three finite numbers of unit length (within 1e-6).
+
+    Args:
+        value: the directions given (a sequence of 3-vectors).
+        name: the setting's name, for the message.
+
+    Returns:
+        The directions as a tuple of float triples.
+
+    Raises:
+        InvalidInput: none given, a direction not of three numbers, or not of unit length.
+    """
+    try:
+        rows = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} must be unit 3-vectors, got {value!r}") from None
+    if rows.ndim != 2 or rows.shape[1] != 3 or len(rows) == 0:
+        raise InvalidInput(f"{name} must hold at least one direction of three numbers (k, 3), got shape {rows.shape}: "
+                           "a test with no direction tests nothing")
+    length = np.linalg.norm(rows, axis=1)
+    if not np.all(np.isfinite(rows)) or np.any(np.abs(length - 1.0) > 1e-6):
+        raise InvalidInput(f"{name} must be unit vectors (length 1), got lengths {np.round(length, 6).tolist()}")
+    return tuple(tuple(map(float, row)) for row in rows)
 
 
 def check_choice(value: object, choices: Iterable[object], name: str, also: str = "") -> object:

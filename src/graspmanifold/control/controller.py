@@ -72,7 +72,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.validation import check_choice
+from ..base.validation import Bounds, check_choice, check_fields, check_number
 from ..manifold.experience import Experience, check_experience
 from ..sim.hand import (
     FINGER_JOINTS,
@@ -106,21 +106,21 @@ PHASES: tuple[str, ...] = ("A", "B", "C", "done")
 REST_SPEED = 0.1
 
 
-#: the largest values of `ControllerParams` that still describe a controller (a closing rate of 1e300 was taken)
-_HIGHEST = {"closing_rate": 50.0, "follow_speed": 100.0, "timeout": 60.0, "control_period": 1.0, "preshape_time": 60.0,
-            "squeeze": 1.0, "release_time": 60.0, "stable_time": 60.0, "squeeze_time": 60.0, "grip_gain": 50.0,
-            "grip_press": 1.0}
-_HIGHEST_WHY = {"closing_rate": "the hand closes in 20 ms", "follow_speed": "rad/s", "timeout": "s",
-                "control_period": "s", "preshape_time": "s", "squeeze": "rad", "release_time": "s", "stable_time": "s", "squeeze_time": "s",
-                "grip_gain": "rad/s", "grip_press": "rad"}
-
-
-def _check_number(owner: str, name: str, value: object, low: float, high: float, positive: bool = False) -> None:
-    """A setting that must be a finite number in [low, high] (above low where `positive`)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or value < low or (positive and value == low) or value > high:
-        raise InvalidInput(f"{owner}.{name} must be a finite number {'>' if positive else '>='} {low:g} and at most "
-                           f"{high:g}, got {value!r}")
+#: the ranges of `ControllerParams`' numbers: the largest values still describe a controller (a closing rate of
+#: 1e300 was taken)
+CONTROLLER_BOUNDS = {"control_period": Bounds(0.0, 1.0, above_low=True, unit="s"),
+                     "preshape_time": Bounds(0.0, 60.0, unit="s"),
+                     "closing_rate": Bounds(0.0, 50.0, above_low=True, unit="closures/s (50: the hand closes in 20 ms)"),
+                     "follow_speed": Bounds(0.0, 100.0, above_low=True),
+                     "squeeze": Bounds(0.0, 1.0, unit="rad"),
+                     "release_time": Bounds(0.0, 60.0, unit="s"),
+                     "stable_time": Bounds(0.0, 60.0, unit="s"),
+                     "timeout": Bounds(0.0, 60.0, above_low=True, unit="s"),
+                     "squeeze_time": Bounds(0.0, 60.0, unit="s"),
+                     "max_match_distance": Bounds(0.0, 1e3, above_low=True, infinite=True, unit="rad"),
+                     "grip_force": Bounds(0.0, 1e4, above_low=True, infinite=True, unit="N"),
+                     "grip_gain": Bounds(0.0, 50.0, above_low=True, unit="rad/s"),
+                     "grip_press": Bounds(0.0, 1.0, unit="rad")}
 
 
 class RecallRule:
@@ -252,7 +252,7 @@ class TargetRecall(RecallRule):
     name = "target"
 
     def __post_init__(self) -> None:
-        _check_number("TargetRecall", "tolerance", self.tolerance, 0.0, 10.0, positive=True)
+        check_number(self.tolerance, "TargetRecall.tolerance", Bounds(0.0, 10.0, above_low=True, unit="rad"))
         if not isinstance(self.closes_only, bool):
             raise InvalidInput(f"TargetRecall.closes_only must be True or False, got {self.closes_only!r}")
 
@@ -362,7 +362,7 @@ class ApproachRecall(TargetRecall):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _check_number("ApproachRecall", "overshoot", self.overshoot, 0.0, 10.0)
+        check_number(self.overshoot, "ApproachRecall.overshoot", Bounds(0.0, 10.0))
         if not isinstance(self.together, bool):
             raise InvalidInput(f"ApproachRecall.together must be True or False, got {self.together!r}")
 
@@ -426,8 +426,8 @@ class BlendRecall(RecallRule):
     def __post_init__(self) -> None:
         if not isinstance(self.restart_closure, bool):
             raise InvalidInput(f"BlendRecall.restart_closure must be True or False, got {self.restart_closure!r}")
-        _check_number("BlendRecall", "reach", self.reach, 0.0, 0.2)
-        _check_number("BlendRecall", "reach_speed", self.reach_speed, 0.0, 10.0, positive=True)
+        check_number(self.reach, "BlendRecall.reach", Bounds(0.0, 0.2, unit="m"))
+        check_number(self.reach_speed, "BlendRecall.reach_speed", Bounds(0.0, 10.0, above_low=True, unit="m/s"))
 
     def check(self, params: ControllerParams) -> None:
         """Its extensions need every joint of a steered finger recalled.
@@ -535,10 +535,9 @@ class PalmSteering:
     def __post_init__(self) -> None:
         if not isinstance(self.recalled_place, bool):
             raise InvalidInput(f"PalmSteering.recalled_place must be True or False, got {self.recalled_place!r}")
-        for name, high in (("approach", 0.1), ("reach", 0.1)):
-            _check_number("PalmSteering", name, getattr(self, name), 0.0, high)
-        for name in ("approach_speed", "speed"):
-            _check_number("PalmSteering", name, getattr(self, name), 0.0, 1.0, positive=True)
+        check_fields(self, {"approach": Bounds(0.0, 0.1, unit="m"), "reach": Bounds(0.0, 0.1, unit="m"),
+                            "approach_speed": Bounds(0.0, 1.0, above_low=True, unit="m/s"),
+                            "speed": Bounds(0.0, 1.0, above_low=True, unit="m/s")})
 
     @property
     def active(self) -> bool:
@@ -591,31 +590,12 @@ class ControllerParams:
         if not isinstance(self.recall, RecallRule):
             raise InvalidInput(f"ControllerParams.recall must be a RecallRule or one of {tuple(RECALL_RULES)}, got "
                                f"{self.recall!r}")
-        for name in ("control_period", "closing_rate", "follow_speed", "timeout"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise InvalidInput(f"ControllerParams.{name} must be a positive finite number, got {value!r}")
-        for name, high in _HIGHEST.items():
-            if getattr(self, name) > high:
-                raise InvalidInput(f"ControllerParams.{name} must be at most {high:g} ({_HIGHEST_WHY[name]}), got "
-                                   f"{getattr(self, name)!r}")
+        check_fields(self, CONTROLLER_BOUNDS, flags=("experience_preshape", "experience_steering"))
         steps = self.control_period / PHYSICS_TIMESTEP
         if isinstance(self.control_period, bool) or round(steps) < 1 or abs(steps - round(steps)) > 1e-6:
             raise InvalidInput(f"ControllerParams.control_period must be a whole number of {PHYSICS_TIMESTEP} s physics "
                                f"steps (0.002, 0.004, ..., 0.02), got {self.control_period!r}: another period would "
                                "make the controller's clock run apart from the physics")
-        for name in ("preshape_time", "squeeze", "release_time", "stable_time", "squeeze_time", "grip_press"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise InvalidInput(f"ControllerParams.{name} must be a finite number >= 0, got {value!r}")
-        _check_number("ControllerParams", "grip_gain", self.grip_gain, 0.0, _HIGHEST["grip_gain"], positive=True)
-        if isinstance(self.grip_force, bool) or not isinstance(self.grip_force, (int, float)) \
-                or math.isnan(self.grip_force) or self.grip_force <= 0:
-            raise InvalidInput(f"ControllerParams.grip_force must be a force > 0 in N (inf: no regulation), got "
-                               f"{self.grip_force!r}")
-        if not (isinstance(self.max_match_distance, (int, float)) and self.max_match_distance > 0):
-            raise InvalidInput(f"ControllerParams.max_match_distance must be > 0 (inf: trust every match), "
-                               f"got {self.max_match_distance!r}")
         check_choice(self.steered_joints, STEERED_JOINTS, "ControllerParams.steered_joints")
         if not isinstance(self.palm, PalmSteering):
             raise InvalidInput(f"ControllerParams.palm must be a PalmSteering, got {self.palm!r}")

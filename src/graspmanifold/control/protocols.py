@@ -24,11 +24,29 @@ from dataclasses import dataclass, replace
 import mujoco
 
 from ..base.errors import InvalidInput
-from ..base.validation import check_choice
+from ..base.validation import Bounds, check_choice, check_directions, check_fields, check_number
 from ..sim.flange import FlangeLimits
 from ..sim.scene import Scene
 from .judge import JUDGING
 from .stages import SIX_DIRECTIONS, JudgingRules, Lift
+
+
+#: MuJoCo's integrators by the names a `PhysicsProfile` takes
+INTEGRATORS = tuple(name.removeprefix("mjINT_").lower() for name in mujoco.mjtIntegrator.__members__)
+#: the ranges of a `PhysicsProfile`'s numbers (a 0 s step ended in a ZeroDivisionError deep in a trial)
+PHYSICS_BOUNDS = {"timestep": Bounds(0.0, 0.1, above_low=True, unit="s"),
+                  "impratio": Bounds(0.0, 1e4, above_low=True),
+                  "noslip_iterations": Bounds(0, 1000, whole=True),
+                  "object_mass": Bounds(0.0, 100.0, above_low=True, unit="kg")}
+#: the ranges of a `DexGraspBenchProtocol`'s numbers (a push of zero chunks passed every grasp untested)
+PUSH_TEST_BOUNDS = {"translation_limit": Bounds(0.0, 1.0, above_low=True, unit="m"),
+                    "angle_limit": Bounds(0.0, 2 * math.pi, above_low=True, unit="rad"),
+                    "force_per_kg": Bounds(0.0, 1000.0, above_low=True, unit="N/kg"),
+                    "max_penetration": Bounds(0.0, 0.1, unit="m"),
+                    "approach_targets": Bounds(1, 1000, whole=True),
+                    "steps_per_target": Bounds(1, 10000, whole=True),
+                    "hold_chunks": Bounds(1, 1000, whole=True),
+                    "steps_per_chunk": Bounds(1, 10000, whole=True)}
 
 
 @dataclass(frozen=True)
@@ -58,6 +76,21 @@ class PhysicsProfile:
     friction: tuple[float, float]
     gravity: bool
     object_mass: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidInput(f"PhysicsProfile.name must be a non-empty string, got {self.name!r}")
+        check_fields(self, PHYSICS_BOUNDS, flags=("gravity",))
+        check_choice(self.integrator, INTEGRATORS, "PhysicsProfile.integrator")
+        check_choice(self.cone, ("pyramidal", "elliptic"), "PhysicsProfile.cone")
+        check_choice(self.condim, (1, 3, 4, 6), "PhysicsProfile.condim")
+        try:
+            sliding, torsional = self.friction
+        except (TypeError, ValueError):
+            raise InvalidInput(f"PhysicsProfile.friction must be (sliding, torsional), got {self.friction!r}") from None
+        friction = (check_number(sliding, "PhysicsProfile.friction[0] (sliding)", Bounds(0.0, 10.0, above_low=True)),
+                    check_number(torsional, "PhysicsProfile.friction[1] (torsional)", Bounds(0.0, 1.0)))
+        object.__setattr__(self, "friction", tuple(map(float, friction)))
 
     def apply(self, scene: Scene) -> None:
         """Set these options on a scene's compiled model (its data keeps its state; call before simulating).
@@ -116,6 +149,14 @@ class DexGraspBenchProtocol:
     hold_chunks: int = 10
     steps_per_chunk: int = 50
     directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.version, str) or not self.version:
+            raise InvalidInput(f"DexGraspBenchProtocol.version must be a non-empty string, got {self.version!r}")
+        if not isinstance(self.physics, PhysicsProfile):
+            raise InvalidInput(f"DexGraspBenchProtocol.physics must be a PhysicsProfile, got {self.physics!r}")
+        check_fields(self, PUSH_TEST_BOUNDS)
+        object.__setattr__(self, "directions", check_directions(self.directions, "DexGraspBenchProtocol.directions"))
 
     @property
     def name(self) -> str:

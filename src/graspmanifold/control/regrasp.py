@@ -27,7 +27,6 @@ A grasp that passes the probe, or the last attempt, goes to the judge's full hol
 from __future__ import annotations
 
 import hashlib
-import math
 import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.validation import Bounds, check_fields
 from ..manifold.experience import Experience
 from ..manifold.nearest import argmin_tied, nearest_rows
 from ..manifold.postureset import PostureSet
@@ -53,6 +53,11 @@ MAX_ATTEMPTS = 10
 MAX_PROBE_SECONDS = 5.0
 MAX_MIN_FORCE = 1000.0  # N
 MAX_SUPPORT = 1e5  # N/m, N s/m: the re-engaged support's stiffness and damping
+REGRASP_BOUNDS = {"attempts": Bounds(1, MAX_ATTEMPTS, whole=True),
+                  "probe_seconds": Bounds(0.0, MAX_PROBE_SECONDS, above_low=True, unit="s"),
+                  "min_force": Bounds(0.0, MAX_MIN_FORCE, above_low=True, unit="N"),
+                  "support_stiffness": Bounds(0.0, MAX_SUPPORT, unit="N/m"),
+                  "support_damping": Bounds(0.0, MAX_SUPPORT, unit="N s/m")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,20 +92,7 @@ class Regrasp:
     support_damping: float = 3.0
 
     def __post_init__(self) -> None:
-        if isinstance(self.attempts, bool) or not isinstance(self.attempts, (int, np.integer)) \
-                or not 1 <= self.attempts <= MAX_ATTEMPTS:
-            raise InvalidInput(f"Regrasp.attempts must be an integer in 1 ... {MAX_ATTEMPTS}, got {self.attempts!r}")
-        for name, high in (("probe_seconds", MAX_PROBE_SECONDS), ("min_force", MAX_MIN_FORCE)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
-                                               and 0 < value <= high):
-                raise InvalidInput(f"Regrasp.{name} must be a positive finite number of at most {high:g}, got "
-                                   f"{value!r}")
-        for name in ("support_stiffness", "support_damping"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not (isinstance(value, (int, float)) and math.isfinite(value)
-                                               and 0 <= value <= MAX_SUPPORT):
-                raise InvalidInput(f"Regrasp.{name} must be a finite number in 0 ... {MAX_SUPPORT:g}, got {value!r}")
+        check_fields(self, REGRASP_BOUNDS)
         if self.preshapes is not None:
             rows = np.asarray(self.preshapes, dtype=float)
             if rows.shape != (self.attempts - 1, N_FINGER_JOINTS):

@@ -30,6 +30,8 @@ from typing import Protocol
 
 import numpy as np
 
+from ..base.errors import InvalidInput
+from ..base.validation import Bounds, check_directions, check_fields
 from ..sim.scene import GRAVITY
 from ..sim.worlds import Worlds
 
@@ -280,6 +282,19 @@ class Lift(Stage):
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 #: the same directions as a tuple of tuples, for the frozen rules that hold them
 SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
+#: the ranges of `JudgingRules`' numbers (a NaN stiffness or a negative hold ran to a normal-looking result)
+JUDGING_BOUNDS = {"hold_seconds": Bounds(0.0, 60.0, above_low=True, unit="s"),
+                  "hold_limit": Bounds(0.0, 1.0, above_low=True, unit="m"),
+                  "margin_force": Bounds(0.0, 1000.0, unit="N"),
+                  "margin_seconds": Bounds(0.0, 60.0, above_low=True, unit="s"),
+                  "epsilon_threshold": Bounds(0.0, 1.0),
+                  "support_stiffness": Bounds(0.0, 1e6, unit="N/m"),
+                  "support_damping": Bounds(0.0, 1e5, unit="N s/m"),
+                  "push": Bounds(0.0, 1000.0, unit="N"),
+                  "angle_limit": Bounds(0.0, 2 * math.pi, above_low=True, infinite=True, unit="rad"),
+                  "release_seconds": Bounds(0.0, 60.0, unit="s"),
+                  "lift_height": Bounds(0.0, 2.0, above_low=True, unit="m"),
+                  "lift_speed": Bounds(0.0, 10.0, above_low=True, unit="m/s")}
 
 
 @dataclass(frozen=True)
@@ -330,6 +345,15 @@ class JudgingRules:
     stages: tuple[Callable[[JudgingRun], Stage], ...] = (HoldTest, MarginRamp)
     lift_height: float = 0.2
     lift_speed: float = 0.1
+
+    def __post_init__(self) -> None:
+        check_fields(self, JUDGING_BOUNDS, flags=("margin", "from_grasp"))
+        object.__setattr__(self, "directions", check_directions(self.directions, "JudgingRules.directions"))
+        if not isinstance(self.physics, str):
+            raise InvalidInput(f"JudgingRules.physics must be a profile's name (a string), got {self.physics!r}")
+        if not isinstance(self.stages, tuple) or not self.stages or not all(callable(s) for s in self.stages):
+            raise InvalidInput(f"JudgingRules.stages must be a non-empty tuple of Stage classes (or callables that make "
+                               f"one of a run): a judging with no stage tests nothing, got {self.stages!r}")
 
     @property
     def needs_flange(self) -> bool:
