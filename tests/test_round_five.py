@@ -77,3 +77,81 @@ def test_one_mechanism_checks_every_configuring_value():
                           (lambda: JudgingRules(push=-1.0), r"JudgingRules\.push")):
         with pytest.raises(gm.InvalidInput, match=message + r" must be a finite number >[=]? 0"):
             make()
+
+
+# bad 1: a step after the episode ended was judged again and paid again
+def test_a_step_after_the_end_is_refused_until_reset():
+    from graspmanifold.envs.tactile_grasp import EpisodeEnded, TactileGraspEnv
+
+    env = TactileGraspEnv("box")
+    with pytest.raises(EpisodeEnded, match="call reset"):
+        env.step(env.action_space.sample())
+    observation, _ = env.reset(seed=0)
+    action = np.append(observation[:22], 1.0)  # hold still, and done: judged at once
+    _, reward, terminated, _, info = env.step(action)
+    assert terminated and info["judged"]
+    with pytest.raises(EpisodeEnded, match="episode ended .* call reset"):
+        env.step(action)
+    import gymnasium
+    with pytest.raises(gymnasium.error.ResetNeeded):  # Gymnasium's own error, for code written against it
+        env.step(action)
+    env.reset(seed=1)
+    assert env.step(np.append(observation[:22], 0.0))[2] is False  # a new episode steps again
+
+
+@pytest.mark.parametrize("action, message", [
+    (np.zeros(22), r"an action must be 23 real numbers: the 22 joint targets .* shape \(22,\)"),
+    (np.zeros(23, dtype=complex), r"an action must be 23 real numbers.* complex128"),
+    (np.full(23, np.nan), r"actions must be finite"),
+])
+def test_single_environment_actions_are_checked(action, message):
+    from graspmanifold.envs.tactile_grasp import TactileGraspEnv
+
+    env = TactileGraspEnv("box")
+    env.reset(seed=0)
+    with pytest.raises(gm.InvalidInput, match=message):
+        env.step(action)
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"poses": [0.0, 0.0, 0.0, 0.0]}, r"unknown reset option\(s\) \['poses'\]; the options are \['pose'\]"),
+    ({"pose": np.zeros((2, 4))}, r'options\["pose"\] must have shape \(4,\) or \(1, 4\).* got shape \(2, 4\)'),
+    ("pose", r"options must be a dict"),
+])
+def test_single_environment_options_are_checked(options, message):
+    from graspmanifold.envs.tactile_grasp import TactileGraspEnv
+
+    with pytest.raises(gm.InvalidInput, match=message):
+        TactileGraspEnv("box").reset(seed=0, options=options)
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ({"table": "no"}, r"table must be True or False, got 'no'"),
+    ({"pcp": 1}, r"pcp must be True or False"),
+    ({"max_seconds": True}, r"max_seconds must be a finite number > 0 and at most 600 s, got True"),
+    ({"camera": "bogus"}, r"camera must be one of .*'hand'.* got 'bogus'"),
+])
+def test_environment_arguments_are_checked_when_made(arguments, message):
+    from graspmanifold.envs.tactile_grasp import TactileGraspEnv, TactileGraspVectorEnv
+
+    with pytest.raises(gm.InvalidInput, match=message):
+        TactileGraspEnv("box", **arguments)
+    if "camera" not in arguments:
+        with pytest.raises(gm.InvalidInput, match=message):
+            TactileGraspVectorEnv(2, object="box", **arguments)
+
+
+def test_vector_environment_poses_and_options_are_checked():
+    """A (4, 2) pose array of a 2-world environment was reshaped to (2, 4), mixing the numbers."""
+    from graspmanifold.envs.tactile_grasp import TactileGraspVectorEnv
+
+    envs = TactileGraspVectorEnv(2, object="box")
+    with pytest.raises(gm.InvalidInput, match=r'options\["poses"\] must have shape \(2, 4\).* got shape \(4, 2\)'):
+        envs.reset(seed=0, options={"poses": np.zeros((4, 2))})
+    with pytest.raises(gm.InvalidInput, match=r"unknown reset option\(s\) \['pose'\]"):
+        envs.reset(seed=0, options={"pose": np.zeros(4)})
+    observations, _ = envs.reset(seed=0)
+    with pytest.raises(gm.InvalidInput, match=r"actions must have shape \(2, 23\), got \(23, 2\)"):
+        envs.step(np.zeros((23, 2)))
+    with pytest.raises(gm.InvalidInput, match=r"an action must be 23 real numbers.* complex"):
+        envs.step(np.zeros((2, 23), dtype=complex))

@@ -14,7 +14,14 @@ observation ends with where the flange is (the same six). Once the grasp is done
 library's judge runs it through the protocol named (`protocols.PROTOCOLS`: our hold test by default): the episode
 terminates, the reward is 1 for a grasp that holds and 0 otherwise (sparse), and `info` carries the judgement (hold,
 force closure, epsilon, the displacement, a physics fault). A trial whose physics fails terminates with reward 0 and
-the fault in `info`.
+the fault in `info`. A step after the episode ended, before `reset`, is refused (`EpisodeEnded`, Gymnasium's
+`ResetNeeded`: the grasp was judged and paid once); the vector environment starts the world's next episode instead
+(Gymnasium's next-step autoreset). Actions, `reset`'s options and the constructor's arguments are checked before
+anything runs.
+
+The done flag ends the episode from 0.5: a random agent (`action_space.sample()`) sets it in half its steps, so its
+episodes end after two steps on average, before any finger reaches the object. Explore with the flag held at 0 (or
+below 0.5) and let `max_seconds` end the episode, or set it once the hand has closed.
 
 Our controller drives it as the trials do: `BatchController(1, experience)`'s targets and its `done` each step give
 the episode `evaluate` reports on the same pose (a test). `render_mode="rgb_array"` draws the scene offscreen.
@@ -32,8 +39,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..base.errors import InvalidInput
-from ..base.validation import check_int
+from ..base.errors import GraspManifoldError, InvalidInput
+from ..base.validation import Bounds, check_choice, check_int, check_number
 from ..control.controller import ControllerParams
 from ..control.judge import Judgement, judge_worlds
 from ..control.protocols import DEFAULT_PROTOCOL, Protocol
@@ -41,13 +48,46 @@ from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
 from ..sim.posture import pcp_masks
-from ..sim.scene import Scene
+from ..sim.render import THUMB_SIDE
+from ..sim.scene import CAMERAS, Scene
 from ..sim.worlds import CpuWorlds
 from ..trials.grid import check_grid
 from ..trials.trial import Noise, TrialSetup, trial_scene
 
 #: s of a grasp after which it is judged as it is, done or not
 MAX_SECONDS = 10.0
+#: the cameras `render` draws from
+RENDER_CAMERAS = (*CAMERAS, THUMB_SIDE)
+
+
+class EpisodeEnded(GraspManifoldError, gymnasium.error.ResetNeeded):
+    """`step` after the episode ended (terminated or truncated) and before `reset`: the grasp was judged and paid
+    once; a step more would judge the disturbed grasp again and pay again. Gymnasium leaves such a step undefined;
+    ours refuses it (a `gymnasium.error.ResetNeeded`)."""
+
+
+def _check_options(options: object, known: tuple[str, ...]) -> dict:
+    """`reset`'s options as a dict with only the keys known."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise InvalidInput(f"options must be a dict (keys {list(known)}) or None, got {type(options).__name__}")
+    unknown = sorted(map(str, set(options) - set(known)))
+    if unknown:
+        raise InvalidInput(f"unknown reset option(s) {unknown}; the options are {list(known)}")
+    return options
+
+
+def _check_poses(poses: object, count: int, name: str) -> np.ndarray:
+    """`count` grid poses (x, z, gap, yaw), as (count, 4) floats; a single pose may be given as (4,)."""
+    rows = np.asarray(poses)
+    if rows.dtype.kind not in "iuf":
+        raise InvalidInput(f"{name} must be real numbers (x, z, gap in m, yaw in rad), got an array of {rows.dtype}")
+    if rows.shape not in ((count, 4),) + (((4,),) if count == 1 else ()):
+        raise InvalidInput(f"{name} must have shape {'(4,) or ' if count == 1 else ''}({count}, 4): "
+                           f"{'a pose' if count == 1 else 'one pose per world'} (x, z, gap in m, yaw in rad), got "
+                           f"shape {rows.shape}")
+    return rows.astype(float).reshape(count, 4)
 
 
 class _GraspWorlds:
@@ -59,13 +99,15 @@ class _GraspWorlds:
                  palm: bool | FlangeLimits):
         if not isinstance(palm, (bool, FlangeLimits)):
             raise InvalidInput(f"palm must be True, False or a FlangeLimits, got {palm!r}")
+        for name, flag in (("table", table), ("pcp", pcp)):
+            if not isinstance(flag, (bool, np.bool_)):  # table="no" ran with the table
+                raise InvalidInput(f"{name} must be True or False, got {flag!r}")
+        max_seconds = check_number(max_seconds, "max_seconds", Bounds(0.0, 600.0, above_low=True, unit="s"))
         self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table, touch=touch,
                                 palm=FlangeLimits() if palm is True else palm or None)
         self.palm = self.setup.palm  # the flange's limits, or None
         self.hand = self.setup.hand
         self.poses = check_grid(grid, self.setup.object, table)[1]
-        if not (isinstance(max_seconds, (int, float)) and 0 < max_seconds <= 600):
-            raise InvalidInput(f"max_seconds must be a number of seconds in (0, 600], got {max_seconds!r}")
         self.n, self.pcp, self.max_seconds = n, pcp, float(max_seconds)
         self.period = ControllerParams().control_period
         self.initial = self.hand.keyframe_posture("open")
@@ -73,6 +115,7 @@ class _GraspWorlds:
         self.scenes: list[Scene | None] = [None] * n
         self.clock = np.zeros(n)
         self.pose = np.zeros((n, 4))  # each episode's grid pose
+        self.ended = np.ones(n, dtype=bool)  # each world's episode is over (judged), or not begun
         self.rngs = [seeding.np_random(None)[0] for _ in range(n)]
         self._nstep = 0
 
@@ -111,6 +154,7 @@ class _GraspWorlds:
             self.pose[world] = pose
             self.scenes[world] = trial_scene(self.setup, pose, rng, self.initial)
             self.clock[world] = 0.0
+            self.ended[world] = False
         self._nstep = max(1, round(self.period / self.scenes[worlds[0]].model.opt.timestep))
 
     def observe(self, worlds: np.ndarray) -> np.ndarray:
@@ -122,18 +166,43 @@ class _GraspWorlds:
             ([cpu.flanges(index)] if self.palm is not None else [])
         return np.concatenate(parts, axis=1)
 
+    def check_actions(self, actions: np.ndarray) -> np.ndarray:
+        """Actions of m worlds as (m, action size) finite floats; a clear error otherwise.
+
+        Args:
+            actions: (m, action size).
+
+        Returns:
+            The actions as floats.
+        """
+        actions = np.asarray(actions)
+        size = N_FINGER_JOINTS + len(self.palm_reach) + 1
+        what = ("the 22 joint targets (rad), " + ("the palm's 6 targets (m, rad), " if len(self.palm_reach) else "")
+                + "the done flag (done from 0.5)")
+        if actions.dtype.kind not in "iuf" or actions.ndim != 2 or actions.shape[1] != size:
+            # a complex action lost its imaginary part with a warning; 22 numbers ended in NumPy's reshape error
+            shape = actions.shape[1:] if actions.ndim == 2 and len(actions) == 1 else actions.shape
+            raise InvalidInput(f"an action must be {size} real numbers: {what}; got an array of {actions.dtype} of "
+                               f"shape {shape}")
+        actions = actions.astype(float)
+        if not np.all(np.isfinite(actions)):
+            raise InvalidInput(f"actions must be finite: {what}")
+        return actions
+
     def act(self, worlds: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, list[dict]]:
-        """One control period of these worlds under their actions, then the judging of those whose grasp is done.
+        """One control period of these worlds under their actions, then the judging of those whose grasp is done
+        (their episodes end: `ended`).
+
+        Args:
+            worlds: (m,) the worlds' indices.
+            actions: (m, action size), as `check_actions` takes them.
 
         Returns:
             (len(worlds),) rewards and one info dict per world (a judged one's holds its judgement; `judged` says
             which were).
         """
         palm = len(self.palm_reach)
-        actions = np.asarray(actions, dtype=float).reshape(len(worlds), N_FINGER_JOINTS + palm + 1)
-        if not np.all(np.isfinite(actions)):
-            raise InvalidInput("actions must be finite: 22 joint targets (rad), the palm's 6 targets where it has "
-                               "them (m, rad) and a done flag (0 ... 1)")
+        actions = self.check_actions(actions)
         cpu = CpuWorlds([self.scenes[w] for w in worlds])
         index = np.arange(len(worlds))
         cpu.set_targets(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]))
@@ -145,7 +214,9 @@ class _GraspWorlds:
         rewards, infos = np.zeros(len(worlds)), [{"time": float(self.clock[w]), "judged": False} for w in worlds]
         for k, why in failed.items():
             infos[k].update(judged=True, hold=False, force_closure=False, fault=why)
+        self.ended[worlds[list(failed)]] = True
         judging = np.flatnonzero(done & ~np.isin(index, list(failed)))
+        self.ended[worlds[judging]] = True
         if len(judging):
             judged = CpuWorlds([cpu.scenes[k] for k in judging])
             for k, judgement in zip(judging, judge_worlds(judged, self.period,
@@ -197,6 +268,7 @@ class TactileGraspEnv(gymnasium.Env):
                  palm: bool | FlangeLimits = False, render_mode: str | None = None, camera: str = "hand"):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InvalidInput(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        check_choice(camera, RENDER_CAMERAS, "camera")  # 'bogus' was refused only at render()
         self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds, touch, palm)
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
@@ -219,8 +291,8 @@ class TactileGraspEnv(gymnasium.Env):
             (the first observation, {"pose": the grid pose}).
         """
         super().reset(seed=seed)
-        pose = (options or {}).get("pose")
-        self.task.reset([0], [seed], [pose])
+        pose = _check_options(options, ("pose",)).get("pose")
+        self.task.reset([0], [seed], [None if pose is None else _check_poses(pose, 1, 'options["pose"]')[0]])
         return self.task.observe(np.array([0]))[0], {"pose": self.task.pose[0].copy()}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict]:
@@ -234,8 +306,10 @@ class TactileGraspEnv(gymnasium.Env):
             (observation, reward, terminated, truncated, info): reward 1 for a grasp judged to hold.
         """
         if self.scene is None:
-            raise InvalidInput("call reset() before step()")
-        rewards, infos = self.task.act(np.array([0]), np.asarray(action, dtype=float)[None])
+            raise EpisodeEnded("call reset() before step()")
+        if self.task.ended[0]:
+            raise EpisodeEnded("the episode ended (its grasp was judged): call reset() before step()")
+        rewards, infos = self.task.act(np.array([0]), np.asarray(action)[None])
         return self.task.observe(np.array([0]))[0], float(rewards[0]), infos[0]["judged"], False, infos[0]
 
     def render(self) -> np.ndarray | None:
@@ -273,7 +347,6 @@ class TactileGraspVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.control_period = self.task.period
-        self._ended = np.zeros(self.num_envs, dtype=bool)
 
     def reset(self, *, seed: int | list[int] | None = None,
               options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
@@ -288,13 +361,13 @@ class TactileGraspVectorEnv(VectorEnv):
         """
         seeds = [None] * self.num_envs if seed is None else list(seed) if isinstance(seed, (list, tuple)) else \
             [int(seed) + i for i in range(self.num_envs)]
-        poses = (options or {}).get("poses")
-        poses = [None] * self.num_envs if poses is None else list(np.asarray(poses, dtype=float).reshape(-1, 4))
+        poses = _check_options(options, ("poses",)).get("poses")
+        poses = [None] * self.num_envs if poses is None else \
+            list(_check_poses(poses, self.num_envs, 'options["poses"]'))
         if len(seeds) != self.num_envs or len(poses) != self.num_envs:
             raise InvalidInput(f"reset takes one seed and one pose per world ({self.num_envs})")
         worlds = list(range(self.num_envs))
         self.task.reset(worlds, seeds, poses)
-        self._ended[:] = False
         return self.task.observe(np.arange(self.num_envs)), {"pose": self.task.pose.copy()}
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -308,21 +381,23 @@ class TactileGraspVectorEnv(VectorEnv):
             (observations, rewards, terminated, truncated, infos), each over the N worlds; infos as Gymnasium's
             vector environments give them ({key: (N,) values, "_key": where set}).
         """
-        actions = np.asarray(actions, dtype=float)
-        if actions.shape != self.action_space.shape:
+        actions = np.asarray(actions)
+        if self.task.scenes[0] is None:
+            raise EpisodeEnded("call reset() before step()")
+        restarting = np.flatnonzero(self.task.ended)
+        acting = np.flatnonzero(~self.task.ended)
+        if actions.shape != self.action_space.shape:  # a (4, 2) array of a (2, 4) environment is refused
             raise InvalidInput(f"actions must have shape {self.action_space.shape}, got {actions.shape}")
-        restarting = np.flatnonzero(self._ended)
+        actions = self.task.check_actions(actions[acting]) if len(acting) else actions  # before any restart
         if len(restarting):
             self.task.reset(list(restarting), [None] * len(restarting), [None] * len(restarting))
-        acting = np.flatnonzero(~self._ended)
         rewards, terminated = np.zeros(self.num_envs), np.zeros(self.num_envs, dtype=bool)
         infos: dict = {}
         if len(acting):
-            rewarded, per_world = self.task.act(acting, actions[acting])
+            rewarded, per_world = self.task.act(acting, actions)
             rewards[acting] = rewarded
             for k, world in enumerate(acting):
                 terminated[world] = per_world[k]["judged"]
                 infos = self._add_info(infos, per_world[k], world)
-        self._ended = terminated.copy()
         return (self.task.observe(np.arange(self.num_envs)), rewards, terminated,
                 np.zeros(self.num_envs, dtype=bool), infos)
