@@ -13,6 +13,7 @@ import graspmanifold as gm
 from graspmanifold.control.protocols import DEXGRASPBENCH, PhysicsProfile, Protocol, pushed
 from graspmanifold.control.judge import JUDGING
 from graspmanifold.control.stages import JudgingRules
+from graspmanifold.trials.grid import grid_preset
 
 
 # bad 2: judging rules were never checked (a NaN stiffness, a negative hold ran to hold 100 %)
@@ -155,3 +156,29 @@ def test_vector_environment_poses_and_options_are_checked():
         envs.step(np.zeros((23, 2)))
     with pytest.raises(gm.InvalidInput, match=r"an action must be 23 real numbers.* complex"):
         envs.step(np.zeros((2, 23), dtype=complex))
+
+
+def test_a_result_says_what_made_it(tmp_path):
+    """evaluate's trials.npz and summary.json recorded neither the touch source nor the protocol, hand or controller:
+    a `--touch sensors` result could not be told from a contacts one."""
+    import json
+
+    from graspmanifold.trials.evaluation import summary_json
+
+    pose = grid_preset("quick", "box")[:1]
+    som = gm.SOM(4, 4, seed=0).fit(np.random.default_rng(0).uniform(0, 1, (20, 22)), epochs=2, progress=False)
+    made = {touch: gm.evaluate("box", som, pose, progress=False, touch=touch).made_by
+            for touch in ("contacts", "sensors")}
+    differs = {key for key in made["contacts"] if made["contacts"][key] != made["sensors"][key]}
+    assert differs == {"touch"}
+    record = made["sensors"]
+    assert record["object"]["name"] == "box" and record["hand"]["digest"] and record["seed"] == 0
+    assert record["protocol"]["name"] == "ours" and record["protocol"]["registered"]
+    assert record["controller"]["name"] == "paper" and record["controller"]["params"]["closing_rate"] == 0.8
+    assert record["experience"]["kind"] == "SOM" and record["experience"]["references"] == 16
+    assert record["library_version"] == gm.__version__
+    result = gm.evaluate("box", None, pose, progress=False, protocol="dexgraspbench")
+    assert result.made_by["experience"]["kind"] == "none" and result.made_by["protocol"]["name"] == "dexgraspbench"
+    result.save(tmp_path / "trials.npz")  # the file keeps it, and so does summary.json
+    assert gm.EvaluationResult.load(tmp_path / "trials.npz").made_by == json.loads(json.dumps(result.made_by))
+    assert json.loads(summary_json([result]))["results"][0]["made_by"]["protocol"]["name"] == "dexgraspbench"

@@ -280,8 +280,8 @@ def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object],
 def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callable[[dict], str],
             figure: Callable[[dict, Path], str] | None = None) -> None:
     """A study's results written out: its figure beside the report (`figure(info, path)` returns the file's name,
-    kept as info['figure']), the report, OUT/study.json with the software versions and, for a full run, that JSON
-    beside the report; the verdict printed.
+    kept as info['figure']), the report, OUT/study.json with the command and the software versions and, for a full
+    run, that JSON beside the report; the verdict printed.
 
     Args:
         study: the run.
@@ -294,7 +294,8 @@ def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callabl
     if figure is not None:
         info["figure"] = figure(info, doc.with_suffix(".png"))
     write_text_atomic(doc, report(info))
-    data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
+    made_by = {"command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "versions": software_versions()}
+    data = json.dumps({**info, **made_by}, indent=1, default=float)  # what made it, and what it ran on
     write_text_atomic(study.out / "study.json", data)
     if not quick:
         write_text_atomic(doc.with_suffix(".json"), data)

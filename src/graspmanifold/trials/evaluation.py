@@ -92,6 +92,9 @@ class EvaluationResult(Tabular, NpzRecord):
         trials: one `Trial` per grid pose, in grid order.
         noise: the trial noise.
         backend: the physics engine the trials ran on (`trial.BACKENDS`).
+        made_by: what made the trials (`TrialSetup.provenance`: object and mesh digest, hand, protocol, touch,
+            controller and its parameters, experience kind and digest, seed, library version); {} for a result
+            written before it was recorded.
     """
 
     object: GraspObject
@@ -101,6 +104,7 @@ class EvaluationResult(Tabular, NpzRecord):
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
     backend: str = "cpu"  # the physics engine the trials ran on (trial.BACKENDS)
+    made_by: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if isinstance(self.object, dict):  # parameters, as a file stores them
@@ -238,7 +242,8 @@ class EvaluationResult(Tabular, NpzRecord):
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
                 "noise": asdict(self.noise), "backend": self.backend, "summary": self.summary, "segments": list(SEGMENTS),
-                "units": "m, rad, s, N; epsilon per unit total normal force", "fields": FIELDS}
+                "units": "m, rad, s, N; epsilon per unit total normal force", "fields": FIELDS,
+                "made_by": self.made_by}
         return arrays, meta
 
     @classmethod
@@ -265,7 +270,7 @@ class EvaluationResult(Tabular, NpzRecord):
                         *((a["object_estimate"][i],) if "object_estimate" in a else ()))
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
-                   meta.get("backend", "cpu"))
+                   meta.get("backend", "cpu"), meta.get("made_by", {}))
 
 
 def trial_count(summary: dict) -> str:
@@ -375,9 +380,18 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
                     keep(first + k, trials[:len(task[0])])
                     trials = trials[len(task[0]):]
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
-    return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend)
+    return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend, setup.provenance(seed))
 
 
 def summary_json(results: list[EvaluationResult]) -> str:
-    return json.dumps({"library_version": library_version(), "results": [r.summary for r in results]}, indent=2)
+    """The results' summaries as JSON (`evaluate`'s summary.json), each with what made it (`made_by`).
+
+    Args:
+        results: the results.
+
+    Returns:
+        The JSON text.
+    """
+    return json.dumps({"library_version": library_version(),
+                       "results": [{**r.summary, "made_by": r.made_by} for r in results]}, indent=2)
 

@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
+import json
 import math
 import os
 from collections.abc import Callable, Iterable, Sequence
@@ -32,6 +34,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.checkpoints import result_key
+from ..base.io import library_version
 from ..base.errors import InvalidInput
 from ..base.validation import check_choice, check_int
 from ..control.dexgraspbench import OpenLoopGrasp
@@ -95,6 +98,16 @@ def method_name(experience: Experience | None) -> str:
         The label.
     """
     return "none" if experience is None else type(experience).__name__.replace("PostureDatabase", "database").lower()
+
+
+def _named(value: object) -> str:
+    """A value JSON does not know (a stage class, a callable) by its qualified name, never its address."""
+    return f"{getattr(value, '__module__', '')}.{getattr(value, '__qualname__', type(value).__qualname__)}"
+
+
+def _digest(data: bytes) -> str:
+    """A 16-character SHA-256 digest, for a result's record of what made it."""
+    return hashlib.sha256(data).hexdigest()[:16]
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -318,6 +331,38 @@ class TrialSetup:
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
                           np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
+
+    def provenance(self, seed: int) -> dict:
+        """What made these trials, as plain values a result file records (`EvaluationResult.made_by`, `evaluate`'s
+        trials.npz and summary.json): a reader tells two configurations apart without the command line.
+
+        Args:
+            seed: the trials' seed.
+
+        Returns:
+            {"library_version", "object" (its parameters; a mesh by its digest), "hand" (name, digest), "protocol"
+            (name, whether registered, its judging in a sentence, a digest of its whole value), "touch",
+            "controller" (ours by its registered name or 'custom parameters', with every parameter; a user's own by
+            its qualified name), "experience" (kind, reference postures, their digest), "seed", "noise", "table",
+            "backend", "margin", "method", "regrasp", "preshape", "plan" (a digest), "palm", "oracle"}.
+        """
+        experience, custom, protocol = self.experience, self.controller, self.protocol
+        ours = next((name for name, params in CONTROLLERS.items() if params == self.params), "custom parameters")
+        references = None if experience is None else np.ascontiguousarray(experience.references, dtype=float)
+        return {"library_version": library_version(), "object": self.object.params(),
+                "hand": {"name": self.hand.name, "digest": self.hand.digest},
+                "protocol": {"name": protocol.name, "registered": PROTOCOLS.get(protocol.name) == protocol,
+                             "judging": protocol.summary(), "digest": _digest(json.dumps(asdict(protocol), sort_keys=True, default=_named).encode())},
+                "touch": self.touch,
+                "controller": {"name": ours, "params": self.params.to_table()} if custom is None else
+                {"name": f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
+                "experience": {"kind": "none", "references": 0, "digest": ""} if references is None else
+                {"kind": type(experience).__name__, "references": len(references), "digest": _digest(references.tobytes())},
+                "seed": int(seed), "noise": asdict(self.noise), "table": self.table, "backend": self.backend,
+                "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
+                "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
+                "plan": None if self.plan is None else _digest(self.plan.poses.tobytes() + self.plan.postures.tobytes()),
+                "palm": None if self.palm is None else asdict(self.palm), "oracle": self.oracle}
 
     def _protocol_key(self) -> dict:
         """The protocol's part of `key`: nothing for the default (keys made before protocols stay valid), the
