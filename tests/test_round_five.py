@@ -182,3 +182,23 @@ def test_a_result_says_what_made_it(tmp_path):
     result.save(tmp_path / "trials.npz")  # the file keeps it, and so does summary.json
     assert gm.EvaluationResult.load(tmp_path / "trials.npz").made_by == json.loads(json.dumps(result.made_by))
     assert json.loads(summary_json([result]))["results"][0]["made_by"]["protocol"]["name"] == "dexgraspbench"
+
+
+def test_a_file_that_is_no_mesh_is_named_as_what_it_is(tmp_path, monkeypatch):
+    """A PNG renamed .obj and a 134-byte STL declaring 2^32 - 1 triangles were refused with "No module named
+    'charset_normalizer'" on a machine without that package."""
+    import struct
+    import sys
+
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)  # a machine without it
+    png = tmp_path / "cup.obj"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(200))
+    stl = tmp_path / "cup.stl"
+    stl.write_bytes(bytes(80) + struct.pack("<I", 2**32 - 1) + bytes(50))
+    text = tmp_path / "cup.off"
+    text.write_bytes(b"OFF\n3 1 0\n\0\0\0")
+    for path, message in ((png, r"cup\.obj' is a PNG image, not a \.obj mesh"),
+                          (stl, r"a binary STL of 4294967295 triangles has .* bytes, this one 134"),
+                          (text, r"cup\.off' holds binary bytes; a \.off mesh is text")):
+        with pytest.raises(gm.InvalidInput, match=message):
+            gm.make_object("mesh", mesh=path, name="cup")

@@ -116,6 +116,42 @@ def _mesh_file_piece(model: object, mesh_id: int, folder: Path) -> trimesh.Trime
     return piece
 
 
+#: the first bytes of files that are often renamed by mistake, and what they are
+_NOT_MESHES = {b"\x89PNG": "a PNG image", b"\xff\xd8\xff": "a JPEG image", b"GIF8": "a GIF image",
+               b"%PDF": "a PDF document", b"PK\x03\x04": "a zip archive", b"\x1f\x8b": "a gzip archive",
+               b"\x93NUMPY": "a NumPy array file"}
+#: the mesh formats that are text (a NUL byte in one is not that format)
+_TEXT_FORMATS = ("obj", "off", "gltf")
+
+
+def check_mesh_bytes(path: Path) -> None:
+    """Refuse a file that cannot be the mesh its suffix says, before a parser meets it: an image or an archive
+    renamed (a PNG renamed .obj reached trimesh's text decoder, and a machine without charset_normalizer answered
+    "No module named 'charset_normalizer'"), a text format with binary bytes, a binary STL whose triangle count does
+    not fit its size (2^32 - 1 triangles in 134 bytes).
+
+    Args:
+        path: the mesh file (`MESH_FORMATS`).
+
+    Raises:
+        InvalidInput: what the file is instead, or how it is broken.
+    """
+    size = path.stat().st_size
+    with open(path, "rb") as handle:
+        head = handle.read(4096)
+    suffix = path.suffix.lower().lstrip(".")
+    for magic, what in _NOT_MESHES.items():
+        if head.startswith(magic):
+            raise InvalidInput(f"mesh file {str(path)!r} is {what}, not a .{suffix} mesh")
+    if suffix in _TEXT_FORMATS and b"\0" in head:
+        raise InvalidInput(f"mesh file {str(path)!r} holds binary bytes; a .{suffix} mesh is text")
+    if suffix == "stl" and not head.lstrip().startswith(b"solid") and size >= 84:
+        declared = int.from_bytes(head[80:84], "little")
+        if 84 + 50 * declared != size:
+            raise InvalidInput(f"mesh file {str(path)!r}: a binary STL of {declared} triangles has {84 + 50 * declared} "
+                               f"bytes, this one {size}; the file is truncated or not an STL")
+
+
 def read_mesh_file(path: Path) -> trimesh.Trimesh:
     """A mesh file's triangles, its objects (an .obj's `o` groups, a glTF's nodes) kept apart: each object's
     duplicate vertices merged, but not one object's with another's, so that the pieces of a convex decomposition
@@ -130,8 +166,12 @@ def read_mesh_file(path: Path) -> trimesh.Trimesh:
     Raises:
         InvalidInput: a file that cannot be read, holds no triangles or too many, or has non-finite vertices.
     """
+    check_mesh_bytes(path)
     try:  # unprocessed first: processing would drop non-finite vertices and leave holes to blame
         loaded = trimesh.load(path, process=False, split_object=True, group_material=False)
+    except ImportError as error:  # a text format trimesh decodes with an optional package
+        raise InvalidInput(f"mesh file {str(path)!r} could not be read: trimesh needs the package "
+                           f"{error.name or error} for it (pip install {error.name or 'it'})") from None
     except Exception as error:  # trimesh raises many kinds for a file it cannot parse
         raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
     pieces = list(loaded.dump()) if isinstance(loaded, trimesh.Scene) else [loaded]
