@@ -202,3 +202,50 @@ def test_a_file_that_is_no_mesh_is_named_as_what_it_is(tmp_path, monkeypatch):
                           (text, r"cup\.off' holds binary bytes; a \.off mesh is text")):
         with pytest.raises(gm.InvalidInput, match=message):
             gm.make_object("mesh", mesh=path, name="cup")
+
+
+def test_a_full_disk_under_a_study_ends_in_one_line(tmp_path, monkeypatch, capsys):
+    """A full disk under scripts/study_learning_curve.py ended in a 27-frame traceback (the CLI printed one line)."""
+    import errno
+
+    from graspmanifold.base import io
+    from graspmanifold.studies.runner import run_study
+
+    def full(_fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    def body(study):
+        study.keep("result.json", "k", lambda: {"rate": 0.5}, lambda path: (io.json.loads(path.read_text()), {}),
+                   lambda result, path, meta: io.write_text_atomic(path, io.json.dumps(result)))
+
+    monkeypatch.setattr(io.os, "fsync", full)
+    with pytest.raises(SystemExit) as ended:
+        run_study(tmp_path / "study", 1, body, pool=False)
+    line = str(ended.value.code)
+    assert "\n" not in line and line.startswith("error: cannot write ") and "No space left on device" in line
+    assert "run the same command again to resume" in line
+    assert not list(tmp_path.rglob("*" + io.TEMPORARY_SUFFIX))  # nothing half-written
+    with pytest.raises(OSError, match="bug"):  # another OSError is a bug and keeps its traceback
+        from graspmanifold.studies.runner import run_command
+        run_command(tmp_path, lambda: (_ for _ in ()).throw(OSError("bug")))
+
+
+def test_a_broken_egl_on_the_loader_path_does_not_kill_the_import(tmp_path):
+    """A broken libEGL on the loader path killed `import graspmanifold` inside MuJoCo's import (the library chose
+    egl because it found the library)."""
+    import ctypes.util
+    import os
+    import subprocess
+    import sys
+
+    if not ctypes.util.find_library("EGL"):
+        pytest.skip("no libEGL on this machine: the library never chooses egl here")
+    broken = tmp_path / "libEGL.so.1"
+    broken.write_bytes(b"not a shared library" * 50)
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM", "DISPLAY")}
+    env["LD_LIBRARY_PATH"] = str(tmp_path)
+    done = subprocess.run([sys.executable, "-c", "import os, graspmanifold; print(os.environ.get('MUJOCO_GL'))"],
+                          env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() != "egl"
+    assert "the offscreen OpenGL library libEGL" in done.stderr and "cannot be used" in done.stderr

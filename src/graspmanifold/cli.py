@@ -18,7 +18,7 @@ from pathlib import Path
 
 from .base.errors import GraspManifoldError, InvalidInput
 from .base.config_files import read_config
-from .base.io import LOCK_FILE, check_writable_folder, output_lock
+from .base.io import LOCK_FILE, check_writable_folder, output_lock, write_failure
 from .base.version import __version__
 from .base.workers import default_workers
 from .control.dexgraspbench import GRASP_STAGES, VERIFY_STAGES
@@ -498,10 +498,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GraspManifoldError as error:  # the library's refusals and failures: one line, no traceback
         raise SystemExit(f"error: {error}") from None
     except OSError as error:  # a file that could not be written (a full disk): one line, what is kept
-        if error.filename is None:
+        line = write_failure(error, _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", "")))
+        if line is None:
             raise
-        kept = _ON_INTERRUPT.get(args.command, "nothing to keep").format(out=getattr(args, "out", ""))
-        raise SystemExit(f"error: {error.strerror}; {kept}") from None
+        raise SystemExit(line) from None
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ files get the permissions the user's umask gives.
 from __future__ import annotations
 
 import csv
+import errno
 import hashlib
 import json
 import os
@@ -207,6 +208,29 @@ def check_writable_folder(folder: str | os.PathLike, name: str) -> None:
             pass
     except OSError as error:
         raise InvalidInput(f"cannot write results to {folder}: {error.strerror or error}") from None
+
+
+#: the errors of a write that failed for the machine's reasons, not the program's: a full disk or quota, a
+#: read-only file system, no permission, an input/output error
+WRITE_FAILURES = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO)
+
+
+def write_failure(error: OSError, kept: str) -> str | None:
+    """The one line a command ends in when a file could not be written (a full disk), or None for another OSError
+    (a bug, which keeps its traceback).
+
+    Args:
+        error: the error.
+        kept: what is kept and how to resume, said after it.
+
+    Returns:
+        'error: No space left on device: <file>; <kept>', or None.
+    """
+    if error.filename is None and error.errno not in WRITE_FAILURES:
+        return None
+    said = str(error.strerror or error)
+    where = f": {error.filename}" if error.filename is not None and str(error.filename) not in said else ""
+    return f"error: {said}{where}; {kept}"
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:

@@ -67,12 +67,25 @@ def choose_offscreen_backend() -> str | None:
     if (os.environ.get("MUJOCO_GL") or "mujoco" in sys.modules or not sys.platform.startswith("linux")
             or os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         return None
-    for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
-        if ctypes.util.find_library(library):
+    for backend, library, symbol in (("egl", "EGL", "eglQueryString"), ("osmesa", "OSMesa", "OSMesaCreateContextExt")):
+        found = ctypes.util.find_library(library)
+        if found and _loads(found, symbol, backend):
             os.environ["MUJOCO_GL"] = backend
             os.environ.setdefault("PYOPENGL_PLATFORM", backend)
             return backend
     return None
+
+
+def _loads(library: str, symbol: str, backend: str) -> bool:
+    """Whether the loader gives a working `library` (with `symbol`), as PyOpenGL will ask it inside MuJoCo's import;
+    a broken one on the loader path (which killed `import graspmanifold` there) is passed over with one warning."""
+    try:
+        getattr(ctypes.CDLL(library), symbol)
+    except (OSError, AttributeError) as error:
+        warnings.warn(f"the offscreen OpenGL library {library} on the loader path cannot be used ({error}): not drawing "
+                      f"with {backend} in this process; set MUJOCO_GL to choose another backend", stacklevel=3)
+        return False
+    return True
 
 
 _in_process_failed = False  # this process's context failed once: the kept child draws from then on

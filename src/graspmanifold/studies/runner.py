@@ -36,6 +36,7 @@ from ..base.io import (
     markdown_table,
     output_lock,
     software_versions,
+    write_failure,
     write_text_atomic,
 )
 from ..base.workers import parallel_map, worker_pool, workers_for
@@ -239,7 +240,8 @@ class StudyRun:
 
 def run_command(out: str | Path, body: Callable[[], None]) -> None:
     """Run a study's body as a command: Ctrl-C ends in one line that says how to resume (exit status 130), a
-    library error (bad input, a folder another run writes) in one line (status 1).
+    library error (bad input, a folder another run writes) or a file that could not be written (a full disk) in one
+    line (status 1).
 
     Args:
         out: the study's folder (named in the message).
@@ -252,6 +254,12 @@ def run_command(out: str | Path, body: Callable[[], None]) -> None:
         raise SystemExit(130) from None
     except GraspManifoldError as error:
         raise SystemExit(f"error: {error}") from None
+    except OSError as error:  # a file that could not be written (a full disk): one line, as the CLI says it
+        line = write_failure(error, f"finished work is kept in {out}; free the space and run the same command again "
+                                    "to resume")
+        if line is None:
+            raise
+        raise SystemExit(line) from None
 
 
 def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object], transcript: str | None = None,
