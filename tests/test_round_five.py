@@ -249,3 +249,21 @@ def test_a_broken_egl_on_the_loader_path_does_not_kill_the_import(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() != "egl"
     assert "the offscreen OpenGL library libEGL" in done.stderr and "cannot be used" in done.stderr
+
+
+def test_the_literal_controller_trace_has_a_quick_run(tmp_path, capsys):
+    """scripts/trace_literal_controller.py had no --quick like the other studies."""
+    from graspmanifold.manifold.postureset import PostureSet
+    from graspmanifold.studies.recall_trace import QUICK_POSES, main
+
+    limits = gm.SHADOW_HAND.limits()
+    n = 30
+    postures = np.random.default_rng(0).uniform(limits[:, 0], limits[:, 1], (n, 22))
+    PostureSet(postures, np.tile([0, 0, 0, 1.0, 0, 0, 0], (n, 1)), np.zeros(n, dtype=int),
+               np.zeros((n, len(gm.SEGMENTS)), dtype=bool), ("start",)).save(tmp_path / "experience_pen.npz")
+    with pytest.raises(SystemExit):
+        main(["--quick", "--all", "--experience", str(tmp_path)])
+    assert "--quick traces one cell" in capsys.readouterr().err
+    main(["--quick", "--experience", str(tmp_path), "--out", str(tmp_path / "trace")])
+    report = (tmp_path / "trace" / "recall_trace.md").read_text()
+    assert f"({QUICK_POSES} test poses)" in report and "| the blend against the paper's controller | 3 |" in report

@@ -3,6 +3,7 @@ readings of the recall on the same poses with the same experience.
 
     python scripts/trace_literal_controller.py [--experience study-uncertainty] [--object pen] [--placement palm]
     python scripts/trace_literal_controller.py --all   # every cell of the test split, and the pooled comparisons
+    python scripts/trace_literal_controller.py --quick  # a smoke run: the first QUICK_POSES test poses of one cell
     (the report kept in --out DIR, default study-recall-trace, as recall_trace.md)
 
 The experience is the verified postures a study kept (`experience_<object>.npz` in its folder: the experience or the
@@ -43,6 +44,8 @@ from .runner import comparison_table, holm_family, run_study
 #: the readings of the recall traced side by side
 READINGS: tuple[tuple[str, ControllerParams], ...] = (
     ("paper's controller", ControllerParams()), ("closing recall", CLOSING_RECALL), ("blend", BLEND))
+#: test poses of a `--quick` run's cell
+QUICK_POSES = 3
 
 
 class TracedController:
@@ -68,18 +71,20 @@ class TracedController:
         return targets
 
 
-def trace_cell(som: SOM, name: str, placement: str) -> tuple[list[str], dict[str, tuple[np.ndarray, np.ndarray]]]:
-    """Every test pose of one cell under each reading.
+def trace_cell(som: SOM, name: str, placement: str,
+               poses: int | None = None) -> tuple[list[str], dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """Every test pose of one cell (or its first `poses`) under each reading.
 
     Args:
         som: the experience.
         name: a benchmark object.
         placement: 'palm' or 'fingertips'.
+        poses: trace only the first this many test poses (None: all).
 
     Returns:
         (markdown lines, {reading: (held, valid) per pose}).
     """
-    poses = benchmark_split()["test"][(name, placement)]
+    poses = benchmark_split()["test"][(name, placement)][:poses]
     opened, closed = BatchController(1, None).initial, BatchController(1, None).closed
     span = np.where(closed == opened, 1.0, closed - opened)
     lines, outcomes = [f"### {name} at the {placement} ({len(poses)} test poses)", ""], {}
@@ -125,8 +130,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--object", default="pen", choices=list(OBJECTS))
     parser.add_argument("--placement", default="palm", choices=list(PLACEMENTS))
     parser.add_argument("--all", action="store_true", help="every cell of the test split, and pooled comparisons")
-    parser.add_argument("--out", default="study-recall-trace", help="the folder its report (recall_trace.md) is kept in")
+    parser.add_argument("--quick", action="store_true",
+                        help=f"a smoke run: the first {QUICK_POSES} test poses of the one cell (not with --all)")
+    parser.add_argument("--out", default="", help="the folder its report (recall_trace.md) is kept in (default "
+                        "study-recall-trace[-quick])")
     args = parser.parse_args(argv)
+    if args.quick and args.all:
+        parser.error("--quick traces one cell: give it without --all")
+    args.out = args.out or ("study-recall-trace-quick" if args.quick else "study-recall-trace")
 
     def trace(run: object) -> None:
         files = sorted(glob.glob(f"{args.experience}/experience_*.npz"))
@@ -139,7 +150,7 @@ def main(argv: list[str] | None = None) -> None:
         cells = [(o, p) for o in OBJECTS for p in PLACEMENTS] if args.all else [(args.object, args.placement)]
         runs = []
         for cell in cells:
-            lines, outcomes = trace_cell(som, *cell)
+            lines, outcomes = trace_cell(som, *cell, QUICK_POSES if args.quick else None)
             print("\n".join(lines), flush=True)
             runs.append(outcomes)
         pooled = {label: tuple(np.concatenate([r[label][k] for r in runs]) for k in (0, 1)) for label, _ in READINGS}
