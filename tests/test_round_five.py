@@ -267,3 +267,45 @@ def test_the_literal_controller_trace_has_a_quick_run(tmp_path, capsys):
     main(["--quick", "--experience", str(tmp_path), "--out", str(tmp_path / "trace")])
     report = (tmp_path / "trace" / "recall_trace.md").read_text()
     assert f"({QUICK_POSES} test poses)" in report and "| the blend against the paper's controller | 3 |" in report
+
+
+def test_compare_gives_the_difference_with_its_interval():
+    """gm.compare gave counts and McNemar's p but no difference of rates with its interval, which a paper needs."""
+    from graspmanifold.trials.stats import PairedComparison
+
+    paired = PairedComparison(30, 24, 3, 1, 2, 0.625)
+    low, high = paired.difference_interval()
+    assert -1 <= low < paired.difference < high <= 1
+    swapped = PairedComparison(30, 24, 1, 3, 2, 0.625).difference_interval()
+    assert swapped == pytest.approx((-high, -low))  # A against B is B against A turned round
+    assert str(paired).startswith(f"+6.7 pts [{100 * low:+.1f}, {100 * high:+.1f}] on 30 paired poses (+3 / -1, McNemar")
+    assert PairedComparison(10, 0, 10, 0, 0, 0.002).difference_interval()[1] == 1.0  # stays inside [-1, 1]
+    rng = np.random.default_rng(0)  # it covers the true difference about as often as it says
+    probabilities, n, covered = [0.5, 0.15, 0.05, 0.3], 50, 0
+    for _ in range(2000):
+        a, b, c, d = rng.multinomial(n, probabilities)
+        low, high = PairedComparison(n, a, b, c, d, 1.0).difference_interval()
+        covered += low <= 0.10 <= high
+    assert 0.91 <= covered / 2000 <= 0.98
+
+
+def test_the_rates_figure_shows_every_method_with_its_legend_apart():
+    """figures/rates.png had its legend over both panels and cut off (two methods not visible), and the run printed
+    "constrained_layout not applied because axes sizes collapsed to zero"."""
+    import warnings
+
+    from graspmanifold.paper.figures import rates_figure
+
+    methods = ("none", "som", "som_all", "database", "database_blend", "som_blend")
+    summaries = [{"object": "cylinder", "method": m, "hold_rate": 0.9, "force_closure_rate": 0.8, "trials": 30}
+                 for m in methods]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        figure = rates_figure(summaries, methods)
+        figure.canvas.draw()
+    legend = figure.legends[0]
+    assert [t.get_text() for t in legend.get_texts()] == list(methods)
+    box = legend.get_window_extent()
+    canvas = figure.bbox
+    assert canvas.x0 <= box.x0 and box.x1 <= canvas.x1 and canvas.y0 <= box.y0  # all of it on the canvas
+    assert all(box.y1 <= ax.get_window_extent().y0 for ax in figure.axes)  # below the panels, over neither

@@ -63,7 +63,7 @@ def test_rate_text_and_the_verdict():
     row = {"method": "som", "control": "none_preshape", "verdict": "better", "control_rate": 0.6, "p_value": 0.01}
     rows = [{**row, "object": "box", "grid": "far"}, {**row, "object": "cylinder", "grid": "far"}]
     assert judge_target(rows).met
-    assert "the strongest control run (none_preshape)" in judge_target(rows).text
+    assert "the strongest control (none_preshape)" in judge_target(rows).text
     assert not judge_target(rows[:1]).met  # one object is not enough
     easy = [{**r, "control_rate": 0.9} for r in rows]
     assert not judge_target(easy).met  # wins where the control already holds 90 % do not count

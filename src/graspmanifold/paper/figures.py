@@ -136,8 +136,9 @@ def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure
     objects = list(dict.fromkeys(s["object"] for s in summaries))
     present = list(dict.fromkeys(s["method"] for s in summaries))
     methods = [m for m in methods if m in present] + [m for m in present if m not in methods]
-    figure = Figure(figsize=(3.2 * len(objects) + 1, 3.8), layout="constrained")
-    axes = figure.subplots(1, 2)
+    rows_of_legend = -(-len(methods) // 6)  # at most six methods a row, below the panels
+    figure = Figure(figsize=(max(6.4, 3.6 * len(objects) + 1), 3.6 + 0.25 * rows_of_legend), layout="constrained")
+    axes = figure.subplots(1, 2, sharey=True)
     width = 0.8 / len(methods)
     colours = colormaps["tab10"]
     for ax, key, label in zip(axes, ("hold_rate", "force_closure_rate"), ("hold", "force closure")):
@@ -150,10 +151,12 @@ def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure
             ax.bar(np.arange(len(objects)) + (m - (len(methods) - 1) / 2) * width, values, width, yerr=error,
                    capsize=2, label=method, color=colours(m % 10), error_kw={"linewidth": 0.8})
         ax.set_xticks(range(len(objects)), objects)
-        ax.set_ylim(0, 1.15)  # headroom for the legend above the bars
+        ax.set_ylim(0, 1.05)
         ax.set_yticks(np.linspace(0, 1, 6))
-        ax.set_ylabel(f"{label} rate (95 % CI)")
-    axes[0].legend(fontsize=8, ncol=len(methods), loc="upper center")
+        ax.set_title(f"{label} rate (95 % CI)", fontsize=10)
+    axes[0].set_ylabel("rate")
+    handles, labels = axes[0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside lower center", ncol=min(6, len(methods)), fontsize=8, frameon=False)
     return figure
 
 

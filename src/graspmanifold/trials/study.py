@@ -81,6 +81,10 @@ def grow_experience(obj: GraspObject, postures: np.ndarray, grid: np.ndarray, ro
     return grown, records
 
 
+#: the controls of a verdict by what they are ('none' is the plain heuristic's method name)
+_CONTROL_NAMES = {"none": "the plain heuristic, none"}
+
+
 @dataclass(frozen=True)
 class TargetVerdict:
     """The target, judged: wins where the strongest control is below `HARD_FOR_CONTROL`, and losses."""
@@ -99,16 +103,20 @@ def judge_target(rows: list[dict], method: str = "som", alpha: float = 0.05) -> 
     losses = [(r["object"], r["grid"]) for r in mine if r["verdict"] == "worse"]
     won_objects = sorted({o for o, _ in wins})
     met = len(won_objects) >= 2 and not losses
-    strongest = f"the strongest control run ({', '.join(sorted({r['control'] for r in mine})) or 'none'})"
+    controls = sorted({r["control"] for r in mine})
+    strongest = ("the strongest control (" + ", ".join(_CONTROL_NAMES.get(c, c) for c in controls) + ")" if controls
+                 else "a control (none was run)")
+    where = f"where that control holds below {HARD_FOR_CONTROL:.0%}"
     if met:
-        text = (f"Target met: experience ({method}) beats {strongest} on the hold test with p < {alpha} "
-                f"on {', '.join(won_objects)} where that control holds below {HARD_FOR_CONTROL:.0%}, and loses "
-                "significantly nowhere.")
+        text = (f"Target met: the {method} controller beats {strongest} on the hold test at p < {alpha} on "
+                f"{', '.join(won_objects)}, {where}, and loses significantly nowhere.")
     else:
-        text = (f"Target not met: experience ({method}) beats {strongest} significantly (p < {alpha}, "
-                f"control below {HARD_FOR_CONTROL:.0%}) on {len(won_objects)} of the objects "
-                f"({', '.join(f'{o}/{g}' for o, g in wins) or 'none'}) and loses significantly on "
-                f"{len(losses)} object/grid pairs ({', '.join(f'{o}/{g}' for o, g in losses) or 'none'}).")
+        beaten = (f"on {len(won_objects)} object{'s' if len(won_objects) != 1 else ''} "
+                  f"({', '.join(f'{o}/{g}' for o, g in wins)})" if wins else "on no object")
+        lost = (f"loses significantly on {', '.join(f'{o}/{g}' for o, g in losses)}" if losses
+                else "loses significantly nowhere")
+        text = (f"Target not met: the {method} controller beats {strongest} significantly {beaten} (p < {alpha}, "
+                f"counted {where}), and {lost}; the target is two such objects and no significant loss.")
     return TargetVerdict(met, wins, losses, text)
 
 
