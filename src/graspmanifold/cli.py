@@ -179,13 +179,26 @@ def _experience_files(args: argparse.Namespace):
     """The files of the experience base the evaluate command asks for, read and checked: None, a trained
     representation (--map), or the posture sets (of --hand's postures) for a database or a representation to train."""
     from .manifold.postureset import PostureSet
-    from .manifold.representations import load_representation
+    from .manifold.representations import load_representation, representation_name
     from .sim.hand_models import hand_name
 
+    if args.map:  # the file says its kind; a kind named beside it must be that one
+        if args.experience == "none":
+            raise SystemExit("error: --map gives the controller an experience; --experience none runs without one: "
+                             "drop one of them")
+        experience = load_representation(args.map)
+        kind = representation_name(experience)
+        if args.experience not in (None, kind):
+            raise SystemExit(f"error: --map {args.map} holds a {kind}, not a {args.experience}: pass --experience "
+                             f"{kind}, or leave --experience out beside --map")
+        args.experience = kind
+        return experience
+    args.experience = args.experience or "som"
     if args.experience == "none":
+        if args.postures:
+            raise SystemExit("error: --postures make the controller's experience; --experience none runs without one: "
+                             "drop one of them")
         return None
-    if args.map:
-        return load_representation(args.map)
     if not args.postures:
         raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --map FILE.npz)")
     sets = [PostureSet.load(p) for p in args.postures]
@@ -414,9 +427,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     evaluate = command("evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
     object_options(evaluate)
-    evaluate.add_argument("--experience", choices=("none", *REPRESENTATIONS), default="som",
-                          help="none (plain tactile heuristic) or what the controller recalls from: "
-                               + "; ".join(f"{k}: {v}" for k, v in REPRESENTATIONS.items()))
+    evaluate.add_argument("--experience", choices=("none", *REPRESENTATIONS), default=None,
+                          help="none (plain tactile heuristic) or what the controller recalls from (default: som, or "
+                               "the kind the --map file holds): " + "; ".join(f"{k}: {v}" for k, v in REPRESENTATIONS.items()))
     evaluate.add_argument("--postures", nargs="*", help="posture set file(s) the experience is made of")
     evaluate.add_argument("--map", "--som", dest="map", help="a trained SOM, UKR or linear manifold file (instead "
                           "of training one on --postures); --som is its old name")

@@ -22,7 +22,7 @@ import numpy as np
 from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, fingerprint
 from ..base.poses import invert
-from ..base.validation import check_data
+from ..base.validation import check_data, check_int
 from ..sim.hand import N_FINGER_JOINTS
 from .nearest import MaskedNearest, Recall
 from .postureset import PostureSet
@@ -212,5 +212,6 @@ def scrambled(postures: np.ndarray, seed: int = 0) -> np.ndarray:
     data = np.asarray(postures, dtype=float)
     if data.ndim != 2 or len(data) == 0:
         raise InvalidInput(f"postures must be a non-empty (n, dim) array, got shape {data.shape}")
+    seed = check_int(seed, "seed", low=0)  # NumPy's "expected non-negative integer" named nothing
     return np.column_stack([data[np.random.default_rng([seed, j]).permutation(len(data)), j]
                             for j in range(data.shape[1])])

@@ -31,6 +31,7 @@ REPRESENTATIONS: dict[str, str] = {
     "ukr": "a 2-d Unsupervised Kernel Regression manifold (the paper's future work)",
     "linear": "a 5-component linear manifold (PCA hand synergies)",
 }
+_REPRESENTATION_KINDS = {"database": PostureDatabase, "som": SOM, "ukr": UKR, "linear": LinearManifold}
 _FILE_KINDS = {SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: LinearManifold,
                PostureDatabase.NPZ_KIND: PostureDatabase}
 
@@ -58,6 +59,24 @@ def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progre
     if name == "ukr":  # a handful of postures: as many latent dimensions as they carry
         return UKR(max(1, min(2, len(data) - 2))).fit(data, progress=progress)
     return LinearManifold(max(1, min(5, len(data) - 1, data.shape[-1]))).fit(data)
+
+
+def representation_name(experience: Experience) -> str:
+    """The name (`REPRESENTATIONS`) of an experience's kind: 'som', 'ukr', 'linear' or 'database'.
+
+    Args:
+        experience: an experience of one of the representations.
+
+    Returns:
+        Its name.
+
+    Raises:
+        InvalidInput: an experience of another kind (one's own).
+    """
+    for name, kind in _REPRESENTATION_KINDS.items():
+        if type(experience) is kind:
+            return name
+    raise InvalidInput(f"experience is a {type(experience).__name__}, none of the representations {tuple(REPRESENTATIONS)}")
 
 
 def load_representation(path: str | os.PathLike) -> Experience:

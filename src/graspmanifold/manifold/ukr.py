@@ -390,9 +390,12 @@ class UKR(ManifoldRecall, NpzRecord):
         except KeyError as missing:
             raise InvalidInput(f"{path} lacks UKR metadata {missing}") from None
         latent, postures = arrays["latent"], arrays["postures"]
-        if latent.shape != (len(postures), ukr.latent_dim) or not np.all(np.isfinite(latent)):
-            raise InvalidInput(f"{path}: latent must be finite ({len(postures)}, {ukr.latent_dim}), got "
-                               f"{latent.shape}")
+        if latent.shape != (len(postures), ukr.latent_dim):
+            raise InvalidInput(f"{path}: latent must be ({len(postures)}, {ukr.latent_dim}), one point per posture, "
+                               f"got {latent.shape}; the file is corrupt")
+        if not np.all(np.isfinite(latent)):
+            row = int(np.flatnonzero(~np.isfinite(latent).all(axis=1))[0])
+            raise InvalidInput(f"{path}: latent row {row} is not finite ({latent[row].tolist()}); the file is corrupt")
         ukr._set(latent, check_data(postures, postures.shape[1], f"{path} postures"))
         ukr.history = list(meta.get("history", []))
         return ukr

@@ -14,14 +14,13 @@ put between commands. Gravity on the hand is compensated (`gravcomp`), as an arm
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
-from ..base.errors import InvalidInput
+from ..base.validation import Bounds, check_fields
 from ..base.poses import compose, invert
 
 #: the mocap body of a flanged hand: the arm's base, which placing the hand moves
@@ -38,6 +37,18 @@ warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix
 
 #: kg, the flange body's own mass (an arm's last link); its rotational inertia is a 5 cm sphere's
 FLANGE_MASS = 0.2
+
+
+#: the ranges of `FlangeLimits`: an arm that reaches a hand's work space (a travel of 1e6 m, a speed of 1e300 m/s
+#: and a stiffness of 1e30 N/m were taken)
+FLANGE_BOUNDS = {"speed": Bounds(0.0, 10.0, above_low=True, unit="m/s"),
+                 "turn_rate": Bounds(0.0, 50.0, above_low=True, unit="rad/s"),
+                 "force": Bounds(0.0, 5000.0, above_low=True, unit="N"),
+                 "torque": Bounds(0.0, 500.0, above_low=True, unit="N m"),
+                 "travel": Bounds(0.0, 2.0, above_low=True, unit="m"),
+                 "turn": Bounds(0.0, 3.1, above_low=True, unit="rad (below pi)"),
+                 "stiffness": Bounds(0.0, 1e7, above_low=True, unit="N/m"),
+                 "rotational_stiffness": Bounds(0.0, 1e5, above_low=True, unit="N m/rad")}
 
 
 @dataclass(frozen=True)
@@ -65,12 +76,7 @@ class FlangeLimits:
     rotational_stiffness: float = 200.0
 
     def __post_init__(self) -> None:
-        for name, value in vars(self).items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or value <= 0:
-                raise InvalidInput(f"FlangeLimits.{name} must be a finite number > 0, got {value!r}")
-        if self.turn >= math.pi:
-            raise InvalidInput(f"FlangeLimits.turn must be below pi rad, got {self.turn!r}")
+        check_fields(self, FLANGE_BOUNDS)
 
     def speeds(self) -> np.ndarray:
         """The fastest each flange joint's set point moves: (6,), m/s for the slides, rad/s for the hinges."""

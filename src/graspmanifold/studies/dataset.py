@@ -193,10 +193,14 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
                                                                          for r in rows]), ""]
     loaded = [r for r in rows if not r["loaded"].startswith("refused")]
     lines += [f"Loaded {len(loaded)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
-              f"{args.postures} verified postures.", "", "Every object's trials together (paired by pose):", "",
-              *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"],
-                              pooled := pooled_rows(rows, args.manifold)), "", "Per object:", "",
-              *comparison_table(list(tested.values()))]
+              f"{args.postures} verified postures.", ""]
+    pooled = pooled_rows(rows, args.manifold)
+    if pooled:
+        lines += ["Every object's trials together (paired by pose):", "",
+                  *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"], pooled),
+                  "", "Per object:", "", *comparison_table(list(tested.values()))]
+    else:  # two tables without a row said nothing
+        lines += ["No object got trials: nothing to compare."]
     for row in rows:
         row.pop("outcomes", None)
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")

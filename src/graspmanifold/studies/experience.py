@@ -80,7 +80,7 @@ from ..trials.selector import StrategySelector, choose_cross_validated
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
 from ..trials.study import train_experience_map
 from ..trials.trial import Noise
-from .runner import StudyRun, comparison_table, holm_family, publish, run_command
+from .runner import StudyRun, comparison_table, holm_family, publish, run_command, study_config
 
 #: the target (issue 38), pooled over the test split: two attempts each, regrasp with experience against the best
 #: fixed sequence of strategies
@@ -415,11 +415,8 @@ def main(argv: list[str] | None = None) -> None:
                         "(the run that made it is the one it reports)")
     args = parser.parse_args(argv)
     flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "postures", "seeds") if getattr(args, k) is not None}
-    try:  # every setting checked before OUT is made
-        config = read_config(args.config, ExperienceStudyConfig()) if args.config else ExperienceStudyConfig()
-        config = replace(config, **flags)
-    except InvalidInput as error:
-        raise SystemExit(f"error: {error}") from None
+    config = study_config(lambda: replace(read_config(args.config, ExperienceStudyConfig()) if args.config
+                                          else ExperienceStudyConfig(), **flags))  # checked before OUT is made
     if args.render:
         stored = config.out_dir / "study.json"
         if not stored.exists():

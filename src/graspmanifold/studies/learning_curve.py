@@ -56,6 +56,7 @@ from .runner import (
     rate_curve,
     run_command,
     save_figure,
+    study_config,
 )
 
 #: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
@@ -461,11 +462,8 @@ def main(argv: list[str] | None = None) -> None:
     flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "seeds", "rounds")
              if getattr(args, k) is not None}
     flags.update({k: tuple(getattr(args, k)) for k in ("sizes", "controllers") if getattr(args, k) is not None})
-    try:
-        config = read_config(args.config, LearningCurveConfig()) if args.config else LearningCurveConfig()
-        config = replace(config, **flags)
-    except InvalidInput as error:
-        raise SystemExit(f"error: {error}") from None
+    config = study_config(lambda: replace(read_config(args.config, LearningCurveConfig()) if args.config
+                                          else LearningCurveConfig(), **flags))
     if args.render:
         stored = config.out_dir / "study.json"
         if not stored.exists():

@@ -47,7 +47,7 @@ from ..trials.stats import mcnemar, rate_text
 from .planned_grasps import FAMILIES, Family, PlannedStudyConfig, figure, generate, postures_key
 from .planned_grasps import report as planned_report
 from .planned_grasps import run as run_planned
-from .runner import StudyRun, comparison_table, holm_family, publish, run_study
+from .runner import StudyRun, comparison_table, holm_family, publish, run_study, study_config
 
 #: m, the levels the targets read
 TARGET_LEVELS = (0.02, 0.03, 0.05)
@@ -246,7 +246,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", default="", help=f"the study's folder (default {PALM.default_out}[-quick])")
     parser.add_argument("--doc", default="", help=f"the report (default {PALM.default_doc}, or OUT/ for --quick)")
     args = parser.parse_args(argv)
-    config = PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans, args.displaced, "palm")
+    config = study_config(lambda: PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans,
+                                                     args.displaced, "palm"))
     out = Path(args.out or (PALM.default_out + ("-quick" if args.quick else "")))
     doc = Path(args.doc or (out / Path(PALM.default_doc).name if args.quick else PALM.default_doc))
 

@@ -60,7 +60,16 @@ from ..trials.planned import (
 )
 from ..trials.stats import mcnemar, rate_text
 from ..trials.trial import Trial
-from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure
+from .runner import (
+    StudyRun,
+    comparison_table,
+    holm_family,
+    publish,
+    rate_curve,
+    run_study,
+    save_figure,
+    study_config,
+)
 
 #: the questions of issue 65, each a pair of arms (first against second) at some levels (m)
 QUESTIONS: tuple[tuple[str, str, str, tuple[float, ...]], ...] = (
@@ -575,7 +584,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", default="", help="the study's folder (default study-planned-grasps[-quick])")
     parser.add_argument("--doc", default="", help="the report (default docs/planned_grasps.md, or OUT/ for --quick)")
     args = parser.parse_args(argv)
-    config = PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans, args.displaced)
+    config = study_config(lambda: PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans,
+                                                     args.displaced))
     out = Path(args.out or (EXECUTION.default_out + ("-quick" if args.quick else "")))
     doc = Path(args.doc or (out / Path(EXECUTION.default_doc).name if args.quick else EXECUTION.default_doc))
 

@@ -29,7 +29,7 @@ from typing import TextIO, TypeVar
 import numpy as np
 
 from ..base.checkpoints import PartStore, remove_checkpoints, result_key
-from ..base.errors import GraspManifoldError
+from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.io import (
     LOCK_FILE,
     check_writable_folder,
@@ -262,6 +262,22 @@ def run_command(out: str | Path, body: Callable[[], None]) -> None:
         raise SystemExit(line) from None
 
 
+def study_config(make: Callable[[], Result]) -> Result:
+    """A study's configuration made from its command line, every setting checked before its folder is made: a bad
+    one ends the command in one line (status 1), as the library's other refusals do.
+
+    Args:
+        make: builds the configuration (a config file read, flags applied).
+
+    Returns:
+        The configuration.
+    """
+    try:
+        return make()
+    except InvalidInput as error:
+        raise SystemExit(f"error: {error}") from None
+
+
 def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object], transcript: str | None = None,
               pool: bool = True) -> None:
     """A study as a command: its `StudyRun` over `out` (the folder locked, and one worker pool open, while `body(run)`
@@ -275,9 +291,8 @@ def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object],
         transcript: the file its printed output is kept in, or None.
         pool: open the study's pool (`run.executor`); False: what it calls brings its own (`run.workers` of them).
     """
-    run = StudyRun(out, workers)
-
     def within() -> None:
+        run = StudyRun(out, workers)  # its worker count checked inside: a bad one ends in one line
         with run.session() if pool else output_lock(run.out / LOCK_FILE, run.out), \
                 run.transcript(transcript) if transcript else nullcontext():
             body(run)

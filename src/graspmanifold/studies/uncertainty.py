@@ -40,7 +40,6 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.config_files import read_config
-from ..base.errors import InvalidInput
 from ..base.io import (
     load_npz,
     markdown_table,
@@ -70,6 +69,7 @@ from .runner import (
     rate_curve,
     run_command,
     save_figure,
+    study_config,
 )
 
 #: the target (issue 51): under 2-5 cm of error, the tactile controller with experience against the open loop
@@ -450,11 +450,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     flags = {k: getattr(args, k) for k in ("quick", "workers", "out", "doc", "postures", "every")
              if getattr(args, k) is not None}
-    try:
-        config = read_config(args.config, UncertaintyStudyConfig()) if args.config else UncertaintyStudyConfig()
-        config = replace(config, **flags)
-    except InvalidInput as error:
-        raise SystemExit(f"error: {error}") from None
+    config = study_config(lambda: replace(read_config(args.config, UncertaintyStudyConfig()) if args.config
+                                          else UncertaintyStudyConfig(), **flags))
     run_command(config.out_dir, lambda: UncertaintyStudy(config).run())
 
 

@@ -328,9 +328,11 @@ def coverage(obj: str | GraspObject, grid: np.ndarray, hand_poses: np.ndarray) -
     experienced palm poses in the object frame (`PostureSet.hand_poses`).
     """
     obj = get_object(obj)
-    poses = np.asarray(hand_poses, dtype=float).reshape(-1, 7)
-    if not len(poses):
-        raise InvalidInput("hand_poses must hold at least one experienced palm pose (m, 7)")
+    poses = np.asarray(hand_poses, dtype=float)
+    poses = poses[None] if poses.shape == (7,) else poses
+    if poses.ndim != 2 or poses.shape[1] != 7 or not len(poses) or not np.all(np.isfinite(poses)):
+        raise InvalidInput(f"hand_poses must be at least one finite experienced palm pose (m, 7): position (m) and "
+                           f"orientation (w x y z), got shape {poses.shape}")
 
     def seen_from_palm(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         centre, inverse = invert(pos, quat)
