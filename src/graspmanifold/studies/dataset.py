@@ -121,8 +121,10 @@ def load_object(path: Path, name: str, scale: float) -> tuple[GraspObject | None
         warnings.simplefilter("always")
         try:
             obj = make_object("mesh", mesh=path, scale=scale, name=name)
-        except InvalidInput as error:  # the row names the object: the reason without the file's path
-            return None, f"refused: {str(error).replace(f'{str(path)!r}: ', '', 1)}"
+        except InvalidInput as error:  # the row names the object: the reason without the file's path (a long path
+            # filled the cell and cut the reason off)
+            reason = str(error).replace(f"{str(path)!r}: ", "", 1).replace(repr(str(path)), repr(path.name))
+            return None, f"refused: {reason}"
     repairs = [str(w.message).split(": ", 1)[-1] for w in said if "made one solid" in str(w.message)
                or "kept as its collision parts" in str(w.message)]
     return obj, "; ".join(repairs) or "as shipped"

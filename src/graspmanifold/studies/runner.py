@@ -57,8 +57,8 @@ class StudyRun:
 
     def __init__(self, out: str | Path, workers: int = 2):
         self.out = Path(out)
-        self.out.mkdir(parents=True, exist_ok=True)
         self.workers = workers_for(workers, 10**6, 1)  # capped at the cores: a study's trials outnumber them
+        self.out.mkdir(parents=True, exist_ok=True)  # after the checks: a refused study leaves no folder
         self.executor: Executor | None = None  # the pool, while `session()` is open
         self.started = time.perf_counter()
         self.computed, self.reused = 0, 0  # results computed now, and taken from an earlier run
