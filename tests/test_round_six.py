@@ -108,3 +108,14 @@ def test_a_dataset_report_without_trials_says_so(tmp_path):
     report = (tmp_path / "out" / "dataset.md").read_text()
     assert "| cup | refused: mesh file 'cup.obj' is a PNG image, not a .obj mesh |" in report  # not cut off
     assert "No object got trials: nothing to compare." in report and "Every object's trials" not in report
+
+
+def test_a_ukr_too_large_for_memory_is_refused_before_any_work():
+    """A UKR fit of 30,000 postures ran out of memory (Isomap's n x n geodesics: 8,000 took 2.7 GB)."""
+    from graspmanifold.manifold.ukr import MAX_POSTURES
+
+    with pytest.raises(gm.InvalidInput, match=rf"at most {MAX_POSTURES} postures .* about 38 GB\); fit it on a subset"):
+        UKR().fit(np.zeros((30_000, 22)))
+    ukr = UKR(2, scales=2, iterations=3).fit(POSTURES, progress=False)
+    with pytest.raises(gm.InvalidInput, match=rf"at most {MAX_POSTURES} postures"):
+        ukr.resume(np.zeros((MAX_POSTURES, 22)))

@@ -52,8 +52,18 @@ from .nearest import ManifoldRecall, check_queries
 
 #: the embeddings a fit may start from (`embeddings.pca_embedding`, `embeddings.isomap`)
 STARTS: tuple[str, ...] = ("pca", "isomap")
+#: the most postures a UKR is fitted on: Isomap's start holds n x n geodesics (8,000 postures took 2.7 GB and 45 s,
+#: 30,000 would take about 38 GB); fit on a subset, or resume with fewer
+MAX_POSTURES = 20_000
 _BLOCK = 2048  # latent points per kernel matrix block of `manifold`: bounds its memory
 _PER_THREAD = 256  # a completion batch gets one thread per this many queries, up to the usable cores
+
+
+def _check_size(n: int) -> None:
+    """Refuse a fit of more than `MAX_POSTURES` postures before any work (a fit of 30,000 was killed for memory)."""
+    if n > MAX_POSTURES:
+        raise InvalidInput(f"a UKR is fitted on at most {MAX_POSTURES} postures (its fit holds n x n matrices: "
+                           f"{n} postures would need about {42 * n * n / 1e9:.0f} GB); fit it on a subset")
 
 
 def _kernel_rows(squared: np.ndarray) -> np.ndarray:
@@ -230,6 +240,7 @@ class UKR(ManifoldRecall, NpzRecord):
         if len(data) <= self.latent_dim + 1:
             raise InvalidInput(f"postures must have more than latent_dim + 1 = {self.latent_dim + 1} rows, got "
                                f"{len(data)}")
+        _check_size(len(data))
         tried = []
         n, q = len(data), self.latent_dim
         sizes = np.geomspace(0.5, 2.0 * n ** (1.0 / q), self.scales)
@@ -258,6 +269,7 @@ class UKR(ManifoldRecall, NpzRecord):
             Itself.
         """
         new = check_data(postures, self.dim, "postures")
+        _check_size(len(self.postures) + len(new))
         iterations = check_int(iterations, "iterations", low=0, high=100_000)
         places, _ = self.complete_latent_batch(new)
         data = np.vstack([self.postures, new])
