@@ -119,3 +119,17 @@ def test_a_ukr_too_large_for_memory_is_refused_before_any_work():
     ukr = UKR(2, scales=2, iterations=3).fit(POSTURES, progress=False)
     with pytest.raises(gm.InvalidInput, match=rf"at most {MAX_POSTURES} postures"):
         ukr.resume(np.zeros((MAX_POSTURES, 22)))
+
+
+def test_an_open_loop_of_no_grasp_and_places_that_are_not_finite_are_named():
+    """`OpenLoop("plan")` was taken and refused only when the trials made their controllers; NaN places were refused
+    as "got shape (40, 3)", the shape they had."""
+    from graspmanifold.control.dexgraspbench import OpenLoop
+
+    with pytest.raises(gm.InvalidInput, match=r"OpenLoop\.grasp must be an OpenLoopGrasp .* got str"):
+        OpenLoop("plan")
+    som = gm.SOM(3, 3, seed=0).fit(POSTURES, epochs=2, progress=False)
+    places = np.zeros((40, 3))
+    places[7, 1] = np.nan
+    with pytest.raises(gm.InvalidInput, match=r"places must be finite positions in m, got \[0.0, nan, 0.0\] in row 7"):
+        som.carry_places(POSTURES, places)

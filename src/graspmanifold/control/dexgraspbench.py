@@ -529,6 +529,11 @@ class OpenLoop:
 
     grasp: OpenLoopGrasp
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.grasp, OpenLoopGrasp):  # was met only when the trials made their controllers
+            raise InvalidInput(f"OpenLoop.grasp must be an OpenLoopGrasp (open_loop_grasp makes one), got "
+                               f"{type(self.grasp).__name__}")
+
     def __call__(self, n: int, hand: HandModel) -> OpenLoopController:
         """A controller of the grasp for n worlds.
 

@@ -121,9 +121,11 @@ def check_places(places: object, count: int) -> np.ndarray:
         InvalidInput: another shape or a value that is not finite.
     """
     array = np.array(places, dtype=float)
-    if array.shape != (count, 3) or not np.all(np.isfinite(array)):
-        raise InvalidInput(f"places must be ({count}, 3) finite positions in m, one per posture, got shape "
-                           f"{array.shape}")
+    if array.shape != (count, 3):
+        raise InvalidInput(f"places must be ({count}, 3) positions in m, one per posture, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        row = int(np.flatnonzero(~np.isfinite(array).all(axis=1))[0])
+        raise InvalidInput(f"places must be finite positions in m, got {array[row].tolist()} in row {row}")
     array.flags.writeable = False
     return array
 

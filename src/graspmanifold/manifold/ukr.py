@@ -52,9 +52,9 @@ from .nearest import ManifoldRecall, check_queries
 
 #: the embeddings a fit may start from (`embeddings.pca_embedding`, `embeddings.isomap`)
 STARTS: tuple[str, ...] = ("pca", "isomap")
-#: the most postures a UKR is fitted on: Isomap's start holds n x n geodesics (8,000 postures took 2.7 GB and 45 s,
-#: 30,000 would take about 38 GB); fit on a subset, or resume with fewer
-MAX_POSTURES = 20_000
+#: the most postures a UKR is fitted on: Isomap's start holds n x n geodesics (8,000 postures took 2.7 GB and 45 s;
+#: 15,000 need about 9.5 GB, 30,000 about 38 GB); fit on a subset, or resume with fewer
+MAX_POSTURES = 15_000
 _BLOCK = 2048  # latent points per kernel matrix block of `manifold`: bounds its memory
 _PER_THREAD = 256  # a completion batch gets one thread per this many queries, up to the usable cores
 
