@@ -16,6 +16,26 @@ from graspmanifold.control.stages import JudgingRules
 from graspmanifold.trials.grid import grid_preset
 
 
+# bad 1: a step after the episode ended was judged again and paid again
+def test_a_step_after_the_end_is_refused_until_reset():
+    from graspmanifold.envs.tactile_grasp import EpisodeEnded, TactileGraspEnv
+
+    env = TactileGraspEnv("box")
+    with pytest.raises(EpisodeEnded, match="call reset"):
+        env.step(env.action_space.sample())
+    observation, _ = env.reset(seed=0)
+    action = np.append(observation[:22], 1.0)  # hold still, and done: judged at once
+    _, reward, terminated, _, info = env.step(action)
+    assert terminated and info["judged"]
+    with pytest.raises(EpisodeEnded, match="episode ended .* call reset"):
+        env.step(action)
+    import gymnasium
+    with pytest.raises(gymnasium.error.ResetNeeded):  # Gymnasium's own error, for code written against it
+        env.step(action)
+    env.reset(seed=1)
+    assert env.step(np.append(observation[:22], 0.0))[2] is False  # a new episode steps again
+
+
 # bad 2: judging rules were never checked (a NaN stiffness, a negative hold ran to hold 100 %)
 @pytest.mark.parametrize("field, value, message", [
     ("support_stiffness", math.nan, r"JudgingRules\.support_stiffness must be a finite number >= 0"),
@@ -78,26 +98,6 @@ def test_one_mechanism_checks_every_configuring_value():
                           (lambda: JudgingRules(push=-1.0), r"JudgingRules\.push")):
         with pytest.raises(gm.InvalidInput, match=message + r" must be a finite number >[=]? 0"):
             make()
-
-
-# bad 1: a step after the episode ended was judged again and paid again
-def test_a_step_after_the_end_is_refused_until_reset():
-    from graspmanifold.envs.tactile_grasp import EpisodeEnded, TactileGraspEnv
-
-    env = TactileGraspEnv("box")
-    with pytest.raises(EpisodeEnded, match="call reset"):
-        env.step(env.action_space.sample())
-    observation, _ = env.reset(seed=0)
-    action = np.append(observation[:22], 1.0)  # hold still, and done: judged at once
-    _, reward, terminated, _, info = env.step(action)
-    assert terminated and info["judged"]
-    with pytest.raises(EpisodeEnded, match="episode ended .* call reset"):
-        env.step(action)
-    import gymnasium
-    with pytest.raises(gymnasium.error.ResetNeeded):  # Gymnasium's own error, for code written against it
-        env.step(action)
-    env.reset(seed=1)
-    assert env.step(np.append(observation[:22], 0.0))[2] is False  # a new episode steps again
 
 
 @pytest.mark.parametrize("action, message", [
