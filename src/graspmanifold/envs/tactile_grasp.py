@@ -333,8 +333,9 @@ class TactileGraspVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 4, **kwargs: Any):
         self.num_envs = check_int(num_envs, "num_envs")
-        kwargs.pop("render_mode", None)
-        kwargs.pop("camera", None)
+        if kwargs.pop("render_mode", None) is not None or kwargs.pop("camera", None) is not None:
+            raise InvalidInput("TactileGraspVectorEnv does not render: give no render_mode or camera (render one world "
+                               "with TactileGraspEnv)")
         names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds", "touch", "palm")
         unknown = sorted(set(kwargs) - set(names))
         if unknown:
