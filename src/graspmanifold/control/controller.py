@@ -93,7 +93,8 @@ from .regrasp import Regrasp
 JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
 #: (5, 22): which joints belong to which finger (FINGERS order)
 FINGER_JOINT_MASKS = JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
-_FINGER_SEGMENTS = SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None]  # (5, len(SEGMENTS)): each finger's
+#: (5, len(SEGMENTS)): which tactile segments belong to which finger (FINGERS order)
+_FINGER_SEGMENTS = SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None]
 #: joints that flex a finger around an object (the squeeze acts on these)
 FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
 #: which joints of a steered finger take the matched posture: all, or only the spread joints (finger

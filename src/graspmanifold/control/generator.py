@@ -744,8 +744,9 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     return posture_set
 
 
-def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray]) -> np.ndarray:
-    """(hold, epsilon, displacement) rows of the verifier for a chunk of postures and palm poses."""
+def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray, HandModel]) -> np.ndarray:
+    """(hold, epsilon, displacement) rows of the verifier for a chunk of postures (m, 22) and palm poses (m, 7) on
+    a hand."""
     obj, params, postures, poses, hand = task
     verifier = verifier_of(obj, params, hand)
     rows = []
