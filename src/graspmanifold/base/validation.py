@@ -53,7 +53,11 @@ class Bounds:
     unit: str = ""
 
     def describe(self) -> str:
-        """The range in words: 'a number > 0 and at most 60 s (or inf)'."""
+        """The range in words.
+
+        Returns:
+            E.g. 'a finite number > 0 and at most 60 s (or inf)'.
+        """
         kind = "a whole number" if self.whole else "a finite number"
         text = f"{kind} {'>' if self.above_low else '>='} {self.low:g}"
         if math.isfinite(self.high):
@@ -61,7 +65,14 @@ class Bounds:
         return text + (f" {self.unit}" if self.unit else "") + (" (or inf)" if self.infinite else "")
 
     def holds(self, value: object) -> bool:
-        """Whether `value` is a number in this range (a bool is not a number here)."""
+        """Whether `value` is a number in this range (a bool is not a number here; a whole number must be an int).
+
+        Args:
+            value: the value given.
+
+        Returns:
+            True where it lies in the range.
+        """
         if isinstance(value, bool) or not isinstance(value, (int, np.integer) if self.whole
                                                      else (int, float, np.integer, np.floating)):
             return False

@@ -101,7 +101,8 @@ def method_name(experience: Experience | None) -> str:
 
 
 def _named(value: object) -> str:
-    """A value JSON does not know (a stage class, a callable) by its qualified name, never its address."""
+    """A value JSON does not know (a stage class, a callable, a factory object) by its qualified name (an instance by
+    its class's), never its address."""
     return f"{getattr(value, '__module__', '')}.{getattr(value, '__qualname__', type(value).__qualname__)}"
 
 
@@ -349,15 +350,17 @@ class TrialSetup:
         experience, custom, protocol = self.experience, self.controller, self.protocol
         ours = next((name for name, params in CONTROLLERS.items() if params == self.params), "custom parameters")
         references = None if experience is None else np.ascontiguousarray(experience.references, dtype=float)
+        whole_protocol = json.dumps(asdict(protocol), sort_keys=True, default=_named).encode()
         return {"library_version": library_version(), "object": self.object.params(),
                 "hand": {"name": self.hand.name, "digest": self.hand.digest},
                 "protocol": {"name": protocol.name, "registered": PROTOCOLS.get(protocol.name) == protocol,
-                             "judging": protocol.summary(), "digest": _digest(json.dumps(asdict(protocol), sort_keys=True, default=_named).encode())},
+                             "judging": protocol.summary(), "digest": _digest(whole_protocol)},
                 "touch": self.touch,
                 "controller": {"name": ours, "params": self.params.to_table()} if custom is None else
-                {"name": f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}"},
+                {"name": _named(custom)},
                 "experience": {"kind": "none", "references": 0, "digest": ""} if references is None else
-                {"kind": type(experience).__name__, "references": len(references), "digest": _digest(references.tobytes())},
+                {"kind": type(experience).__name__, "references": len(references),
+                 "digest": _digest(references.tobytes())},
                 "seed": int(seed), "noise": asdict(self.noise), "table": self.table, "backend": self.backend,
                 "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
                 "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
