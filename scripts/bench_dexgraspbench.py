@@ -2,7 +2,7 @@
 
     python scripts/bench_dexgraspbench.py [--grasps 24] [--object box]
 
-Open-loop grasps from our verified postures (`dexgraspbench.open_loop_grasps`: the stages they were verified with,
+Open-loop grasps from our verified postures (`replay.open_loop_grasps`: the stages they were verified with,
 by default the touching segments 2 cm out along the object's normals, the posture, 1 cm in), each judged by both versions of the protocol in this
 process (one core); beside them the same number of grasps that fail at once (the hand 15 cm away), the
 kind that made up 99.8 % of DexGraspBench's one public log (8,000 grasps in about 55 s on 48 workers: about
@@ -20,8 +20,8 @@ import numpy as np
 
 import graspmanifold as gm
 from graspmanifold.base.io import markdown_row, markdown_table
-from graspmanifold.control.dexgraspbench import OpenLoopGrasp, external_force_test, open_loop_grasps
-from graspmanifold.control.protocols import PROTOCOLS
+from graspmanifold.judging.replay import OpenLoopGrasp, external_force_test, open_loop_grasps
+from graspmanifold.judging.protocols import PROTOCOLS
 
 
 def main() -> None:

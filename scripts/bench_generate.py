@@ -22,7 +22,7 @@ from pathlib import Path
 
 from graspmanifold.base.errors import GenerationError
 from graspmanifold.base.io import markdown_row, markdown_table
-from graspmanifold.control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from graspmanifold.synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
 from graspmanifold.sim.objects import get_object
 
 
@@ -75,7 +75,7 @@ def bench_defaults(names: list[str], n: int, workers: int, seed: int, replay_flo
             continue
         seconds, meta, floor = time.perf_counter() - start, postures.metadata, []
         if replay_floor:  # imported here: --defaults runs on versions without it
-            from graspmanifold.control.dexgraspbench import GraspVerifier
+            from graspmanifold.judging.replay import GraspVerifier
             verifier, start = GraspVerifier(get_object(name)), time.perf_counter()
             assert all(verifier(q, pose[:3], pose[3:]).hold for q, pose in zip(postures.postures, postures.hand_poses))
             floor = [f"{time.perf_counter() - start:.1f}"]

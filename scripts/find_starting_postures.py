@@ -4,7 +4,7 @@ in assets/.
     python scripts/find_starting_postures.py [--workers 2] [--out assets/starting_postures.npz]
                                              [--recompute [FAMILY ...]]
 
-Deterministic: a least-squares search from each grasp design (graspmanifold.control.generator.search_starting_postures)
+Deterministic: a least-squares search from each grasp design (graspmanifold.synthesis.generator.search_starting_postures)
 of both families for the paper's objects, the benchmark's and the object family, but the grasp-types family of
 the members held out (family.HELD_OUT: those are searched on first use, as a new object's are).
 Starting postures already in --out are kept as they are unless their object changed or their family is
@@ -22,8 +22,8 @@ from pathlib import Path
 
 from graspmanifold.base.io import load_npz
 from graspmanifold.base.workers import parallel_map
-from graspmanifold.control.generator import search_starting_postures
-from graspmanifold.control.starts import (
+from graspmanifold.synthesis.generator import search_starting_postures
+from graspmanifold.synthesis.starts import (
     DESIGN_FAMILIES,
     STARTS_FILE,
     StartingPosture,

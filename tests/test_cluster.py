@@ -59,7 +59,7 @@ def test_bad_executors_are_refused(monkeypatch, tmp_path):
 def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_disks(cluster, tmp_path, monkeypatch):
     """With an external scheduler the workers wrote the job checkpoints on their own disks: after Ctrl-C the
     client's folder was empty, and a rerun redid the jobs."""
-    from graspmanifold.control import generator
+    from graspmanifold.synthesis import generator
 
     _, executor = cluster
     written, real = [], generator.save_npz

@@ -51,7 +51,7 @@ def test_the_study_reads_its_configuration_from_a_file_and_renders_the_published
     published, with the folder and the report named in a TOML file."""
     import shutil
 
-    from graspmanifold.studies.experience import ExperienceStudyConfig, main
+    from graspmanifold.studies.experience_study import ExperienceStudyConfig, main
 
     out, doc = tmp_path / "study", tmp_path / "report.md"
     out.mkdir()

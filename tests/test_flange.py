@@ -139,9 +139,9 @@ def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(ha
 
 def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
     import graspmanifold as gm
-    from graspmanifold.control.dexgraspbench import open_loop_grasps, replay
-    from graspmanifold.control.judge import judge_scene, supported_scene
-    from graspmanifold.control.protocols import PROTOCOLS
+    from graspmanifold.judging.replay import open_loop_grasps, replay
+    from graspmanifold.judging.judge import judge_scene, supported_scene
+    from graspmanifold.judging.protocols import PROTOCOLS
     from graspmanifold.sim.objects import get_object
 
     lift = PROTOCOLS["lift"]

@@ -5,7 +5,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.cli import main as cli
-from graspmanifold.control import generator
+from graspmanifold.synthesis import generator
 from graspmanifold.manifold.analysis import nearest_neighbour_deg
 
 SMALL = gm.GeneratorParams(job_size=6, verify=False)  # every five-fingertip candidate, for exact counts
@@ -51,8 +51,8 @@ def test_shipped_starting_postures_are_five_fingertip_grasps(name):
 def test_every_grasp_type_start_is_a_valid_grasp_that_holds(name):
     """The grasp-types family (the default): at least three designs of at least two grasp types, each start a
     valid grasp that holds its object when the verifier replays it (shipped, like the five-fingertip ones)."""
-    from graspmanifold.control.dexgraspbench import GraspVerifier
-    from graspmanifold.control.starts import holds, is_design_grasp
+    from graspmanifold.judging.replay import GraspVerifier
+    from graspmanifold.synthesis.starts import holds, is_design_grasp
 
     starts = gm.starting_postures(name, "grasp_types")
     assert gm.GeneratorParams().designs == "grasp_types"
@@ -78,9 +78,9 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
     """The cause of the paper's wraps that never hold (issue 37): in the cylinder's mid wrap the controller's
     squeeze draws the thumb away from the object (its motion points away from its push). The refinement's press
     term turns it in; its balance term makes the contacts' unit pushes cancel better."""
-    from graspmanifold.control.refinement import PRESS_COSINE, refine
-    from graspmanifold.control.search_geometry import SearchGeometry
-    from graspmanifold.control.starts import design_pose, design_posture, designs_for
+    from graspmanifold.synthesis.refinement import PRESS_COSINE, refine
+    from graspmanifold.synthesis.start_geometry import SearchGeometry
+    from graspmanifold.synthesis.starts import design_pose, design_posture, designs_for
 
     cylinder = gm.get_object("cylinder")
     design = next(d for d in designs_for(cylinder) if d.name == "wrap_mid")
@@ -105,9 +105,9 @@ def test_starting_postures_are_found_for_other_sizes():
     import subprocess
     import sys
 
-    from graspmanifold.control import generator as generator_module
-    from graspmanifold.control.generator import cache_directory
-    from graspmanifold.control.starts import is_design_grasp
+    from graspmanifold.synthesis import generator as generator_module
+    from graspmanifold.synthesis.generator import cache_directory
+    from graspmanifold.synthesis.starts import is_design_grasp
 
     obj = gm.make_object("cylinder", radius=0.025, length=0.12)
     with pytest.warns(UserWarning, match="no shipped starting postures"):
@@ -171,7 +171,7 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
 def replay_holds(obj, posture, pose) -> bool:
     """The generator's verification by hand: the open-loop grasp made from the posture's contacts (the pregrasp
     2 cm out along the normals, the squeeze 1 cm in) replayed on the free object, gravity in six directions."""
-    from graspmanifold.control.dexgraspbench import GRASP_STAGES, open_loop_grasp, replay
+    from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasp, replay
 
     grasp = open_loop_grasp(pose, posture, GRASP_STAGES["contacts"], gm.Scene(obj))
     return bool(replay(obj, [grasp], "ours")[0][0])
@@ -370,7 +370,7 @@ def test_cli_generates_and_refuses_to_overwrite(tmp_path, capsys):
 
 def test_a_new_objects_slow_set_up_and_a_verification_that_keeps_few_are_announced(monkeypatch):
     """A mesh torus's starting postures took 148 s in silence, and a verification that kept 1 of 20 said nothing."""
-    from graspmanifold.control import generator
+    from graspmanifold.synthesis import generator
 
     with pytest.warns(UserWarning, match="no shipped starting postures .* searching them now"):
         gm.starting_postures(gm.make_object("cylinder", radius=0.026, length=0.13))

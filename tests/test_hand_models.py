@@ -160,7 +160,7 @@ def test_a_scripted_grasp_on_every_model_is_felt_in_the_papers_segments_and_judg
     """The scene adapts the model: postures in, postures out in the paper's sense, touch in the paper's
     segments, one hold test and force-closure measure for every model."""
     import graspmanifold as gm
-    from graspmanifold.control.judge import JUDGING, hold_on_support, judge_scene
+    from graspmanifold.judging.judge import JUDGING, hold_on_support, judge_scene
 
     hand = available(name)
     scene = gm.Scene("cylinder", free_object=True, hand=hand)
@@ -250,7 +250,7 @@ def test_a_reproduction_runs_on_another_hand(tmp_path):
 def test_touch_sensors_and_contact_forces_give_the_same_pcp_mask(obj):
     """Two ways to feel: the model's own touch sensors summed per segment, and the contact forces per segment."""
     import graspmanifold as gm
-    from graspmanifold.control.judge import hold_on_support
+    from graspmanifold.judging.judge import hold_on_support
 
     with pytest.raises(InvalidInput, match="has no touch sensors"):
         gm.Scene(obj).touch()

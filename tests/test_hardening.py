@@ -72,7 +72,7 @@ def test_a_hand_file_edited_in_place_gives_new_results_never_the_old_files(tmp_p
 
 def test_the_studys_experience_is_kept_under_the_key_of_what_made_it(tmp_path, monkeypatch):
     """`study_experience.py --postures 3` after a 7-posture run reused the 7-posture files, and study.json said 3."""
-    from graspmanifold.studies import experience as study_module
+    from graspmanifold.studies import experience_study as study_module
 
     study = study_module.ExperienceStudy(study_module.ExperienceStudyConfig(quick=True, out=str(tmp_path), workers=1,
                                                                             postures=1))

@@ -22,10 +22,10 @@ from goldens import DATA, assert_matches_golden, blend_golden_results
 from threadpoolctl import threadpool_limits
 
 import graspmanifold as gm
-from graspmanifold.control.generator import GeneratorParams, verify_postures
-from graspmanifold.control.refinement import PRESS_COSINE, refine
-from graspmanifold.control.search_geometry import SearchGeometry
-from graspmanifold.control.starts import design_pose, design_posture, designs_for, find_starting_postures
+from graspmanifold.synthesis.generator import GeneratorParams, verify_postures
+from graspmanifold.synthesis.refinement import PRESS_COSINE, refine
+from graspmanifold.synthesis.start_geometry import SearchGeometry
+from graspmanifold.synthesis.starts import design_pose, design_posture, designs_for, find_starting_postures
 from graspmanifold.manifold.kernels import TIE
 from graspmanifold.manifold.nearest import MaskedNearest, argmin_tied
 from graspmanifold.trials.grid import check_grid
@@ -78,7 +78,7 @@ def test_a_search_keeps_the_same_designs_whatever_the_last_bits():
 def _search_in(environment: dict[str, str], names: list[str]) -> dict:
     """The five-fingertip starts of these objects, searched in a fresh interpreter with this environment."""
     code = ("import json, sys, graspmanifold as gm\n"
-            "from graspmanifold.control.starts import find_starting_postures\n"
+            "from graspmanifold.synthesis.starts import find_starting_postures\n"
             "print(json.dumps({n: {s.name: s.posture.tolist() + s.hand_pos.tolist() for s in "
             "find_starting_postures(n, 'five_fingertip', workers=1, progress=False)} for n in sys.argv[1:]}))")
     done = subprocess.run([sys.executable, "-c", code, *names], capture_output=True, text=True, timeout=600,

@@ -10,7 +10,7 @@ import pytest
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.poses import compose, invert
 from graspmanifold.control.controller import APPROACH, BatchController, ControllerParams, SETTLED_BLEND
-from graspmanifold.control.dexgraspbench import OpenLoop, OpenLoopController
+from graspmanifold.judging.replay import OpenLoop, OpenLoopController
 from graspmanifold.manifold.experience import PostureDatabase, scrambled
 from graspmanifold.sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 from graspmanifold.sim.posture import open_posture
@@ -221,7 +221,7 @@ def test_the_settled_squeeze_presses_nothing_until_every_finger_settles_then_ram
 def test_a_fading_release_hands_the_supports_load_to_the_grasp_gradually(box_plans):
     """`JudgingRules.release_seconds`: the support's spring weakens to nothing over that time, the hand acting on,
     before the grasp is recorded; the planned benchmark's protocol fades it, ours lets go at once."""
-    from graspmanifold.control.protocols import OURS, OURS_FADED, get_protocol
+    from graspmanifold.judging.protocols import OURS, OURS_FADED, get_protocol
 
     assert get_protocol("ours-faded") is OURS_FADED and OURS_FADED.rules.release_seconds > 0
     assert OURS.rules.release_seconds == 0.0 and planned.PLANNED_PROTOCOL is OURS_FADED

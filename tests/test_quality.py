@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graspmanifold.control.quality import contact_wrenches, epsilon_l1
+from graspmanifold.judging.quality import contact_wrenches, epsilon_l1
 
 TETRAHEDRON = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]]) / np.sqrt(3)
 

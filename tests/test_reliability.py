@@ -7,7 +7,7 @@ import pytest
 import graspmanifold as gm
 from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
 from graspmanifold.trials.evaluation import EvaluationResult
-from graspmanifold.trials.study import compare
+from graspmanifold.trials.experience_pays import compare
 from graspmanifold.trials.trial import TrialSetup, run_trial
 
 # -- simulation faults -----------------------------------------------------------------------------
@@ -119,7 +119,7 @@ def test_many_cone_edges_do_not_turn_a_grasp_into_no_force_closure():
 def test_symmetric_contacts_with_fine_cones_return_and_absurd_cones_are_refused():
     """Four antipodal contacts on a sphere put many cone edges on one facet: at 128 edges epsilon did not
     return within 120 s. Cones are now at most MAX_EDGES edges, and the hull grows a few edges a round."""
-    from graspmanifold.control.quality import MAX_EDGES
+    from graspmanifold.judging.quality import MAX_EDGES
 
     points = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]) * 0.03
     values = [gm.epsilon_l1(points, -points / 0.03, np.zeros(3), mu=0.6, num_edges=k) for k in (16, 32, MAX_EDGES)]
@@ -132,7 +132,7 @@ def test_symmetric_contacts_with_fine_cones_return_and_absurd_cones_are_refused(
 def test_epsilon_grown_from_a_coarse_hull_equals_the_full_hull():
     from scipy.spatial import ConvexHull
 
-    from graspmanifold.control.quality import contact_wrenches
+    from graspmanifold.judging.quality import contact_wrenches
 
     rng = np.random.default_rng(2)
     checked = 0

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.control.protocols import DEXGRASPBENCH, PhysicsProfile, Protocol, pushed
-from graspmanifold.control.judge import JUDGING
-from graspmanifold.control.stages import JudgingRules
+from graspmanifold.judging.protocols import DEXGRASPBENCH, PhysicsProfile, Protocol, pushed
+from graspmanifold.judging.judge import JUDGING
+from graspmanifold.judging.stages import JudgingRules
 from graspmanifold.trials.grid import grid_preset
 
 

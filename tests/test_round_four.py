@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.control.dexgraspbench import MAX_REACH, OpenLoopGrasp
-from graspmanifold.control.grasp_files import grasp_object, read_grasp_file, read_grasp_files, write_grasp_files
+from graspmanifold.judging.replay import MAX_REACH, OpenLoopGrasp
+from graspmanifold.synthesis.grasp_files import grasp_object, read_grasp_file, read_grasp_files, write_grasp_files
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_regrasp_arguments_out_of_bounds_are_refused_before_any_trial():
 
 def test_a_study_whose_report_cannot_be_written_is_refused_before_its_work(tmp_path, capsys):
     """A report in a folder that cannot be written was refused only at the study's end, after its work."""
-    from graspmanifold.studies.experience import main as study
+    from graspmanifold.studies.experience_study import main as study
 
     blocked = tmp_path / "file"
     blocked.write_text("not a folder")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from graspmanifold.trials.benchmark import PLACEMENTS, benchmark_grid, benchmark_split, cells
-from graspmanifold.trials.selector import StrategySelector, choose_cross_validated
+from graspmanifold.trials.strategy_selector import StrategySelector, choose_cross_validated
 
 
 def test_a_selector_finds_a_strategy_that_depends_on_what_was_sensed():

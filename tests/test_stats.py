@@ -12,7 +12,7 @@ from graspmanifold.trials.stats import (
     rate_text,
     wilson_interval,
 )
-from graspmanifold.trials.study import judge_target
+from graspmanifold.trials.experience_pays import judge_target
 
 
 @pytest.mark.parametrize("k, n, low, high", [

@@ -72,6 +72,19 @@ def test_no_module_imports_one_above_its_layer(path):
     assert not above, f"{module} (layer {layers[module][0]}) imports modules above its layer: {above}"
 
 
+def test_the_controller_and_the_judging_do_not_import_each_other():
+    """control/ (the controller and its recall rules) and judging/ (how a grasp is judged) share one layer and no
+    import: what both need about closing a hand lives below them (`sim.grip`); grasp synthesis, which uses both,
+    sits above them."""
+    layers = drawn_layers()
+    packages = {"control", "judging"}
+    crossing = [(name_of(p), m) for p in MODULES if name_of(p).split(".")[0] in packages
+                for m in imports_of(p) if m.split(".")[0] in packages - {name_of(p).split(".")[0]}]
+    assert not crossing, f"control/ and judging/ import each other: {crossing}"
+    assert {layers[m][0] for m in layers if m.split(".")[0] in packages} == {4}
+    assert all(layers[m][0] == 5 for m in layers if m.startswith("synthesis."))
+
+
 def test_no_import_cycles():
     graph = {name_of(p): imports_of(p) for p in MODULES}
     state: dict[str, str] = {}
@@ -124,7 +137,7 @@ def _private_imports() -> tuple[list[str], list[str]]:
 
 def test_no_module_imports_a_private_name_of_another():
     """A module's `_names` are its own: what two modules share is public (the judge and the controller share
-    `controller.row_norms`)."""
+    `sim.grip.row_norms`)."""
     crossing, _ = _private_imports()
     assert not crossing, f"private names imported from another module: {crossing}"
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from graspmanifold.base.io import load_npz, save_npz
-from graspmanifold.studies.experience import ExperienceStudy, ExperienceStudyConfig
+from graspmanifold.studies.experience_study import ExperienceStudy, ExperienceStudyConfig
 from graspmanifold.studies.runner import StudyRun
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.control.controller import BLEND, BatchController
-from graspmanifold.control.stages import Stage
+from graspmanifold.judging.stages import Stage
 from graspmanifold.sim.posture import pcp_mask, pcp_masks
 from graspmanifold.trials.grid import check_grid
 
@@ -83,8 +83,8 @@ def test_evaluate_names_a_bad_backend_and_a_missing_gpu():
 def test_the_hold_test_stops_for_a_dropped_object_and_says_so():
     """No later gravity direction can change a hold test the object has already failed: it ends in the period
     the object leaves the bound, and the judgement says how much of the test ran."""
-    from graspmanifold.control.judge import JUDGING, judge_scene, supported_scene
-    from graspmanifold.control.stages import HOLD_DIRECTIONS
+    from graspmanifold.judging.judge import JUDGING, judge_scene, supported_scene
+    from graspmanifold.judging.stages import HOLD_DIRECTIONS
 
     scene = supported_scene("cylinder")
     scene.set_hand_pose(*gm.facing_pose("cylinder", clearance=0.05))  # the open hand, far from the object
@@ -108,7 +108,7 @@ def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold
     1e-3; no outcome changed), and the verifier's made again when verification became the open-loop replay (issue
     52). The outcomes are compared exactly and epsilon to 1e-4: a 1e-12 change of the poses moves these epsilons
     by at most 1.2e-5 and no outcome (`tests/test_last_bits.py`)."""
-    from graspmanifold.control.generator import GeneratorParams, verify_postures
+    from graspmanifold.synthesis.generator import GeneratorParams, verify_postures
     from graspmanifold.trials.benchmark import OBJECTS, benchmark_grid
     from graspmanifold.trials.grid import check_grid
 
@@ -222,9 +222,9 @@ def test_a_judging_stage_of_ones_own_runs_without_a_change_to_the_loop():
     """A stage is a class named in the rules (`JudgingRules.stages`): a settling pause put before the hold test
     runs in `evaluate` (the trial loop and the judging loop unchanged), every world passes through it for its
     time, the hold test still runs in full after it, and the stages are part of the trials' key."""
-    from graspmanifold.control.judge import JUDGING
-    from graspmanifold.control.protocols import Protocol
-    from graspmanifold.control.stages import HoldTest, MarginRamp
+    from graspmanifold.judging.judge import JUDGING
+    from graspmanifold.judging.protocols import Protocol
+    from graspmanifold.judging.stages import HoldTest, MarginRamp
     from graspmanifold.trials.trial import TrialSetup
 
     settled = Protocol("settled", replace(JUDGING, stages=(Settle, HoldTest, MarginRamp)))

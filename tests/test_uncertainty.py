@@ -9,13 +9,13 @@ import pytest
 
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.control.controller import BatchController
-from graspmanifold.control.dexgraspbench import PREGRASP_BACK_OFF, open_loop_grasp
+from graspmanifold.judging.replay import PREGRASP_BACK_OFF, open_loop_grasp
 from graspmanifold.sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
-from graspmanifold.trials import uncertainty
+from graspmanifold.trials import pose_errors as uncertainty
 from graspmanifold.trials.benchmark import OBJECTS, benchmark_split
 from graspmanifold.trials.evaluation import evaluate
 from graspmanifold.trials.grid import palm_pose_for, reachable
-from graspmanifold.trials.uncertainty import (
+from graspmanifold.trials.pose_errors import (
     MAX_YAW_ERROR,
     POSITION_ERRORS,
     carried,

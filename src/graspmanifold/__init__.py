@@ -8,7 +8,10 @@ from .base.errors import (
     BackendUnavailable, GenerationError, GraspManifoldError, InvalidInput, NotFittedError, OutputInUse, QualityError,
     RenderingUnavailable, SimulationError, WorkersLost,
 )
+from .base.moved import install, moved_warning, new_name
 from .sim.render import choose_offscreen_backend
+
+install()  # the modules that moved in 0.2 answer to their old names, with a warning
 
 choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
 
@@ -24,7 +27,7 @@ from .control.controller import (
 from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase
-from .control.generator import DATASET_PRESETS, GeneratorParams, generate_postures, starting_postures, verify_postures
+from .synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, starting_postures, verify_postures
 from .trials.grid import grid_preset, reachable, why_unreachable
 from .sim.hand import (
     ACTUATORS,
@@ -56,27 +59,30 @@ from .sim.posture import (
     within_limits,
 )
 from .manifold.postureset import PostureSet
-from .control.quality import epsilon_l1
+from .judging.quality import epsilon_l1
 from .sim.scene import Scene, facing_pose
 from .manifold.som import SOM, SOMSchedule
 from .manifold.ukr import UKR
 from .manifold.linear import LinearManifold
-from .control.refinement import StartingPosture
+from .synthesis.refinement import StartingPosture
 from .sim.tactile import TactileReading, TactileSensor
 from .trials.trial import Noise, Recording, TrialSetup, record_trial
 from .trials.stats import headroom, holm, mcnemar, wilson_interval
-from .trials.study import compare
+from .trials.experience_pays import compare
 from .base.progress import show_progress
 from .base.version import __version__
 
 #: modules reachable as attributes (`gm.plots`, `gm.stats`, ...), by the subpackage they live in, without
 #: importing them up front: plotting pulls in matplotlib, which a simulation-only user does not need
 _SUBMODULES = {
-    "analysis": "manifold", "benchmark": "trials", "errors": "base", "evaluation": "trials", "figures": "paper",
-    "grid": "trials", "io": "base", "judge": "control", "plots": "manifold", "quality": "control", "render": "sim",
-    "regrasp": "control", "report": "paper", "reproduce": "paper", "selector": "trials", "stats": "trials", "study": "trials", "trial": "trials", "validation":
-    "base", "workers": "base"
+    "analysis": "manifold", "benchmark": "trials", "errors": "base", "evaluation": "trials",
+    "experience_pays": "trials", "figures": "paper", "grid": "trials", "io": "base", "judge": "judging",
+    "plots": "manifold", "quality": "judging", "regrasp": "control", "render": "sim", "report": "paper",
+    "reproduce": "paper", "stats": "trials", "strategy_selector": "trials", "trial": "trials", "validation": "base",
+    "workers": "base",
 }
+#: attributes that named modules since renamed (`base.moved`): they still answer, with a warning
+_RENAMED_ATTRIBUTES = {"selector": "trials.selector", "study": "trials.study"}
 
 
 #: functions reachable as attributes without importing their module up front (the plots pull in matplotlib)
@@ -90,6 +96,13 @@ def __getattr__(name: str) -> object:
         if name in _LAZY_FUNCTIONS:
             return getattr(importlib.import_module(f".{_LAZY_FUNCTIONS[name]}", __name__), name)
         return importlib.import_module(f".{_SUBMODULES[name]}.{name}", __name__)
+    if name in _RENAMED_ATTRIBUTES:
+        import importlib
+
+        new = new_name(_RENAMED_ATTRIBUTES[name])
+        assert new is not None
+        moved_warning(name, new)
+        return importlib.import_module(f".{new}", __name__)
     raise AttributeError(f"module 'graspmanifold' has no attribute {name!r}")
 
 

@@ -16,16 +16,14 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from .base.errors import GraspManifoldError, InvalidInput
 from .base.config_files import read_config
+from .base.errors import GraspManifoldError, InvalidInput
 from .base.io import LOCK_FILE, check_writable_folder, output_lock, write_failure
 from .base.version import __version__
 from .base.workers import default_workers
-from .control.dexgraspbench import GRASP_STAGES, VERIFY_STAGES
-from .control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from .control.controller import CONTROLLERS
-from .control.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
-from .control.starts import DESIGN_FAMILIES
+from .judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
+from .judging.replay import GRASP_STAGES, VERIFY_STAGES
 from .manifold.representations import REPRESENTATIONS
 from .paper.report import FIGURES
 from .sim.family import FAMILY
@@ -35,8 +33,9 @@ from .sim.hand_models import HAND_MODELS
 from .sim.objects import GraspObject, named_object, named_objects
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import TOUCH_SOURCES, Scene, facing_pose
-from .studies.dataset import add_arguments as dataset_arguments
-from .studies.dataset import run as run_dataset
+from .studies.dataset import add_arguments as dataset_arguments, run as run_dataset
+from .synthesis.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
+from .synthesis.starts import DESIGN_FAMILIES
 from .trials.grid import GRID_PRESETS
 
 HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
@@ -139,7 +138,7 @@ def _checked(args: argparse.Namespace, units: int) -> None:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from .control.generator import MAX_POSTURES
+    from .synthesis.generator import MAX_POSTURES
 
     obj = _object(args)
     n = args.n if args.n is not None else DATASET_PRESETS[args.preset].get(obj.name, DATASET_PRESETS[args.preset]["cylinder"])
@@ -156,7 +155,7 @@ def _generate(args: argparse.Namespace) -> int:
 def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path) -> int:
     """`generate` with its output file held."""
     from .base.checkpoints import remove_checkpoints
-    from .control.generator import generate_postures
+    from .synthesis.generator import generate_postures
 
     checkpoints = out.with_name(out.name + ".parts")
     params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify, designs=args.designs,

@@ -74,6 +74,7 @@ import numpy as np
 from ..base.errors import InvalidInput
 from ..base.validation import Bounds, check_choice, check_fields, check_number
 from ..manifold.experience import Experience, check_experience
+from ..sim.grip import CONTROL_PERIOD, FLEXION, SQUEEZE, pressed_towards, row_norms
 from ..sim.hand import (
     FINGER_JOINTS,
     FINGERS,
@@ -95,8 +96,6 @@ JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
 FINGER_JOINT_MASKS = JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
 #: (5, len(SEGMENTS)): which tactile segments belong to which finger (FINGERS order)
 _FINGER_SEGMENTS = SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None]
-#: joints that flex a finger around an object (the squeeze acts on these)
-FLEXION = np.array([j[-1] in "123" and j not in ("THJ3",) for j in FINGER_JOINTS])
 #: which joints of a steered finger take the matched posture: all, or only the spread joints (finger
 #: abduction, little-finger cupping, thumb rotation, abduction and roll); flexion is then left to the
 #: closing heuristic, which stops at the contact
@@ -186,7 +185,7 @@ class RecallRule:
         Returns:
             (N, 22) rad, every world's pressing targets (the controller takes those of the holding fingers).
         """
-        return _pressed(c.state.held_posture, amount, c.closed, c.limits)
+        return pressed_towards(c.state.held_posture, amount, c.closed, c.limits)
 
     def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
         """Which (world, finger) pairs count as fully closed for the grasp's end.
@@ -346,7 +345,7 @@ class ApproachRecall(TargetRecall):
     closes it on towards the closed fist, which sweeps a fingertip past a small object); a finger that touches
     presses on along its way by `ControllerParams.squeeze` (rad, the finger's joints together) instead of flexing
     towards the fist. A grasp's pregrasp lies back from it along the contacts' normals, so from there the way is
-    the normals' way, and the press is what a verified grasp's squeeze does (`contact_offset`) without knowing the
+    the normals' way, and the press is what a verified grasp's squeeze does (`sim/normal_offsets`) without knowing the
     normals. A finger with no way (never recalled) closes and presses as the paper's reading does.
 
     Attributes:
@@ -564,11 +563,11 @@ class ControllerParams:
     `RecallRule` value (`TargetRecall(...)`, `BlendRecall(...)` or one's own), or the name of one of ours
     (`RECALL_RULES`: 'target', 'base') with its defaults."""
 
-    control_period: float = 0.02  # 50 Hz
+    control_period: float = CONTROL_PERIOD  # 50 Hz
     preshape_time: float = 0.3  # phase A
     closing_rate: float = 0.8  # closure per second of a free finger (1 = fully closed)
     follow_speed: float = 2.0  # a closing finger's target moves at most this many times the heuristic's speed
-    squeeze: float = 0.15  # rad beyond the touching posture, on the flexion joints
+    squeeze: float = SQUEEZE  # rad beyond the touching posture, on the flexion joints
     release_time: float = 0.1  # a holding finger that lost its contact this long closes on
     stable_time: float = 0.3  # the touching set must stay unchanged this long to finish
     timeout: float = 3.0  # s after the start
@@ -728,31 +727,6 @@ class Controller(Protocol):
 ControllerFactory = Callable[[int, HandModel], Controller]  # `factory(n, hand)`: what `evaluate(controller=...)` takes
 
 
-def squeezed(posture: np.ndarray, amount: float, hand: HandModel = SHADOW_HAND) -> np.ndarray:
-    """The posture with its flexion joints pushed further towards the closed hand: the target that
-    makes fingers touching an object press on it. The controller and the generator's verifier squeeze
-    with it.
-
-    Each flexion joint moves `amount` towards its closed angle, or to it where it is nearer: a joint at the
-    closed angle stays there (the squeeze used to push it `amount` one way or the other by the sign of a
-    difference of zero, so that a posture at the closed hand was squeezed by a last bit's choice).
-
-    Args:
-        posture: finger postures (..., 22), rad (one, or one per row).
-        amount: how far to push each flexion joint (`FLEXION`), rad.
-        hand: the hand model whose closed posture and ranges apply (default ours).
-
-    Returns:
-        The squeezed postures (..., 22), rad, clipped to the hand's joint ranges.
-    """
-    return _pressed(posture, amount, hand.keyframe_posture("closed"), hand.limits())
-
-
-def _pressed(posture: np.ndarray, amount: float, closed: np.ndarray, limits: np.ndarray) -> np.ndarray:
-    target = posture + np.clip(closed - posture, -amount, amount) * FLEXION
-    return np.clip(target, limits[:, 0], limits[:, 1])
-
-
 def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.ndarray, touching: np.ndarray,
                reach: float) -> np.ndarray:
     """How far (3,), m, palm frame, the palm should move so that the object lies where a recalled grasp
@@ -762,11 +736,6 @@ def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.n
     shift = np.mean(now[touching] - then[touching], axis=0)
     length = float(np.linalg.norm(shift))
     return shift if length <= reach else shift * (reach / length)
-
-
-def row_norms(rows: np.ndarray) -> np.ndarray:
-    """Euclidean norm (m,) of every row of (m, k), rounded exactly as `np.linalg.norm` of that row alone."""
-    return np.sqrt((rows[:, None, :] @ rows[:, :, None])[:, 0, 0])
 
 
 def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:

@@ -42,8 +42,8 @@ from gymnasium.vector.utils import batch_space
 from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.validation import Bounds, check_choice, check_int, check_number
 from ..control.controller import ControllerParams
-from ..control.judge import Judgement, judge_worlds
-from ..control.protocols import DEFAULT_PROTOCOL, Protocol
+from ..judging.judge import Judgement, judge_worlds
+from ..judging.protocols import DEFAULT_PROTOCOL, Protocol
 from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.io import atomic_write, write_text_atomic, markdown_table
-from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
-from ..control.protocols import DEFAULT_PROTOCOL, get_protocol
 from ..base.config_files import apply_table
+from ..base.errors import InvalidInput, RenderingUnavailable
+from ..base.io import atomic_write, markdown_table, write_text_atomic
+from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.controller import BLEND, ControllerParams
-from ..control.judge import JUDGING
+from ..judging.judge import JUDGING
+from ..judging.protocols import DEFAULT_PROTOCOL, get_protocol
 from ..manifold.postureset import PostureSet
 from ..manifold.som import RESUME, SOM
 from ..manifold.ukr import UKR

@@ -26,15 +26,22 @@ from pathlib import Path
 import numpy as np
 
 from ..base.checkpoints import remove_checkpoints, result_key
+from ..base.config_files import apply_table, to_toml
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_choice, check_input_file, check_int
 from ..base.workers import default_workers, worker_pool
-from ..base.config_files import apply_table, to_toml
-from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES, get_protocol
 from ..control.controller import BLEND, ControllerParams
-from ..control.generator import (
+from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES, get_protocol
+from ..manifold.experience import PostureDatabase
+from ..manifold.postureset import PostureSet
+from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
+from ..manifold.ukr import UKR
+from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND, HandModel
+from ..sim.hand_models import hand_model, hand_name
+from ..sim.objects import GraspObject, get_object, make_object
+from ..synthesis.generator import (
     DATASET_PRESETS,
     MAX_POSTURES,
     PRESET_PARAMS,
@@ -42,13 +49,6 @@ from ..control.generator import (
     generate_postures,
     verify_postures,
 )
-from ..manifold.experience import PostureDatabase
-from ..manifold.postureset import PostureSet
-from ..manifold.ukr import UKR
-from ..manifold.som import MAX_EPOCHS, MAX_NODES, PAPER, RESUME, SOM, check_schedule
-from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND, HandModel
-from ..sim.hand_models import hand_model, hand_name
-from ..sim.objects import GraspObject, get_object, make_object
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
 from .report import RunData, run_methods, write_figures, write_report

@@ -19,7 +19,7 @@ from ..manifold.analysis import border_measures, border_runs, nearest_neighbour_
 from ..manifold.som import SOM
 from ..manifold.ukr import UKR
 from ..trials.evaluation import EvaluationResult
-from ..trials.study import comparison_rows, judge_target
+from ..trials.experience_pays import comparison_rows, judge_target
 from .report import BLEND_METHODS, UKR_METHODS, RunData, figure_object
 from .verdicts import judge_claims, verdict_rows
 

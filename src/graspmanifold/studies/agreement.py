@@ -26,7 +26,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.validation import check_input_file
-from ..control.protocols import get_protocol
+from ..judging.protocols import get_protocol
 from ..paper.reproduce import ReproduceConfig
 from ..sim.objects import get_object
 from ..trials.evaluation import evaluate

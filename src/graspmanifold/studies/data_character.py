@@ -23,15 +23,10 @@ from pathlib import Path
 from ..base.checkpoints import result_key
 from ..base.io import markdown_table, write_text_atomic
 from ..base.paper_numbers import MAX_DISTANCE_DEG, MIN_DISTANCE_DEG
-from ..control.generator import (
-    DATASET_PRESETS,
-    GeneratorParams,
-    generate_postures,
-    verify_postures,
-)
 from ..manifold.analysis import nearest_neighbour_deg
 from ..manifold.postureset import PostureSet
-from ..trials.study import train_experience_map
+from ..synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from ..trials.experience_pays import train_experience_map
 from .runner import StudyRun, run_study
 
 

@@ -31,16 +31,16 @@ from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
 from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.progress import progress_bar
-from ..control.generator import generate_postures
-from ..manifold.postureset import PostureSet
 from ..manifold.experience import Experience
+from ..manifold.postureset import PostureSet
 from ..manifold.representations import fit_representation
 from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
 from ..sim.objects import GraspObject, make_object
+from ..synthesis.generator import generate_postures
 from ..trials.evaluation import evaluate
+from ..trials.experience_pays import compare
 from ..trials.grid import GRID_PRESETS, grid_preset
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import compare
 from ..trials.trial import TrialSetup
 from .runner import StudyRun, comparison_table, holm_family, run_study
 

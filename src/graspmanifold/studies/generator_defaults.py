@@ -21,10 +21,10 @@ import time
 
 from ..base.errors import GenerationError
 from ..base.io import markdown_table, write_text_atomic
-from ..control.generator import generate_postures, starting_postures
-from ..control.starts import designs_for
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.objects import PAPER_OBJECTS, GraspObject, named_objects
+from ..synthesis.generator import generate_postures, starting_postures
+from ..synthesis.starts import designs_for
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
 

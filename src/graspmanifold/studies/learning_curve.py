@@ -41,23 +41,16 @@ from ..base.errors import InvalidInput
 from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, ControllerParams
-from ..control.generator import MAX_POSTURES
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.experience import scrambled
 from ..manifold.postureset import PostureSet
+from ..synthesis.generator import MAX_POSTURES
 from ..trials.benchmark import OBJECTS, cells, compare_pooled, pooled
+from ..trials.experience_pays import train_experience_map
 from ..trials.grid import covered
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import train_experience_map
-from .experience import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
-from .runner import (
-    comparison_table,
-    holm_family,
-    rate_curve,
-    run_command,
-    save_figure,
-    study_config,
-)
+from .experience_study import ATTEMPTS, ExperienceStudy, ExperienceStudyConfig
+from .runner import comparison_table, holm_family, rate_curve, run_command, save_figure, study_config
 
 #: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
 TARGET_P = 0.01

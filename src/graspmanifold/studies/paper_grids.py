@@ -43,15 +43,13 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.io import load_npz, markdown_table, save_npz, software_versions, write_text_atomic
 from ..control.controller import BLEND
-from ..control.generator import GeneratorParams, generate_postures, verify_postures
-from ..control.judge import JUDGING
+from ..judging.judge import JUDGING
 from ..manifold.experience import PostureDatabase
 from ..sim.hand import N_FINGER_JOINTS
 from ..sim.objects import get_object
+from ..synthesis.generator import GeneratorParams, generate_postures, verify_postures
 from ..trials.evaluation import EvaluationResult, evaluate, trial_count
-from ..trials.grid import GRID_COLUMNS, coverage, grid_preset
-from ..trials.stats import MIN_HEADROOM, headroom, holm, rate_text
-from ..trials.study import (
+from ..trials.experience_pays import (
     TRAINING_NOISE,
     closing_rate_params,
     compare,
@@ -60,6 +58,8 @@ from ..trials.study import (
     judge_target,
     train_experience_map,
 )
+from ..trials.grid import GRID_COLUMNS, coverage, grid_preset
+from ..trials.stats import MIN_HEADROOM, headroom, holm, rate_text
 from ..trials.trial import Noise, TrialSetup
 from .runner import StudyRun, run_command
 

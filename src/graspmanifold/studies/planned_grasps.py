@@ -37,14 +37,14 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
 from ..base.io import load_npz, markdown_table, save_npz
 from ..base.validation import check_choice, check_int
-from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasps
 from ..control.controller import ControllerParams
-from ..control.generator import GeneratorParams, generate_postures
-from ..control.judge import JUDGING
+from ..judging.judge import JUDGING
+from ..judging.replay import OpenLoopGrasp, open_loop_grasps
 from ..manifold.experience import Experience, object_places, scrambled
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..sim.hand import SEGMENTS
+from ..synthesis.generator import GeneratorParams, generate_postures
 from ..trials.benchmark import OBJECTS
 from ..trials.planned import (
     ARMS,
@@ -60,16 +60,7 @@ from ..trials.planned import (
 )
 from ..trials.stats import mcnemar, rate_text
 from ..trials.trial import Trial
-from .runner import (
-    StudyRun,
-    comparison_table,
-    holm_family,
-    publish,
-    rate_curve,
-    run_study,
-    save_figure,
-    study_config,
-)
+from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure, study_config
 
 #: the questions of issue 65, each a pair of arms (first against second) at some levels (m)
 QUESTIONS: tuple[tuple[str, str, str, tuple[float, ...]], ...] = (

@@ -25,19 +25,13 @@ import glob
 
 import numpy as np
 
-from ..control.controller import (
-    BLEND,
-    CLOSING_RECALL,
-    FINGER_JOINT_MASKS,
-    BatchController,
-    ControllerParams,
-)
+from ..control.controller import BLEND, CLOSING_RECALL, FINGER_JOINT_MASKS, BatchController, ControllerParams
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..sim.hand import HandModel
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_split
+from ..trials.experience_pays import train_experience_map
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import train_experience_map
 from ..trials.trial import TrialSetup, run_trials
 from .runner import comparison_table, holm_family, run_study
 

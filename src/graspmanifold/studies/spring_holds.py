@@ -25,12 +25,12 @@ import numpy as np
 
 from ..base.errors import SimulationError
 from ..base.io import markdown_table, write_text_atomic
-from ..control.dexgraspbench import GraspVerifier
-from ..control.generator import GeneratorParams, generate_postures, verifier_of
-from ..control.judge import JUDGING, reading_epsilon
+from ..judging.judge import JUDGING, reading_epsilon
+from ..judging.replay import GraspVerifier
 from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import GraspObject, named_objects
 from ..sim.scene import Scene
+from ..synthesis.generator import GeneratorParams, generate_postures, verifier_of
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
 

@@ -27,10 +27,10 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.io import markdown_table, software_versions, write_text_atomic
-from ..control.generator import search_starting_postures
-from ..control.starts import DESIGN_FAMILIES, shipped_starting_postures
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
+from ..synthesis.generator import search_starting_postures
+from ..synthesis.starts import DESIGN_FAMILIES, shipped_starting_postures
 from ..trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
 from .runner import StudyRun, run_command
 

@@ -30,13 +30,14 @@ from collections.abc import Callable
 import numpy as np
 
 from ..base.io import markdown_table
-from ..control import dexgraspbench, generator, judge
 from ..control.controller import BatchController
-from ..control.generator import generate_postures
+from ..judging import judge, replay
 from ..sim.objects import PAPER_SHAPES, get_object
 from ..sim.posture import closed_posture, open_posture
 from ..sim.scene import facing_pose
 from ..sim.worlds import CpuWorlds
+from ..synthesis import generator
+from ..synthesis.generator import generate_postures
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid
 from ..trials.grid import check_grid, reachable
 from ..trials.trial import TrialSetup, run_trials
@@ -125,7 +126,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
 
 
 def profile_generator(name: str, n: int) -> None:
-    rig, verifier = generator._SpringRig, dexgraspbench.GraspVerifier
+    rig, verifier = generator._SpringRig, replay.GraspVerifier
     counts: dict[str, int] = defaultdict(int)
     context = ["walk"]
     original_simulate = rig.simulate
@@ -149,14 +150,14 @@ def profile_generator(name: str, n: int) -> None:
         setattr(rig, method, phase)
     timed(rig, "accepted_posture", "candidate test")
     timed(verifier, "__call__", "verification")
-    original_judge = dexgraspbench.judge_scene
+    original_judge = replay.judge_scene
 
     def judge_scene(scene, rules, period=0.02):
         judged = original_judge(scene, rules, period)
         counts["verification"] += round(scene.time / scene.model.opt.timestep)  # the approach and the hold
         return judged
 
-    dexgraspbench.judge_scene = judge_scene
+    replay.judge_scene = judge_scene
     started = time.perf_counter()
     generate_postures(name, n, seed=0, workers=1, progress=False)
     wall = time.perf_counter() - started
@@ -174,7 +175,7 @@ def profile_stepping(worlds: int, threads: int, periods: int = 20) -> None:
     import mujoco
     from mujoco import rollout
 
-    from ..control.judge import supported_scene
+    from ..judging.judge import supported_scene
 
     scenes = []
     for k in range(worlds):  # hands closing on the cylinder, each a little further along

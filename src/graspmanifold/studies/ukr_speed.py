@@ -22,11 +22,11 @@ import numba
 import numpy as np
 
 from ..base.io import markdown_table
-from ..control.generator import PRESET_PARAMS, generate_postures
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..manifold.ukr import UKR
+from ..synthesis.generator import PRESET_PARAMS, generate_postures
 from .runner import run_study
 from .som_speed import pcp_queries
 

@@ -40,37 +40,26 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.config_files import read_config
-from ..base.io import (
-    load_npz,
-    markdown_table,
-    save_npz,
-)
+from ..base.io import load_npz, markdown_table, save_npz
 from ..base.validation import check_int
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
-from ..sim.hand import N_FINGER_JOINTS
 from ..manifold.experience import scrambled
+from ..sim.hand import N_FINGER_JOINTS
 from ..trials.benchmark import OBJECTS, cells, pooled
+from ..trials.experience_pays import train_experience_map
 from ..trials.grid import COVERED_WITHIN, covered
+from ..trials.pose_errors import POSITION_ERRORS, open_loop, plan, pose_errors
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import train_experience_map
-from ..trials.uncertainty import POSITION_ERRORS, open_loop, plan, pose_errors
-from .experience import (
+from .experience_study import (
     ATTEMPTS,
+    NULL_SEED,
     SOM_DESCRIPTIONS,
     SOM_VARIANTS,
     ExperienceStudy,
-    NULL_SEED,
     ExperienceStudyConfig,
     rate,
 )
-from .runner import (
-    comparison_table,
-    holm_family,
-    rate_curve,
-    run_command,
-    save_figure,
-    study_config,
-)
+from .runner import comparison_table, holm_family, rate_curve, run_command, save_figure, study_config
 
 #: the target (issue 51): under 2-5 cm of error, the tactile controller with experience against the open loop
 TARGET_POINTS, TARGET_P, TARGET_POSES = 0.20, 0.01, 600
@@ -427,7 +416,7 @@ def report(config: UncertaintyStudyConfig, info: dict) -> str:
               "per cm; a draw that would put the object inside the open hand is drawn again. The plan of a nominal pose: "
               "the first held final grasp at zero error of the heuristic, the paper's controller, the blend, the heuristic "
               "retried and regrasp with experience, in that order, whose open-loop replay at the nominal pose holds (`trials.uncertainty.plan`); the open loop "
-              "replays it (pregrasp 2 cm back, grasp, squeeze; `dexgraspbench.replay`, our hold test) with the hand "
+              "replays it (pregrasp 2 cm back, grasp, squeeze; `replay.replay`, our hold test) with the hand "
               "where the plan sent it and the object where it is. The open loop with two attempts holds where either "
               "of two such plans holds, each replayed from the undisturbed true pose: more than a real retry gets.", ""]
     return "\n".join(lines) + "\n"

@@ -33,20 +33,15 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.io import markdown_table, write_text_atomic
 from ..control.controller import BLEND  # the controller docs/unseen_objects_*.md ran
-from ..control.generator import (
-    DATASET_PRESETS,
-    GeneratorParams,
-    generate_postures,
-    verify_postures,
-)
-from ..control.starts import nearest_primitive
 from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..sim.family import SHAPES
 from ..sim.objects import GraspObject, get_object, make_object
+from ..synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from ..synthesis.starts import nearest_primitive
 from ..trials.evaluation import evaluate
+from ..trials.experience_pays import compare, train_experience_map
 from ..trials.stats import headroom, holm, rate_text
-from ..trials.study import compare, train_experience_map
 from ..trials.trial import Noise
 from .runner import StudyRun, run_study
 

@@ -7,7 +7,7 @@ the test family (the family members the generator's defaults were tuned beside; 
 kept aside, checked once at the end), `--verify-postures` verified postures are generated under each verifying protocol
 (`GeneratorParams.verify_protocol`: ours, DexGraspBench's main version), one worker each, timed: verified grasps
 per second per core and the yield (the share of the spring walk's candidates that hold). Every verified grasp is
-then replayed open loop (`dexgraspbench.replay`, a new scene, the stages it was verified with) under both
+then replayed open loop (`replay.replay`, a new scene, the stages it was verified with) under both
 protocols, with DexGraspBench's Q1 of its fingertip contacts and its penetration at the grasp. Rates carry
 95 % Wilson intervals; the same grasps under the two protocols are paired (McNemar, Holm within the family).
 
@@ -31,20 +31,13 @@ import numpy as np
 
 from ..base.errors import GenerationError
 from ..base.io import load_npz, markdown_table, save_npz
-from ..control.dexgraspbench import (
-    GRASP_STAGES,
-    Q1_CONTACT_DISTANCE,
-    open_loop_grasps,
-    q1,
-    replay,
-    replay_grasp,
-)
-from ..control.generator import GeneratorParams, generate_postures, starting_postures
-from ..control.protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, pushed
+from ..judging.protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, pushed
+from ..judging.replay import GRASP_STAGES, Q1_CONTACT_DISTANCE, open_loop_grasps, q1, replay, replay_grasp
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.hand import DISTAL_SEGMENTS, segment_of_geoms
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
 from ..sim.scene import Scene
+from ..synthesis.generator import GeneratorParams, generate_postures, starting_postures
 from ..trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
 from ..trials.stats import PairedComparison, mcnemar, rate_text
 from .runner import StudyRun
@@ -67,7 +60,7 @@ def named(name: str) -> GraspObject:
 
 
 def grasp_measures(obj: GraspObject, hand_pose: np.ndarray, posture: np.ndarray, scene: Scene) -> tuple[float, float]:
-    """DexGraspBench's Q1 of a grasp's fingertip contacts (within 5 mm: `dexgraspbench.q1`) and the hand's deepest
+    """DexGraspBench's Q1 of a grasp's fingertip contacts (within 5 mm: `replay.q1`) and the hand's deepest
     penetration into the object (m), both at the grasp, by kinematics."""
     scene.set_posture(posture)
     scene.set_hand_pose(hand_pose[:3], hand_pose[3:])
@@ -204,7 +197,7 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     family)."""
     names, held_out, verified, ablated = found.names, found.held_out, found.verified, found.ablated
     lines = ["## Verified means held when replayed", "",
-             "The generator verifies a candidate by its open-loop replay (`dexgraspbench.replay_grasp`: the touching "
+             "The generator verifies a candidate by its open-loop replay (`replay.replay_grasp`: the touching "
              "segments 2 cm out along the object's normals, the grasp, the squeeze 1 cm in along them, the object "
              "free, gravity off) under the protocol named (`GeneratorParams.verify_protocol`). "
              f"{found.postures} verified postures per object and protocol, generated on one core each and timed; "

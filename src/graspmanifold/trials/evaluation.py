@@ -27,7 +27,7 @@ from ..base.io import NpzRecord, Tabular, library_version, markdown_table
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, workers_for
-from ..control.judge import JUDGING
+from ..judging.judge import JUDGING
 from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, object_from_params

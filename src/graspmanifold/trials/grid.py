@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert, rotate, to_quat
-from ..control.dexgraspbench import OpenLoopGrasp
+from ..judging.replay import OpenLoopGrasp
 from ..manifold.nearest import argmin_tied
 from ..sim.hand import SEGMENTS, segment_of_geoms
 from ..sim.objects import GraspObject, get_object

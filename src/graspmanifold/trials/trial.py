@@ -34,15 +34,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.checkpoints import result_key
-from ..base.io import library_version
 from ..base.errors import InvalidInput
+from ..base.io import library_version
 from ..base.validation import check_choice, check_int
-from ..control.dexgraspbench import OpenLoopGrasp
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
-from ..control.judge import JUDGING, judge_worlds, supported_scene
-from ..control.stages import JudgingRules
-from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
 from ..control.regrasp import LiftProbe, Regrasp
+from ..judging.judge import JUDGING, judge_worlds, supported_scene
+from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
+from ..judging.replay import OpenLoopGrasp
+from ..judging.stages import JudgingRules
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.flange import FlangeLimits
@@ -146,12 +146,12 @@ class TrialSetup:
             hand-object contacts' normal forces summed per segment, ours), 'sensors' (MuJoCo's touch sensors, a site
             over each segment) or 'contact-sensors' (MuJoCo's contact sensors between each segment and the object);
             the sensors on the cpu backend.
-        plan: a planned grasp (`dexgraspbench.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
+        plan: a planned grasp (`replay.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
             plan, a trial's pose (x, z, gap, yaw) is the object's displacement from where the plan assumed it (palm
             frame, `grid.displaced_palm_pose`): the hand starts in the plan's pregrasp, its palm where the plan puts
             it for the nominal pose, and the object lies displaced; the controller is not told the displacement (ours
             starts from the pregrasp's posture). The plan's open-loop execution is the controller
-            `dexgraspbench.OpenLoop(plan)`.
+            `replay.OpenLoop(plan)`.
         palm: the hand on an arm's flange with these limits (`sim.flange.FlangeLimits`: the palm's six degrees of
             freedom, servoed, lockable; the cpu backend), or None: the palm stays where the trial put it. A protocol
             whose judging moves the palm (the lift: `JudgingRules.needs_flange`) gets the default flange where none
@@ -247,7 +247,7 @@ class TrialSetup:
         set_field("margin", bool(self.margin))
         set_field("batch_size", check_int(self.batch_size, "batch_size"))
         if self.plan is not None and not isinstance(self.plan, OpenLoopGrasp):
-            raise InvalidInput(f"plan must be an OpenLoopGrasp (dexgraspbench.open_loop_grasp makes one), got "
+            raise InvalidInput(f"plan must be an OpenLoopGrasp (replay.open_loop_grasp makes one), got "
                                f"{type(self.plan).__name__}")
         if self.plan is not None and (self.noise.position or self.noise.yaw):
             raise InvalidInput("a planned trial's pose is the object's displacement itself: give no position or yaw "

@@ -5,7 +5,7 @@
 
 or from Python, configured (`ExperienceStudyConfig`) or extended (a subclass of `ExperienceStudy`):
 
-    from graspmanifold.studies.experience import ExperienceStudy, ExperienceStudyConfig
+    from graspmanifold.studies.experience_study import ExperienceStudy, ExperienceStudyConfig
     info = ExperienceStudy(ExperienceStudyConfig(quick=True, out="study-quick")).run()
 
 The benchmark (`graspmanifold.trials.benchmark`): the paper's three objects and four small or flat ones
@@ -61,24 +61,16 @@ from ..base.errors import InvalidInput
 from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, BlendRecall, ControllerParams
-from ..control.generator import MAX_POSTURES, GeneratorParams, generate_postures
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.experience import scrambled
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
-from ..trials.benchmark import (
-    OBJECTS,
-    PLACEMENTS,
-    benchmark_split,
-    cells,
-    compare_pooled,
-    pooled,
-    run_benchmark,
-)
+from ..synthesis.generator import MAX_POSTURES, GeneratorParams, generate_postures
+from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_split, cells, compare_pooled, pooled, run_benchmark
+from ..trials.experience_pays import train_experience_map
 from ..trials.grid import COVERED_ANGLE, COVERED_WITHIN, covered
-from ..trials.selector import StrategySelector, choose_cross_validated
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
-from ..trials.study import train_experience_map
+from ..trials.strategy_selector import StrategySelector, choose_cross_validated
 from ..trials.trial import Noise
 from .runner import StudyRun, comparison_table, holm_family, publish, run_command, study_config
 

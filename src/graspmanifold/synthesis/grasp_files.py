@@ -8,7 +8,7 @@ The joints are in the hand model's order (`HandModel.wrist_joints` then `finger_
 Menagerie's Shadow hand, which DexGraspBench uses) and senses; the root is the body the hand hangs from
 (our `HandModel.mount`), its pose in the world, as the object's (`obj_pose`) is: the reader turns both into the
 palm's pose in the object's frame. Every entry is checked (its kind of number, its count, finite values, a
-quaternion of non-zero length, a positive scale, a palm within `dexgraspbench.MAX_REACH` of the object) and a
+quaternion of non-zero length, a positive scale, a palm within `replay.MAX_REACH` of the object) and a
 fault named with its file.
 
 A pickle can run any code while it is read, so `read_grasp_file` never hands one to `pickle` as it is:
@@ -32,12 +32,12 @@ from ..base.errors import InvalidInput
 from ..base.io import atomic_write
 from ..base.poses import compose, invert
 from ..base.validation import check_name, file_in
+from ..judging.replay import STAGE_NAMES, OpenLoopGrasp
 from ..manifold.postureset import PostureSet
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, make_object
 from ..sim.scene import Scene
-from .dexgraspbench import STAGE_NAMES, OpenLoopGrasp
 
 STAGES = STAGE_NAMES
 #: the most elements an array of a grasp file may declare: a grasp file holds a few dozen numbers per entry, and

@@ -19,8 +19,8 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..sim.hand import segment_of_geoms
-from ..sim.scene import Scene
+from .hand import segment_of_geoms
+from .scene import Scene
 
 #: m: a segment this near the object counts as a contact to be moved
 CONTACT_REACH = 0.003

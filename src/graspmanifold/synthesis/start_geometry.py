@@ -21,10 +21,10 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
+from ..sim.grip import FLEXION
 from ..sim.hand import DISTAL_SEGMENTS, SEGMENTS, finger_of, segment_of_geoms
 from ..sim.objects import GraspObject
 from ..sim.scene import Scene
-from .controller import FLEXION
 
 #: the geometry measures exactly only the distances below this (m); farther geoms are clear of each other
 CLEAR = 0.01
@@ -45,7 +45,7 @@ _PUSH_TURNS = Rotation.from_rotvec(PUSH_STEP * np.eye(3)).as_matrix()  # a turn 
 #: the bend of a primitive's smooth outward directions at its edges (`outward`), m
 PUSH_BEND = 0.001
 #: `SearchGeometry.pressing`'s squeeze: how far it turns each flexion joint towards the closed hand (rad, or as far
-#: as the closed angle, `controller.squeezed`), and how smoothly it bends between the two (rad)
+#: as the closed angle, `sim.grip.squeezed`), and how smoothly it bends between the two (rad)
 SQUEEZE = 0.05
 SQUEEZE_BEND = 0.005
 
@@ -331,7 +331,7 @@ class SearchGeometry:
 
     def pressing(self, posture: np.ndarray, pushes: np.ndarray) -> np.ndarray:
         """Cosines (len(distal),) between where the controller's squeeze moves each contact geom (a small
-        `controller.squeezed` of the posture, at the current hand pose, its bends made smooth over `SQUEEZE_BEND`)
+        `sim.grip.squeezed` of the posture, at the current hand pose, its bends made smooth over `SQUEEZE_BEND`)
         and its push on the object (`pushes`): 1 when the squeeze presses it straight in, negative when it draws
         it away (the thumb of the paper's mid and low wraps: the squeeze flexes it off the object)."""
         return self.pressing_jacobian(posture, pushes, None)[0]

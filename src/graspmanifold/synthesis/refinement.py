@@ -23,7 +23,7 @@ from ..base.poses import rotvec_quat
 from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import GraspObject
 from ..sim.scene import Scene
-from .search_geometry import SearchGeometry, hinge_bend, hinge_slope, soft_hinge
+from .start_geometry import SearchGeometry, hinge_bend, hinge_slope, soft_hinge
 
 #: the trust-region search's most iterations (`_search`)
 SEARCH_ITERATIONS = 300
@@ -323,7 +323,7 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     `search_geometry`), its Jacobian exact, and the search runs to its local minimum, so that its
     result does not turn on the last bits of the inputs or of the arithmetic. With `balance` or `press` it runs
     twice: first to touch, then, from there, with those terms (whose pushes are defined only while the contacts'
-    cores are outside the object; on a mesh their Jacobian is by forward differences, `search_geometry.PUSH_STEP`).
+    cores are outside the object; on a mesh their Jacobian is by forward differences, `start_geometry.PUSH_STEP`).
 
     Args:
         obj: the object.

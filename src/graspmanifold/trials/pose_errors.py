@@ -13,8 +13,8 @@ nominal pose or the error (`tests/test_uncertainty.py` spies on what it is given
 The open-loop baseline is what a planner without touch does. `plan` picks, for each nominal pose, the first of its
 candidate postures (in order of preference) whose open-loop replay at that pose holds: a grasp verified for the
 pose it was planned for. `open_loop` executes it where the arm sent the hand for the nominal pose while the object
-lies at the true pose: the pregrasp, grasp and squeeze of `dexgraspbench.open_loop_grasp` at the nominal pose,
-carried into the true object's frame (`carried`), replayed by `dexgraspbench.replay` and judged by our hold test.
+lies at the true pose: the pregrasp, grasp and squeeze of `replay.open_loop_grasp` at the nominal pose,
+carried into the true object's frame (`carried`), replayed by `replay.replay` and judged by our hold test.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import numpy as np
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
 from ..base.workers import parallel_map
-from ..control.dexgraspbench import OpenLoopGrasp, open_loop_grasp, replay
-from ..control.protocols import DEFAULT_PROTOCOL
+from ..judging.protocols import DEFAULT_PROTOCOL
+from ..judging.replay import OpenLoopGrasp, open_loop_grasp, replay
 from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND
 from ..sim.objects import GraspObject, get_object
 from .grid import palm_pose_for, reachable

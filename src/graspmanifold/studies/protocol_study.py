@@ -4,7 +4,7 @@
                                       [--workers 2] [--out protocols] [--doc docs/protocols.md]
 
 On the benchmark's objects (the paper's box, cylinder and sphere, and the marble, pen, disc and cube):
-our verified grasps replayed open loop (`dexgraspbench.replay`: pregrasp the open hand, grasp, squeeze), and
+our verified grasps replayed open loop (`replay.replay`: pregrasp the open hand, grasp, squeeze), and
 the plain heuristic and the paper's controller (recalling from a SOM of the object's verified postures)
 closed loop on every `--every`-th pose of the benchmark's test lattice; each judged by our hold test and by
 DexGraspBench's external-force test in both its versions. Rates with Wilson intervals; McNemar's test
@@ -25,18 +25,12 @@ import numpy as np
 
 from ..base.io import markdown_table, write_text_atomic
 from ..base.progress import show_progress
-from ..control.dexgraspbench import open_loop_grasps, replay
-from ..control.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
-from ..control.generator import generate_postures
-from ..trials.benchmark import (
-    OBJECTS,
-    PLACEMENTS,
-    compare_pooled,
-    pooled,
-    run_benchmark,
-)
+from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
+from ..judging.replay import open_loop_grasps, replay
+from ..synthesis.generator import generate_postures
+from ..trials.benchmark import OBJECTS, PLACEMENTS, compare_pooled, pooled, run_benchmark
+from ..trials.experience_pays import train_experience_map
 from ..trials.stats import mcnemar, rate_text
-from ..trials.study import train_experience_map
 from .runner import StudyRun, comparison_table, holm_family, run_command
 from .verification import Verification, measure, section
 
@@ -105,7 +99,7 @@ def report(args: argparse.Namespace, verification: Verification, open_loop: dict
               *comparison_table(holm_family(verification_tests)), "",
               "## Open loop: our verified grasps replayed as DexGraspBench replays grasps", "",
               f"{args.postures} verified postures per object (`generate_postures`, the defaults: verified under ours), "
-              "each replayed (`dexgraspbench.open_loop_grasps`, `replay`): the pregrasp, the posture at its palm pose, "
+              "each replayed (`replay.open_loop_grasps`, `replay`): the pregrasp, the posture at its palm pose, "
               "its squeeze (the stages it was verified with), in 10 targets of 10 steps each (under ours, the same "
               "seconds at our step), the object free and unsupported, gravity off; the same grasps under each "
               "protocol (McNemar against ours, pooled).", ""]

@@ -2,7 +2,7 @@
 
 A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
 closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop replay
-(`dexgraspbench.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
+(`replay.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
 `DexGraspBenchProtocol`). Registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`; `ours-faded` after a
 fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object
 held when it rises at least 0.1 m; `stages.Lift`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1
@@ -29,7 +29,6 @@ from ..sim.flange import FlangeLimits
 from ..sim.scene import Scene
 from .judge import JUDGING
 from .stages import SIX_DIRECTIONS, JudgingRules, Lift
-
 
 #: MuJoCo's integrators by the names a `PhysicsProfile` takes
 INTEGRATORS = tuple(name.removeprefix("mjINT_").lower() for name in mujoco.mjtIntegrator.__members__)

@@ -30,16 +30,15 @@ from ..base.errors import InvalidInput, SimulationError
 from ..base.poses import invert, rotate
 from ..base.validation import check_choice
 from ..manifold.postureset import PostureSet
+from ..sim.grip import CONTROL_PERIOD, SQUEEZE, squeezed
 from ..sim.hand import SHADOW_HAND, HandModel
+from ..sim.normal_offsets import offset_along_normals
 from ..sim.objects import GraspObject, object_from_params
 from ..sim.posture import open_posture
 from ..sim.scene import Scene
-from .contact_offset import offset_along_normals
-from .controller import ControllerParams, squeezed
 from .judge import VERIFY_HOLD_SECONDS, Judgement, judge_scene, reading_epsilon
 from .protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, DexGraspBenchProtocol, Protocol, get_protocol
 from .quality import epsilon_l1
-
 
 #: m: contacts farther from the object than this do not count for `q1`
 Q1_CONTACT_DISTANCE = 0.005
@@ -257,9 +256,9 @@ class GraspStages:
         pregrasp: 'open' (the open hand with its palm `back_off` further from the object's centre) or 'contacts'
             (the grasp with every touching finger segment `back_off` out along the object's normal, the palm at
             the grasp's pose: an approach along the normals that does not sweep the object;
-            `contact_offset.offset_along_normals`).
+            `normal_offsets.offset_along_normals`).
         squeeze: 'flexion' (the flexion joints `squeeze_angle` further towards the closed hand, as the
-            controller squeezes: `controller.squeezed`) or 'contacts' (every touching segment `squeeze_depth` into
+            controller squeezes: `sim.grip.squeezed`) or 'contacts' (every touching segment `squeeze_depth` into
             the object along its normal, so that each servo presses its contact inwards).
         back_off: m.
         squeeze_angle: rad.
@@ -269,7 +268,7 @@ class GraspStages:
     pregrasp: str = "open"
     squeeze: str = "flexion"
     back_off: float = PREGRASP_BACK_OFF
-    squeeze_angle: float = ControllerParams.squeeze
+    squeeze_angle: float = SQUEEZE
     squeeze_depth: float = 0.01
 
     def __post_init__(self) -> None:
@@ -460,7 +459,7 @@ class OpenLoopController:
         moves_palm: whether the stages move the palm; palm_offset: (N, 3) m, where the arm has carried each palm.
     """
 
-    def __init__(self, n: int, grasp: OpenLoopGrasp, control_period: float = ControllerParams.control_period,
+    def __init__(self, n: int, grasp: OpenLoopGrasp, control_period: float = CONTROL_PERIOD,
                  approach_targets: int = DEXGRASPBENCH.approach_targets):
         """An open-loop controller ready for its grasp in every world.
 

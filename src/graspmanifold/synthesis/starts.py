@@ -47,13 +47,13 @@ from ..base.io import load_npz, save_npz
 from ..base.progress import progress_bar
 from ..base.validation import check_choice
 from ..base.workers import default_workers, parallel_map
+from ..judging.replay import GraspVerifier
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, asset_path, segment_of_geoms
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import dict_to_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM, PALM_HALF_THICKNESS, Scene
-from .dexgraspbench import GraspVerifier
 from .refinement import REFINEMENTS, Refiner, StartingPosture
-from .search_geometry import SearchGeometry
+from .start_geometry import SearchGeometry
 
 STARTS_FILE = "starting_postures.npz"
 CONTACT_GAP = 0.001  # a contact segment "touches" within 1 mm

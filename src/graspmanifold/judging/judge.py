@@ -18,7 +18,7 @@ spring with gravity off, or a table with gravity on); the support is released fi
 
 `judge_worlds` is the one judging loop, over N worlds at once, whatever steps them (`CpuWorlds`, or
 `WarpWorlds` on a GPU): the trials run it while their controller grasps, the open-loop replay
-(`dexgraspbench.replay_grasp`, the generator's verifier among its callers) once the hand has squeezed. Its
+(`replay.replay_grasp`, the generator's verifier among its callers) once the hand has squeezed. Its
 stages are objects (`stages.py`: the grasp, the hold test, the margin; `JudgingRules.stages` names those after the
 grasp, so a stage of one's own runs without a change to the loop). No simulated second is spent that cannot
 change an outcome: a world's hold test ends in the period its object leaves the bound, its margin ramp
@@ -35,12 +35,12 @@ import numpy as np
 
 from ..base.errors import QualityError
 from ..sim.flange import FlangeLimits
+from ..sim.grip import row_norms
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
 from ..sim.scene import Scene
 from ..sim.tactile import TactileReading
 from ..sim.worlds import CpuWorlds, Worlds
-from .controller import row_norms
 from .quality import epsilon_l1
 from .stages import Grasp, JudgingRules
 
@@ -121,7 +121,7 @@ def judge_scene(scene: Scene, rules: JudgingRules = JUDGING, period: float = 0.0
                         rules=rules)[0]
 
 
-#: s of gravity per direction in the verifier's hold test (`dexgraspbench.GraspVerifier`): a trial's, so that a
+#: s of gravity per direction in the verifier's hold test (`replay.GraspVerifier`): a trial's, so that a
 #: verified grasp is one that holds when replayed under our hold test (a shorter hold kept a quarter of the
 #: marble's grasps that the full hold drops)
 VERIFY_HOLD_SECONDS = JUDGING.hold_seconds

@@ -17,7 +17,7 @@ stay curled; or the paper's five-fingertip grasps (the presets of `reproduce`, t
 
 Our extension of the paper's procedure verifies every candidate as a grasp
 (`GeneratorParams.verify`, on by default) by the one open-loop replay of the library
-(`dexgraspbench.replay_grasp`, the replay DexGraspBench's protocol judges grasps by): from a pregrasp (the open
+(`replay.replay_grasp`, the replay DexGraspBench's protocol judges grasps by): from a pregrasp (the open
 hand 2 cm back, or the fingers backed off along the contacts' normals: `GeneratorParams.stages`) the hand moves
 to the candidate and its squeeze on the free, unsupported object, and the protocol named by
 `GeneratorParams.verify_protocol` judges it (ours: six gravity directions of `verify_hold_seconds` each;
@@ -55,15 +55,15 @@ from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_int
 from ..base.workers import parallel_map, workers_for
+from ..judging.judge import VERIFY_HOLD_SECONDS
+from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
+from ..judging.replay import GRASP_STAGES, VERIFY_STAGES, GraspStages, GraspVerifier
 from ..manifold.postureset import PostureSet
+from ..sim.grip import SQUEEZE
 from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel, segment_of_geoms
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import Scene
-from .controller import ControllerParams
-from .dexgraspbench import GRASP_STAGES, VERIFY_STAGES, GraspStages, GraspVerifier
-from .protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
-from .judge import VERIFY_HOLD_SECONDS
 from .starts import (
     CONTACT_GAP,
     DESIGN_FAMILIES,
@@ -119,16 +119,16 @@ class GeneratorParams:
     mode: str = "settled"
     record_every: int = 5  # physics steps between recorded postures in "recording" mode
     max_tries_per_posture: int = 40  # a job gives up after this many walk steps per candidate of its quota
-    verify: bool = True  # keep only candidates that hold when replayed open loop (`dexgraspbench.replay_grasp`)
+    verify: bool = True  # keep only candidates that hold when replayed open loop (`replay.replay_grasp`)
     verify_hold_seconds: float = VERIFY_HOLD_SECONDS  # s per gravity direction of the verifying hold test
     #: the verifier's judging protocol, by name (`protocols.PROTOCOLS`): ours (`protocols.DEFAULT_PROTOCOL`, the
     #: hold test of `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
     verify_protocol: str = DEFAULT_PROTOCOL
-    #: how the replay's pregrasp and squeeze are made (`dexgraspbench.GRASP_STAGES`): "contacts" (the touching
+    #: how the replay's pregrasp and squeeze are made (`replay.GRASP_STAGES`): "contacts" (the touching
     #: segments 2 cm out along the object's normals, then 1 cm in) or "open" (the open hand 2 cm back, the
     #: flexion joints squeezed by `squeeze` rad)
     stages: str = VERIFY_STAGES
-    squeeze: float = ControllerParams.squeeze  # rad, as the controller presses (the "open" stages' squeeze)
+    squeeze: float = SQUEEZE  # rad, as the controller presses (the "open" stages' squeeze)
     #: with verification, draw at most this many candidates per requested posture (GenerationError beyond)
     max_candidates_per_posture: int = 50
     #: the family of starting postures (starts.DESIGN_FAMILIES); None (the default): with verification every
@@ -495,7 +495,7 @@ def _check_graspable(obj: GraspObject, hand: HandModel) -> None:
 
 
 def verifier_of(obj: GraspObject, params: GeneratorParams, hand: str = SHADOW_HAND.name) -> GraspVerifier:
-    """The generator's verifier of a candidate: its open-loop replay (`dexgraspbench.replay_grasp`) with the
+    """The generator's verifier of a candidate: its open-loop replay (`replay.replay_grasp`) with the
     stages, the protocol and the hold of `params`.
 
     Args:
@@ -765,7 +765,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
     Each posture is replayed open loop at its palm pose as the generator verifies a candidate
-    (`dexgraspbench.replay_grasp` with the stages, protocol and hold of `params`). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
+    (`replay.replay_grasp` with the stages, protocol and hold of `params`). `generate_postures(obj, n, params=GeneratorParams(verify=False))` followed
     by this keeps exactly the candidates that the generator with verification keeps among its first
     n (the walk does not depend on the verification).
 

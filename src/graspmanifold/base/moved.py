@@ -1,0 +1,85 @@
+"""Modules that moved keep their old import paths for one release, with a `DeprecationWarning`.
+
+`MOVED_MODULES` maps an old dotted name to the module that now holds its code (0.2: control/ split into
+control/, judging/ and synthesis/, and modules renamed after their idea). `install()` puts one finder at the end
+of `sys.meta_path`: an import of an old name that no file answers gets the new module itself (the same object,
+so its classes and registries are the ones the rest of the package uses), with a warning that names the new path.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.machinery
+import sys
+import warnings
+from types import ModuleType
+
+#: old module -> the module that holds its code now (both within `graspmanifold`)
+MOVED_MODULES: dict[str, str] = {
+    "control.judge": "judging.judge",
+    "control.stages": "judging.stages",
+    "control.protocols": "judging.protocols",
+    "control.quality": "judging.quality",
+    "control.dexgraspbench": "judging.replay",
+    "control.contact_offset": "sim.normal_offsets",
+    "control.search_geometry": "synthesis.start_geometry",
+    "control.refinement": "synthesis.refinement",
+    "control.starts": "synthesis.starts",
+    "control.generator": "synthesis.generator",
+    "control.grasp_files": "synthesis.grasp_files",
+    "trials.study": "trials.experience_pays",
+    "trials.selector": "trials.strategy_selector",
+    "trials.uncertainty": "trials.pose_errors",
+    "studies.experience": "studies.experience_study",
+    "studies.protocols": "studies.protocol_study",
+}
+#: the release after which the old names go
+REMOVED_IN = "0.3"
+_PACKAGE = __name__.split(".")[0]
+
+
+def new_name(old: str) -> str | None:
+    """The module that holds an old module's code now.
+
+    Args:
+        old: a dotted module name, with or without the package's own name in front.
+
+    Returns:
+        The new dotted name within the package, or None where `old` did not move.
+    """
+    return MOVED_MODULES.get(old.removeprefix(f"{_PACKAGE}."))
+
+
+def moved_warning(old: str, new: str) -> None:
+    """Warn, once per call site, that `old` is now `new` (both dotted names within the package).
+
+    Args:
+        old: the old name.
+        new: the name to use.
+    """
+    warnings.warn(f"{_PACKAGE}.{old} moved to {_PACKAGE}.{new}; the old name goes in {REMOVED_IN}",
+                  DeprecationWarning, stacklevel=3)
+
+
+class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    def find_spec(self, fullname, path=None, target=None):  # noqa: ANN001 (the import system's signature)
+        if not fullname.startswith(f"{_PACKAGE}.") or new_name(fullname) is None:
+            return None
+        return importlib.machinery.ModuleSpec(fullname, self)
+
+    def create_module(self, spec):  # noqa: ANN001
+        return None
+
+    def exec_module(self, module: ModuleType) -> None:
+        new = new_name(module.__name__)
+        assert new is not None
+        moved_warning(module.__name__.removeprefix(f"{_PACKAGE}."), new)
+        # the import system hands out what sys.modules holds under the name after this call: the new module itself
+        sys.modules[module.__name__] = importlib.import_module(f"{_PACKAGE}.{new}")
+
+
+def install() -> None:
+    """Let the old module names import (once per process; the package's `__init__` calls it)."""
+    if not any(isinstance(finder, _MovedFinder) for finder in sys.meta_path):
+        sys.meta_path.append(_MovedFinder())
