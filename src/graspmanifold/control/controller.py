@@ -129,6 +129,12 @@ class RecallRule:
     fields part of the trials' key). The hooks work on the controller's arrays of the worlds given; the closing
     heuristic, the holding and the finishing stay the controller's.
 
+    What a rule reads and changes is the controller's public view, nothing private: `c.state` (the `GraspState`,
+    per-world arrays such as `target`, `base`, `held`, `visited`, which a rule changes), `c.steered_joint_mask`
+    (22,) and `c.steered_finger_mask` (5,) (which joints and fingers a match may set: `steered_fingers`,
+    `steered_joints`), `c.kinematics` (the hand's `SegmentKinematics` where a rule or the palm steering moves the
+    palm, else None), `c.closed`, `c.limits`, `c.speed`, `c.params`, `c.experience`, `c.time`.
+
     Attributes:
         name: the rule's name (`ControllerParams.recall` for ours).
         moves_palm: whether a recall may move the palm (the trials then carry each palm to `palm_offset`).
@@ -302,9 +308,9 @@ class TargetRecall(RecallRule):
         """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
         its steered free fingers that are not on their way to it already, nor done with it."""
         visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (c._steered_finger & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
+        new = (c.steered_finger_mask & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
                & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
-        recalled = np.clip(np.where(c._steered, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
+        recalled = np.clip(np.where(c.steered_joint_mask, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
         if self.closes_only:  # no joint sent back towards the open hand
             now = c.state.target[worlds]
             recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
@@ -471,7 +477,7 @@ class BlendRecall(RecallRule):
             touching_segments: (N, segments) bool, every world's touching segments.
             fingers_touching: (N, 5) bool, every world's touching fingers.
         """
-        c.state.base[worlds] = np.where(c._steered, match, c.state.base[worlds])
+        c.state.base[worlds] = np.where(c.steered_joint_mask, match, c.state.base[worlds])
         if not (self.restart_closure or self.reach > 0):
             return
         any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
@@ -481,9 +487,9 @@ class BlendRecall(RecallRule):
         if self.reach > 0:
             for world, row in zip(restart, match[np.isin(worlds, restart)]):
                 self._start_reach(c, world, joints[world], row, touching_segments[world])
-            reset = np.broadcast_to(c._steered_finger, touching.shape)
+            reset = np.broadcast_to(c.steered_finger_mask, touching.shape)
         else:
-            reset = ~touching & ~c.state.held[restart] & c._steered_finger
+            reset = ~touching & ~c.state.held[restart] & c.steered_finger_mask
         c.state.closure[restart] = np.where(reset, 0.0, c.state.closure[restart])
 
     def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
@@ -492,7 +498,7 @@ class BlendRecall(RecallRule):
         rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
         if not len(rows):
             return
-        c.state.palm_goal[world] = palm_shift(c._kinematics, joints, match, rows, self.reach)
+        c.state.palm_goal[world] = palm_shift(c.kinematics, joints, match, rows, self.reach)
         c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
         c.state.held[world] = False
         c.state.lost[world] = False
@@ -876,6 +882,11 @@ class BatchController:
     Attributes:
         closed, limits, speed: the hand's closed posture (22,) and ranges (22, 2), rad, and each finger's
             joint speed (5,), rad/s: the open-to-closed synergy at `closing_rate`.
+        steered_joint_mask, steered_finger_mask: (22,) and (5,) bool, the joints and fingers a best match may set
+            (`ControllerParams.steered_fingers` and `steered_joints`); the recall rules read them.
+        kinematics: the hand's `SegmentKinematics` where the recall rule or the palm steering moves the palm, else
+            None.
+        state: the `GraspState`, every world's arrays (what a recall rule changes).
         time: s since the grasp started; phase: (N,) index into `PHASES`; done: (N,) bool; time_to_grasp:
             (N,) s (NaN while not done); matches: (N,) best-match queries used; winners: per world, the best
             match of every query used (rows of `experience.references`), in order; palm_offset: (N, 3), m,
@@ -918,9 +929,9 @@ class BatchController:
         self.closed, self.limits = hand.keyframe_posture("closed"), hand.limits()
         self.speed = self.params.closing_rate * np.array([np.linalg.norm((self.closed - self.initial)[of])
                                                           for of in FINGER_JOINT_MASKS])
-        self._steered_finger = np.isin(np.array(FINGERS), self.params.steered_fingers)
-        self._steered = self._steered_finger[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
-        self._kinematics = SegmentKinematics(hand) if self.params.recall.moves_palm or self.params.palm.active else None
+        self.steered_finger_mask = np.isin(np.array(FINGERS), self.params.steered_fingers)
+        self.steered_joint_mask = self.steered_finger_mask[JOINT_FINGER] & STEERED_JOINTS[self.params.steered_joints]
+        self.kinematics = SegmentKinematics(hand) if self.params.recall.moves_palm or self.params.palm.active else None
         #: the recall keys one world's fingers can have (a row of the references, or the preshape)
         self._rows = 1 + (0 if self.experience is None else len(self.experience.references))
         self.reset()
@@ -1100,12 +1111,12 @@ class BatchController:
             renew = np.isnan(aim[world, 0]) or np.any(touching[world] != self.state.touching[world])
             if weights.sum() <= 0.0 or not renew:
                 continue
-            centre = weights @ self._kinematics.positions(joints[world]) / weights.sum()
+            centre = weights @ self.kinematics.positions(joints[world]) / weights.sum()
             if places is None or not self.winners[world]:  # touch alone: the object is where it is touched
                 estimate, wanted = centre, GRASP_CENTRE_IN_PALM
             else:  # the object sits off these segments as it sat off them in the recalled grasp
                 row = self.winners[world][-1]
-                recalled = weights @ self._kinematics.positions(self.experience.references[row]) / weights.sum()
+                recalled = weights @ self.kinematics.positions(self.experience.references[row]) / weights.sum()
                 estimate, wanted = centre + places[row] - recalled, places[row]
             self.object_estimate[world] = self.palm_offset[world] + estimate
             aim[world] = np.clip(self.palm_offset[world, [0, 2]] + estimate[[0, 2]] - wanted[[0, 2]], -palm.reach,

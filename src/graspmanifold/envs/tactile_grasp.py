@@ -397,8 +397,31 @@ class TactileGraspVectorEnv(VectorEnv):
         if len(acting):
             rewarded, per_world = self.task.act(acting, actions)
             rewards[acting] = rewarded
-            for k, world in enumerate(acting):
-                terminated[world] = per_world[k]["judged"]
-                infos = self._add_info(infos, per_world[k], world)
+            terminated[acting] = [info["judged"] for info in per_world]
+            infos = vector_infos(per_world, acting, self.num_envs)
         return (self.task.observe(np.arange(self.num_envs)), rewards, terminated,
                 np.zeros(self.num_envs, dtype=bool), infos)
+
+
+def vector_infos(infos: list[dict], worlds: np.ndarray, n: int) -> dict:
+    """Gymnasium's layout of a vector environment's infos: each key an (n,) array over the worlds, and `_key` a
+    mask of the worlds whose info holds it.
+
+    Args:
+        infos: one flat info dict per world that acted.
+        worlds: (len(infos),) the indices of those worlds.
+        n: how many worlds the vector environment has.
+
+    Returns:
+        The batched infos.
+    """
+    batched: dict = {}
+    for info, world in zip(infos, worlds):
+        for key, value in info.items():
+            if key not in batched:
+                numeric = isinstance(value, (bool, int, float, np.number))
+                batched[key] = np.zeros(n, dtype=type(value)) if numeric else np.full(n, None, dtype=object)
+                batched[f"_{key}"] = np.zeros(n, dtype=bool)
+            batched[key][world] = value
+            batched[f"_{key}"][world] = True
+    return batched

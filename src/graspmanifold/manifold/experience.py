@@ -158,7 +158,12 @@ class PostureDatabase(Recall, NpzRecord):
         """The stored postures (n, dim), read-only: `best_match` gives a row of them."""
         return self.postures
 
-    def _nearest(self) -> MaskedNearest:
+    def masked_search(self) -> MaskedNearest:
+        """The masked nearest search over the stored postures (`Recall.masked_search`).
+
+        Returns:
+            The `MaskedNearest` over `references`.
+        """
         return self._search
 
     NPZ_KIND = "posture_database"

@@ -91,7 +91,7 @@ class LinearManifold(ManifoldRecall, NpzRecord):
         mean, axes, explained = principal_axes(data)
         total = float(((data - mean) ** 2).sum() / (len(data) - 1))  # the variance, rad^2
         self._set(mean, axes[:self.components], explained, total)
-        self._keep_references(self.project(data))
+        self.keep_references(self.project(data))
         self.data_fingerprint = fingerprint(data)
         return self
 
@@ -177,7 +177,7 @@ class LinearManifold(ManifoldRecall, NpzRecord):
             linear._set(arrays["mean"], axes, arrays["explained"], float(meta["total_variance"]))
         except (KeyError, TypeError, ValueError):
             raise InvalidInput(f"{path} lacks the linear manifold's total_variance") from None
-        linear._keep_references(check_data(arrays["references"], dim, f"{path} references"))
+        linear.keep_references(check_data(arrays["references"], dim, f"{path} references"))
         linear.data_fingerprint = str(meta.get("data_fingerprint", ""))
         return linear
 

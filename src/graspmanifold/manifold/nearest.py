@@ -204,20 +204,25 @@ class MaskedNearest:
 
 class Recall:
     """The `experience.Experience` protocol's queries (documented there) answered by a `MaskedNearest` of the
-    `references` a subclass provides with `_nearest()`: what the SOM and the posture database share."""
+    `references` a subclass provides with `masked_search()`: what the SOM and the posture database share."""
 
     references: np.ndarray
 
-    def _nearest(self) -> MaskedNearest:
+    def masked_search(self) -> MaskedNearest:
+        """The masked nearest search over `references` that `best_match` runs (a subclass provides it).
+
+        Returns:
+            The `MaskedNearest` over the references.
+        """
         raise NotImplementedError
 
     def best_match(self, x: np.ndarray, mask: np.ndarray | None = None) -> int:
         """The row of `references` nearest to the query x (dim,) under the masked distance of Eq. 2 / Eq. 4."""
-        return self._nearest().nearest(x, mask)
+        return self.masked_search().nearest(x, mask)
 
     def best_match_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """`best_match` of every query (m, dim), with one mask (dim,) or one per query (m, dim)."""
-        return self._nearest().nearest_batch(X, masks)
+        return self.masked_search().nearest_batch(X, masks)
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """The best-matching reference in full (dim,), rad: x completed from what the mask specifies."""
@@ -231,7 +236,7 @@ class Recall:
 class ManifoldRecall(Recall):
     """What a fitted manifold that completes postures on itself shares of the `experience.Experience` protocol
     (`ukr.UKR`, `linear.LinearManifold`): its `references` are postures on the manifold (kept by
-    `_keep_references`), `best_match` the nearest of them (`Recall`), and `complete` one query of the subclass's
+    `keep_references`), `best_match` the nearest of them (`Recall`), and `complete` one query of the subclass's
     `complete_batch`, which completes on the manifold instead of returning a reference."""
 
     dim: int
@@ -240,8 +245,12 @@ class ManifoldRecall(Recall):
     def _require(self) -> object:
         raise NotImplementedError
 
-    def _keep_references(self, references: np.ndarray) -> None:
-        """The manifold's postures that `best_match` indexes, kept read-only."""
+    def keep_references(self, references: np.ndarray) -> None:
+        """Keep the manifold's postures that `best_match` indexes, read-only (a fitting or loading subclass calls it).
+
+        Args:
+            references: (k, dim) postures on the manifold, rad.
+        """
         self._search = MaskedNearest(references)
         self._search.points.flags.writeable = False
 
@@ -251,7 +260,12 @@ class ManifoldRecall(Recall):
         self._require()
         return self._search.points
 
-    def _nearest(self) -> MaskedNearest:
+    def masked_search(self) -> MaskedNearest:
+        """The masked nearest search over the kept references (`Recall.masked_search`).
+
+        Returns:
+            The `MaskedNearest` over `references`.
+        """
         self._require()
         return self._search
 

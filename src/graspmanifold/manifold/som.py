@@ -223,7 +223,12 @@ class SOM(Recall, NpzRecord):
             raise NotFittedError("this SOM has no weights yet: call fit() (or initialize()) first")
         return self._weights
 
-    def _nearest(self) -> MaskedNearest:  # best match and completion (Eq. 3 with Eq. 4's distance): `Recall`
+    def masked_search(self) -> MaskedNearest:
+        """The masked nearest search over the map's nodes: best match and completion (Eq. 3 with Eq. 4's distance).
+
+        Returns:
+            The `MaskedNearest` over the node weights.
+        """
         if self._search is None:
             self._search = MaskedNearest(self._require_weights().reshape(-1, self.dim))
         return self._search

@@ -305,7 +305,7 @@ class UKR(ManifoldRecall, NpzRecord):
         self.latent = np.ascontiguousarray(latent, dtype=float)
         self.postures = np.ascontiguousarray(data, dtype=float)
         self.latent.flags.writeable = self.postures.flags.writeable = False
-        self._keep_references(self.manifold(self.latent))
+        self.keep_references(self.manifold(self.latent))
         order = np.argsort(self.latent[:, 0], kind="stable")  # the completion kernel reads a window of them
         self._sorted = (np.ascontiguousarray(self.latent[order]), np.ascontiguousarray(self.postures[order]),
                         np.ascontiguousarray(self.latent[order, 0]))
@@ -367,7 +367,7 @@ class UKR(ManifoldRecall, NpzRecord):
         """
         self._require()
         queries, weights = check_queries(X, masks, self.dim)
-        starts = self._nearest().nearest_batch(queries, weights)
+        starts = self.masked_search().nearest_batch(queries, weights)
         if not compiled():
             return complete_reference(self.latent, self.postures, queries, weights, starts, self.completion_steps)
         out_latent, out_postures = np.empty((len(queries), self.latent_dim)), np.empty_like(queries)

@@ -126,7 +126,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
 
 
 def profile_generator(name: str, n: int) -> None:
-    rig, verifier = generator._SpringRig, replay.GraspVerifier
+    rig, verifier = generator.SpringRig, replay.GraspVerifier
     counts: dict[str, int] = defaultdict(int)
     context = ["walk"]
     original_simulate = rig.simulate

@@ -172,12 +172,16 @@ PRESET_PARAMS: dict[str, GeneratorParams] = {
 }
 
 
-class _SpringRig:
+class SpringRig:
     """A scene with springs on a starting posture's contact segments and compliant finger servos.
 
     A distal contact segment is pulled by its fingertip site, any other contact segment (the index
     finger's middle segment in a lateral grasp) at its point nearest the object; the segments that
     must touch for a candidate are the contact segments (the five distal ones for the paper's kind).
+
+    It is public as the generator's profiling hook: a profiler (`studies.trial_profile`) times its phases by
+    wrapping `simulate` (every physics step of a walk or a settle), `move_to` (the walk to a pose), `settle` and
+    `accepted_posture` (the candidate test) on the class.
     """
 
     def __init__(self, obj: GraspObject, params: GeneratorParams, contacts: tuple[str, ...] = DISTAL_SEGMENTS,
@@ -290,7 +294,7 @@ def _run_job(obj: GraspObject, start: StartingPosture, job: _Job, seed: int, par
     """Walk around one starting posture until `job.quota` candidates are found (or the walk gives up
     after `max_tries_per_posture` steps per candidate: `exhausted`); keep the verified ones."""
     rng = np.random.default_rng([seed, job.start_index, job.chunk])
-    rig = _SpringRig(obj, params, start.contacts, hand)
+    rig = SpringRig(obj, params, start.contacts, hand)
     verifier = verifier_of(obj, params, hand) if params.verify else None
     rig.reset_to(start)
     rig.scene.set_target(start.posture)
