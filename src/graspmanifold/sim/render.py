@@ -24,15 +24,12 @@ import threading
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.validation import check_data, check_int
-
-if TYPE_CHECKING:
-    from .scene import Scene
 
 BACKENDS = ("egl", "osmesa")
 #: a view for `render_states` besides a scene's named cameras: from the palm's thumb side, as the
@@ -190,7 +187,18 @@ def render_postures(postures: np.ndarray, size: int = 160, backends: tuple[str, 
                   "hand": np.array(hand_name(hand or SHADOW_HAND.name))}, backends)
 
 
-def render_states(scene: Scene, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
+class SceneToDraw(Protocol):
+    """What `render_states` draws: a `scene.Scene` (the model and its spec, the hand, its state's layout); pictures
+    sit below the scene, which draws itself with them."""
+
+    model: Any  # mujoco.MjModel
+    spec: Any  # mujoco.MjSpec
+    hand: Any  # hand.HandModel (its `palm` body's name)
+
+    def state(self) -> np.ndarray: ...
+
+
+def render_states(scene: SceneToDraw, states: np.ndarray, camera: str = "hand", width: int = 320, height: int = 240,
                   backends: tuple[str, ...] | None = None) -> np.ndarray:
     """Images (k, height, width, 3) uint8 of a scene in each of k states (`Scene.state()`), from
     one of its named cameras (`scene.CAMERAS`) or from the palm's thumb side (`THUMB_SIDE`)."""

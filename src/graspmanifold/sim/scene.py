@@ -25,6 +25,7 @@ from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
 from .objects import GraspObject, get_object
 from .posture import posture_to_ctrl, validate_posture
+from .render import png_bytes, render_states
 from .tactile import TactileReading, TactileSensor
 
 GRAVITY = 9.81
@@ -630,8 +631,6 @@ class Scene:
         Raises:
             RenderingUnavailable: no offscreen OpenGL backend works; the message says what to install.
         """
-        from .render import render_states
-
         return render_states(self, self.state()[None], camera, width, height)[0]
 
     def viewer(self) -> mujoco.viewer.Handle:
@@ -664,8 +663,6 @@ class Scene:
 
     def _repr_png_(self) -> bytes | None:
         """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""
-        from .render import png_bytes
-
         try:
             return png_bytes(self.render())
         except RenderingUnavailable:
