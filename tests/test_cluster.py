@@ -25,7 +25,7 @@ def test_evaluation_and_generation_on_a_cluster_equal_the_local_run(cluster):
     _, executor = cluster
     postures = gm.generate_postures("cylinder", 12, seed=0, params=gm.GeneratorParams(job_size=3, verify=False))
     remote = gm.generate_postures("cylinder", 12, seed=0, params=gm.GeneratorParams(job_size=3, verify=False),
-                                  executor=executor)
+                                  workers=executor)
     assert remote.postures.tobytes() == postures.postures.tobytes()
     here = gm.evaluate("cylinder", postures, GRID, seed=0)
     there = gm.evaluate("cylinder", postures, GRID, seed=0, workers=executor)
@@ -65,7 +65,7 @@ def test_generator_checkpoints_are_written_by_this_process_not_on_the_workers_di
     written, real = [], generator.save_npz
     monkeypatch.setattr(generator, "save_npz", lambda path, *a, **k: written.append(path) or real(path, *a, **k))
     parts = tmp_path / "parts"
-    gm.generate_postures("cylinder", 8, params=gm.GeneratorParams(job_size=2, verify=False), executor=executor,
+    gm.generate_postures("cylinder", 8, params=gm.GeneratorParams(job_size=2, verify=False), workers=executor,
                          checkpoint_dir=parts)
     assert written and sorted(written) == sorted(parts.glob("job_*.npz"))  # every job file, written here
 

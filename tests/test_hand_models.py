@@ -180,8 +180,8 @@ def test_the_generator_and_the_evaluation_run_on_another_hand_and_its_experience
     import graspmanifold as gm
 
     available("gymnasium-robotics")
-    postures = gm.generate_postures("cylinder", 6, seed=0, workers=1, hand="gymnasium-robotics",
-                                    params=gm.GeneratorParams(job_size=3, verify=False))
+    postures = gm.generate_postures("cylinder", 6, seed=0, workers=1,
+                                    params=gm.GeneratorParams(job_size=3, verify=False, hand="gymnasium-robotics"))
     assert len(postures) == 6 and postures.metadata["hand"] == "gymnasium-robotics"
     grid = gm.grid_preset("quick", "cylinder")[:2]
     result = gm.evaluate("cylinder", postures, grid, workers=1, hand="gymnasium-robotics")

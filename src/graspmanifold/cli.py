@@ -159,12 +159,13 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path
 
     checkpoints = out.with_name(out.name + ".parts")
     params = replace(PRESET_PARAMS[args.preset], verify=not args.no_verify, designs=args.designs,
-                     verify_protocol=args.protocol, stages=args.stages, **({"mode": args.mode} if args.mode else {}))
+                     verify_protocol=args.protocol, stages=args.stages, hand=args.hand,
+                     **({"mode": args.mode} if args.mode else {}))
     start = time.perf_counter()
     if args.force:
         remove_checkpoints(checkpoints)
-    postures = generate_postures(obj, n, seed=args.seed, workers=args.workers, params=params, hand=args.hand,
-                                 checkpoint_dir=checkpoints, progress=True, executor=args.cluster)
+    postures = generate_postures(obj, n, seed=args.seed, workers=args.cluster or args.workers, params=params,
+                                 checkpoint_dir=checkpoints, progress=True)
     postures.save(out)
     remove_checkpoints(checkpoints)
     verified = (f"verified: {postures.metadata['verified_ratio']:.0%} of {postures.metadata['candidates']} candidates "

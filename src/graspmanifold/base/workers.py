@@ -79,6 +79,19 @@ def default_workers() -> int:
 WORKERS_PER_CORE = 4
 
 
+def split_workers(workers: int | Executor | None) -> tuple[int | None, Executor | None]:
+    """A long job's `workers` argument, which is a number of local processes or an executor, as both.
+
+    Args:
+        workers: worker processes (None: the job's default), or a `concurrent.futures.Executor` (a Dask
+            cluster's: `cluster_executor`) that runs the job's tasks instead.
+
+    Returns:
+        (workers, executor): (None, the executor) for an executor, else (workers, None).
+    """
+    return (None, workers) if isinstance(workers, Executor) else (workers, None)
+
+
 def workers_for(workers: int | None, units: int, per_worker: int) -> int:
     """The worker processes for a job of `units` pieces of work (trials, postures).
 

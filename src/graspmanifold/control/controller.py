@@ -991,7 +991,8 @@ class BatchController:
                 f"{int(self.done.sum())} done)")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
-        """One control cycle of every world.
+        """One control cycle of every world, in its phases: A (the open hand waits), B/C (matching), D (fingers
+        hold where they touched, the others close), the palm's moves, and the end of the grasp.
 
         Args:
             joints: the sensed joint angles (N, 22), rad.
@@ -1000,6 +1001,28 @@ class BatchController:
         Returns:
             The joint targets (N, 22), rad.
         """
+        joints, forces = self._checked_readings(joints, segment_forces)
+        self.time += self.params.control_period
+        touching_segments = forces > 0.0
+        touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
+        elapsed = self.time - self.state.started
+        waiting = self._wait(touching_segments.any(axis=1), elapsed)
+        act = ~self.done & ~waiting
+        self._regulate_grip(forces, ~waiting)
+        if act.any():
+            self.phase[act] = np.where(touching_segments.any(axis=1)[act], PHASES.index("C"), PHASES.index("B"))
+            self._match(act, joints, touching_segments, touching)
+            newly_held = self._hold(act, joints, touching)
+            self.params.recall.follow(self, act, newly_held, joints)
+            self._close(act)
+            if self.params.palm.active:
+                self._steer_palm(act, joints, forces, touching)
+            self._move_palms(act)
+            self._finish(act, touching, elapsed)
+        self.state.previous = joints.copy()
+        return self.state.target.copy()
+
+    def _checked_readings(self, joints: np.ndarray, segment_forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         joints = np.asarray(joints, dtype=float)
         forces = np.asarray(segment_forces, dtype=float)
         if joints.shape != (self.n, N_FINGER_JOINTS) or not np.all(np.isfinite(joints)):
@@ -1007,36 +1030,34 @@ class BatchController:
         if forces.shape != (self.n, len(SEGMENTS)) or not np.all(np.isfinite(forces)):
             raise InvalidInput(f"segment_forces must be ({self.n}, {len(SEGMENTS)}) finite forces in SEGMENTS order, "
                                f"got shape {forces.shape}")
-        p, dt = self.params, self.params.control_period
-        self.time += dt
-        touching_segments = forces > 0.0
-        any_touch = touching_segments.any(axis=1)
-        touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
-        elapsed = self.time - self.state.started
-        waiting = ~self.done & (elapsed <= p.preshape_time) & (~any_touch | (self.attempt > 1))  # A: a regrasp opens
-        self.state.target[waiting] = self.initial
-        act = ~self.done & ~waiting
-        self._regulate_grip(forces, ~waiting)
-        if not act.any():
-            self.state.previous = joints.copy()
-            return self.state.target.copy()
+        return joints, forces
 
-        self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
-        self._match(act, joints, touching_segments, touching)
-        # D: a touching finger holds where it first touched; one that lost its contact closes on from there
+    def _wait(self, any_touch: np.ndarray, elapsed: np.ndarray) -> np.ndarray:
+        """Phase A: the worlds whose hand waits open (the preshape time, untouched; a regrasp opens) -> (N,) bool."""
+        p = self.params
+        waiting = ~self.done & (elapsed <= p.preshape_time) & (~any_touch | (self.attempt > 1))
+        self.state.target[waiting] = self.initial
+        return waiting
+
+    def _hold(self, act: np.ndarray, joints: np.ndarray, touching: np.ndarray) -> np.ndarray:
+        """Phase D: a touching finger holds where it first touched; one that lost its contact this long closes on
+        from there -> (N, 5) the (world, finger) pairs that touched now for the first time."""
         touched = act[:, None] & touching & ~self.state.reaching[:, None]  # while the palm moves, fingers follow the recall
         self.state.last_touch[touched] = self.time
         newly_held = touched & ~self.state.held
         self.state.held = self.state.held | newly_held
         self.state.held_posture = np.where(newly_held[:, JOINT_FINGER], joints, self.state.held_posture)
         self.state.lost &= ~touched
-        released = act[:, None] & self.state.held & (self.time - self.state.last_touch > p.release_time)
+        released = act[:, None] & self.state.held & (self.time - self.state.last_touch > self.params.release_time)
         self.state.lost_posture = np.where(released[:, JOINT_FINGER], self.state.held_posture, self.state.lost_posture)
         self.state.lost |= released
         self.state.held &= ~released
         self.state.closure[released] = 0.0
-        self.params.recall.follow(self, act, newly_held, joints)
+        return newly_held
 
+    def _close(self, act: np.ndarray) -> None:
+        """The acting worlds' targets: a holding finger presses, a free one closes (or goes to its recall)."""
+        p, dt = self.params, self.params.control_period
         target = self.state.target.copy()
         pressed = self.params.recall.pressed(self, self.state.grip[:, None] if not p.squeeze_time else
                                              self.state.grip[:, None] * self.state.squeezing[:, None])
@@ -1057,14 +1078,19 @@ class BatchController:
             pace = np.where(going, self.state.pace[free, finger], p.follow_speed * self.speed[finger])
             target[np.ix_(free, of)] = _bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
         self.state.target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
-        if self.params.palm.active:
-            self._steer_palm(act, joints, forces, touching)
-        moving = np.flatnonzero(act & self.state.reaching)  # palms on their way to the recalled grasps' places
+
+    def _move_palms(self, act: np.ndarray) -> None:
+        """Palms on their way to the recalled grasps' places move on, at the recall rule's reach speed."""
+        moving = np.flatnonzero(act & self.state.reaching)
         if len(moving):
             self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
-                                                     self.params.recall.reach_speed * dt)
+                                                     self.params.recall.reach_speed * self.params.control_period)
             self.state.reaching[moving] = np.any(self.palm_offset[moving] != self.state.palm_goal[moving], axis=1)
 
+    def _finish(self, act: np.ndarray, touching: np.ndarray, elapsed: np.ndarray) -> None:
+        """The grasp's end: the touching set stable this long, every finger touching or closed, the squeeze
+        ramped and the palm arrived; or the timeout."""
+        p, dt = self.params, self.params.control_period
         changed = act & np.any(touching != self.state.touching, axis=1)
         self.state.touching[changed] = touching[changed]
         self.state.stable_since[changed] = self.time
@@ -1081,8 +1107,6 @@ class BatchController:
         self.done |= finished
         self.phase[finished] = PHASES.index("done")
         self.time_to_grasp[finished] = self.time
-        self.state.previous = joints.copy()
-        return self.state.target.copy()
 
     def _steer_palm(self, act: np.ndarray, joints: np.ndarray, forces: np.ndarray, touching: np.ndarray) -> None:
         """The palm's phases (`PalmSteering`): the guarded approach before the first contact, re-centring on the

@@ -20,7 +20,7 @@ import os
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -113,6 +113,13 @@ class ReproduceConfig:
         check_choice(self.protocol, PROTOCOL_NAMES, "ReproduceConfig.protocol")
         check_choice(self.manifold, MANIFOLDS, "ReproduceConfig.manifold")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
+        if not isinstance(self.generator, GeneratorParams):
+            raise InvalidInput(f"ReproduceConfig.generator must be GeneratorParams, got {self.generator!r}")
+        if self.generator.hand not in (SHADOW_HAND.name, self.hand):
+            raise InvalidInput(f"ReproduceConfig.generator.hand ({self.generator.hand!r}) differs from "
+                               f"ReproduceConfig.hand ({self.hand!r}): the run generates and grasps with one hand; "
+                               "set `hand` alone")
+        object.__setattr__(self, "generator", replace(self.generator, hand=self.hand))
         if not isinstance(self.controller, ControllerParams):
             raise InvalidInput(f"ReproduceConfig.controller must be ControllerParams (controller.CONTROLLERS names "
                                f"two), got {self.controller!r}")
@@ -303,6 +310,8 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             previous = None
         if isinstance(previous, dict):
             previous.setdefault("hand", SHADOW_HAND.name)  # a run.json written before the choice of hand
+            if isinstance(previous.get("generator"), dict):  # before the generator's settings named the hand
+                previous["generator"].setdefault("hand", previous["hand"])
             previous.setdefault("controller", {**json.loads(json.dumps(BLEND.to_table())), "max_match_distance": "0.2"})
             previous["controller"] = ControllerParams.upgrade_table(previous["controller"])
         if previous != json.loads(json.dumps(config.to_json())) and not force:
@@ -363,9 +372,9 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     for name, path in sets_paths.items():
         def generate(name=name, path=path):
             parts = path.with_name(path.name + ".parts")
-            postures = generate_postures(config.object(name), config.postures[name], seed=config.seed, workers=workers,
-                                         executor=executor, hand=config.hand,
-                                         params=config.generator, checkpoint_dir=parts, progress=True)
+            postures = generate_postures(config.object(name), config.postures[name], seed=config.seed,
+                                         workers=executor or workers, params=config.generator, checkpoint_dir=parts,
+                                         progress=True)
             postures.save(path)
             remove_checkpoints(parts)
         stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator),
@@ -374,9 +383,8 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
         candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
         for name, path in sets_paths.items():
             def verify(name=name, path=path):
-                held = verify_postures(PostureSet.load(candidates_paths[name]), config.object(name), workers,
-                                       params=config.generator,
-                                       executor=executor, progress=True)
+                held = verify_postures(PostureSet.load(candidates_paths[name]), config.object(name),
+                                       executor or workers, params=config.generator, progress=True)
                 held.save(path)
                 return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
             stages.run(f"verify_{name}", result_key(asdict(config.generator), hand.digest, candidates_paths[name]),

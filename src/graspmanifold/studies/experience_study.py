@@ -243,7 +243,7 @@ class ExperienceStudy(StudyRun):
 
             def make(parts: Path, obj=obj, name=name) -> PostureSet:
                 start = time.perf_counter()
-                postures = generate_postures(obj, n, seed=seed, workers=self.workers, executor=self.executor,
+                postures = generate_postures(obj, n, seed=seed, workers=self.executor or self.workers,
                                              params=params, checkpoint_dir=parts)
                 self.log(f"experience {name}: {len(postures)} postures from {postures.metadata['candidates']} "
                          f"candidates ({time.perf_counter() - start:.0f} s)")

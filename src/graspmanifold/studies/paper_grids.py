@@ -111,7 +111,8 @@ def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
     key = result_key({"object": get_object(obj).params(), "candidates": args.candidates, "seed": 0,
                       "params": asdict(params)})
     spring = study.postures(f"{obj}_spring", key, lambda parts: verify_postures(generate_postures(
-        obj, args.candidates, seed=0, workers=study.workers, executor=study.executor, params=params, checkpoint_dir=parts), obj,
+        obj, args.candidates, seed=0, workers=study.executor or study.workers, params=params,
+        checkpoint_dir=parts), obj,
         workers=study.workers))
     training = grid_preset("quick" if args.quick else "paper", obj)  # perturbed by TRAINING_NOISE
     grown_key = result_key(spring.postures, training, {"rounds": args.rounds})

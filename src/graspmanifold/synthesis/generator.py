@@ -42,6 +42,7 @@ from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache, partial
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -54,7 +55,7 @@ from ..base.paper_numbers import DATASET_SIZES
 from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_int
-from ..base.workers import parallel_map, workers_for
+from ..base.workers import parallel_map, split_workers, workers_for
 from ..judging.judge import VERIFY_HOLD_SECONDS
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from ..judging.replay import GRASP_STAGES, VERIFY_STAGES, GraspStages, GraspVerifier
@@ -135,6 +136,8 @@ class GeneratorParams:
     #: grasp type, each start one that holds ("grasp_types"), without it the paper's five-fingertip grasps
     #: ("five_fingertip"): verify=False is the paper's procedure, its designs included
     designs: str | None = None
+    #: the hand model the postures are generated on (`hand_models.HAND_MODELS`, or an MJCF file's path)
+    hand: str = SHADOW_HAND.name
 
     def __post_init__(self) -> None:
         if self.designs is None:
@@ -143,8 +146,11 @@ class GeneratorParams:
         check_choice(self.verify_protocol, PROTOCOL_NAMES, "GeneratorParams.verify_protocol")
         check_choice(self.stages, GRASP_STAGES, "GeneratorParams.stages")
         check_choice(self.designs, DESIGN_FAMILIES, "GeneratorParams.designs")
+        if not isinstance(self.hand, str) or not self.hand:
+            raise InvalidInput(f"GeneratorParams.hand must be a hand model's name or an MJCF file's path, "
+                               f"got {self.hand!r}")
         for name, value in asdict(self).items():
-            if name in ("verify", "mode", "designs", "verify_protocol", "stages"):
+            if name in ("verify", "mode", "designs", "verify_protocol", "stages", "hand"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
                 raise InvalidInput(f"GeneratorParams.{name} must be a finite number >= 0, got {value!r}")
@@ -576,10 +582,9 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
     return (_Job(**job) if isinstance(job, dict) and set(job) == set(_Job.__dataclass_fields__) else None, arrays), meta
 
 
-def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | None = None, *,
+def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | Executor | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
-                      progress: bool | None = None, executor: Executor | None = None, hand: str = SHADOW_HAND.name,
-                      starts: Sequence[StartingPosture] | None = None) -> PostureSet:
+                      progress: bool | None = None, starts: Sequence[StartingPosture] | None = None) -> PostureSet:
     """Generate n grasp postures for an object with the spring generator.
 
     Without verification (`params.verify=False`, the paper's procedure) the n postures are the first
@@ -594,16 +599,16 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
         obj: an object or its name.
         n: postures to return (>= 1).
         seed: the random seed; the same seed gives the same set, whatever the number of workers or
-            the `executor` (e.g. a Dask cluster's, `workers.cluster_executor`) the jobs run on.
+            the executor the jobs run on.
         workers: worker processes (None: `workers.default_workers()`, one for fewer than
-            `GENERATE_PER_WORKER` postures).
-        params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures.
+            `GENERATE_PER_WORKER` postures), or an executor that runs the jobs elsewhere (a Dask cluster's,
+            `workers.cluster_executor`).
+        params: generator settings (`GeneratorParams`); `params.designs` picks the starting postures, `params.hand`
+            the hand model (`hand_models.HAND_MODELS`, or an MJCF path; the postures record it, `metadata["hand"]`).
         checkpoint_dir: every finished job is saved there, and a rerun with the same arguments picks
             them up.
         progress: show a progress bar of the postures found (None: as `progress.show_progress` says, on by
             default).
-        executor: run the jobs there instead of in `workers` local processes.
-        hand: the hand model's name (`hand_models.HAND_MODELS`); the postures record it (`metadata["hand"]`).
         starts: your own starting postures (`StartingPosture`s, palm poses in the object's frame; checked by
             `starts.check_starting_postures`), used instead of those of `params.designs`.
 
@@ -622,130 +627,192 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
     seed = check_int(seed, "seed", low=0)
     obj = get_object(obj)
     n = check_int(n, "n", high=MAX_POSTURES)
+    workers, executor = split_workers(workers)
     workers = workers_for(workers, n, GENERATE_PER_WORKER)
     params = params or GeneratorParams()
-    model = hand_model(hand)  # the hand refused here when unknown
+    model = hand_model(params.hand)  # the hand refused here when unknown
     _check_graspable(obj, model)
     own = starts is not None
-    starts = check_starting_postures(starts, obj) if own else starting_postures(obj, params.designs)
+    starts = _starts_on(obj, params, model, starts)
+    key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
+                      "starts": [s.name for s in starts], "hand": model.digest},
+                     *([np.concatenate([s.hand_pos, s.hand_quat, s.posture]) for s in starts] if own else []))
+    waves = _Waves(obj, starts, n, seed, params, model.name)
+    with progress_bar(n, f"generate {obj.name}", "postures", enabled=progress) as report:
+        waves.run(PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None, workers,
+                  executor, report)
+    return waves.posture_set()
+
+
+def _starts_on(obj: GraspObject, params: GeneratorParams, model: HandModel,
+               starts: Sequence[StartingPosture] | None) -> list[StartingPosture]:
+    """One's own starts checked, or those of `params.designs` found; either in the hand's ranges."""
+    starts = check_starting_postures(starts, obj) if starts is not None else starting_postures(obj, params.designs)
     if not starts:
         tried = ", ".join(design.name for design in designs_for(obj, params.designs))
         raise GenerationError(f"no starting posture could be found for {obj.name}: {_size_text(obj, model)}; none of "
                               f"the {params.designs!r} designs ({tried}) "
                               "closes the hand on it with its contacts touching (an object too small for the "
                               "fingertips to meet on it, or of a shape none of them fits)")
-    hand = model.name  # the designs' postures (searched on our hand) in this hand's ranges:
-    starts = [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
-    key = result_key({"object": obj.params(), "seed": seed, "n": int(n), "params": asdict(params),
-                      "starts": [s.name for s in starts], "hand": model.digest},
-                     *([np.concatenate([s.hand_pos, s.hand_quat, s.posture]) for s in starts] if own else []))
-    store = PartStore(checkpoint_dir, key, _read_job) if checkpoint_dir is not None else None
-    saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
-    if store is not None:  # a job's file must be where its name says (a renamed file is not taken for another job)
-        stored = store.load(JOB_PARTS, lambda path, part, _: part[0] is not None
-                            and path == _job_file(store.directory, part[0])).values()
-        saved = {(job.start_index, job.chunk): arrays for job, arrays in stored}
-    results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
-    budget = params.max_candidates_per_posture * n if params.verify else None
-    spread = _round_robin([s.grasp_type for s in starts])  # fewer postures than starts: every grasp type first
-    held = lambda s: sum(len(r["postures"]) for r in results[s])  # noqa: E731
-    drawn = lambda s: sum(int(r["candidates"]) for r in results[s])  # noqa: E731
-    given_up = [False] * len(starts)
-    with progress_bar(n, f"generate {obj.name}", "postures", enabled=progress) as report:
-        while True:
-            allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))], spread)
-            short = [s for s in range(len(starts)) if not given_up[s] and held(s) < allocation[s]]
-            if not short:
-                break
-            for s in short:  # a start past its part of the budget gives up, and one none of whose first
-                # max_candidates_per_posture candidates held (by the rule of three its yield is then below
-                # 3 / max_candidates_per_posture, 6 % by default, with 95 % confidence)
-                if budget is not None and (drawn(s) >= budget / len(starts)
-                                           or (held(s) == 0 and drawn(s) >= params.max_candidates_per_posture)):
-                    given_up[s] = True
-            if any(given_up[s] for s in short):
-                if all(given_up):
-                    break
-                continue
-            plan = []  # (start, its first chunk in this wave, candidates to draw)
-            for s in short:
-                wanted = allocation[s] - held(s)
-                if params.verify and results[s]:  # as many as the yield so far says, and a tenth more, but at
-                    # most as many again as drawn so far (a start whose first few candidates all dropped is not
-                    # sent for tenfold that many at once)
-                    rate = (held(s) + 1) / (drawn(s) + 2)
-                    wanted = min(int(np.ceil(1.1 * wanted / rate)), max(wanted, drawn(s)),
-                                 int(budget / len(starts)) - drawn(s))
-                plan.append((s, len(results[s]), max(1, wanted)))
+    # the designs' postures (searched on our hand) in this hand's ranges
+    return [replace(s, posture=np.clip(s.posture, *model.limits().T)) for s in starts]
 
-            def jobs(plan: list[tuple[int, int, int]] = plan) -> Iterator[_Job]:
-                return itertools.chain.from_iterable(_chunks(*step, params.job_size) for step in plan)
 
-            pending = ((obj, starts[job.start_index], job, seed, params, hand)
-                       for job in jobs() if (job.start_index, job.chunk) not in saved)
-            finished = {key: result for key, result in saved.items() if any(
-                key[0] == s and first <= key[1] < first + -(-wanted // params.job_size) for s, first, wanted in plan)}
+class _Waves:
+    """The generator's scheduler: waves of jobs over the starting postures until n candidates held (or the budget
+    is spent), then the posture set built from what the jobs found (`posture_set`).
 
-            def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
-                job, result = done
-                finished[(job.start_index, job.chunk)] = result
-                if store is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
-                    store.save(_job_file(store.directory, job).name,
-                               lambda path, meta: save_npz(path, "generator_job", result, meta), job=asdict(job))
-                report.update(min(len(result["postures"]), n - report.n))  # a job may find more than is kept
+    Each wave asks every start short of its share (`_allocate`) for as many candidates as its yield so far says it
+    needs; a start past its part of the budget, or none of whose first `max_candidates_per_posture` candidates
+    held, gives up, and the others share its part.
+    """
 
-            report.update(min(sum(len(r["postures"]) for r in finished.values()), n - report.n))
-            parallel_map(_job_worker, pending, workers, keep, executor)
-            for job in jobs():
-                result = finished[(job.start_index, job.chunk)]
-                results[job.start_index].append(result)
-                if bool(result.get("exhausted", False)):
-                    given_up[job.start_index] = True
-    allocation = _allocate(n, [held(s) if given_up[s] else None for s in range(len(starts))], spread)
-    kept = [min(held(s), allocation[s]) for s in range(len(starts))]
-    candidates = sum(drawn(s) for s in range(len(starts)))
-    tries = sum(int(r["tries"]) for rs in results for r in rs)
-    faults = sum(int(r.get("faults", 0)) for rs in results for r in rs)
-    if sum(kept) < n and faults:
-        first = next(str(r["first_fault"]) for rs in results for r in rs if str(r.get("first_fault", "")))
+    def __init__(self, obj: GraspObject, starts: list[StartingPosture], n: int, seed: int, params: GeneratorParams,
+                 hand: str):
+        self.obj, self.starts, self.n, self.seed, self.params, self.hand = obj, starts, n, seed, params, hand
+        self.results: list[list[dict[str, np.ndarray]]] = [[] for _ in starts]  # per start, in chunk order
+        self.given_up = [False] * len(starts)
+        self.budget = params.max_candidates_per_posture * n if params.verify else None
+        self.spread = _round_robin([s.grasp_type for s in starts])  # fewer postures than starts: every type first
+
+    def held(self, s: int) -> int:
+        return sum(len(r["postures"]) for r in self.results[s])
+
+    def drawn(self, s: int) -> int:
+        return sum(int(r["candidates"]) for r in self.results[s])
+
+    def allocation(self) -> list[int]:
+        return _allocate(self.n, [self.held(s) if self.given_up[s] else None for s in range(len(self.starts))],
+                         self.spread)
+
+    def plan(self) -> list[tuple[int, int, int]] | None:
+        """The next wave: (start, its first chunk in this wave, candidates to draw); [] when some start gave up
+        now (the shares change), None when nothing is left to draw."""
+        allocation = self.allocation()
+        short = [s for s in range(len(self.starts)) if not self.given_up[s] and self.held(s) < allocation[s]]
+        if not short:
+            return None
+        params, budget = self.params, self.budget
+        for s in short:  # a start past its part of the budget gives up, and one none of whose first
+            # max_candidates_per_posture candidates held (by the rule of three its yield is then below
+            # 3 / max_candidates_per_posture, 6 % by default, with 95 % confidence)
+            if budget is not None and (self.drawn(s) >= budget / len(self.starts)
+                                       or (self.held(s) == 0 and self.drawn(s) >= params.max_candidates_per_posture)):
+                self.given_up[s] = True
+        if any(self.given_up[s] for s in short):
+            return None if all(self.given_up) else []
+        plan = []
+        for s in short:
+            wanted = allocation[s] - self.held(s)
+            if params.verify and self.results[s]:  # as many as the yield so far says, and a tenth more, but at
+                # most as many again as drawn so far (a start whose first few candidates all dropped is not
+                # sent for tenfold that many at once)
+                rate = (self.held(s) + 1) / (self.drawn(s) + 2)
+                wanted = min(int(np.ceil(1.1 * wanted / rate)), max(wanted, self.drawn(s)),
+                             int(budget / len(self.starts)) - self.drawn(s))
+            plan.append((s, len(self.results[s]), max(1, wanted)))
+        return plan
+
+    def run(self, store: PartStore | None, workers: int, executor: Executor | None, report: Any) -> None:
+        """Every wave, its jobs on `workers` processes or `executor`, each finished job kept in `store` (a rerun
+        takes it from there; a job's file must be where its name says: a renamed file is not taken for another)."""
+        saved: dict[tuple[int, int], dict[str, np.ndarray]] = {}
+        if store is not None:
+            stored = store.load(JOB_PARTS, lambda path, part, _: part[0] is not None
+                                and path == _job_file(store.directory, part[0])).values()
+            saved = {(job.start_index, job.chunk): arrays for job, arrays in stored}
+        while (plan := self.plan()) is not None:
+            if plan:
+                self.run_wave(plan, saved, store, workers, executor, report)
+
+    def run_wave(self, plan: list[tuple[int, int, int]], saved: dict, store: PartStore | None, workers: int,
+                 executor: Executor | None, report: Any) -> None:
+        """One wave's jobs (those saved by an earlier run taken as they are), their results kept per start."""
+        job_size = self.params.job_size
+
+        def jobs() -> Iterator[_Job]:
+            return itertools.chain.from_iterable(_chunks(*step, job_size) for step in plan)
+
+        pending = ((self.obj, self.starts[job.start_index], job, self.seed, self.params, self.hand)
+                   for job in jobs() if (job.start_index, job.chunk) not in saved)
+        finished = {key: result for key, result in saved.items() if any(
+            key[0] == s and first <= key[1] < first + -(-wanted // job_size) for s, first, wanted in plan)}
+
+        def keep(_: int, done: tuple[_Job, dict[str, np.ndarray]]) -> None:
+            job, result = done
+            finished[(job.start_index, job.chunk)] = result
+            if store is not None:  # written here, where a rerun reads it, not on a cluster worker's disk
+                store.save(_job_file(store.directory, job).name,
+                           lambda path, meta: save_npz(path, "generator_job", result, meta), job=asdict(job))
+            report.update(min(len(result["postures"]), self.n - report.n))  # a job may find more than is kept
+
+        report.update(min(sum(len(r["postures"]) for r in finished.values()), self.n - report.n))
+        parallel_map(_job_worker, pending, workers, keep, executor)
+        for job in jobs():
+            result = finished[(job.start_index, job.chunk)]
+            self.results[job.start_index].append(result)
+            if bool(result.get("exhausted", False)):
+                self.given_up[job.start_index] = True
+
+    def posture_set(self) -> PostureSet:
+        """The first `kept` postures of each start, start after start, with what made them; GenerationError when
+        fewer than n held (the message says why: the simulation's faults, or the yield per start)."""
+        obj, starts, n, params = self.obj, self.starts, self.n, self.params
+        allocation, indices = self.allocation(), range(len(starts))
+        kept = [min(self.held(s), allocation[s]) for s in indices]
+        candidates = sum(self.drawn(s) for s in indices)
+        held = sum(self.held(s) for s in indices)
+        self.check_enough(sum(kept), candidates, held)
+        present = [s for s in indices if self.results[s]]
+
+        def take(key: str) -> np.ndarray:
+            """Each start's first `kept` rows of a result array, start after start."""
+            return np.concatenate([np.concatenate([r[key] for r in self.results[s]])[: kept[s]] for s in present])
+
+        tries = sum(int(r["tries"]) for rs in self.results for r in rs)
+        faults = sum(int(r.get("faults", 0)) for rs in self.results for r in rs)
+        return PostureSet(
+            postures=take("postures"), hand_poses=take("hand_poses"),
+            start_ids=np.concatenate([np.full(kept[s], s) for s in present]).astype(np.int64),
+            contacts=take("contacts").astype(bool), epsilon=take("epsilon"),
+            hold_displacement=take("hold_displacement"), start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
+            metadata={"object": obj.params(), "seed": self.seed, "generator": asdict(params), "n": int(n),
+                      "acceptance_ratio": candidates / tries, "simulation_faults": faults, "verified": params.verify,
+                      "candidates": int(candidates), "verified_ratio": held / candidates,
+                      "verified_by_start": {starts[s].name: self.held(s) / self.drawn(s) for s in present
+                                            if self.drawn(s)},
+                      "candidates_by_start": {starts[s].name: self.drawn(s) for s in present},
+                      "kept_by_start": {starts[s].name: kept[s] for s in present},
+                      "grasp_types": {start.name: start.grasp_type for start in starts},
+                      "library_version": library_version(), "hand": self.hand,
+                      "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(),
+                                                     "hand_quat": s.hand_quat.tolist(), "posture": s.posture.tolist(),
+                                                     "contacts": list(s.contacts), "grasp_type": s.grasp_type}
+                                            for s in starts}},
+        )
+
+    def check_enough(self, kept: int, candidates: int, held: int) -> None:
+        """GenerationError when fewer than n postures were kept."""
+        if kept >= self.n:
+            return
+        obj, params, n = self.obj, self.params, self.n
+        tries = sum(int(r["tries"]) for rs in self.results for r in rs)
+        faults = sum(int(r.get("faults", 0)) for rs in self.results for r in rs)
+        if faults:
+            first = next(str(r["first_fault"]) for rs in self.results for r in rs if str(r.get("first_fault", "")))
+            raise GenerationError(
+                f"only {kept} of the {n} {obj.name} postures asked for were found, and the simulation failed "
+                f"{faults} times in {tries} walk steps (first: {first}): check GeneratorParams (spring_stiffness "
+                f"{params.spring_stiffness:g} N/m, spring_max_force {params.spring_max_force:g} N, "
+                f"servo_stiffness_scale {params.servo_stiffness_scale:g}) and the object's mass and size")
+        by_start = ", ".join(f"{start.name} {self.held(s)} of {self.drawn(s)}" + (" (gave up)" if self.given_up[s]
+                                                                                   else "")
+                             for s, start in enumerate(self.starts))
         raise GenerationError(
-            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found, and the simulation failed "
-            f"{faults} times in {tries} walk steps (first: {first}): check GeneratorParams (spring_stiffness "
-            f"{params.spring_stiffness:g} N/m, spring_max_force {params.spring_max_force:g} N, "
-            f"servo_stiffness_scale {params.servo_stiffness_scale:g}) and the object's mass and size")
-    if sum(kept) < n:
-        by_start = ", ".join(f"{start.name} {held(s)} of {drawn(s)}" + (" (gave up)" if given_up[s] else "")
-                             for s, start in enumerate(starts))
-        raise GenerationError(
-            f"only {sum(kept)} of the {n} {obj.name} postures asked for were found: of {candidates} candidates "
-            f"{sum(held(s) for s in range(len(starts)))} held (yield {sum(map(held, range(len(starts)))) / max(1, candidates):.1%}; "
-            f"by starting posture: {by_start}). Ask for fewer postures, raise "
-            "GeneratorParams.max_candidates_per_posture" + (", or keep every candidate (verify=False)" if params.verify
-                                                            else ", or max_tries_per_posture"))
-    present = [s for s in range(len(starts)) if results[s]]
-
-    def take(key: str) -> np.ndarray:
-        """Each start's first `kept` rows of a result array, start after start."""
-        return np.concatenate([np.concatenate([r[key] for r in results[s]])[: kept[s]] for s in present])
-
-    posture_set = PostureSet(
-        postures=take("postures"), hand_poses=take("hand_poses"),
-        start_ids=np.concatenate([np.full(kept[s], s) for s in present]).astype(np.int64),
-        contacts=take("contacts").astype(bool), epsilon=take("epsilon"), hold_displacement=take("hold_displacement"),
-        start_names=tuple(f"{obj.name}:{s.name}" for s in starts),
-        metadata={"object": obj.params(), "seed": seed, "generator": asdict(params), "n": int(n),
-                  "acceptance_ratio": candidates / tries, "simulation_faults": faults, "verified": params.verify,
-                  "candidates": int(candidates), "verified_ratio": sum(map(held, range(len(starts)))) / candidates,
-                  "verified_by_start": {starts[s].name: held(s) / drawn(s) for s in present if drawn(s)},
-                  "candidates_by_start": {starts[s].name: drawn(s) for s in present},
-                  "kept_by_start": {starts[s].name: kept[s] for s in present},
-                  "grasp_types": {starts[s].name: starts[s].grasp_type for s in range(len(starts))},
-                  "library_version": library_version(), "hand": hand,
-                  "starting_postures": {s.name: {"hand_pos": s.hand_pos.tolist(), "hand_quat": s.hand_quat.tolist(),
-                                                 "posture": s.posture.tolist(), "contacts": list(s.contacts),
-                                                 "grasp_type": s.grasp_type} for s in starts}},
-    )
-    return posture_set
+            f"only {kept} of the {n} {obj.name} postures asked for were found: of {candidates} candidates "
+            f"{held} held (yield {held / max(1, candidates):.1%}; by starting posture: {by_start}). Ask for fewer "
+            "postures, raise GeneratorParams.max_candidates_per_posture"
+            + (", or keep every candidate (verify=False)" if params.verify else ", or max_tries_per_posture"))
 
 
 def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray, HandModel]) -> np.ndarray:
@@ -763,9 +830,8 @@ def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarr
     return np.array(rows).reshape(-1, 3)
 
 
-def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int | None = None, *,
-                    params: GeneratorParams | None = None, executor: Executor | None = None,
-                    progress: bool | None = None) -> PostureSet:
+def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int | Executor | None = None, *,
+                    params: GeneratorParams | None = None, progress: bool | None = None) -> PostureSet:
     """Keep the postures of a set that hold the object, judged as the generator verifies a candidate.
 
     Each posture is replayed open loop at its palm pose as the generator verifies a candidate
@@ -776,10 +842,11 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     Args:
         postures: the set to verify (its palm poses are in the object frame of `obj`).
         obj: the object the set was generated on, or its name.
-        workers: worker processes (None: `workers.default_workers()`, one for fewer than `VERIFY_PER_WORKER`).
+        workers: worker processes (None: `workers.default_workers()`, one for fewer than `VERIFY_PER_WORKER`), or
+            an executor that runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same
+            result.
         params: the verification's settings (`verify_protocol`, `stages`, `verify_hold_seconds`, `squeeze`); the
             defaults otherwise.
-        executor: runs the replays elsewhere (a Dask cluster: `workers.cluster_executor`), with the same result.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
 
     Returns:
@@ -788,6 +855,7 @@ def verify_postures(postures: PostureSet, obj: str | GraspObject, workers: int |
     """
     obj = get_object(obj)
     params = params or GeneratorParams()
+    workers, executor = split_workers(workers)
     workers = workers_for(workers, len(postures), VERIFY_PER_WORKER)
     chunks = np.array_split(np.arange(len(postures)), max(1, min(len(postures), 8 * workers)))
     hand = postures.hand

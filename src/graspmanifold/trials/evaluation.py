@@ -26,7 +26,7 @@ from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, Tabular, library_version, markdown_table
 from ..base.progress import progress_bar
 from ..base.validation import check_int
-from ..base.workers import parallel_map, workers_for
+from ..base.workers import parallel_map, split_workers, workers_for
 from ..judging.judge import JUDGING
 from ..manifold.experience import Experience
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
@@ -338,8 +338,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
             (`why_unreachable`), a bad argument.
     """
     setup = TrialSetup.build(obj, experience, **setup)
-    executor = workers if isinstance(workers, Executor) else None
-    workers = None if executor is not None else workers
+    workers, executor = split_workers(workers)
     obj, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size, backend = setup.batch_size, setup.backend
