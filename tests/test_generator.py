@@ -78,7 +78,7 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
     """The cause of the paper's wraps that never hold (issue 37): in the cylinder's mid wrap the controller's
     squeeze draws the thumb away from the object (its motion points away from its push). The refinement's press
     term turns it in; its balance term makes the contacts' unit pushes cancel better."""
-    from graspmanifold.synthesis.refinement import PRESS_COSINE, refine
+    from graspmanifold.synthesis.refinement import PRESS_COSINE, StartingPosture, refine
     from graspmanifold.synthesis.start_geometry import SearchGeometry
     from graspmanifold.synthesis.starts import design_pose, design_posture, designs_for
 
@@ -87,7 +87,7 @@ def test_the_refinement_terms_make_the_squeeze_press_the_thumb_in_and_the_pushes
     pos, quat = design_pose(cylinder, design)
     measured = {}
     for terms in ({}, {"press": 1.0}, {"balance": 2.5}):
-        start = refine(cylinder, pos, quat, design_posture(design), design.name, **terms)
+        start = refine(cylinder, StartingPosture(design.name, pos, quat, design_posture(design)), **terms)
         geometry = SearchGeometry(gm.Scene(cylinder))
         geometry.distances(start.posture, start.hand_pos, start.hand_quat)
         pushes = geometry.pushes()

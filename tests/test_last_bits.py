@@ -23,7 +23,7 @@ from threadpoolctl import threadpool_limits
 
 import graspmanifold as gm
 from graspmanifold.synthesis.generator import GeneratorParams, verify_postures
-from graspmanifold.synthesis.refinement import PRESS_COSINE, refine
+from graspmanifold.synthesis.refinement import PRESS_COSINE, StartingPosture, refine
 from graspmanifold.synthesis.start_geometry import SearchGeometry
 from graspmanifold.synthesis.starts import design_pose, design_posture, designs_for, find_starting_postures
 from graspmanifold.manifold.kernels import TIE
@@ -55,7 +55,7 @@ def test_a_refinement_ends_where_it_ends_whatever_the_last_bits():
         ends = []
         for start, threads in ((pos, None), (perturbed(pos), None), (perturbed(pos, 2), 1)):
             with threadpool_limits(threads):
-                refined = refine(cylinder, start, quat, design_posture(design), design.name, **terms)
+                refined = refine(cylinder, StartingPosture(design.name, start, quat, design_posture(design)), **terms)
             ends.append(np.concatenate([refined.posture, refined.hand_pos]))
             geometry.place(refined.posture, refined.hand_pos, refined.hand_quat)
             if terms.get("press"):

@@ -38,7 +38,7 @@ from ..base.validation import Bounds, check_fields
 from ..manifold.experience import Experience
 from ..manifold.nearest import argmin_tied, nearest_rows
 from ..manifold.postureset import PostureSet
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.scene import GRAVITY
 from ..sim.posture import SEGMENT_FINGER, pcp_masks
 
@@ -111,6 +111,37 @@ class Regrasp:
             raise InvalidInput(f"Regrasp.chooser must be callable: chooser(features) -> preshapes, got {self.chooser!r}")
         if self.grasp_types is not None:
             object.__setattr__(self, "grasp_types", np.asarray(self.grasp_types, dtype=str).ravel())
+
+    def check_trials(self, experience: Experience | None, hand: HandModel, table: bool, backend: str) -> None:
+        """Refuse trials this regrasp cannot run in, before any trial starts.
+
+        Args:
+            experience: the trials' experience base (None: the plain controller).
+            hand: the hand model the trials run (its joint ranges bound `preshapes`).
+            table: whether the object stands on a table.
+            backend: the trials' physics backend.
+
+        Raises:
+            InvalidInput: grasp types without an experience or of another length than its references, a preshape
+                outside the hand's ranges, or more than one attempt on a table or off the cpu backend.
+        """
+        if self.grasp_types is not None and self.attempts > 1:
+            if experience is None:
+                raise InvalidInput("Regrasp.grasp_types recalls the next grasp from the experience: give an experience")
+            if len(self.grasp_types) != len(experience.references):
+                raise InvalidInput(f"Regrasp.grasp_types has {len(self.grasp_types)} types for an experience of "
+                                   f"{len(experience.references)} reference postures")
+        if self.preshapes is not None:
+            limits, rows = hand.limits(), self.preshapes
+            outside = np.isfinite(rows) & ((rows < limits[:, 0] - 1e-9) | (rows > limits[:, 1] + 1e-9))
+            if outside.any():
+                row, joint = np.argwhere(outside)[0]
+                raise InvalidInput(f"Regrasp.preshapes row {row}: {hand.finger_joints[joint]} = {rows[row, joint]:.3g} "
+                                   f"rad lies outside its range {limits[joint].round(3).tolist()} on the "
+                                   f"{hand.name!r} hand")
+        if self.attempts > 1 and (table or backend != "cpu"):
+            raise InvalidInput("a regrasp (Regrasp.attempts > 1) runs on the spring support (table=False) and the cpu "
+                               "backend: its probe re-engages the support where the object lies")
 
     def description(self) -> dict:
         """What a checkpoint key needs of it: plain values."""

@@ -211,6 +211,22 @@ class Protocol:
         lift: `JudgingRules.needs_flange`), else None."""
         return FlangeLimits() if self.rules.needs_flange else None
 
+    def check_trials(self, table: bool, backend: str, margin: bool) -> None:
+        """Refuse trials this protocol cannot judge.
+
+        Args:
+            table: whether the object stands on a table.
+            backend: the trials' physics backend.
+            margin: whether our disturbance margin is measured too.
+
+        Raises:
+            InvalidInput: a protocol with its own physics on a table, off the cpu backend or with the margin.
+        """
+        if self.physics is not None and (table or backend != "cpu" or margin):
+            raise InvalidInput(f"protocol {self.name!r} (its own physics) judges on the spring support with "
+                               "the cpu backend and without our disturbance margin (table=False, backend='cpu', "
+                               "margin=False)")
+
     def apply(self, scene: Scene) -> None:
         """Set the protocol's physics on a scene (nothing for one that keeps the scene's own).
 

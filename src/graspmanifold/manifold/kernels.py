@@ -151,18 +151,19 @@ STEP_GAIN = 1e-4
 
 
 @compiled_kernel
-def ukr_point(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray, z: np.ndarray, near: int,
-              kernel: np.ndarray, kept: np.ndarray, f: np.ndarray, jacobian: np.ndarray, centre: np.ndarray
-              ) -> tuple[int, int]:
+def ukr_point(model: tuple, z: np.ndarray, near: int, scratch: tuple) -> tuple[int, int]:
     """The UKR manifold at the latent point z (q,): f = sum_i K_i y_i / sum_i K_i, K_i = exp(-|z - x_i|^2 / 2)
     (`UKR_CUT` applied), into f (dim,), its Jacobian df/dz = sum_i K_i (y_i - f)(x_i - centre)^T / sum_i K_i into
     jacobian (dim, q) and the kernel-weighted latent centre into centre (q,).
 
-    The training points (latent, postures) come sorted by their first latent coordinate (`keys`); training point
-    `near` bounds the nearest one's squared distance b, so every point the kernel keeps (and the nearest) lies within
-    sqrt(b + 2 UKR_CUT) of z along the first coordinate: only that window is read (the same points and weights as
-    reading all). kernel (n,) and kept (n,) are scratch: the first `count` entries of kept name the training points
-    kept, kernel their weights. Returns count and the nearest point's index."""
+    The model is (latent (n, q), postures (n, dim), keys (n,)): the training points sorted by their first latent
+    coordinate, `keys`; training point `near` bounds the nearest one's squared distance b, so every point the kernel
+    keeps (and the nearest) lies within sqrt(b + 2 UKR_CUT) of z along the first coordinate: only that window is read
+    (the same points and weights as reading all). The scratch is (kernel (n,), kept (n,), f, jacobian, centre): the
+    first `count` entries of kept name the training points kept, kernel their weights. Returns count and the nearest
+    point's index."""
+    latent, postures, keys = model
+    kernel, kept, f, jacobian, centre = scratch
     n, q = latent.shape
     dim = postures.shape[1]
     bound = 0.0
@@ -262,14 +263,17 @@ def _solve_damped(normal: np.ndarray, gradient: np.ndarray, damping: float, step
 
 
 @compiled_kernel
-def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray, queries: np.ndarray,
-                      weights: np.ndarray, starts: np.ndarray, iterations: int, out_latent: np.ndarray,
-                      out_postures: np.ndarray, start: int, stop: int) -> None:
+def ukr_complete_rows(model: tuple, queries: np.ndarray, weights: np.ndarray, starts: np.ndarray, iterations: int,
+                      out: tuple, rows: tuple) -> None:
     """Masked completion on the UKR manifold for rows start <= r < stop: from the latent point of training point
     starts[r], Levenberg-Marquardt steps on sum_k p_k (f_k(z) - x_k)^2 (p = weights[r], or weights[0] for every row
     when it has one row), a step kept only where it lowers the error; stops after `iterations` steps, when a step
-    gains less than `STEP_GAIN` of the error, or when the damping passes 1e8. Writes z (q,) and f(z) (dim,). The
-    training points come sorted by their first latent coordinate, `keys` (`ukr_point`); starts index them so."""
+    gains less than `STEP_GAIN` of the error, or when the damping passes 1e8. Writes z (q,) and f(z) (dim,) into
+    out = (out_latent (m, q), out_postures (m, dim)) for rows = (start, stop). The model is (latent, postures, keys),
+    the training points sorted by their first latent coordinate (`ukr_point`); starts index them so."""
+    latent, postures, _ = model
+    out_latent, out_postures = out
+    start, stop = rows
     n, q = latent.shape
     dim = postures.shape[1]
     kernel = np.empty(n)
@@ -283,7 +287,7 @@ def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray
         p = weights[0] if shared else weights[r]
         x = queries[r]
         z = latent[starts[r]].copy()
-        _, near = ukr_point(latent, postures, keys, z, starts[r], kernel, kept, f, jacobian, centre)
+        _, near = ukr_point(model, z, starts[r], (kernel, kept, f, jacobian, centre))
         error = _masked_error(f, x, p)
         damping = 1e-3
         for _ in range(iterations):
@@ -300,7 +304,7 @@ def ukr_complete_rows(latent: np.ndarray, postures: np.ndarray, keys: np.ndarray
                 break
             for a in range(q):
                 z_new[a] = z[a] + step[a]
-            _, near_new = ukr_point(latent, postures, keys, z_new, near, kernel, kept, f_new, jacobian_new, centre)
+            _, near_new = ukr_point(model, z_new, near, (kernel, kept, f_new, jacobian_new, centre))
             error_new = _masked_error(f_new, x, p)
             if error_new < error:
                 gain = error - error_new

@@ -373,8 +373,8 @@ class UKR(ManifoldRecall, NpzRecord):
         out_latent, out_postures = np.empty((len(queries), self.latent_dim)), np.empty_like(queries)
         parts = max(1, min(usable_cores(), len(queries) // _PER_THREAD))
         bounds = np.linspace(0, len(queries), parts + 1).astype(int)
-        work = [(*self._sorted, queries, weights, self._rank[starts], self.completion_steps, out_latent,
-                 out_postures, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        work = [(tuple(self._sorted), queries, weights, self._rank[starts], self.completion_steps,
+                 (out_latent, out_postures), (int(a), int(b))) for a, b in zip(bounds[:-1], bounds[1:])]
         if parts == 1:
             ukr_complete_rows(*work[0])
         else:  # the kernel releases the GIL

@@ -209,6 +209,76 @@ def _trust_step(hessian: np.ndarray, gradient: np.ndarray, radius: float) -> np.
     return step(high)
 
 
+class _Residuals:
+    """The search's measures of one rough grasp's neighbourhood: the vector v (28,) is the finger joints (22,), the
+    palm's move (3,) m from the rough grasp's position and its turn (3,) rad (a rotation vector) from its orientation;
+    the measures are the geometry's distances (contacts, other geoms, finger pairs), then the pushes' terms."""
+
+    def __init__(self, geometry: SearchGeometry, pos: np.ndarray, quat: np.ndarray):
+        self.geometry, self.pos, self.quat = geometry, pos, quat
+        self.counts = (len(geometry.distal), len(geometry.other), len(geometry.pairs))
+
+    def unpack(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return v[:22], self.pos + v[22:25], rotvec_quat(v[25:28], self.quat)
+
+    def pushing(self, v: np.ndarray, balance: float, press: float) -> np.ndarray:
+        """The pushes' mean (3,) when `balance`, then the squeeze's cosines when `press`."""
+        joints, p, q = self.unpack(v)
+        self.geometry.place(joints, p, q)
+        pushes = self.geometry.pushes()
+        return np.concatenate(([pushes.mean(axis=0)] if balance else [])
+                              + ([self.geometry.pressing(joints, pushes)] if press else []))
+
+    def pushing_jacobian(self, v: np.ndarray, balance: float, press: float) -> np.ndarray:
+        """The Jacobian of `pushing` (the pushes' own, `push_jacobians`, chained through the squeeze's cosines)."""
+        joints, p, q = self.unpack(v)
+        self.geometry.place(joints, p, q)
+        pushes, push_rows = self.geometry.push_jacobians()
+        rows = [push_rows.mean(axis=0)] if balance else []
+        rows += [self.geometry.pressing_jacobian(joints, pushes, push_rows)[1]] if press else []
+        stacked = np.vstack(rows)
+        stacked[:, 25:28] = stacked[:, 25:28] @ _left_jacobian(v[25:28])
+        return stacked
+
+    def measure(self, v: np.ndarray, balance: float, press: float) -> np.ndarray:
+        """The geometry's measures: distances (contacts, other geoms, finger pairs), then `pushing`'s terms."""
+        distances = self.geometry.distances(*self.unpack(v))
+        return np.concatenate([*distances, self.pushing(v, balance, press) if balance or press else []])
+
+    def measure_jacobian(self, v: np.ndarray, balance: float, press: float) -> tuple[np.ndarray, np.ndarray]:
+        """The measures and their Jacobian (len, 28)."""
+        distances = self.geometry.distances(*self.unpack(v))
+        rows = np.vstack(self.geometry.distance_jacobians())
+        rows[:, 25:28] = rows[:, 25:28] @ _left_jacobian(v[25:28])
+        if not (balance or press):
+            return np.concatenate(distances), rows
+        pushed = self.pushing(v, balance, press)
+        return np.concatenate([*distances, pushed]), np.vstack([rows, self.pushing_jacobian(v, balance, press)])
+
+    def weigh(self, m: np.ndarray, balance: float, press: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The residuals of the measures, their slopes and their bends (second derivatives)."""
+        n_distal, n_other, n_pairs = self.counts
+        distal, other = m[:n_distal], m[n_distal:n_distal + n_other]
+        pairs, rest = m[n_distal + n_other:n_distal + n_other + n_pairs], m[n_distal + n_other + n_pairs:]
+        values = [100.0 * distal,                                  # touch: contact gap 0
+                  300.0 * soft_hinge(0.001 - other, HINGE_WIDTH),  # other segments stay out of the object
+                  300.0 * soft_hinge(0.002 - pairs, HINGE_WIDTH)]  # fingers stay out of each other
+        slopes = [np.full(n_distal, 100.0), -300.0 * hinge_slope(0.001 - other, HINGE_WIDTH),
+                  -300.0 * hinge_slope(0.002 - pairs, HINGE_WIDTH)]
+        bends = [np.zeros(n_distal), 300.0 * hinge_bend(0.001 - other, HINGE_WIDTH),
+                 300.0 * hinge_bend(0.002 - pairs, HINGE_WIDTH)]
+        if balance:  # the pushes cancel
+            values.append(balance * rest[:3])
+            slopes.append(np.full(3, balance))
+            bends.append(np.zeros(3))
+            rest = rest[3:]
+        if press:  # the squeeze presses each contact in
+            values.append(press * soft_hinge(PRESS_COSINE - rest, PRESS_WIDTH))
+            slopes.append(-press * hinge_slope(PRESS_COSINE - rest, PRESS_WIDTH))
+            bends.append(press * hinge_bend(PRESS_COSINE - rest, PRESS_WIDTH))
+        return np.concatenate(values), np.concatenate(slopes), np.concatenate(bends)
+
+
 class Refiner:
     """Refines rough grasps of one object into starting postures (`refine` for one, this for several): it keeps
     the object's scene and `SearchGeometry`, and the first search (to touch) of each rough grasp, which a
@@ -225,97 +295,35 @@ class Refiner:
         self.geometry = SearchGeometry(self.scene, self.contacts)
         self._touching: dict[bytes, np.ndarray] = {}
 
-    def __call__(self, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray, name: str = "start",
-                 grasp_type: str = "power", balance: float = 0.0, press: float = 0.0) -> StartingPosture:
-        """The refined start of a rough grasp (arguments as `refine`'s)."""
-        geometry = self.geometry
+    def __call__(self, rough: StartingPosture, balance: float = 0.0, press: float = 0.0) -> StartingPosture:
+        """The refined start of a rough grasp (arguments as `refine`'s; the rough grasp's contacts are this
+        refiner's)."""
         limits = self.scene.hand.limits()
         lower, upper = limits[:, 0] + 1e-3, limits[:, 1] - 1e-3
-        pos = np.asarray(pos, dtype=float)
-        base_quat = np.asarray(quat, dtype=float) / np.linalg.norm(quat)
-        posture = np.asarray(posture, dtype=float)
-        n_distal, n_other, n_pairs = len(geometry.distal), len(geometry.other), len(geometry.pairs)
-
-        def unpack(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            return v[:22], pos + v[22:25], rotvec_quat(v[25:28], base_quat)
-
-        def pushing(v: np.ndarray, balance: float, press: float) -> np.ndarray:
-            """The pushes' mean (3,) when `balance`, then the squeeze's cosines when `press`."""
-            joints, p, q = unpack(v)
-            geometry.place(joints, p, q)
-            pushes = geometry.pushes()
-            return np.concatenate(([pushes.mean(axis=0)] if balance else [])
-                                  + ([geometry.pressing(joints, pushes)] if press else []))
-
-        def pushing_jacobian(v: np.ndarray, balance: float, press: float) -> np.ndarray:
-            """The Jacobian of `pushing` (the pushes' own, `push_jacobians`, chained through the squeeze's cosines)."""
-            joints, p, q = unpack(v)
-            geometry.place(joints, p, q)
-            pushes, push_rows = geometry.push_jacobians()
-            rows = [push_rows.mean(axis=0)] if balance else []
-            rows += [geometry.pressing_jacobian(joints, pushes, push_rows)[1]] if press else []
-            rows = np.vstack(rows)
-            rows[:, 25:28] = rows[:, 25:28] @ _left_jacobian(v[25:28])
-            return rows
-
-        def measure(v: np.ndarray, balance: float, press: float) -> np.ndarray:
-            """The geometry's measures: distances (contacts, other geoms, finger pairs), then `pushing`'s terms."""
-            distances = geometry.distances(*unpack(v))
-            return np.concatenate([*distances, pushing(v, balance, press) if balance or press else []])
-
-        def measure_jacobian(v: np.ndarray, balance: float, press: float) -> tuple[np.ndarray, np.ndarray]:
-            """The measures and their Jacobian (len, 28)."""
-            distances = geometry.distances(*unpack(v))
-            rows = np.vstack(geometry.distance_jacobians())
-            rows[:, 25:28] = rows[:, 25:28] @ _left_jacobian(v[25:28])
-            if not (balance or press):
-                return np.concatenate(distances), rows
-            pushed = pushing(v, balance, press)
-            return np.concatenate([*distances, pushed]), np.vstack([rows, pushing_jacobian(v, balance, press)])
-
-        def weigh(m: np.ndarray, balance: float, press: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            """The residuals of the measures, their slopes and their bends (second derivatives)."""
-            distal, other = m[:n_distal], m[n_distal:n_distal + n_other]
-            pairs, rest = m[n_distal + n_other:n_distal + n_other + n_pairs], m[n_distal + n_other + n_pairs:]
-            values = [100.0 * distal,                                  # touch: contact gap 0
-                      300.0 * soft_hinge(0.001 - other, HINGE_WIDTH),  # other segments stay out of the object
-                      300.0 * soft_hinge(0.002 - pairs, HINGE_WIDTH)]  # fingers stay out of each other
-            slopes = [np.full(n_distal, 100.0), -300.0 * hinge_slope(0.001 - other, HINGE_WIDTH),
-                      -300.0 * hinge_slope(0.002 - pairs, HINGE_WIDTH)]
-            bends = [np.zeros(n_distal), 300.0 * hinge_bend(0.001 - other, HINGE_WIDTH),
-                     300.0 * hinge_bend(0.002 - pairs, HINGE_WIDTH)]
-            if balance:  # the pushes cancel
-                values.append(balance * rest[:3])
-                slopes.append(np.full(3, balance))
-                bends.append(np.zeros(3))
-                rest = rest[3:]
-            if press:  # the squeeze presses each contact in
-                values.append(press * soft_hinge(PRESS_COSINE - rest, PRESS_WIDTH))
-                slopes.append(-press * hinge_slope(PRESS_COSINE - rest, PRESS_WIDTH))
-                bends.append(press * hinge_bend(PRESS_COSINE - rest, PRESS_WIDTH))
-            return np.concatenate(values), np.concatenate(slopes), np.concatenate(bends)
-
-        def search(start: np.ndarray, balance: float, press: float) -> np.ndarray:
-            terms = {"balance": balance, "press": press}
-            return _search(partial(measure, **terms), partial(measure_jacobian, **terms), partial(weigh, **terms),
-                           anchor, design, start, bounds)
-
+        pos = np.asarray(rough.hand_pos, dtype=float)
+        base_quat = np.asarray(rough.hand_quat, dtype=float) / np.linalg.norm(rough.hand_quat)
+        posture = np.asarray(rough.posture, dtype=float)
+        residuals = _Residuals(self.geometry, pos, base_quat)
         # stay close to the designed grasp type, and near the designed hand pose
         anchor = np.concatenate([np.full(22, 0.03), np.full(3, 1.0), np.full(3, 0.05)])
         design = np.concatenate([posture, np.zeros(6)])
         start = np.concatenate([np.clip(posture, lower, upper), np.zeros(6)])
         bounds = (np.concatenate([lower, [-0.03] * 3, [-0.5] * 3]), np.concatenate([upper, [0.03] * 3, [0.5] * 3]))
+
+        def search(start: np.ndarray, balance: float, press: float) -> np.ndarray:
+            terms = {"balance": balance, "press": press}
+            return _search(partial(residuals.measure, **terms), partial(residuals.measure_jacobian, **terms),
+                           partial(residuals.weigh, **terms), anchor, design, start, bounds)
+
         key = np.concatenate([pos, base_quat, posture]).tobytes()
         if key not in self._touching:
             self._touching[key] = search(start, 0.0, 0.0)
         found = search(self._touching[key], balance, press) if balance or press else self._touching[key]
-        joints, p, q = unpack(found)
-        return StartingPosture(name, p, q, joints, self.contacts, grasp_type)
+        joints, p, q = residuals.unpack(found)
+        return StartingPosture(rough.name, p, q, joints, self.contacts, rough.grasp_type)
 
 
-def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndarray,
-           name: str = "start", contacts: tuple[str, ...] = DISTAL_SEGMENTS, grasp_type: str = "power",
-           balance: float = 0.0, press: float = 0.0) -> StartingPosture:
+def refine(obj: GraspObject, rough: StartingPosture, balance: float = 0.0, press: float = 0.0) -> StartingPosture:
     """Least-squares search from a rough grasp to one where the contact segments (by default all five
     distal ones) touch, every other segment stays clear of the object and the fingers of each other.
 
@@ -327,12 +335,9 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
 
     Args:
         obj: the object.
-        pos: (3,) m, the rough grasp's palm position in the object frame.
-        quat: (4,) its palm orientation (w x y z); the search moves the palm by up to 3 cm and 0.5 rad.
-        posture: (22,) rad, its finger joints.
-        name: the start's name.
-        contacts: the segments that must touch.
-        grasp_type: the start's grasp type (`GRASP_TYPES`).
+        rough: the rough grasp: its palm pose in the object frame (`hand_pos` (3,) m, `hand_quat` (4,) w x y z; the
+            search moves the palm by up to 3 cm and 0.5 rad), its finger joints (22,) rad, the segments that must
+            touch (`contacts`), its name and grasp type (`GRASP_TYPES`), which the refined start keeps.
         balance: weight of a term that asks the contacts' pushes to cancel (the mean of their unit
             directions towards the object, `SearchGeometry.pushes`, near zero): the thumb then opposes the
             fingers instead of pressing sideways; 0 leaves it out.
@@ -343,4 +348,4 @@ def refine(obj: GraspObject, pos: np.ndarray, quat: np.ndarray, posture: np.ndar
     Returns:
         The refined `StartingPosture` (check it with `is_design_grasp`).
     """
-    return Refiner(obj, contacts)(pos, quat, posture, name, grasp_type, balance, press)
+    return Refiner(obj, rough.contacts)(rough, balance, press)

@@ -320,8 +320,8 @@ def _search_design(task: tuple[GraspObject, GraspDesign, Callable[[StartingPostu
         if perturbation:
             seed = int.from_bytes(design.name.encode()[:8].ljust(8, b"\0"), "little")
             pos = pos * (1.0 + perturbation * np.random.default_rng(seed).standard_normal(3))
-        start = refiner(pos, quat, design_posture(design), design.name, design.grasp_type, refinement.balance,
-                        refinement.press)
+        rough = StartingPosture(design.name, pos, quat, design_posture(design), design.contacts, design.grasp_type)
+        start = refiner(rough, refinement.balance, refinement.press)
         if is_design_grasp(obj, start) and (check is None or check(start)):
             return start
     return None

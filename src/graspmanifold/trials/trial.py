@@ -195,6 +195,26 @@ class TrialSetup:
         if self.backend == "warp" and self.hand.name != SHADOW_HAND.name:
             raise InvalidInput(f"backend='warp' runs our hand model only, not {self.hand.name!r}: use backend='cpu'")
         set_field("experience", check_experience(self.experience))
+        self._check_controller(set_field)
+        check_choice(self.backend, BACKENDS, "backend")
+        set_field("regrasp", self.regrasp or Regrasp())
+        if not isinstance(self.regrasp, Regrasp):
+            raise InvalidInput(f"regrasp must be a Regrasp, got {type(self.regrasp).__name__}")
+        self.regrasp.check_trials(self.experience, self.hand, self.table, self.backend)
+        set_field("protocol", get_protocol(self.protocol))
+        self.protocol.check_trials(self.table, self.backend, self.margin)
+        set_field("method", self.method or method_name(self.experience))
+        set_field("table", bool(self.table))
+        set_field("margin", bool(self.margin))
+        set_field("batch_size", check_int(self.batch_size, "batch_size"))
+        self._check_plan_and_palm(set_field)
+        check_choice(self.touch, TOUCH_SOURCES, "touch")
+        if self.touch != "contacts" and self.backend != "cpu":
+            raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
+
+    def _check_controller(self, set_field: Callable[[str, object], None]) -> None:
+        """The controller: ours with `params` (a registered name becomes its parameters), or a user's factory that
+        brings its own experience and parameters; the noise and the method label."""
         set_field("params", self.params or ControllerParams())
         if isinstance(self.controller, str):  # one of ours by name: its parameters
             if self.params != ControllerParams():
@@ -207,7 +227,6 @@ class TrialSetup:
         if not isinstance(self.noise, Noise) or not isinstance(self.params, ControllerParams):
             raise InvalidInput(f"noise must be a Noise and params ControllerParams, got {type(self.noise).__name__} "
                                f"and {type(self.params).__name__}")
-        check_choice(self.backend, BACKENDS, "backend")
         if not isinstance(self.method, str):
             raise InvalidInput(f"method must be a label (a string), got {self.method!r}")
         if self.controller is not None and not (callable(self.controller) and self.method):
@@ -217,35 +236,9 @@ class TrialSetup:
                                                 and self.params == ControllerParams()):
             raise InvalidInput("a custom controller brings its own experience and parameters: leave experience, "
                                "preshape and params at their defaults")
-        set_field("regrasp", self.regrasp or Regrasp())
-        if not isinstance(self.regrasp, Regrasp):
-            raise InvalidInput(f"regrasp must be a Regrasp, got {type(self.regrasp).__name__}")
-        if self.regrasp.grasp_types is not None and self.regrasp.attempts > 1:  # checked here, before any trial
-            if self.experience is None:
-                raise InvalidInput("Regrasp.grasp_types recalls the next grasp from the experience: give an experience")
-            if len(self.regrasp.grasp_types) != len(self.experience.references):
-                raise InvalidInput(f"Regrasp.grasp_types has {len(self.regrasp.grasp_types)} types for an experience of "
-                                   f"{len(self.experience.references)} reference postures")
-        if self.regrasp.preshapes is not None:
-            limits, rows = self.hand.limits(), self.regrasp.preshapes
-            outside = np.isfinite(rows) & ((rows < limits[:, 0] - 1e-9) | (rows > limits[:, 1] + 1e-9))
-            if outside.any():
-                row, joint = np.argwhere(outside)[0]
-                raise InvalidInput(f"Regrasp.preshapes row {row}: {self.hand.finger_joints[joint]} = {rows[row, joint]:.3g} "
-                                   f"rad lies outside its range {limits[joint].round(3).tolist()} on the "
-                                   f"{self.hand.name!r} hand")
-        if self.regrasp.attempts > 1 and (self.table or self.backend != "cpu"):
-            raise InvalidInput("a regrasp (Regrasp.attempts > 1) runs on the spring support (table=False) and the cpu "
-                               "backend: its probe re-engages the support where the object lies")
-        set_field("protocol", get_protocol(self.protocol))
-        if self.protocol.physics is not None and (self.table or self.backend != "cpu" or self.margin):
-            raise InvalidInput(f"protocol {self.protocol.name!r} (its own physics) judges on the spring support with "
-                               "the cpu backend and without our disturbance margin (table=False, backend='cpu', "
-                               "margin=False)")
-        set_field("method", self.method or method_name(self.experience))
-        set_field("table", bool(self.table))
-        set_field("margin", bool(self.margin))
-        set_field("batch_size", check_int(self.batch_size, "batch_size"))
+
+    def _check_plan_and_palm(self, set_field: Callable[[str, object], None]) -> None:
+        """A plan, the palm's flange (the protocol's where none is given) and the oracle that needs both."""
         if self.plan is not None and not isinstance(self.plan, OpenLoopGrasp):
             raise InvalidInput(f"plan must be an OpenLoopGrasp (replay.open_loop_grasp makes one), got "
                                f"{type(self.plan).__name__}")
@@ -264,9 +257,6 @@ class TrialSetup:
                                "plan, a palm (the flange that carries it) and a method that says 'oracle', got "
                                f"plan={'given' if self.plan is not None else None}, palm={self.palm!r}, "
                                f"method={self.method!r}")
-        check_choice(self.touch, TOUCH_SOURCES, "touch")
-        if self.touch != "contacts" and self.backend != "cpu":
-            raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
 
     @classmethod
     def build(cls, obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
