@@ -258,10 +258,13 @@ def _positive(value: object, argument: str) -> float:
     return number
 
 
-def make_object(shape: str, *, radius: float | None = None, length: float | None = None,
-                size: tuple[float, float, float] | None = None,
-                mesh: trimesh.Trimesh | str | os.PathLike | None = None, scale: float | None = None,
-                mass: float | None = None, friction: float | None = None, name: str | None = None) -> GraspObject:
+#: the dimensions `make_object` takes by shape (and the mesh's file and scale)
+DIMENSIONS: dict[str, tuple[str, ...]] = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",),
+                                          "mesh": ("mesh", "scale")}
+
+
+def make_object(shape: str, *, mass: float | None = None, friction: float | None = None, name: str | None = None,
+                **dimensions: object) -> GraspObject:
     """Make a box, cylinder, sphere or mesh object, or a variant of one of the paper's objects.
 
     With only `mass` and `friction`, a variant of the paper's object of that name:
@@ -272,16 +275,14 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
 
     Args:
         shape: 'box', 'cylinder', 'sphere' or 'mesh'.
-        radius: a cylinder's or a sphere's, m.
-        length: a cylinder's, m.
-        size: a box's full x, y, z extents, m.
-        mesh: a `trimesh.Trimesh`, a mesh file (.stl, .obj, .ply, ...) or an object file of a robot data package
-            (.urdf, MJCF .xml: `meshes.model_file_mesh`).
-        scale: metres per unit of the mesh (0.001 for a file in mm; default 1).
         mass: kg (default 0.1).
         friction: the sliding friction coefficient, at most `MAX_FRICTION` (default `DEFAULT_FRICTION`).
         name: the object's name (default: made from the shape and sizes; a mesh file's stem, with `_mesh` added
             where the stem names one of the library's objects: `box.stl` is `box_mesh`, not the paper's box).
+        **dimensions: the shape's (`DIMENSIONS`): `radius` (a cylinder's or a sphere's, m), `length` (a
+            cylinder's, m), `size` (a box's full x, y, z extents, m); for a mesh `mesh` (a `trimesh.Trimesh`, a
+            mesh file (.stl, .obj, .ply, ...) or an object file of a robot data package (.urdf, MJCF .xml:
+            `meshes.model_file_mesh`)) and `scale` (metres per unit of the mesh: 0.001 for a file in mm; default 1).
 
     Returns:
         The object; every extent `MIN_EXTENT` to `MAX_EXTENT` (5 mm to 30 cm).
@@ -290,61 +291,72 @@ def make_object(shape: str, *, radius: float | None = None, length: float | None
         ValueError: a missing or extra size for the shape, a size, mass or friction out of range, a mesh
             that is not a graspable closed solid; the message names the argument.
     """
-    if shape in PAPER_SHAPES and radius is None and length is None and size is None and mesh is None \
-            and scale is None and (mass is not None or friction is not None):
+    known = sorted({d for names in DIMENSIONS.values() for d in names})
+    unknown = sorted(set(dimensions) - set(known))
+    if unknown:
+        raise InvalidInput(f"unknown argument(s) {unknown} of make_object; its dimensions are {known}, with mass, "
+                           "friction and name")
+    given = {k: v for k, v in dimensions.items() if v is not None}
+    if shape in PAPER_SHAPES and not given and (mass is not None or friction is not None):
         return get_object(shape).with_(mass=mass, friction=friction, name=name)
     mass = 0.1 if mass is None else mass
     friction = DEFAULT_FRICTION if friction is None else _friction(friction)
     if shape == "mesh":
-        if mesh is None:
+        extra = [k for k in given if k not in DIMENSIONS["mesh"]]
+        if "mesh" not in given:
             raise InvalidInput("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
-        extra = [k for k, v in {"radius": radius, "length": length, "size": size}.items() if v is not None]
         if extra:
             raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
-        loaded = load_mesh(mesh, 1.0 if scale is None else scale)
-        try:
-            solid, parts, digest, repair = object_geometry(loaded)
-        except InvalidInput as error:  # what no repair saves, said of the file it came from
-            if not isinstance(mesh, (str, os.PathLike)):
-                raise
-            raise InvalidInput(f"{str(mesh)!r}: {error}") from None
-        label = name or (f"mesh_{digest[:8]}" if not isinstance(mesh, (str, os.PathLike)) else Path(mesh).stem
-                         + ("_mesh" if Path(mesh).stem in PAPER_SHAPES or Path(mesh).stem in FAMILY else ""))
-        if repair:  # said once, where the object is made: every result keys the repaired solid's digest
-            warnings.warn(f"mesh object {label!r} made one solid: {repair.lstrip('; ')}", stacklevel=2)
-        return GraspObject(name=label, shape="mesh", half_sizes=tuple(np.abs(solid.vertices).max(axis=0).tolist()),
-                           mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
-                           parts=tuple(parts), mesh_digest=digest)
-    if mesh is not None or scale is not None:
+        return _mesh_object(given["mesh"], given.get("scale"), mass, friction, name)
+    if "mesh" in given or "scale" in given:
         raise InvalidInput(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
-    given = {"radius": radius, "length": length, "size": size}
-    needed = {"box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
-    if shape not in needed:
+    if shape not in DIMENSIONS:
         raise InvalidInput(f"unknown object shape {shape!r}; expected one of {SHAPES}")
-    extra = [k for k, v in given.items() if v is not None and k not in needed[shape]]
+    extra = [k for k in given if k not in DIMENSIONS[shape]]
     if extra:
-        raise InvalidInput(f"a {shape} takes {needed[shape]}, not {extra}")
-    missing = [k for k in needed[shape] if given[k] is None]
+        raise InvalidInput(f"a {shape} takes {DIMENSIONS[shape]}, not {extra}")
+    missing = [k for k in DIMENSIONS[shape] if k not in given]
     if missing:
         raise InvalidInput(f"a {shape} needs {missing}")
-    if shape == "box":
-        extents = tuple(np.asarray(size, dtype=float).ravel())
-        if len(extents) != 3:
-            raise InvalidInput(f"size must be three extents (x, y, z) in metres, got {size!r}")
-        half = tuple(_positive(e, "size") / 2.0 for e in extents)
-        label = "box_{:.3f}x{:.3f}x{:.3f}".format(*extents)
-    elif shape == "cylinder":
-        half = (_positive(radius, "radius"), _positive(length, "length") / 2.0)
-        label = f"cylinder_r{half[0]:.3f}_l{2 * half[1]:.3f}"
-    else:
-        half = (_positive(radius, "radius"),)
-        label = f"sphere_r{half[0]:.3f}"
+    half, label = _primitive_half_sizes(shape, given)
     extents = 2 * np.asarray(half)
     if extents.max() > MAX_EXTENT or extents.min() < MIN_EXTENT:
         raise InvalidInput(f"a {shape} of {' x '.join(f'{e * 100:.3g}' for e in extents)} cm is not a one-hand grasp: "
                          f"every extent must be {MIN_EXTENT * 1000:.0f} mm to {MAX_EXTENT * 100:.0f} cm (sizes in m)")
     return GraspObject(name=name or label, shape=shape, half_sizes=half,
                        mass=_positive(mass, "mass"), friction=friction)
+
+
+def _primitive_half_sizes(shape: str, given: dict[str, object]) -> tuple[tuple[float, ...], str]:
+    """A primitive's half sizes (m) and its default name, from its dimensions (checked positive)."""
+    if shape == "box":
+        extents = tuple(np.asarray(given["size"], dtype=float).ravel())
+        if len(extents) != 3:
+            raise InvalidInput(f"size must be three extents (x, y, z) in metres, got {given['size']!r}")
+        return tuple(_positive(e, "size") / 2.0 for e in extents), "box_{:.3f}x{:.3f}x{:.3f}".format(*extents)
+    if shape == "cylinder":
+        half = (_positive(given["radius"], "radius"), _positive(given["length"], "length") / 2.0)
+        return half, f"cylinder_r{half[0]:.3f}_l{2 * half[1]:.3f}"
+    half = (_positive(given["radius"], "radius"),)
+    return half, f"sphere_r{half[0]:.3f}"
+
+
+def _mesh_object(mesh: object, scale: object, mass: float, friction: float, name: str | None) -> GraspObject:
+    """A mesh object: the mesh loaded at its scale, made one watertight solid on its principal axes, in parts."""
+    loaded = load_mesh(mesh, 1.0 if scale is None else scale)
+    try:
+        solid, parts, digest, repair = object_geometry(loaded)
+    except InvalidInput as error:  # what no repair saves, said of the file it came from
+        if not isinstance(mesh, (str, os.PathLike)):
+            raise
+        raise InvalidInput(f"{str(mesh)!r}: {error}") from None
+    label = name or (f"mesh_{digest[:8]}" if not isinstance(mesh, (str, os.PathLike)) else Path(mesh).stem
+                     + ("_mesh" if Path(mesh).stem in PAPER_SHAPES or Path(mesh).stem in FAMILY else ""))
+    if repair:  # said once, where the object is made: every result keys the repaired solid's digest
+        warnings.warn(f"mesh object {label!r} made one solid: {repair.lstrip('; ')}", stacklevel=3)
+    return GraspObject(name=label, shape="mesh", half_sizes=tuple(np.abs(solid.vertices).max(axis=0).tolist()),
+                       mass=_positive(mass, "mass"), friction=_positive(friction, "friction"), mesh=solid,
+                       parts=tuple(parts), mesh_digest=digest)
 
 
 PAPER_OBJECTS: dict[str, GraspObject] = {

@@ -62,7 +62,7 @@ from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, BlendRecall, ControllerParams
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
-from ..manifold.experience import scrambled
+from ..manifold.experience import Experience, scrambled
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
 from ..synthesis.generator import MAX_POSTURES, GeneratorParams, generate_postures
@@ -187,13 +187,18 @@ class ExperienceStudy(StudyRun):
         self.evaluation_seconds = 0.0  # of the evaluations run now
         self.made_seconds: dict[str, float] = {}  # each evaluation's seconds when it ran, now or in an earlier run
 
-    def evaluate(self, split: str, method: str, experience=None, params=None, preshape=None, noise=None,
-                 regrasp=None, seed: int = 0, poses: dict | None = None) -> dict:
+    def evaluate(self, split: str, method: str, experience: Experience | None = None, *, seed: int = 0,
+                 poses: dict | None = None, **setup: object) -> dict:
         """One method on every cell of a split, kept in OUT/evaluation under its key (`run_benchmark`).
 
         Args:
+            split: 'selection' or 'test' (or a name for `poses`).
+            method: the method's label, which names its files.
+            experience: the experience base (None: the plain controller).
+            seed: the trials' seed.
             poses: {(object, placement): grid poses} to run instead of the split's own (every one of them, also in
                 a quick run); `split` then names the files.
+            **setup: the trials' `TrialSetup` fields beside the experience (params, preshape, noise, regrasp).
 
         Returns:
             {(object, placement): EvaluationResult}.
@@ -205,11 +210,10 @@ class ExperienceStudy(StudyRun):
         existed = {path: path.stat().st_mtime_ns for path in files if path.exists()}
         chosen = {key: grid for key, grid in (self.split[split] if poses is None else poses).items()
                   if key[0] in self.objects}
-        results = run_benchmark(experience, split="test" if split == "test" else "selection", params=params,
-                                preshape=preshape, noise=noise, objects=chosen,
+        results = run_benchmark(experience, split="test" if split == "test" else "selection", objects=chosen,
                                 every=6 if self.config.quick and poses is None else 1,
                                 workers=self.executor or self.workers, seed=seed, store=stored, method=method,
-                                regrasp=regrasp)
+                                **setup)
         kept = sum(path.exists() and path.stat().st_mtime_ns == mtime for path, mtime in existed.items())
         self.reused_evaluations += kept  # a file stored by another configuration or code is made again, not reused
         self.evaluations += len(ours)
@@ -329,13 +333,13 @@ def replicate(study: ExperienceStudy, seed: int, best: str, tuned: str, second: 
     params, tag = SOM_VARIANTS[tuned], f"_seed{seed}"
     return {"best_sequence": study.evaluate("test", f"sequence_{best}_{second}{tag}", preshape=strategies[best],
                                             regrasp=sequence(strategies, second), seed=seed),
-            "som": study.evaluate("test", f"{tuned}{tag}", som, params, seed=seed),
-            "som_null": study.evaluate("test", f"{tuned}_null{tag}", null, params, seed=seed),
+            "som": study.evaluate("test", f"{tuned}{tag}", som, params=params, seed=seed),
+            "som_null": study.evaluate("test", f"{tuned}_null{tag}", null, params=params, seed=seed),
             "regrasp_experience": study.evaluate(
-                "test", f"regrasp_{tuned}{tag}", som, params, seed=seed,
+                "test", f"regrasp_{tuned}{tag}", som, params=params, seed=seed,
                 regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(som, union.postures, types))),
             "regrasp_null": study.evaluate(
-                "test", f"regrasp_{tuned}_null{tag}", null, params, seed=seed,
+                "test", f"regrasp_{tuned}_null{tag}", null, params=params, seed=seed,
                 regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(null, union.postures, types)))}
 
 
@@ -450,7 +454,7 @@ def measure(study: ExperienceStudy) -> dict:
     # selection: the shared preshape, the SOM's variant, the best fixed two-attempt sequence
     shared = max(preshapes, key=lambda m: (rate(selection[m]), m))
     for name, params in SOM_VARIANTS.items():
-        study.evaluate("selection", name, som, params)
+        study.evaluate("selection", name, som, params=params)
     order = list(SOM_VARIANTS)  # on a tie the earlier variant wins
     tuned = max(order, key=lambda m: (rate(study.results[("selection", m)]), -order.index(m)))
 
@@ -474,18 +478,18 @@ def measure(study: ExperienceStudy) -> dict:
     # the test split, touched once
     test = {"none": study.evaluate("test", "none"), "shared_preshape": study.evaluate("test", shared, preshape=preshapes[shared])}
     for name, params in SOM_VARIANTS.items():
-        test[name] = study.evaluate("test", name, som, params)
+        test[name] = study.evaluate("test", name, som, params=params)
     test["heuristic_retried"] = study.evaluate("test", "heuristic_retried", regrasp=Regrasp(ATTEMPTS))
     test["best_sequence"] = study.evaluate("test", best_sequence, preshape=strategies[best],
                                       regrasp=sequence(strategies, sequences[best_sequence]))
-    test["regrasp_experience"] = study.evaluate("test", f"regrasp_{tuned}", som, SOM_VARIANTS[tuned],
+    test["regrasp_experience"] = study.evaluate("test", f"regrasp_{tuned}", som, params=SOM_VARIANTS[tuned],
                                            regrasp=Regrasp(ATTEMPTS, grasp_types=som_types))
     test["regrasp_selector"] = study.evaluate("test", f"regrasp_selector_{best}", preshape=strategies[best],
                                          regrasp=Regrasp(ATTEMPTS, chooser=selector))
     # the null experience: the same map trained on the postures scrambled (no grasp left in it), the same controller
     null = train_experience_map(scrambled(union.postures, NULL_SEED))
-    test["som_null"] = study.evaluate("test", f"{tuned}_null", null, SOM_VARIANTS[tuned])
-    test["regrasp_null"] = study.evaluate("test", f"regrasp_{tuned}_null", null, SOM_VARIANTS[tuned],
+    test["som_null"] = study.evaluate("test", f"{tuned}_null", null, params=SOM_VARIANTS[tuned])
+    test["regrasp_null"] = study.evaluate("test", f"regrasp_{tuned}_null", null, params=SOM_VARIANTS[tuned],
                                           regrasp=Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(
                                               null, union.postures, types)))
     # the paper's grid read honestly: the test poses a verified grasp of the experience holds the object near

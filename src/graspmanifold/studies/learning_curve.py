@@ -215,7 +215,7 @@ class LearningCurveStudy(ExperienceStudy):
         runs = {}
         for name in self.config.curve_controllers:
             params, retry = CONTROLLERS[name]
-            runs[name] = self.evaluate("test", f"{name}_{tag}", som, params, seed=seed,
+            runs[name] = self.evaluate("test", f"{name}_{tag}", som, params=params, seed=seed,
                                        regrasp=Regrasp(ATTEMPTS, grasp_types=som_types) if retry else None)
         return runs
 
@@ -250,7 +250,7 @@ def measure_seed(study: LearningCurveStudy, seed: int) -> dict:
     grown, types = subset(sets, sizes[0], seed)
     by_round, added = {0: by_size[sizes[0]]}, []
     for r in range(1, study.config.own_rounds + 1):
-        selection = study.evaluate("selection", f"own_round{r}{tag}", train_experience_map(grown, seed), BLEND,
+        selection = study.evaluate("selection", f"own_round{r}{tag}", train_experience_map(grown, seed), params=BLEND,
                                    seed=seed)
         held = own_grasps(selection)
         added.append(len(held))
