@@ -63,6 +63,7 @@ from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, BlendRecall, ControllerParams
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.experience import Experience, scrambled
+from ..manifold.som import SOM
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
 from ..synthesis.generator import MAX_POSTURES, GeneratorParams, generate_postures
@@ -423,6 +424,23 @@ def main(argv: list[str] | None = None) -> None:
     run_command(config.out_dir, lambda: ExperienceStudy(config).run())
 
 
+@dataclass
+class _Choices:
+    """What the selection split chose (the test split never does): the strategies' runs there, the best single
+    strategy, the shared preshape, the SOM's variant, the best two-attempt sequence, the headroom and the ceiling."""
+
+    selection: dict
+    best: str
+    shared: str
+    tuned: str
+    sequences: dict[str, str]
+    best_sequence: str
+    headroom_rows: list[dict]
+    ceiling: dict
+    names: list[str]
+    selector: StrategySelector
+
+
 def measure(study: ExperienceStudy) -> dict:
     """Every step of the study, in order (the module's docstring); what the report shows."""
     union, sets = study.experience()
@@ -431,8 +449,21 @@ def measure(study: ExperienceStudy) -> dict:
     som_types = reference_grasp_types(som, union.postures, types)
     preshapes = grasp_type_preshapes(sets)
     strategies = study.strategies(preshapes)
+    chosen = _choose(study, strategies, preshapes, som)
+    test, kept = _test_split(study, chosen, strategies, preshapes, som, (som_types, union, types, sets))
+    # the claims again with the experience and the trials seeded anew, the choices of the selection split kept
+    seeds = {0: {"best_sequence": test["best_sequence"], "som": test[chosen.tuned], "som_null": test["som_null"],
+                 "regrasp_experience": test["regrasp_experience"], "regrasp_null": test["regrasp_null"]}}
+    for k in range(1, study.config.seed_count):
+        seeds[k] = replicate(study, k, chosen.best, chosen.tuned, chosen.sequences[chosen.best_sequence])
+    comparisons, replication = _comparisons(study, test, seeds, chosen.tuned, kept)
+    checks, verdict = _target(comparisons, test, chosen, replication)
+    return _results(study, sets, som_types, chosen, test, kept, comparisons, checks, verdict, replication)
 
-    # headroom on the selection split, before anything is compared
+
+def _choose(study: ExperienceStudy, strategies: dict, preshapes: dict, som: SOM) -> _Choices:
+    """The selection split: headroom before anything is compared, then the shared preshape, the SOM's variant, the
+    best fixed two-attempt sequence, and the information ceiling of a selector."""
     selection = {m: study.evaluate("selection", m, preshape=p) for m, p in strategies.items()}
     best = max(strategies, key=lambda m: (rate(selection[m]), m))
     reruns = [study.evaluate("selection", f"{best}_rerun{k}", preshape=strategies[best], noise=JITTER, seed=k)
@@ -450,20 +481,16 @@ def measure(study: ExperienceStudy) -> dict:
                               "best_successes": h.best_successes, "gain": h.gain, "neither": h.neither,
                               "chance_oracle": h.chance_oracle, "chance": h.chance, "beyond_chance": h.beyond_chance,
                               "sufficient": h.sufficient})
-
-    # selection: the shared preshape, the SOM's variant, the best fixed two-attempt sequence
     shared = max(preshapes, key=lambda m: (rate(selection[m]), m))
     for name, params in SOM_VARIANTS.items():
         study.evaluate("selection", name, som, params=params)
     order = list(SOM_VARIANTS)  # on a tie the earlier variant wins
     tuned = max(order, key=lambda m: (rate(study.results[("selection", m)]), -order.index(m)))
-
     sequences = {f"sequence_{best}_{m}": m for m in strategies}
     for name, second in sequences.items():
         study.evaluate("selection", name, preshape=strategies[best], regrasp=sequence(strategies, second))
     best_sequence = max(sequences, key=lambda m: (rate(study.results[("selection", m)]), m))
     study.log(f"selected: best strategy {best}; shared preshape {shared}; SOM {tuned}; sequence {best_sequence}")
-
     # the information ceiling on the selection split: a cross-validated selector from the heuristic's first contact
     # (one attempt) and from what the best strategy's failed attempt sensed (the second attempt)
     names = [best] + [m for m in strategies if m != best]  # a tie goes to the best single strategy
@@ -474,18 +501,25 @@ def measure(study: ExperienceStudy) -> dict:
     failed = _failed_poses(second[best])
     selector = StrategySelector(names, postures, seed=0).fit(_features(second[best], "failure")[failed],
                                                               _outcomes(second, names)[failed])
+    return _Choices(selection, best, shared, tuned, sequences, best_sequence, headroom_rows, ceiling, names, selector)
 
-    # the test split, touched once
+
+def _test_split(study: ExperienceStudy, chosen: _Choices, strategies: dict, preshapes: dict, som: SOM,
+                experience: tuple) -> tuple[dict, dict]:
+    """The test split, touched once: every method chosen, the null experience, the covered poses, and the selector
+    trained on the selection split picking per test pose (into `chosen.ceiling`) -> (runs by method, covered poses)."""
+    som_types, union, types, sets = experience
+    best, shared, tuned = chosen.best, chosen.shared, chosen.tuned
     test = {"none": study.evaluate("test", "none"), "shared_preshape": study.evaluate("test", shared, preshape=preshapes[shared])}
     for name, params in SOM_VARIANTS.items():
         test[name] = study.evaluate("test", name, som, params=params)
     test["heuristic_retried"] = study.evaluate("test", "heuristic_retried", regrasp=Regrasp(ATTEMPTS))
-    test["best_sequence"] = study.evaluate("test", best_sequence, preshape=strategies[best],
-                                      regrasp=sequence(strategies, sequences[best_sequence]))
+    test["best_sequence"] = study.evaluate("test", chosen.best_sequence, preshape=strategies[best],
+                                           regrasp=sequence(strategies, chosen.sequences[chosen.best_sequence]))
     test["regrasp_experience"] = study.evaluate("test", f"regrasp_{tuned}", som, params=SOM_VARIANTS[tuned],
-                                           regrasp=Regrasp(ATTEMPTS, grasp_types=som_types))
+                                                regrasp=Regrasp(ATTEMPTS, grasp_types=som_types))
     test["regrasp_selector"] = study.evaluate("test", f"regrasp_selector_{best}", preshape=strategies[best],
-                                         regrasp=Regrasp(ATTEMPTS, chooser=selector))
+                                              regrasp=Regrasp(ATTEMPTS, chooser=chosen.selector))
     # the null experience: the same map trained on the postures scrambled (no grasp left in it), the same controller
     null = train_experience_map(scrambled(union.postures, NULL_SEED))
     test["som_null"] = study.evaluate("test", f"{tuned}_null", null, params=SOM_VARIANTS[tuned])
@@ -499,22 +533,20 @@ def measure(study: ExperienceStudy) -> dict:
     for m in strategies:
         if m not in ("none", shared):
             test[m] = study.evaluate("test", m, preshape=strategies[m])
+    names, selection = chosen.names, chosen.selection
     runs = {m: test["none"] if m == "none" else test["shared_preshape"] if m == shared else test[m] for m in names}
     once = StrategySelector(names, seed=0).fit(_features(selection["none"], "first_contact"), _outcomes(selection, names))
     picked = once.predict(_features(runs["none"], "first_contact"))
     held, valid = _outcomes(runs, names), _valid(runs, names).all(axis=1)
-    ceiling["once, trained on the selection split, on the test split"] = {
+    chosen.ceiling["once, trained on the selection split, on the test split"] = {
         "n": int(valid.sum()), "selector": int(held[np.arange(len(held)), picked][valid].sum()),
         "best": int(held[valid].sum(axis=0).max()), "oracle": int(held[valid].any(axis=1).sum()), "chance_oracle": None,
         "picked": {m: int((picked[valid] == k).sum()) for k, m in enumerate(names)}}
+    return test, kept
 
-    # the claims again with the experience and the trials seeded anew, the choices of the selection split kept
-    seeds = {0: {"best_sequence": test["best_sequence"], "som": test[tuned], "som_null": test["som_null"],
-                 "regrasp_experience": test["regrasp_experience"], "regrasp_null": test["regrasp_null"]}}
-    for k in range(1, study.config.seed_count):
-        seeds[k] = replicate(study, k, best, tuned, sequences[best_sequence])
 
-    # comparisons, each family corrected by Holm
+def _comparisons(study: ExperienceStudy, test: dict, seeds: dict, tuned: str, kept: dict) -> tuple[list, dict]:
+    """The comparisons, each family corrected by Holm, and whether each replicated claim keeps its sign."""
     def family(a: str, b: str) -> list:
         return [("pooled", compare_pooled(test[a], test[b]))] + [(o, compare_pooled(test[a], test[b], object_rows(o)))
                                                           for o in study.objects]
@@ -564,14 +596,17 @@ def measure(study: ExperienceStudy) -> dict:
                            "sign_holds": len({np.sign(at_seed[k][label]["difference"]) for k in seeds} - {0.0}) == 1
                            and all(at_seed[k][label]["difference"] for k in seeds)}
                    for label in REPLICATED}
+    return comparisons, replication
 
-    # the target
+
+def _target(comparisons: list, test: dict, chosen: _Choices, replication: dict) -> tuple[dict, str]:
+    """The target's checks and the verdict in words."""
     primary = [c for c in comparisons if c["family"].endswith("(primary)")]
     main = next(c for c in primary if c["label"] == "pooled")
     worse = [c["label"] for c in primary if c["label"] != "pooled" and c["p_holm"] < 0.05 and c["only_a"] < c["only_b"]]
     once = [c for c in comparisons if c["family"].startswith("one attempt")]
     once_main = next(c for c in once if c["label"] == "pooled")
-    pooled_room = headroom_rows[-1]
+    pooled_room = chosen.headroom_rows[-1]
     checks = {"headroom beyond chance": pooled_room["sufficient"], "poses": main["n"] >= TARGET_POSES,
               "points": main["difference"] >= TARGET_POINTS,
               "significant": main["p_holm"] < TARGET_P and main["only_a"] > main["only_b"],
@@ -580,18 +615,24 @@ def measure(study: ExperienceStudy) -> dict:
     rates = {m: rate(r) for m, r in test.items()}
     verdict = (f"Target {'met' if met else 'not met'}: with {ATTEMPTS} attempts, regrasp with experience holds "
                f"{rates['regrasp_experience']:.1%} on {main['n']} paired test poses against the best fixed sequence's "
-               f"({best_sequence}) {rates['best_sequence']:.1%}, {100 * main['difference']:+.1f} points "
+               f"({chosen.best_sequence}) {rates['best_sequence']:.1%}, {100 * main['difference']:+.1f} points "
                f"(+{main['only_a']} / -{main['only_b']}, McNemar p = {main['p_value']:.2g}, Holm {main['p_holm']:.2g})"
                + (f", significantly worse on {', '.join(worse)}" if worse else ", significantly worse on no object")
                + f"; the heuristic retried holds {rates['heuristic_retried']:.1%}, once {rates['none']:.1%}. With one "
                f"attempt the paper's controller holds {rates['som_paper']:.1%} against the best shared preshape's "
-               f"({shared}) {rates['shared_preshape']:.1%}, {100 * once_main['difference']:+.1f} points (McNemar "
+               f"({chosen.shared}) {rates['shared_preshape']:.1%}, {100 * once_main['difference']:+.1f} points (McNemar "
                f"p = {once_main['p_value']:.2g}, Holm {once_main['p_holm']:.2g}). Headroom beyond chance on the "
                f"selection split {100 * pooled_room['beyond_chance']:.1f} points ("
                + ("enough for" if pooled_room["sufficient"] else "below")
                + f" the {100 * MIN_HEADROOM_BEYOND_CHANCE:.0f}-point gate)." + seeds_verdict(replication))
+    return checks, verdict
+
+
+def _results(study: ExperienceStudy, sets: dict, som_types: np.ndarray, chosen: _Choices, test: dict, kept: dict,
+             comparisons: list, checks: dict, verdict: str, replication: dict) -> dict:
+    """What the report shows, and study.json keeps."""
     by_placement = {m: {p: rate(test[m], [(o, p) for o in study.objects]) for p in PLACEMENTS}
-                    for m in ("none", "shared_preshape", tuned, "heuristic_retried", "best_sequence",
+                    for m in ("none", "shared_preshape", chosen.tuned, "heuristic_retried", "best_sequence",
                               "regrasp_experience")}
     attempts = {m: float(np.mean([t.attempts for r in test[m].values() for t in r.trials]))
                 for m in ("heuristic_retried", "best_sequence", "regrasp_experience", "regrasp_selector")}
@@ -605,10 +646,12 @@ def measure(study: ExperienceStudy) -> dict:
                                "kept_by_start": s.metadata["kept_by_start"],
                                "grasp_types": s.metadata["grasp_types"]} for n, s in sets.items()},
             "som_node_types": {t: int((som_types == t).sum()) for t in sorted(set(som_types))},
-            "selected": {"best": best, "shared": shared, "som": tuned, "sequence": best_sequence},
+            "selected": {"best": chosen.best, "shared": chosen.shared, "som": chosen.tuned,
+                         "sequence": chosen.best_sequence},
             "selection_rates": {m: rate(r) for (split, m), r in study.results.items() if split == "selection"},
-            "headroom": headroom_rows, "ceiling": ceiling, "comparisons": comparisons, "checks": checks, "target_met": met,
-            "verdict": verdict, "by_placement": by_placement, "mean_attempts": attempts,
+            "headroom": chosen.headroom_rows, "ceiling": chosen.ceiling, "comparisons": comparisons, "checks": checks,
+            "target_met": all(checks.values()), "verdict": verdict, "by_placement": by_placement,
+            "mean_attempts": attempts,
             "counts": {m: {f"{o}/{p}": [int(r[(o, p)].outcomes()[r[(o, p)].valid].sum()), int(r[(o, p)].valid.sum())]
                            for (o, p) in r} for m, r in test.items()},
             "coverage": {"within": COVERED_WITHIN, "angle": COVERED_ANGLE,
@@ -678,7 +721,14 @@ def reading(info: dict) -> list[str]:
 
 def report(config: ExperienceStudyConfig, info: dict) -> str:
     """The markdown report of a run (`info`: what `measure` returned, or study.json)."""
-    selected = info["selected"]
+    lines = [*_report_opening(config, info), *_report_seeds(info), *_report_split_and_headroom(config, info),
+             *_report_ceiling_and_selection(info), *_report_rates(info), *_report_benchmark(info),
+             *_report_later_studies()]
+    return "\n".join(lines) + "\n"
+
+
+def _report_opening(config: ExperienceStudyConfig, info: dict) -> list[str]:
+    """The title, what made the run, the verdict, the target and the reading."""
     lines = ["# Does experience pay where grasp choice matters? The experience study", ""]
     if config.quick:
         lines += ["**A smoke run: too small to be evidence.** Two objects and a sixth of the poses, to check that the "
@@ -701,6 +751,12 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
               f"{100 * MIN_HEADROOM_BEYOND_CHANCE:.0f} points of headroom beyond chance. Checks: " + ", ".join(
                   f"{k} {'yes' if v else 'no'}" for k, v in info["checks"].items()) + ".", ""]
     lines += ["## Reading", "", *reading(info), ""]
+    return lines
+
+
+def _report_seeds(info: dict) -> list[str]:
+    """The claims at every seed (none for one seed)."""
+    lines: list[str] = []
     if len(next(iter(info.get("replication", {}).values()), {"seeds": []})["seeds"]) > 1:
         count = len(next(iter(info["replication"].values()))["seeds"])
         lines += ["## Seeds", "",
@@ -715,6 +771,12 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
                       for c in r["seeds"]), "yes" if r["sign_holds"] else "no"]
             for label, r in info["replication"].items()])
         lines += [""]
+    return lines
+
+
+def _report_split_and_headroom(config: ExperienceStudyConfig, info: dict) -> list[str]:
+    """The split and the headroom on the selection split."""
+    lines: list[str] = []
     split = info["split"]
     lines += ["## The split", "",
               f"All the benchmark's poses (the lattice and its midpoints), split at random, stratified by object and "
@@ -738,6 +800,13 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
 
     lines += markdown_table(["object", "n", "oracle", "best strategy", "headroom", "chance oracle", "beyond chance",
                              "held by none"], [room_row(h) for h in info["headroom"]])
+    return lines
+
+
+def _report_ceiling_and_selection(info: dict) -> list[str]:
+    """The information ceiling and what the selection split chose."""
+    lines: list[str] = []
+    selected = info["selected"]
     lines += ["", "## The information ceiling", "",
               "How much of the headroom can what the controller senses predict? A selector (`trials.selector`: a "
               "random forest per strategy's success, scikit-learn) picks a strategy per pose from the heuristic's "
@@ -765,6 +834,12 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
               f"**{selected['shared']}**; SOM controller **{selected['som']}** ({SOM_DESCRIPTIONS[selected['som']]}); "
               f"best fixed sequence **{selected['sequence']}** (the best strategy first, then the best second attempt "
               "after it: a greedy choice among the strategies, not all pairs).", ""]
+    return lines
+
+
+def _report_rates(info: dict) -> list[str]:
+    """The hold rates on the test split, the coverage, and the paired comparisons."""
+    lines: list[str] = []
     lines += ["## Hold rate per method (test split)", ""]
     keys = list(info["counts"]["none"])
     lines += markdown_table(["method", *keys, "pooled"], [
@@ -792,6 +867,12 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
     lines += ["## Paired comparisons (test split)", "",
               "`+` / `-`: poses where only the first / only the second method held. Holm's correction within each "
               "family.", "", *comparison_table(info["comparisons"], family=True)]
+    return lines
+
+
+def _report_benchmark(info: dict) -> list[str]:
+    """The benchmark's objects and the experience made on them."""
+    lines: list[str] = []
     lines += ["", "## The benchmark and its experience", "",
               "Objects (`graspmanifold.trials.benchmark.OBJECTS`), each chosen for a reason stated before any method "
               "ran on it; the controller is never told the object.", ""]
@@ -807,6 +888,12 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
         [name, e["candidates"], ", ".join(f"{d} ({e['grasp_types'][d]}) {v:.0%} ({e['kept_by_start'].get(d, 0)})"
                                           for d, v in e["verified_by_start"].items())]
         for name, e in info["experience"].items()])
+    return lines
+
+
+def _report_later_studies() -> list[str]:
+    """The later studies' verdicts and the first study's, quoted from their reports."""
+    lines: list[str] = []
     lines += ["", "## Under pose error, and with more experience", ""]
     for name, command, what in (("uncertainty_study", "study_uncertainty.py", "the object off the pose the plan "
                                  "assumed: the tactile controllers against the open-loop replay of the nominal grasp"),
@@ -832,7 +919,7 @@ def report(config: ExperienceStudyConfig, info: dict) -> str:
     else:
         lines += ["Not run here (`python scripts/study_experience_paper_grids.py` writes "
                   "`docs/experience_study_paper_grids.md`).", ""]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 if __name__ == "__main__":
