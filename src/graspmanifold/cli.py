@@ -15,6 +15,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any  # argparse names its subparsers action privately
 
 from .base.config_files import read_config
 from .base.errors import GraspManifoldError, InvalidInput
@@ -349,27 +350,39 @@ DEFAULT_WORKERS = default_workers()
 
 
 def build_parser() -> argparse.ArgumentParser:
-    formatter = argparse.ArgumentDefaultsHelpFormatter
-    parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__, formatter_class=formatter)
+    """The `graspmanifold` command's parser: one subcommand each, its `run` the function that carries it out."""
+    parser = argparse.ArgumentParser(prog="graspmanifold", description=__doc__, formatter_class=_FORMATTER)
     parser.add_argument("--version", action="version", version=f"graspmanifold {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in (_add_reproduce, _add_generate, _add_evaluate, _add_others):
+        add(commands)
+    return parser
 
-    def command(name: str, help: str) -> argparse.ArgumentParser:
-        return commands.add_parser(name, help=help, description=help, formatter_class=formatter)
 
-    def object_options(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("--object", default="cylinder", help="a paper object (box, cylinder, sphere), a family "
-                         "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
-                         "(.stl, .obj, .ply, ...: a watertight solid)")
-        sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
-        sub.add_argument("--hand", default=SHADOW_HAND.name, help=HAND_HELP)
+_FORMATTER = argparse.ArgumentDefaultsHelpFormatter
 
-    def workers(sub: argparse.ArgumentParser) -> None:
-        sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
-        sub.add_argument("--executor", help="run the jobs on a Dask cluster instead: dask://tcp://HOST:8786 (its "
-                         "scheduler) or dask://local (a LocalCluster here); needs graspmanifold[cluster]")
 
-    reproduce = command("reproduce", "regenerate every figure and table of the paper into one directory")
+def _command(commands: Any, name: str, help: str) -> argparse.ArgumentParser:
+    return commands.add_parser(name, help=help, description=help, formatter_class=_FORMATTER)
+
+
+def _object_options(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--object", default="cylinder", help="a paper object (box, cylinder, sphere), a family "
+                     "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
+                     "(.stl, .obj, .ply, ...: a watertight solid)")
+    sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
+    sub.add_argument("--hand", default=SHADOW_HAND.name, help=HAND_HELP)
+
+
+def _workers(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("--workers", type=int, default=DEFAULT_WORKERS, help="parallel worker processes")
+    sub.add_argument("--executor", help="run the jobs on a Dask cluster instead: dask://tcp://HOST:8786 (its "
+                     "scheduler) or dask://local (a LocalCluster here); needs graspmanifold[cluster]")
+
+
+def _add_reproduce(commands: Any) -> None:
+    """`reproduce`."""
+    reproduce = _command(commands, "reproduce", "regenerate every figure and table of the paper into one directory")
     reproduce.add_argument("--preset", choices=("first", "quick", "paper", "verified"), default="quick",
                            help="first (the quick preset on the cylinder alone: about a minute), quick (the "
                            "paper's procedure at small sizes on its three objects, a minute or two), paper (the paper's "
@@ -392,12 +405,16 @@ def build_parser() -> argparse.ArgumentParser:
                            "fields; [generator] and [controller] tables); a run writes the one it used to "
                            "OUT/config.toml. --hand, --controller, --protocol and --manifold change it again where given")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
-    workers(reproduce)
+    _workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
     reproduce.set_defaults(run=_reproduce)
 
-    generate = command("generate", "generate grasp postures with the spring generator (verified as grasps)")
-    object_options(generate)
+
+
+def _add_generate(commands: Any) -> None:
+    """`generate`."""
+    generate = _command(commands, "generate", "generate grasp postures with the spring generator (verified as grasps)")
+    _object_options(generate)
     generate.add_argument("--n", type=int, help="number of postures (default: the preset's size for the "
                           "object, the cylinder's for objects outside the paper); candidates are drawn until n of them "
                           "hold the object, unless --no-verify")
@@ -420,13 +437,17 @@ def build_parser() -> argparse.ArgumentParser:
     generate.add_argument("--mode", choices=MODES, help="how candidates are taken along the walk (default: the "
                           "preset's: " + ", ".join(f"{k} {v.mode}" for k, v in PRESET_PARAMS.items()) + ")")
     generate.add_argument("--out", required=True, help="output .npz file")
-    workers(generate)
+    _workers(generate)
     generate.add_argument("--seed", type=int, default=0)
     generate.add_argument("--force", action="store_true", help="overwrite an existing output file")
     generate.set_defaults(run=_generate)
 
-    evaluate = command("evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
-    object_options(evaluate)
+
+
+def _add_evaluate(commands: Any) -> None:
+    """`evaluate`."""
+    evaluate = _command(commands, "evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
+    _object_options(evaluate)
     evaluate.add_argument("--experience", choices=("none", *REPRESENTATIONS), default=None,
                           help="none (plain tactile heuristic) or what the controller recalls from (default: som, or "
                                "the kind the --map file holds): " + "; ".join(f"{k}: {v}" for k, v in REPRESENTATIONS.items()))
@@ -436,7 +457,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--grid", choices=GRID_PRESETS, default="quick")
     evaluate.add_argument("--table", action="store_true",
                           help="the object stands on a table (gravity on) instead of a spring support")
-    workers(evaluate)
+    _workers(evaluate)
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--margin", action="store_true",
                           help="measure the disturbance margin of the grasps that hold "
@@ -460,30 +481,33 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)
 
-    dataset = command("dataset", "a folder of dataset objects as they ship (meshes, URDF or MJCF files) to verified "
+
+
+def _add_others(commands: Any) -> None:
+    """`dataset`, `demo`, `figure` and `view`."""
+    dataset = _command(commands, "dataset", "a folder of dataset objects as they ship (meshes, URDF or MJCF files) to verified "
                       "grasps, a map and a comparison of controllers on each, with a table at the end")
     dataset_arguments(dataset)
     dataset.set_defaults(run=run_dataset)
 
-    demo = command("demo", "close the hand on an object and print the touching segments")
-    object_options(demo)
+    demo = _command(commands, "demo", "close the hand on an object and print the touching segments")
+    _object_options(demo)
     demo.add_argument("--seconds", type=float, default=2.0, help="simulated seconds to close")
     demo.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     demo.set_defaults(run=_demo)
 
-    figure = command("figure", "redraw one figure of a finished `reproduce` run (PNG and PDF)")
+    figure = _command(commands, "figure", "redraw one figure of a finished `reproduce` run (PNG and PDF)")
     figure.add_argument("name", help=f"the figure; a run over the paper's objects has {', '.join(FIGURES)} (a run "
                         "over other objects names them after its objects)")
     figure.add_argument("run_dir", help="the output directory of `graspmanifold reproduce`")
     figure.add_argument("--out", help="directory for the figure (default: RUN_DIR/figures)")
     figure.set_defaults(run=_figure)
 
-    view = command("view", "open MuJoCo's interactive viewer on a scene (needs a display)")
-    object_options(view)
+    view = _command(commands, "view", "open MuJoCo's interactive viewer on a scene (needs a display)")
+    _object_options(view)
     view.add_argument("--clearance", type=float, default=0.01, help="palm-to-object gap in m")
     view.add_argument("--close", action="store_true", help="command the closed posture (press space to run)")
     view.set_defaults(run=_view)
-    return parser
 
 
 #: what an interrupted command kept, and how to go on
