@@ -359,125 +359,166 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     relative = {name: mesh | {"file": os.path.relpath(mesh["file"], out.resolve())}
                 for name, mesh in config.meshes.items()}
     write_text_atomic(out / "config.toml", to_toml(config, {"meshes": relative}))
-    objects = tuple(config.postures)
-    verified = config.procedure == "verified"
-    methods = run_methods(config.controller, config.manifold)
-    continuous = config.manifold == "ukr"
-    stages = _Stages(out, log, total=(3 + verified + 2 * continuous) * len(objects) + 2 + continuous
-                     + len(objects) * len(methods))
+    pipeline = _Pipeline(out, config, hand, executor or workers, log)
     started = time.perf_counter()
-
-    # 1. posture sets
-    sets_paths = {name: out / "postures" / f"{name}.npz" for name in objects}
-    for name, path in sets_paths.items():
-        def generate(name=name, path=path):
-            parts = path.with_name(path.name + ".parts")
-            postures = generate_postures(config.object(name), config.postures[name], seed=config.seed,
-                                         workers=executor or workers, params=config.generator, checkpoint_dir=parts,
-                                         progress=True)
-            postures.save(path)
-            remove_checkpoints(parts)
-        stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed, asdict(config.generator),
-                                                  hand.digest, config.object(name).params()), [path], generate)
-    if verified:  # the maps learn the candidates that hold
-        candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in objects}
-        for name, path in sets_paths.items():
-            def verify(name=name, path=path):
-                held = verify_postures(PostureSet.load(candidates_paths[name]), config.object(name),
-                                       executor or workers, params=config.generator, progress=True)
-                held.save(path)
-                return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
-            stages.run(f"verify_{name}", result_key(asdict(config.generator), hand.digest, candidates_paths[name]),
-                       [path], verify)
+    sets_paths = pipeline.posture_sets()  # 1. posture sets
     sets = {name: PostureSet.load(path) for name, path in sets_paths.items()}
     run_record["datasets"] = {name: {"procedure": config.procedure, "candidates": s.metadata.get("candidates", len(s)),
                                      "trained_on": len(s)} for name, s in sets.items()}
     write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))  # what the maps learn
-
-    # 2. maps: one per object and one for all objects
-    schedule = {"epochs": config.epochs, "learning_rate": config.learning_rate, "sigma": config.sigma}
-    map_paths = {name: out / "maps" / f"{name}.npz" for name in (*objects, "all")}
-    for name, path in map_paths.items():
-        inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
-
-        def train(name=name, path=path):
-            data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
-            if not len(data):
-                raise InvalidInput(f"no training postures for the {name} map: the {config.procedure} procedure kept none "
-                                 f"of the candidates; ask for more (ReproduceConfig.postures) or use the paper procedure")
-            SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
-        stages.run(f"train_{name}", result_key(config.map_size, schedule, config.seed, *inputs), [path], train)
+    map_paths, manifold_paths = pipeline.manifolds(sets_paths, sets)  # 2. maps and manifolds
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
-    manifold_paths = {name: out / "manifolds" / f"{name}.npz" for name in (*objects, "all")} if continuous else {}
-    for name, path in manifold_paths.items():
-        def fit(name=name, path=path):
-            data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
-            UKR().fit(data, progress=True).save(path)
-        inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
-        stages.run(f"fit_ukr_{name}", result_key("ukr", *inputs), [path], fit)
     manifolds = {name: UKR.load(path) for name, path in manifold_paths.items()}
-
-    # 3. evaluation of every method on every object
-    eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in objects for m in methods}
-    for (name, method), path in eval_paths.items():
-        kind = method.removesuffix("_blend")  # a `_blend` method: the same experience under the BLEND controller
-        params = BLEND if method.endswith("_blend") else config.controller
-        inputs = {"none": [], "database": [sets_paths[name]], "som": [map_paths[name]], "som_all": [map_paths["all"]],
-                  **({"ukr": [manifold_paths[name]], "ukr_all": [manifold_paths["all"]]} if continuous else {})}
-
-        def run_evaluation(name=name, method=method, path=path, kind=kind, params=params):
-            experience = {"none": None, "database": PostureDatabase(sets[name].postures), "som": maps[name],
-                          "som_all": maps["all"], "ukr": manifolds.get(name), "ukr_all": manifolds.get("all")}[kind]
-            parts = path.with_name(path.stem + ".parts")
-            result = evaluate(config.object(name), experience, _grid(config), seed=config.seed, workers=executor or workers,
-                              checkpoint_dir=parts, progress=True, method=method, hand=config.hand, params=params,
-                              margin=get_protocol(config.protocol).physics is None, protocol=config.protocol)  # the report's margin
-            result.save(path)
-            remove_checkpoints(parts)
-        poses = check_grid(_grid(config), config.object(name))[1]  # keyed on the poses, not the preset's name
-        stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method, hand.digest,
-                                                           params.to_table(), config.protocol,
-                                                           config.object(name).params(), *inputs[kind]), [path],
-                   run_evaluation)
+    eval_paths = pipeline.evaluations({"database": sets_paths, "som": map_paths, "ukr": manifold_paths},
+                                      {"database": sets, "som": maps, "ukr": manifolds})  # 3. every method
     results = {key: EvaluationResult.load(path) for key, path in eval_paths.items()}
-
-    # 4. resumed learning with the SOM's successful evaluation postures
-    resumed_paths = {name: out / "maps" / f"{name}_resumed.npz" for name in objects}
-    for name, path in resumed_paths.items():
-        def resume(name=name, path=path):
-            successes = results[(name, "som")].successful_postures()
-            resumed = copy.deepcopy(maps[name])
-            if len(successes):
-                resumed.resume(successes, **RESUME.as_dict())
-            resumed.save(path)
-            return {"postures": int(len(successes))}
-        stages.run(f"resume_{name}", result_key(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]), [path], resume)
+    resumed_paths, resumed_manifold_paths = pipeline.resumed(map_paths, manifold_paths, eval_paths, maps, manifolds,
+                                                             results)  # 4. resumed learning
     resumed_maps = {name: SOM.load(path) for name, path in resumed_paths.items()}
-    resumed_manifold_paths = {name: out / "manifolds" / f"{name}_resumed.npz" for name in objects} if continuous else {}
-    for name, path in resumed_manifold_paths.items():
-        def resume_manifold(name=name, path=path):
-            successes = results[(name, "ukr")].successful_postures()
-            resumed = copy.copy(manifolds[name])  # `resume` replaces its (read-only) arrays: the original keeps its own
-            if len(successes):
-                resumed.resume(successes, progress=True)
-            resumed.save(path)
-            return {"postures": int(len(successes))}
-        stages.run(f"resume_ukr_{name}", result_key("ukr", manifold_paths[name], eval_paths[(name, "ukr")]), [path],
-                   resume_manifold)
     resumed_manifolds = {name: UKR.load(path) for name, path in resumed_manifold_paths.items()}
-
     # 5. figures, 6. report
     run = RunData(json.loads(json.dumps(config.to_json())), sets, maps, resumed_maps, results, manifolds,
                   resumed_manifolds)
     figure_key = result_key(config.image_size, *map_paths.values(), *resumed_paths.values(), *sets_paths.values(),
                             *eval_paths.values(), *manifold_paths.values())
-    figure_info = stages.run("figures", figure_key, [out / "figures"],
-                             lambda: write_figures(out / "figures", run, log))
+    figure_info = pipeline.stages.run("figures", figure_key, [out / "figures"],
+                                      lambda: write_figures(out / "figures", run, log))
     summary = summarize(run, figure_info).to_json()
     write_report(out, run, summary)
-    log(f"reproduce: {len(stages.ran)} stages ran, {len(stages.reused)} reused, "
+    log(f"reproduce: {len(pipeline.stages.ran)} stages ran, {len(pipeline.stages.reused)} reused, "
         f"{time.perf_counter() - started:.1f} s; report in {out / 'report.md'}")
     return summary
+
+
+class _Pipeline:
+    """The reproduction's resumable stages over its objects: each step makes its files unless a stage of the same
+    key made them before (`_Stages`), and returns their paths."""
+
+    def __init__(self, out: Path, config: ReproduceConfig, hand: HandModel, workers: int | Executor,
+                 log: Callable[[str], None]):
+        self.out, self.config, self.hand, self.workers = out, config, hand, workers
+        self.objects = tuple(config.postures)
+        self.verified = config.procedure == "verified"
+        self.methods = run_methods(config.controller, config.manifold)
+        self.continuous = config.manifold == "ukr"
+        self.stages = _Stages(out, log, total=(3 + self.verified + 2 * self.continuous) * len(self.objects) + 2
+                              + self.continuous + len(self.objects) * len(self.methods))
+
+    def posture_sets(self) -> dict[str, Path]:
+        """Every object's postures (and those that hold, for the verified procedure): the files the maps learn."""
+        config, out, workers = self.config, self.out, self.workers
+        sets_paths = {name: out / "postures" / f"{name}.npz" for name in self.objects}
+        for name, path in sets_paths.items():
+            def generate(name=name, path=path):
+                parts = path.with_name(path.name + ".parts")
+                postures = generate_postures(config.object(name), config.postures[name], seed=config.seed,
+                                             workers=workers, params=config.generator, checkpoint_dir=parts,
+                                             progress=True)
+                postures.save(path)
+                remove_checkpoints(parts)
+            self.stages.run(f"generate_{name}", result_key(name, config.postures[name], config.seed,
+                                                           asdict(config.generator), self.hand.digest,
+                                                           config.object(name).params()), [path], generate)
+        if not self.verified:
+            return sets_paths
+        candidates_paths, sets_paths = sets_paths, {name: out / "postures" / f"{name}_held.npz" for name in self.objects}
+        for name, path in sets_paths.items():
+            def verify(name=name, path=path):
+                held = verify_postures(PostureSet.load(candidates_paths[name]), config.object(name), workers,
+                                       params=config.generator, progress=True)
+                held.save(path)
+                return {"candidates": int(held.metadata["candidates"]), "kept": len(held)}
+            self.stages.run(f"verify_{name}", result_key(asdict(config.generator), self.hand.digest,
+                                                         candidates_paths[name]), [path], verify)
+        return sets_paths
+
+    def manifolds(self, sets_paths: dict[str, Path], sets: dict[str, PostureSet]
+                  ) -> tuple[dict[str, Path], dict[str, Path]]:
+        """A map per object and one for all objects; the UKR manifolds likewise where the run has them."""
+        config, out = self.config, self.out
+        schedule = {"epochs": config.epochs, "learning_rate": config.learning_rate, "sigma": config.sigma}
+        map_paths = {name: out / "maps" / f"{name}.npz" for name in (*self.objects, "all")}
+        for name, path in map_paths.items():
+            inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
+
+            def train(name=name, path=path):
+                data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
+                if not len(data):
+                    raise InvalidInput(f"no training postures for the {name} map: the {config.procedure} procedure "
+                                       "kept none of the candidates; ask for more (ReproduceConfig.postures) or use "
+                                       "the paper procedure")
+                SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
+            self.stages.run(f"train_{name}", result_key(config.map_size, schedule, config.seed, *inputs), [path], train)
+        manifold_paths = ({name: out / "manifolds" / f"{name}.npz" for name in (*self.objects, "all")}
+                          if self.continuous else {})
+        for name, path in manifold_paths.items():
+            def fit(name=name, path=path):
+                data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
+                UKR().fit(data, progress=True).save(path)
+            inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
+            self.stages.run(f"fit_ukr_{name}", result_key("ukr", *inputs), [path], fit)
+        return map_paths, manifold_paths
+
+    def evaluations(self, paths: dict[str, dict[str, Path]], made: dict[str, dict]) -> dict[tuple[str, str], Path]:
+        """Every method on every object: its experience (`paths`/`made`: the posture sets, maps and manifolds by
+        kind) over the run's grid."""
+        config, out = self.config, self.out
+        eval_paths = {(o, m): out / "evaluation" / f"{o}_{m}.npz" for o in self.objects for m in self.methods}
+        sets, maps, manifolds = made["database"], made["som"], made["ukr"]
+        for (name, method), path in eval_paths.items():
+            kind = method.removesuffix("_blend")  # a `_blend` method: the same experience under the BLEND controller
+            params = BLEND if method.endswith("_blend") else config.controller
+            inputs = {"none": [], "database": [paths["database"][name]], "som": [paths["som"][name]],
+                      "som_all": [paths["som"]["all"]],
+                      **({"ukr": [paths["ukr"][name]], "ukr_all": [paths["ukr"]["all"]]} if self.continuous else {})}
+
+            def run_evaluation(name=name, method=method, path=path, kind=kind, params=params):
+                experience = {"none": None, "database": PostureDatabase(sets[name].postures), "som": maps[name],
+                              "som_all": maps["all"], "ukr": manifolds.get(name), "ukr_all": manifolds.get("all")}[kind]
+                parts = path.with_name(path.stem + ".parts")
+                result = evaluate(config.object(name), experience, _grid(config), seed=config.seed,
+                                  workers=self.workers, checkpoint_dir=parts, progress=True, method=method,
+                                  hand=config.hand, params=params,
+                                  margin=get_protocol(config.protocol).physics is None,  # the report's margin
+                                  protocol=config.protocol)
+                result.save(path)
+                remove_checkpoints(parts)
+            poses = check_grid(_grid(config), config.object(name))[1]  # keyed on the poses, not the preset's name
+            self.stages.run(f"evaluate_{name}_{method}", result_key(poses.tolist(), config.seed, method,
+                                                                    self.hand.digest, params.to_table(),
+                                                                    config.protocol, config.object(name).params(),
+                                                                    *inputs[kind]), [path], run_evaluation)
+        return eval_paths
+
+    def resumed(self, map_paths: dict[str, Path], manifold_paths: dict[str, Path],
+                eval_paths: dict[tuple[str, str], Path], maps: dict[str, SOM], manifolds: dict[str, UKR],
+                results: dict[tuple[str, str], EvaluationResult]) -> tuple[dict[str, Path], dict[str, Path]]:
+        """Resumed learning with the SOM's (and the UKR's) successful evaluation postures."""
+        out = self.out
+        resumed_paths = {name: out / "maps" / f"{name}_resumed.npz" for name in self.objects}
+        for name, path in resumed_paths.items():
+            def resume(name=name, path=path):
+                successes = results[(name, "som")].successful_postures()
+                resumed = copy.deepcopy(maps[name])
+                if len(successes):
+                    resumed.resume(successes, **RESUME.as_dict())
+                resumed.save(path)
+                return {"postures": int(len(successes))}
+            self.stages.run(f"resume_{name}", result_key(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]),
+                            [path], resume)
+        resumed_manifold_paths = ({name: out / "manifolds" / f"{name}_resumed.npz" for name in self.objects}
+                                  if self.continuous else {})
+        for name, path in resumed_manifold_paths.items():
+            def resume_manifold(name=name, path=path):
+                successes = results[(name, "ukr")].successful_postures()
+                resumed = copy.copy(manifolds[name])  # `resume` replaces its (read-only) arrays: the original keeps its own
+                if len(successes):
+                    resumed.resume(successes, progress=True)
+                resumed.save(path)
+                return {"postures": int(len(successes))}
+            self.stages.run(f"resume_ukr_{name}", result_key("ukr", manifold_paths[name], eval_paths[(name, "ukr")]),
+                            [path], resume_manifold)
+        return resumed_paths, resumed_manifold_paths
 
 
 def _grid(config: ReproduceConfig) -> str | np.ndarray:

@@ -261,13 +261,15 @@ class EvaluationResult(Tabular, NpzRecord):
             if name in a and np.shape(a[name]) != (len(a["epsilon"]), width):
                 raise InvalidInput(f"{path}: {name} must be ({len(a['epsilon'])}, {width}), got {np.shape(a[name])}; "
                                    "the file is corrupt")
-        trials = [Trial(a["grid"][i], a["postures"][i], a["touching"][i], float(a["epsilon"][i]), bool(a["hold"][i]),
-                        float(a["hold_displacement"][i]), float(a["time_to_grasp"][i]), int(a["matches"][i]),
-                        float(a["margin"][i]), float(a["penetration"][i]), str(a["fault"][i]), winners[i],
-                        float(a["hold_time"][i]) if "hold_time" in a else float("nan"),
-                        int(a["attempts"][i]) if "attempts" in a else 1,
-                        *((a[name][i] for name in ("first_contact", "failure")) if "failure" in a else ()),
-                        *((a["object_estimate"][i],) if "object_estimate" in a else ()))
+        recorded = [name for name in ("first_contact", "failure", "object_estimate") if name in a]  # later files
+        trials = [Trial(grid_pose=a["grid"][i], posture=a["postures"][i], touching=a["touching"][i],
+                        epsilon=float(a["epsilon"][i]), hold=bool(a["hold"][i]),
+                        hold_displacement=float(a["hold_displacement"][i]), time_to_grasp=float(a["time_to_grasp"][i]),
+                        matches=int(a["matches"][i]), margin=float(a["margin"][i]),
+                        penetration=float(a["penetration"][i]), fault=str(a["fault"][i]), winners=winners[i],
+                        hold_time=float(a["hold_time"][i]) if "hold_time" in a else float("nan"),
+                        attempts=int(a["attempts"][i]) if "attempts" in a else 1,
+                        **{name: a[name][i] for name in recorded})
                   for i in range(len(a["epsilon"]))]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu"), meta.get("made_by", {}))

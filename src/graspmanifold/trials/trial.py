@@ -39,7 +39,7 @@ from ..base.io import library_version
 from ..base.validation import check_choice, check_int
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.regrasp import LiftProbe, Regrasp
-from ..judging.judge import JUDGING, judge_worlds, supported_scene
+from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
 from ..judging.replay import OpenLoopGrasp
 from ..judging.stages import JudgingRules
@@ -475,103 +475,138 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     Every world runs on its own clock of control periods: its controller acts until it reports the grasp
     done, then its judging begins (`judge.judge_worlds`) while the other worlds go on grasping. Trial i
     draws its noise from `rngs[i]`; `observer(worlds)` is called after the start and after every control
-    period, the judging included (`record_trial` keeps the states it sees). Returns one `Trial` per pose.
+    period, the judging included (`record_trial` keeps the states it sees).
+
+    Args:
+        setup: what a trial is.
+        poses: (n, 4) grid poses (x, z, gap in m, yaw in rad).
+        rngs: one random generator per pose.
+        observer: called with the worlds after the start and after every control period.
+
+    Returns:
+        One `Trial` per pose, in order.
     """
-    poses = np.asarray(poses, dtype=float)
-    n = len(poses)
-    controller = setup.make_controller(n)
-    period = controller.control_period
-    scenes = [trial_scene(setup, pose, rng, controller.initial) for pose, rng in zip(poses, rngs)]
-    if setup.backend == "cpu":
-        worlds: Worlds = CpuWorlds(scenes)
-    else:
-        from ..sim.warp_worlds import WarpWorlds
+    loop = _TrialLoop(setup, np.asarray(poses, dtype=float), rngs, observer)
+    if observer is not None:
+        observer(loop.worlds)
+    judgements = judge_worlds(loop.worlds, loop.period, loop.advance, friction=setup.object.friction,
+                              rules=setup.rules, ready=loop.ready)
+    return [loop.trial(world, judged) for world, judged in enumerate(judgements)]
 
-        worlds = WarpWorlds(scenes)
-    nstep = max(1, round(period / scenes[0].model.opt.timestep))
-    grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
-    clock, time_to_grasp, failed = 0.0, np.full(n, np.nan), {}
-    first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
-    object_estimate = np.full((n, 3), np.nan)
-    corrections = np.zeros((n, 6))  # the flange's set point the controller's palm moves are added to
-    correcting = 0  # control periods of the oracle's correction still to run, before the controller starts
-    if setup.oracle:
-        corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in poses])
-        seconds = np.max(np.abs(corrections) / setup.palm.speeds()) + ORACLE_SETTLE_SECONDS
-        correcting = math.ceil(seconds / period)
 
-    def recalls(world: int) -> tuple[int, list[int]]:  # the best matches used (none, for a controller without)
-        return (int(getattr(controller, "matches", np.zeros(n, dtype=int))[world]),
-                list(getattr(controller, "winners", [[]] * n)[world]))
+class _TrialLoop:
+    """The trials' side of the judging loop (`judge_worlds` runs it): one control period of every live world
+    (`advance`: the controller, then the physics; the oracle's correction first where it is asked for), which worlds
+    go to the judge (`ready`: the regrasp's probe decides), and what each trial records."""
 
-    def advance(live: np.ndarray) -> dict[int, str]:
+    def __init__(self, setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
+                 observer: Callable[[Worlds], None] | None):
+        n = len(poses)
+        self.setup, self.poses, self.rngs, self.observer, self.n = setup, poses, rngs, observer, n
+        self.controller = controller = setup.make_controller(n)
+        self.period = period = controller.control_period
+        scenes = [trial_scene(setup, pose, rng, controller.initial) for pose, rng in zip(poses, rngs)]
+        if setup.backend == "cpu":
+            self.worlds: Worlds = CpuWorlds(scenes)
+        else:
+            from ..sim.warp_worlds import WarpWorlds
+
+            self.worlds = WarpWorlds(scenes)
+        self.nstep = max(1, round(period / scenes[0].model.opt.timestep))
+        self.grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
+        self.clock, self.time_to_grasp, self.failed = 0.0, np.full(n, np.nan), {}
+        self.first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
+        self.object_estimate = np.full((n, 3), np.nan)
+        self.corrections = np.zeros((n, 6))  # the flange's set point the controller's palm moves are added to
+        self.correcting = 0  # control periods of the oracle's correction still to run, before the controller starts
+        if setup.oracle:
+            self.corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in poses])
+            seconds = np.max(np.abs(self.corrections) / setup.palm.speeds()) + ORACLE_SETTLE_SECONDS
+            self.correcting = math.ceil(seconds / period)
+        self.probe = LiftProbe(setup.regrasp, self.worlds, controller, setup.rules)
+
+    def recalls(self, world: int) -> tuple[int, list[int]]:
+        """The best matches a world's controller used (none, for a controller without)."""
+        return (int(getattr(self.controller, "matches", np.zeros(self.n, dtype=int))[world]),
+                list(getattr(self.controller, "winners", [[]] * self.n)[world]))
+
+    def advance(self, live: np.ndarray) -> dict[int, str]:
         """One control period: the controller, then the physics. Worlds not given are not read (a failed
         world's state may not be finite); their controller's targets no longer matter."""
-        nonlocal clock, correcting
-        if correcting:  # the oracle's correction: the fingers held, the flange carrying the palm
-            correcting -= 1
-            worlds.set_targets(live, np.tile(controller.initial, (len(live), 1)))
-            worlds.steer_flanges(live, corrections[live], period)
-            failures = worlds.step(live, nstep)
-            failed.update({world: recalls(world) for world in failures})
-            grasping[list(failures)] = False
-            if observer is not None:
-                observer(worlds)
-            return failures
-        sensed, forces = np.tile(controller.initial, (n, 1)), np.zeros((n, len(SEGMENTS)))
-        sensed[live], forces[live] = worlds.joints(live), worlds.segment_forces(live)
+        if self.correcting:  # the oracle's correction: the fingers held, the flange carrying the palm
+            self.correcting -= 1
+            self.worlds.set_targets(live, np.tile(self.controller.initial, (len(live), 1)))
+            self.worlds.steer_flanges(live, self.corrections[live], self.period)
+            return self._physics(live, np.zeros(self.n, dtype=bool))
+        sensed = self._sense(live)
+        targets = self.controller.step(*sensed)
+        self.clock += self.period
+        newly_done = self.grasping & np.asarray(self.controller.done, dtype=bool)
+        self.time_to_grasp[newly_done] = self.clock
+        self.worlds.set_targets(live, targets[live])
+        self._move_palms(live)
+        return self._physics(live, newly_done)
+
+    def _sense(self, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the controller senses: the live worlds' joints (noisy while grasping) and segment forces; the first
+        contact of each world recorded."""
+        controller, setup, grasping = self.controller, self.setup, self.grasping
+        sensed, forces = np.tile(controller.initial, (self.n, 1)), np.zeros((self.n, len(SEGMENTS)))
+        sensed[live], forces[live] = self.worlds.joints(live), self.worlds.segment_forces(live)
         if setup.noise.joints:
             for world in np.flatnonzero(grasping):
-                sensed[world] += rngs[world].normal(0.0, setup.noise.joints, N_FINGER_JOINTS)
-        touched = grasping & np.isnan(first_contact[:, 0]) & (forces > 0).any(axis=1)
-        first_contact[touched] = np.column_stack([np.full(touched.sum(), clock), sensed[touched], forces[touched]])
-        targets = controller.step(sensed, forces)
-        clock += period
-        newly_done = grasping & np.asarray(controller.done, dtype=bool)
-        time_to_grasp[newly_done] = clock
-        worlds.set_targets(live, targets[live])
-        moves_palm = getattr(controller, "moves_palm", False)  # the arm carries each palm where its grasp wants it
+                sensed[world] += self.rngs[world].normal(0.0, setup.noise.joints, N_FINGER_JOINTS)
+        touched = grasping & np.isnan(self.first_contact[:, 0]) & (forces > 0).any(axis=1)
+        self.first_contact[touched] = np.column_stack([np.full(touched.sum(), self.clock), sensed[touched],
+                                                       forces[touched]])
+        return sensed, forces
+
+    def _move_palms(self, live: np.ndarray) -> None:
+        """The arm carries each palm where its grasp wants it: at once without a flange, else by the flange at its
+        bounded speed while the grasp goes on; where touch first placed the object is kept."""
+        controller, setup = self.controller, self.setup
+        moves_palm = getattr(controller, "moves_palm", False)
         if moves_palm and setup.palm is None:  # at once
-            worlds.shift_hands(live, controller.palm_offset[live])
+            self.worlds.shift_hands(live, controller.palm_offset[live])
         elif moves_palm or setup.oracle:  # by its flange, at its bounded speed, while the grasp goes on
-            steered = live[grasping[live]]
+            steered = live[self.grasping[live]]
             offsets = controller.palm_offset[steered] if moves_palm else np.zeros((len(steered), 3))
-            worlds.steer_flanges(steered, flange_targets(corrections[steered], offsets), period)
+            self.worlds.steer_flanges(steered, flange_targets(self.corrections[steered], offsets), self.period)
         estimate = getattr(controller, "object_estimate", None)
         if estimate is not None:  # where touch first placed the object, made (first) in the palm frame of the start
-            first = np.isnan(object_estimate[:, 0]) & ~np.isnan(estimate[:, 0])
-            object_estimate[first] = flange_targets(corrections[first], estimate[first])[:, :3]
-        failures = worlds.step(live, nstep)
-        failed.update({world: recalls(world) for world in failures})  # as they were when its physics failed
-        grasping[newly_done] = grasping[list(failures)] = False
-        if observer is not None:
-            observer(worlds)
+            first = np.isnan(self.object_estimate[:, 0]) & ~np.isnan(estimate[:, 0])
+            self.object_estimate[first] = flange_targets(self.corrections[first], estimate[first])[:, :3]
+
+    def _physics(self, live: np.ndarray, newly_done: np.ndarray) -> dict[int, str]:
+        """The physics of one control period; a failed world keeps its recalls as they were when it failed."""
+        failures = self.worlds.step(live, self.nstep)
+        self.failed.update({world: self.recalls(world) for world in failures})
+        self.grasping[newly_done] = self.grasping[list(failures)] = False
+        if self.observer is not None:
+            self.observer(self.worlds)
         return failures
 
-    probe = LiftProbe(setup.regrasp, worlds, controller, setup.rules)
-
-    def ready() -> np.ndarray:
+    def ready(self) -> np.ndarray:
         """The worlds whose grasp goes to the judge (all after MAX_GRASP_SECONDS: a controller that never
         finishes); with attempts left, the regrasp's probe decides (`regrasp.LiftProbe`)."""
-        if clock >= MAX_GRASP_SECONDS:
-            time_to_grasp[np.isnan(time_to_grasp)] = clock
-            return np.ones(n, dtype=bool)
-        judged, again = probe.ready(clock)
-        grasping[again] = True
+        if self.clock >= MAX_GRASP_SECONDS:
+            self.time_to_grasp[np.isnan(self.time_to_grasp)] = self.clock
+            return np.ones(self.n, dtype=bool)
+        judged, again = self.probe.ready(self.clock)
+        self.grasping[again] = True
         return judged
 
-    if observer is not None:
-        observer(worlds)
-    trials = []
-    for world, judged in enumerate(judge_worlds(worlds, period, advance, friction=setup.object.friction,
-                                                rules=setup.rules, ready=ready)):
-        matches, winners = failed.get(world) or recalls(world)
-        trials.append(Trial(poses[world], judged.posture, judged.touching, judged.epsilon, judged.hold,
-                            judged.displacement, judged.time if judged.fault else float(time_to_grasp[world]),
-                            matches, judged.margin, judged.penetration, judged.fault, np.array(winners, dtype=int),
-                            judged.hold_time, int(getattr(controller, "attempt", np.ones(n, dtype=int))[world]),
-                            first_contact[world], probe.failure[world], object_estimate[world]))
-    return trials
+    def trial(self, world: int, judged: Judgement) -> Trial:
+        """What trial `world` records, its judgement with what its controller did."""
+        matches, winners = self.failed.get(world) or self.recalls(world)
+        return Trial(grid_pose=self.poses[world], posture=judged.posture, touching=judged.touching,
+                     epsilon=judged.epsilon, hold=judged.hold, hold_displacement=judged.displacement,
+                     time_to_grasp=judged.time if judged.fault else float(self.time_to_grasp[world]), matches=matches,
+                     margin=judged.margin, penetration=judged.penetration, fault=judged.fault,
+                     winners=np.array(winners, dtype=int), hold_time=judged.hold_time,
+                     attempts=int(getattr(self.controller, "attempt", np.ones(self.n, dtype=int))[world]),
+                     first_contact=self.first_contact[world], failure=self.probe.failure[world],
+                     object_estimate=self.object_estimate[world])
 
 
 def flange_targets(corrections: np.ndarray, offsets: np.ndarray) -> np.ndarray:
