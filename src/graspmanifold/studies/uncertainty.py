@@ -205,6 +205,43 @@ def _pooled(arrays: dict) -> np.ndarray:
 
 def measure(study: UncertaintyStudy) -> dict:
     """Every step of the study, in order (the module's docstring); what the report shows."""
+    runs, chosen = _run_methods(study)
+    pool = _pool(study, runs, chosen)
+    comparisons, checks = _uncertainty_comparisons(pool, chosen)
+    return _uncertainty_results(study, chosen, pool, comparisons, checks)
+
+
+@dataclass
+class _Chosen:
+    """What the selection split chose, and the names of the runs that depend on it."""
+
+    once: str
+    chosen: str
+    rates: dict
+    regrasp_name: str
+    null_name: str
+    sets: dict
+
+
+@dataclass
+class _Pool:
+    """Every test trial pooled over the cells, row by row: its error level, cell, whether a plan exists, whether a
+    verified grasp covers its nominal pose; each method's (held, valid) rows and attempts, and its open-loop
+    opponent."""
+
+    level: np.ndarray
+    cell: np.ndarray
+    has_plan: np.ndarray
+    near: np.ndarray
+    held: dict
+    attempts_of: dict
+    opponent: dict
+    second: dict
+
+
+def _run_methods(study: UncertaintyStudy) -> tuple[dict, _Chosen]:
+    """The selection at 2-5 cm of error, then the test split, touched once: every method at every level, and the
+    chosen one with the null experience."""
     union, sets = study.experience()
     som = train_experience_map(union.postures)
     som_types = reference_grasp_types(som, union.postures, np.concatenate([grasp_types_of(s) for s in sets.values()]))
@@ -213,11 +250,11 @@ def measure(study: UncertaintyStudy) -> dict:
 
     # selection, at 2-5 cm of error only
     large = study.true_poses("selection", LARGE_ERRORS)
-    selection = {m: study.evaluate("selection", f"err_{m}", som, SOM_VARIANTS[m], poses=large) for m in ONE_ATTEMPT}
+    selection = {m: study.evaluate("selection", f"err_{m}", som, params=SOM_VARIANTS[m], poses=large) for m in ONE_ATTEMPT}
     rates = {m: rate(r) for m, r in selection.items()}
     once = max(ONE_ATTEMPT, key=lambda m: (rates[m], -ONE_ATTEMPT.index(m)))
     regrasp_name = f"regrasp_{once}"
-    selection[regrasp_name] = study.evaluate("selection", f"err_{regrasp_name}", som, SOM_VARIANTS[once],
+    selection[regrasp_name] = study.evaluate("selection", f"err_{regrasp_name}", som, params=SOM_VARIANTS[once],
                                              regrasp=with_experience, poses=large)
     rates[regrasp_name] = rate(selection[regrasp_name])
     chosen = max(selection, key=lambda m: (rates[m], m == once))  # a tie goes to the one-attempt controller
@@ -226,17 +263,23 @@ def measure(study: UncertaintyStudy) -> dict:
     # the test split, touched once: every method at every level
     true = study.true_poses("test")
     runs = {"none": study.evaluate("test", "err_none", poses=true),
-            **{m: study.evaluate("test", f"err_{m}", som, SOM_VARIANTS[m], poses=true) for m in ONE_ATTEMPT},
+            **{m: study.evaluate("test", f"err_{m}", som, params=SOM_VARIANTS[m], poses=true) for m in ONE_ATTEMPT},
             "heuristic_retried": study.evaluate("test", "err_heuristic_retried", regrasp=Regrasp(ATTEMPTS), poses=true),
-            regrasp_name: study.evaluate("test", f"err_{regrasp_name}", som, SOM_VARIANTS[once], regrasp=with_experience,
+            regrasp_name: study.evaluate("test", f"err_{regrasp_name}", som, params=SOM_VARIANTS[once], regrasp=with_experience,
                                          poses=true)}
     # the null experience: the chosen method with the map trained on the postures scrambled
     null = train_experience_map(scrambled(union.postures, NULL_SEED))
     null_regrasp = Regrasp(ATTEMPTS, grasp_types=reference_grasp_types(
         null, union.postures, np.concatenate([grasp_types_of(s) for s in sets.values()])))
     null_name = f"{chosen}_null"
-    runs[null_name] = study.evaluate("test", f"err_{null_name}", null, SOM_VARIANTS[once], poses=true,
+    runs[null_name] = study.evaluate("test", f"err_{null_name}", null, params=SOM_VARIANTS[once], poses=true,
                                      regrasp=null_regrasp if chosen == regrasp_name else None)
+    return runs, _Chosen(once, chosen, rates, regrasp_name, null_name, sets)
+
+
+def _pool(study: UncertaintyStudy, runs: dict, choice: _Chosen) -> _Pool:
+    """The open loop's plans and runs, and every run pooled row by row."""
+    chosen, regrasp_name, null_name, sets = choice.chosen, choice.regrasp_name, choice.null_name, choice.sets
     first, second = study.plans(runs)
     plan_one = study.open_loop_run("first", first)
     plan_two = study.open_loop_run("second", second)
@@ -257,6 +300,14 @@ def measure(study: UncertaintyStudy) -> dict:
                    regrasp_name: ATTEMPTS, null_name: ATTEMPTS if chosen == regrasp_name else 1,
                    "open_loop_retried": ATTEMPTS}
     opponent = {m: "open_loop" if attempts_of[m] == 1 else "open_loop_retried" for m in attempts_of}
+    return _Pool(level, cell, has_plan, near, held, attempts_of, opponent, second)
+
+
+
+def _uncertainty_comparisons(pool: _Pool, chosen_: _Chosen) -> tuple[list, dict]:
+    """The comparisons, each family corrected by Holm, and the target's checks."""
+    held, level, near, opponent = pool.held, pool.level, pool.near, pool.opponent
+    chosen, regrasp_name, null_name = chosen_.chosen, chosen_.regrasp_name, chosen_.null_name
 
     def compare(a: str, b: str, rows: np.ndarray, invalid: str = "drop"):
         (ha, va), (hb, vb) = held[a], held[b]
@@ -288,7 +339,16 @@ def measure(study: UncertaintyStudy) -> dict:
     main = comparisons[0]
     checks = {"poses": main["n"] >= TARGET_POSES, "points": main["difference"] >= TARGET_POINTS,
               "significant": main["p_holm"] < TARGET_P}
-    met = all(checks.values())
+    return comparisons, checks
+
+
+def _uncertainty_results(study: UncertaintyStudy, chosen_: _Chosen, pool: _Pool, comparisons: list,
+                         checks: dict) -> dict:
+    """What the report shows, and study.json keeps."""
+    held, level, cell, has_plan, near = pool.held, pool.level, pool.cell, pool.has_plan, pool.near
+    attempts_of, second, big = pool.attempts_of, pool.second, np.isin(pool.level, LARGE_ERRORS)
+    chosen, once, rates, null_name = chosen_.chosen, chosen_.once, chosen_.rates, chosen_.null_name
+    main, met = comparisons[0], all(checks.values())
 
     def counts(rows: np.ndarray) -> dict:  # every method's held and valid trials over these rows, by level
         return {m: {f"{100 * v:.0f}": [int((h & ok)[rows & (level == v)].sum()), int(ok[rows & (level == v)].sum())]
