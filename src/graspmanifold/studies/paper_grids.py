@@ -280,8 +280,9 @@ def why(study: Study, rows: list[dict], info: dict) -> list[str]:
 
 
 def report(study: Study, info: dict) -> str:
+    """The markdown report of the study (what `info` holds, the study's results); `info` gains the verdict, the
+    comparisons and the summaries."""
     results, args = study.results, study.args
-    main_methods = (*CONTROLS, *METHODS)
     rows = comparison_rows(results, (*METHODS, *ABLATIONS), CONTROLS)
     verdict = judge_target(rows)
     adjusted = holm([r["p_value"] for r in rows]) if rows else []
@@ -298,6 +299,18 @@ def report(study: Study, info: dict) -> str:
              f"{sum(r['p_holm'] < 0.05 and r['verdict'] == 'worse' for r in rows)} of them are significantly worse "
              f"and {sum(r['p_holm'] < 0.05 and r['verdict'] == 'better' for r in rows)} significantly better "
              "(adjusted p < 0.05).", ""]
+    lines += _report_headroom(results, info)
+    lines += _report_experience(study, rows, info)
+    lines += _report_rates(results, info)
+    lines += _report_comparisons(study, rows, info)
+    info.update(verdict=verdict.text, target_met=verdict.met, comparisons=rows,
+                summaries=[r.summary for r in results.values()], seconds=time.perf_counter() - study.started)
+    return "\n".join(lines) + "\n"
+
+
+def _report_headroom(results: dict, info: dict) -> list[str]:
+    """How much choosing among the controls per pose could gain, by grid and object."""
+    lines: list[str] = []
     lines += ["## Headroom", "", "Before any comparison: how much could choosing among the controls per pose gain "
               "(`graspmanifold.trials.stats.headroom`: the per-pose oracle over the plain heuristic, the fast heuristic and "
               "the best constant preshape, against the best of them)? Below 15 points a benchmark cannot show a "
@@ -326,6 +339,12 @@ def report(study: Study, info: dict) -> str:
     if unable:
         lines += [f"Pooled headroom below {MIN_HEADROOM:.0%} on the {', '.join(unable)} grid(s): "
                   "they cannot show a recall effect, whatever the method.", ""]
+    return lines
+
+
+def _report_experience(study: Study, rows: list, info: dict) -> list[str]:
+    """Why the verdict is what it is, and the experience and its learning curve."""
+    lines: list[str] = []
     lines += ["## Why", ""] + why(study, rows, info) + [""]
     lines += ["## Experience", ""]
     lines += markdown_table(
@@ -343,9 +362,15 @@ def report(study: Study, info: dict) -> str:
         [[obj, point["round"], point["experience"], point["quick_hold_text"],
           f"{point['train_held']} of {point['train_trials']}" if "train_held" in point else "-"]
          for obj, o in info["objects"].items() for point in o["learning_curve"]])
+    return lines
+
+
+def _report_rates(results: dict, info: dict) -> list[str]:
+    """The hold rate per object, grid and method, with force closure, margin and time."""
+    lines: list[str] = []
     lines += ["", "## Hold rate per object, grid and method", ""]
     for grid in info["grids"]:
-        present = [m for m in (*main_methods, *ABLATIONS) if any((o, grid, m) in results for o in OBJECTS)]
+        present = [m for m in (*CONTROLS, *METHODS, *ABLATIONS) if any((o, grid, m) in results for o in OBJECTS)]
         def hold(r: EvaluationResult) -> str:
             return rate_text(int(r.outcomes().sum()), r.summary["trials"])
 
@@ -362,6 +387,13 @@ def report(study: Study, info: dict) -> str:
                                                               closure(results[(obj, grid, m)]) for m in present)]
                                                        for obj in OBJECTS])
         lines.append("")
+    return lines
+
+
+def _report_comparisons(study: Study, rows: list, info: dict) -> list[str]:
+    """The paired comparisons, where each method fails, and the friction sensitivity."""
+    lines: list[str] = []
+    results = study.results
     lines += ["## Paired comparisons against the strongest control", "",
               "The strongest control is, per object and grid, the control with the highest hold rate there. "
               "`only method` / `only control`: poses where just one of the two held.", ""]
@@ -373,7 +405,7 @@ def report(study: Study, info: dict) -> str:
     hard = "hard" if "hard" in info["grids"] else info["grids"][0]
     lines += ["", f"## Where each method fails: hold rate by axis of the {hard} grid", ""]
     for obj in OBJECTS:
-        lines += [f"### {obj}", "", axis_breakdown(study, obj, hard, main_methods), ""]
+        lines += [f"### {obj}", "", axis_breakdown(study, obj, hard, (*CONTROLS, *METHODS)), ""]
     friction = sorted({g for _, g, _ in results if g.startswith("quick_mu")})
     if friction:
         lines += ["## Sensitivity to friction (quick grid; experience built at μ = 0.6)", ""]
@@ -382,9 +414,7 @@ def report(study: Study, info: dict) -> str:
                                                           results[(obj, g, m)].summary["trials"]) for m in ("none", "som"))]
             for obj in OBJECTS for g in friction])
         lines.append("")
-    info.update(verdict=verdict.text, target_met=verdict.met, comparisons=rows,
-                summaries=[r.summary for r in results.values()], seconds=time.perf_counter() - study.started)
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def main(argv: list[str] | None = None) -> None:
