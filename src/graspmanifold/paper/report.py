@@ -296,10 +296,26 @@ def _config_text(config: dict) -> str:
 
 
 def _markdown(run: RunData, summary: dict) -> str:
+    """The reproduction's report.md: the verdict per claim, the data, the maps, the trials and the figures."""
     objects = summary["objects"]
+    parts = [*_opening(run, summary), *_data_and_maps(run, objects), *_grasp_success(summary),
+             *_landing_and_resuming(objects), "## Figures\n\n"]
+    info = summary["figures"]
+    if not info.get("rendered"):
+        parts.append(f"The hand pictures (Figs. 3, 5, 7) were skipped: {info.get('message')}\n\n")
+    for name in info.get("figures", []):
+        parts.append(f"![{name}](figures/{name}.png)\n\n")
+    return "".join(parts)
+
+
+
+
+def _opening(run: RunData, summary: dict) -> list[str]:
+    """The title, the run's configuration and the verdict per claim, and our choices."""
     small = run.config.get("grid") != "paper" or any(
         n < PAPER_DATASET_SIZES.get(name, 0) for name, n in run.config.get("postures", {}).items())
-    parts = ["# graspmanifold: reproduction of *SOM-based experience representation for dextrous grasping*\n\n",
+    return [
+             "# graspmanifold: reproduction of *SOM-based experience representation for dextrous grasping*\n\n",
              *(["**A smoke run: too small to be evidence.** Smaller datasets or a smaller grid than the paper's "
                 "(`--preset paper` runs its sizes): the verdicts below say whether the pipeline runs, not whether the "
                 "paper's claims hold.\n\n"] if small else []),
@@ -317,7 +333,12 @@ def _markdown(run: RunData, summary: dict) -> str:
                      for c in summary["claims"]]),
              "## Our choices\n\n",
              "What the paper does not fix, and what this run used:\n\n",
-             _table(["choice", "ours", "the paper"], _choices(run)),
+             _table(["choice", "ours", "the paper"], _choices(run))]
+
+
+def _data_and_maps(run: RunData, objects: dict) -> list[str]:
+    """The posture datasets and the SOM grasp manifolds (Fig. 4)."""
+    return [
              "## Posture datasets\n\n",
              f"Generator mode: {run.config['generator'].get('mode', 'settled')} (`GeneratorParams.mode`). The data's "
              "character: each posture's distance to its nearest other posture (min: the closest pair; median; "
@@ -344,7 +365,12 @@ def _markdown(run: RunData, summary: dict) -> str:
                       _fmt(o["map"]["distance_max_deg"]), _fmt(o["paper_max_distance_deg"], 4),
                       _fmt(o["map"]["distance_cv"]), _fmt(o["map"].get("quantization_error")),
                       _fmt(o["map"].get("topographic_error")),
-                      f"{o['map'].get('unsupported_by_training')} of {o['map']['nodes']}"] for n, o in objects.items()]),
+                      f"{o['map'].get('unsupported_by_training')} of {o['map']['nodes']}"] for n, o in objects.items()])]
+
+
+def _grasp_success(summary: dict) -> list[str]:
+    """Grasp success per object and method (Fig. 6), the verdict against the heuristic, the manifolds."""
+    return [
              "## Grasp success per object and method (Fig. 6 data)\n\n",
              "hold (the primary measure): the object stays within 2 cm under gravity along ±x, ±y, ±z; margin: the "
              "extra force it then withstands (N, up to 5); force closure: Ferrari–Canny ε of the L1 grasp wrench "
@@ -366,7 +392,12 @@ def _markdown(run: RunData, summary: dict) -> str:
                       f"{r['p_value']:.3g}", f"{h:.3g}", r["verdict"] if h < 0.05 else "no difference"] for r, h in
                      zip(summary["comparisons"], holm([r["p_value"] for r in summary["comparisons"]]))]),
              f"{summary['verdict']}\n\n",
-             *_manifold_section(summary),
+             *_manifold_section(summary)]
+
+
+def _landing_and_resuming(objects: dict) -> list[str]:
+    """Where the evaluation grasps land, and the resumed learning (Figs. 7, 8)."""
+    return [
              "## Where the evaluation grasps land (Section 5)\n\n",
              "The paper observed that successful grasps of the experience-based controller match mostly "
              "inter-cluster nodes, which no training posture falls on.\n\n",
@@ -390,14 +421,7 @@ def _markdown(run: RunData, summary: dict) -> str:
                       f"{_fmt(o['map']['distance_max_deg'])} → {_fmt(o['resumed_map']['distance_max_deg'])}",
                       f"{o['map'].get('unsupported_by_training')} → {o['resumed_map'].get('unsupported_by_training')}",
                       f"{o['map'].get('unsupported_by_evaluation', '–')} → {o['resumed_map'].get('unsupported_by_evaluation', '–')}"]
-                     for n, o in objects.items()]),
-             "## Figures\n\n"]
-    info = summary["figures"]
-    if not info.get("rendered"):
-        parts.append(f"The hand pictures (Figs. 3, 5, 7) were skipped: {info.get('message')}\n\n")
-    for name in info.get("figures", []):
-        parts.append(f"![{name}](figures/{name}.png)\n\n")
-    return "".join(parts)
+                     for n, o in objects.items()])]
 
 
 def _manifold_section(summary: dict) -> list[str]:
