@@ -195,14 +195,50 @@ def measure(study: StudyRun, postures: int, held_out: bool) -> Verification:
 def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedComparison]]]:
     """The report's section on verification (markdown lines) and its paired comparisons (for the report's Holm
     family)."""
-    names, held_out, verified, ablated = found.names, found.held_out, found.verified, found.ablated
     lines = ["## Verified means held when replayed", "",
              "The generator verifies a candidate by its open-loop replay (`replay.replay_grasp`: the touching "
              "segments 2 cm out along the object's normals, the grasp, the squeeze 1 cm in along them, the object "
              "free, gravity off) under the protocol named (`GeneratorParams.verify_protocol`). "
              f"{found.postures} verified postures per object and protocol, generated on one core each and timed; "
              "every verified grasp replayed again in a new scene under both protocols.", ""]
-    rows, tests = [], []
+    rows, pooled, by_type, by_design, speed, yields = _tally(found)
+    tests: list[tuple[str, PairedComparison]] = []
+    header = ["object"] + [f"{label} ({p})" for p in VERIFYING for label in (
+        "yield", "verified / s / core", "held under ours", "held under dexgraspbench", "Q1 median / penetration max (mm)")]
+    pooled_rows = []
+    for p in VERIFYING:
+        cells = {q: np.concatenate(pooled[p][q]) if pooled[p][q] else np.zeros(0, dtype=bool) for q in VERIFYING}
+        pooled_rows.append([f"verified under {p}", *(rate_text(int(c.sum()), len(c)) for c in cells.values()),
+                            f"{speed[p][1] / max(speed[p][0], 1e-9):.2f}", f"{yields[p][1] / max(yields[p][0], 1):.0%}"])
+        if len(cells[DEFAULT_PROTOCOL]):
+            other = [q for q in VERIFYING if q != p][0]
+            tests.append((f"verified under {p}: held under {other} against under {p} (same grasps, benchmark pooled)",
+                          mcnemar(cells[other], cells[p])))
+    lines += ["### The benchmark's seven objects, pooled", "",
+              *markdown_table(["grasps", *(f"held under {q}" for q in VERIFYING),
+                               "verified / s / core (benchmark and test family)", "yield (every object)"],
+                              pooled_rows), "",
+              f"BODex (its paper, with DexGraspBench) passes its protocol with over {BODEX_SUCCESS:.0%} of its Shadow-hand "
+              f"grasps, at more than {BODEX_GRASPS_PER_SECOND:.0f} grasps per second on one GPU. Not like for like: its "
+              "hand is Menagerie's (its own servos and meshes) where ours is our MJCF of capsules; its objects are "
+              "thousands of convex decompositions, ours the benchmark's primitives and our family's meshes; its "
+              "speed is a GPU's batch optimisation, ours a spring walk and a replay per candidate on one CPU core; "
+              "and a grasp verified under a protocol is one that passed it once (a replay is the same deterministic "
+              "simulation), so the rate of a protocol's own verified grasps measures only that the verifier and the "
+              "replay are one procedure: the yield and the speed are the measure of how hard the protocol is for "
+              "the hand, and the other protocol's rate how far a grasp verified one way carries.", "",
+              "### Every object", "", *markdown_table(header, rows), "",
+              "### By grasp type (every object)", ""]
+    lines += _by_type_and_design(by_type, by_design)
+    lines += _ablation_lines(found, tests)
+    return lines, tests
+
+
+def _tally(found: Verification) -> tuple[list, dict, dict, dict, dict, dict]:
+    """Each object's row of the table; the verified grasps' outcomes pooled over the benchmark, by grasp type and
+    by design; the seconds and the yield per protocol."""
+    names, held_out, verified = found.names, found.held_out, found.verified
+    rows = []
     pooled: dict[str, dict[str, list]] = {p: {q: [] for q in VERIFYING} for p in VERIFYING}
     by_type: dict[tuple[str, str], dict[str, list]] = {}
     by_design: dict[tuple[str, str, str], dict[str, list]] = {}
@@ -234,32 +270,12 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
                     *(rate_text(int(result[f"held_{q}"].sum()), n) for q in VERIFYING),
                     f"{np.median(result['q1']):.3f} / {1000 * np.max(result['penetration']):.1f}"]
         rows.append(row)
-    header = ["object"] + [f"{label} ({p})" for p in VERIFYING for label in (
-        "yield", "verified / s / core", "held under ours", "held under dexgraspbench", "Q1 median / penetration max (mm)")]
-    pooled_rows = []
-    for p in VERIFYING:
-        cells = {q: np.concatenate(pooled[p][q]) if pooled[p][q] else np.zeros(0, dtype=bool) for q in VERIFYING}
-        pooled_rows.append([f"verified under {p}", *(rate_text(int(c.sum()), len(c)) for c in cells.values()),
-                            f"{speed[p][1] / max(speed[p][0], 1e-9):.2f}", f"{yields[p][1] / max(yields[p][0], 1):.0%}"])
-        if len(cells[DEFAULT_PROTOCOL]):
-            other = [q for q in VERIFYING if q != p][0]
-            tests.append((f"verified under {p}: held under {other} against under {p} (same grasps, benchmark pooled)",
-                          mcnemar(cells[other], cells[p])))
-    lines += ["### The benchmark's seven objects, pooled", "",
-              *markdown_table(["grasps", *(f"held under {q}" for q in VERIFYING),
-                               "verified / s / core (benchmark and test family)", "yield (every object)"],
-                              pooled_rows), "",
-              f"BODex (its paper, with DexGraspBench) passes its protocol with over {BODEX_SUCCESS:.0%} of its Shadow-hand "
-              f"grasps, at more than {BODEX_GRASPS_PER_SECOND:.0f} grasps per second on one GPU. Not like for like: its "
-              "hand is Menagerie's (its own servos and meshes) where ours is our MJCF of capsules; its objects are "
-              "thousands of convex decompositions, ours the benchmark's primitives and our family's meshes; its "
-              "speed is a GPU's batch optimisation, ours a spring walk and a replay per candidate on one CPU core; "
-              "and a grasp verified under a protocol is one that passed it once (a replay is the same deterministic "
-              "simulation), so the rate of a protocol's own verified grasps measures only that the verifier and the "
-              "replay are one procedure: the yield and the speed are the measure of how hard the protocol is for "
-              "the hand, and the other protocol's rate how far a grasp verified one way carries.", "",
-              "### Every object", "", *markdown_table(header, rows), "",
-              "### By grasp type (every object)", ""]
+    return rows, pooled, by_type, by_design, speed, yields
+
+
+def _by_type_and_design(by_type: dict, by_design: dict) -> list[str]:
+    """The held rates by grasp type and by design."""
+    lines: list[str] = []
     type_rows = []
     for (p, kind), cell in sorted(by_type.items()):
         held = {q: np.concatenate(cell[q]) for q in VERIFYING}
@@ -272,6 +288,13 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     lines += ["", "### By design (every object where the design gave postures)", "",
               *markdown_table(["design", "grasp type", "verified under", *(f"held under {q}" for q in VERIFYING)],
                               design_rows)]
+    return lines
+
+
+def _ablation_lines(found: Verification, tests: list) -> list[str]:
+    """What limits our hand under DexGraspBench's pushes: one change of the protocol at a time (its comparisons
+    added to `tests`)."""
+    ablated = found.ablated
     base_label = "the protocol as it is"
     base = np.concatenate([ablated[(name, base_label)] for name in BENCHMARK_OBJECTS])
     ablation_rows = []
@@ -281,9 +304,8 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
         ablation_rows.append([label, rate_text(int(held.sum()), len(held)), per_object])
         if label != base_label:
             tests.append((f"{label} against the protocol as it is", mcnemar(held, base)))
-    lines += ["", "### What limits our hand under DexGraspBench's pushes", "",
+    return ["", "### What limits our hand under DexGraspBench's pushes", "",
               f"{2 * found.postures} grasps per benchmark object verified under ours, replayed under DexGraspBench's "
               "main version with one change each (the same grasps in every row).", "",
-              *markdown_table(["change", "held, pooled", "per object"], ablation_rows)]
-    return lines, tests
+            *markdown_table(["change", "held, pooled", "per object"], ablation_rows)]
 
