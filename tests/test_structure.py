@@ -225,3 +225,32 @@ def test_no_public_function_of_the_trials_takes_more_than_eight_parameters():
             wide += [(f"{info.name}.{n}", len(inspect.signature(f).parameters)) for n, f in members
                      if len(inspect.signature(f).parameters) > 8]
     assert not wide, wide
+
+
+def _functions() -> list[tuple[str, ast.FunctionDef]]:
+    return [(name_of(p), node) for p in MODULES for node in ast.walk(ast.parse(p.read_text()))
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))]
+
+
+def test_no_function_is_longer_than_eighty_lines():
+    """A function reads in one sitting: every one in src/ (its docstring included) is at most 80 lines; a longer
+    one is split into its named steps (`BatchController.step`, `generate_postures`, the studies' measures and
+    reports)."""
+    long = [f"{module}.{node.name} ({node.end_lineno - node.lineno + 1} lines)" for module, node in _functions()
+            if node.end_lineno - node.lineno + 1 > 80]
+    assert not long, long
+
+
+def test_no_public_function_takes_more_than_eight_parameters():
+    """A public function (or method) of src/ takes at most eight parameters (self, cls not counted; *args and
+    **kwargs one each): what belongs together is one value (`TrialSetup`, `GeneratorParams`, `StartingPosture`, a
+    kernel's model tuple)."""
+    wide = []
+    for module, node in _functions():
+        arguments = node.args
+        names = [a.arg for a in arguments.posonlyargs + arguments.args + arguments.kwonlyargs
+                 if a.arg not in ("self", "cls")] + [a.arg for a in (arguments.vararg, arguments.kwarg) if a]
+        if len(names) > 8 and not node.name.startswith("_"):
+            wide.append(f"{module}.{node.name} ({len(names)})")
+    assert not wide, wide
+

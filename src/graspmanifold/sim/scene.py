@@ -211,13 +211,26 @@ class Scene:
         if flange is not None and not isinstance(flange, FlangeLimits):
             raise InvalidInput(f"flange must be a FlangeLimits or None, got {flange!r}")
         self.flange_limits = flange
+        self.touch_source = check_choice(touch, TOUCH_SOURCES, "touch")
+        self.spec = self._spec(table)
+        self.model = self._compiled(touch)
+        self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
+        self.data = mujoco.MjData(self.model)
+        self.sensor = TactileSensor(self.model, hand=self.hand)
+        self._find_addresses(table)
+        self.set_gravity(gravity)
+        self.reset()
+
+    def _spec(self, table: bool) -> mujoco.MjSpec:
+        """The hand (on its flange where it has one), the object (free or welded), the table and the cameras."""
+        flange = self.flange_limits
         spec = self.hand.spec()
         if flange is not None:
             spec = flanged_spec(spec, self.hand.mount, palm_in_mount(self.hand.model, self.hand.mount, self.hand.palm),
                                 flange)
         spec.modelname = f"graspmanifold_{self.object.name}"
         body = spec.worldbody.add_body(name="object")
-        if free_object:
+        if self.free_object:
             body.add_freejoint(name="object_free")
         _add_object_geoms(spec, body, self.object)
         spec.add_exclude(bodyname1="object", bodyname2=self.hand.base_segments[0])
@@ -227,46 +240,49 @@ class Scene:
                                     pos=[0.0, 0.0, top - 0.01], contype=1, conaffinity=1, condim=4,
                                     solref=[0.004, 1.0], rgba=(0.55, 0.45, 0.35, 1.0))
         _add_cameras(spec, self.hand.palm)
-        self.touch_source = check_choice(touch, TOUCH_SOURCES, "touch")
-        self.spec = spec
-        self.model = spec.compile()
-        if touch == "sensors" and not _touch_sensors(self.model, self.hand):
-            _add_touch_sensors(spec, self.model, self.hand)
-            self.model = spec.compile()
+        return spec
+
+    def _compiled(self, touch: str) -> mujoco.MjModel:
+        """The spec compiled, with the touch sensors the touch source needs added first."""
+        spec = self.spec
+        model = spec.compile()
+        if touch == "sensors" and not _touch_sensors(model, self.hand):
+            _add_touch_sensors(spec, model, self.hand)
+            model = spec.compile()
         if touch == "contact-sensors":
             for segment in self.hand.segments:
                 spec.add_sensor(name=f"contact_{segment}", type=mujoco.mjtSensor.mjSENS_CONTACT,
                                 objtype=mujoco.mjtObj.mjOBJ_BODY, objname=segment, reftype=mujoco.mjtObj.mjOBJ_BODY,
                                 refname="object", intprm=[_CONTACT_FOUND_FORCE, _CONTACT_MAXFORCE,
                                                           CONTACT_SENSOR_SLOTS])
-            self.model = spec.compile()
-        self.model.geom_friction[:, 0] = self.object.friction  # one friction for every hand-object contact
-        self.data = mujoco.MjData(self.model)
-        self.sensor = TactileSensor(self.model, hand=self.hand)
-        # addresses other modules use to read and write the hand's state directly
-        joint_ids = [self.model.joint(name).id for name in self.hand.wrist_joints + self.hand.finger_joints]
-        self.hand_qpos = self.model.jnt_qposadr[joint_ids]
-        self.hand_dofs = self.model.jnt_dofadr[joint_ids]
+            model = spec.compile()
+        return model
+
+    def _find_addresses(self, table: bool) -> None:
+        """The addresses other modules use to read and write the hand's state directly, the touch sensors', the
+        mount's, the flange's, the palm's and the object's."""
+        model, flange = self.model, self.flange_limits
+        joint_ids = [model.joint(name).id for name in self.hand.wrist_joints + self.hand.finger_joints]
+        self.hand_qpos = model.jnt_qposadr[joint_ids]
+        self.hand_dofs = model.jnt_dofadr[joint_ids]
         self.finger_qpos = self.hand_qpos[2:]
-        self.actuator_ids = np.array([self.model.actuator(name).id for name in self.hand.actuators])
+        self.actuator_ids = np.array([model.actuator(name).id for name in self.hand.actuators])
         # the model's own touch sensors (a site each), by the segment their site sits on
-        touch_sensors = _touch_sensors(self.model, self.hand)
+        touch_sensors = _touch_sensors(model, self.hand)
         self._touch_adr = np.array([adr for adr, _ in touch_sensors], dtype=int)
         self._touch_segment = np.array([segment for _, segment in touch_sensors], dtype=int)
-        self.mount_id = int(self.model.body(self.hand.mount if flange is None else ARM_BASE).mocapid[0])
+        self.mount_id = int(model.body(self.hand.mount if flange is None else ARM_BASE).mocapid[0])
         self.flange_locked = False
         if flange is not None:  # the flange's joints and servos (their set points are the servos' activations)
-            self.flange_joints = np.array([self.model.joint(name).id for name in FLANGE_JOINTS])
-            self.flange_qpos = self.model.jnt_qposadr[self.flange_joints]
-            self.flange_dofs = self.model.jnt_dofadr[self.flange_joints]
-            self.flange_actuators = np.array([self.model.actuator(name).id for name in FLANGE_ACTUATORS])
-        self.palm_id = self.model.body(self.hand.palm).id
-        self.object_body = self.model.body("object").id
-        self.object_geoms = tuple(int(g) for g in np.flatnonzero(self.model.geom_bodyid == self.object_body))
+            self.flange_joints = np.array([model.joint(name).id for name in FLANGE_JOINTS])
+            self.flange_qpos = model.jnt_qposadr[self.flange_joints]
+            self.flange_dofs = model.jnt_dofadr[self.flange_joints]
+            self.flange_actuators = np.array([model.actuator(name).id for name in FLANGE_ACTUATORS])
+        self.palm_id = model.body(self.hand.palm).id
+        self.object_body = model.body("object").id
+        self.object_geoms = tuple(int(g) for g in np.flatnonzero(model.geom_bodyid == self.object_body))
         self._fromto = np.zeros(6)  # mj_geomDistance's output buffer, reused by distance_to_object
-        self.table_geom = self.model.geom("table").id if table else None
-        self.set_gravity(gravity)
-        self.reset()
+        self.table_geom = model.geom("table").id if table else None
 
     def __repr__(self) -> str:
         support = "free" if self.free_object else "welded"

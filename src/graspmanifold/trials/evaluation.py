@@ -15,6 +15,7 @@ import json
 import math
 import os
 import warnings
+from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -349,11 +350,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
     store = PartStore(checkpoint_dir, setup.key(poses, seed), _read_part) if checkpoint_dir is not None else None
-    done: dict[int, list[Trial]] = {}
-    if store is not None:  # a part must be one chunk of the chunks planned now, whole
-        firsts = {chunk[0]: k for k, chunk in enumerate(chunks)}
-        fits = lambda _, part, __: part[0] in firsts and len(part[1]) == len(chunks[firsts[part[0]]])  # noqa: E731
-        done = {firsts[first]: trials for first, trials in store.load(TRIAL_PARTS, fits).values()}
+    done = _saved_chunks(store, chunks) if store is not None else {}
     method = setup.method
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
@@ -368,20 +365,33 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
                        first=chunks[number][0])
         report.update(len(trials))
 
-    run_chunk = functools.partial(_run_chunk, setup=setup)
     with report:
         report.update(sum(len(t) for t in done.values()))
         if backend == "cpu":
-            parallel_map(run_chunk, tasks, workers, keep, executor)
-        else:  # one GPU batch of many chunks at a time, split back into chunks for the checkpoint
-            for first in range(0, len(tasks), max(1, batch_size // size)):
-                group = tasks[first: first + max(1, batch_size // size)]
-                trials = run_chunk(([i for t in group for i in t[0]], np.concatenate([t[1] for t in group]), seed))
-                for k, task in enumerate(group):
-                    keep(first + k, trials[:len(task[0])])
-                    trials = trials[len(task[0]):]
+            parallel_map(functools.partial(_run_chunk, setup=setup), tasks, workers, keep, executor)
+        else:
+            _run_on_gpu(setup, tasks, max(1, batch_size // size), keep)
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
     return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend, setup.provenance(seed))
+
+
+def _saved_chunks(store: PartStore, chunks: list[list[int]]) -> dict[int, list[Trial]]:
+    """The chunks a checkpoint holds, by their number; a part must be one chunk of the chunks planned now, whole."""
+    firsts = {chunk[0]: k for k, chunk in enumerate(chunks)}
+    fits = lambda _, part, __: part[0] in firsts and len(part[1]) == len(chunks[firsts[part[0]]])  # noqa: E731
+    return {firsts[first]: trials for first, trials in store.load(TRIAL_PARTS, fits).values()}
+
+
+def _run_on_gpu(setup: TrialSetup, tasks: list[tuple], per_batch: int, keep: Callable[[int, list[Trial]], None]
+                ) -> None:
+    """One GPU batch of `per_batch` chunks at a time, split back into chunks for the checkpoint (`keep`)."""
+    for first in range(0, len(tasks), per_batch):
+        group = tasks[first: first + per_batch]
+        seed = group[0][2]
+        trials = _run_chunk(([i for t in group for i in t[0]], np.concatenate([t[1] for t in group]), seed), setup)
+        for k, task in enumerate(group):
+            keep(first + k, trials[:len(task[0])])
+            trials = trials[len(task[0]):]
 
 
 def summary_json(results: list[EvaluationResult]) -> str:
