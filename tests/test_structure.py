@@ -204,29 +204,6 @@ def test_every_study_runs_on_the_one_study_template():
     assert not by_hand, f"studies that make their folder or write a report by hand: {by_hand}"
 
 
-def test_no_public_function_of_the_trials_takes_more_than_eight_parameters():
-    """A trial is one value (`TrialSetup`): `evaluate`, `record_trial` and `run_benchmark` take it, or its fields by
-    keyword, beside what is not a trial's (grid, seed, workers, files); nothing in trials/ spells the set-up out."""
-    import importlib
-    import inspect
-    import pkgutil
-
-    import graspmanifold.trials as trials
-
-    wide = []
-    for info in pkgutil.iter_modules(trials.__path__):
-        module = importlib.import_module(f"graspmanifold.trials.{info.name}")
-        for name, value in vars(module).items():
-            if name.startswith("_") or getattr(value, "__module__", None) != module.__name__:
-                continue
-            members = [(name, value)] if inspect.isfunction(value) else [
-                (f"{name}.{k}", v) for k, v in vars(value).items()
-                if inspect.isfunction(v) and not k.startswith("_")] if inspect.isclass(value) else []
-            wide += [(f"{info.name}.{n}", len(inspect.signature(f).parameters)) for n, f in members
-                     if len(inspect.signature(f).parameters) > 8]
-    assert not wide, wide
-
-
 def _functions() -> list[tuple[str, ast.FunctionDef]]:
     return [(name_of(p), node) for p in MODULES for node in ast.walk(ast.parse(p.read_text()))
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))]
