@@ -77,7 +77,7 @@ def test_a_dataset_folder_to_verified_grasps_a_map_and_controllers_in_one_comman
     rows = {row["object"]: row for row in report["objects"]}
     assert "refused" in rows["sheet"]["loaded"] and "not watertight" in rows["sheet"]["loaded"]
     assert rows["box"]["loaded"] == "as shipped" and rows["box"]["postures"] == 2 and len(rows["box"]["digest"]) == 16
-    assert report["trials"]["hand"] == "ours" and report["trials"]["protocol"] == "ours" and report["versions"]["code"]
+    assert report["trials"]["hand"] == "shadow-primitives" and report["trials"]["protocol"] == "hold-test" and report["versions"]["code"]
     assert {m: n for m, (_, n) in rows["box"]["results"].items()} == {"none": 1, "database": 1, "som": 1}
     assert (out / "maps" / "box_som.npz").exists()
     assert "Loaded 1 of 2; 1 got 2 verified postures." in table and "| sheet | refused:" in table

@@ -184,7 +184,7 @@ def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
     assert np.allclose(grasps[0].poses, postures.hand_poses[0])  # the palm stays, the fingers move
     opened = open_loop_grasps(postures, GRASP_STAGES["open"])
     assert np.linalg.norm(opened[0].poses[0, :3]) == pytest.approx(np.linalg.norm(opened[0].poses[1, :3]) + 0.02)
-    for name in ("ours", "dexgraspbench"):
+    for name in ("hold-test", "dexgraspbench"):
         held, faults = replay("box", grasps, name)
         assert held.dtype == bool and held.shape == (2,) and len(faults) == 2
         alone = [replay("box", [g], name)[0][0] for g in grasps]  # a hold test before leaves nothing behind
@@ -215,7 +215,7 @@ def test_a_grasp_files_object_folder_is_found_or_named(tmp_path, box_grasps):
     assert np.allclose(postures.metadata["squeeze"], [g.grasp.postures[2] for g in files])
 
 
-@pytest.mark.parametrize("protocol_name", ["ours", "dexgraspbench"])
+@pytest.mark.parametrize("protocol_name", ["hold-test", "dexgraspbench"])
 def test_the_verifier_is_the_replay(protocol_name):
     """The generator's verifier and `replay` are one procedure (`replay_grasp`): on candidates that hold and
     candidates that drop, the verifier's outcome is the replay's, grasp by grasp."""
@@ -240,8 +240,8 @@ def test_the_verifier_is_the_replay(protocol_name):
 
 
 @pytest.mark.parametrize("name, protocol_name, stages", [
-    ("box", "ours", "open"), ("cylinder", "ours", "contacts"), ("cube", "ours", "contacts"),
-    ("marble", "ours", "open"), ("cylinder", "dexgraspbench", "contacts"), ("pen", "ours", "contacts"),
+    ("box", "hold-test", "open"), ("cylinder", "hold-test", "contacts"), ("cube", "hold-test", "contacts"),
+    ("marble", "hold-test", "open"), ("cylinder", "dexgraspbench", "contacts"), ("pen", "hold-test", "contacts"),
 ])
 def test_a_verified_posture_replays_to_a_hold_under_the_protocol_it_was_verified_with(name, protocol_name, stages):
     """What the generator keeps holds when replayed open loop (`replay`, a new scene) under its verifier's
@@ -251,7 +251,7 @@ def test_a_verified_posture_replays_to_a_hold_under_the_protocol_it_was_verified
 
     obj = OBJECTS[name].object
     params = gm.GeneratorParams(verify_protocol=protocol_name, stages=stages,
-                                verify_hold_seconds=0.5 if protocol_name == "ours" else 0.25)
+                                verify_hold_seconds=0.5 if protocol_name == "hold-test" else 0.25)
     postures = gm.generate_postures(obj, 2, seed=0, workers=1, progress=False, params=params)
     held, faults = replay(obj, open_loop_grasps(postures, params.grasp_stages, obj), protocol_name)
     assert held.all() and not any(faults), faults
@@ -312,24 +312,24 @@ def test_a_verifiers_outcome_does_not_depend_on_what_it_judged_before():
     forward = [verifier(p, h[:3], h[3:]).hold for p, h in zip(postures.postures, postures.hand_poses)]
     backward = [verifier(p, h[:3], h[3:]).hold for p, h in zip(postures.postures[::-1], postures.hand_poses[::-1])]
     assert all(forward) and backward == forward[::-1]
-    assert replay(obj, open_loop_grasps(postures), "ours")[0].all()
+    assert replay(obj, open_loop_grasps(postures), "hold-test")[0].all()
 
 
 def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_a_name_does():
     """The registry holds our hold test, the lift and DexGraspBench's two versions; a protocol of one's own (here a
-    pull of 1 N along +z only, gravity off, 0.3 s) is a `Protocol` value that `evaluate` and `replay_grasp` run
+    pull of 1 N along +z only, gravity off, 0.3 s) is a `JudgingProtocol` value that `evaluate` and `replay_grasp` run
     without any change to the trial loop or the replay, and that keys its results apart from ours."""
     from dataclasses import replace as changed
 
     from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasps, replay_grasp
     from graspmanifold.judging.judge import JUDGING
-    from graspmanifold.judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol
+    from graspmanifold.judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol
     from graspmanifold.trials.trial import TrialSetup
 
     assert PROTOCOLS[DEFAULT_PROTOCOL].rules == JUDGING and PROTOCOLS[DEFAULT_PROTOCOL].physics is None
     assert {name for name, p in PROTOCOLS.items() if p.push_test is not None} == {"dexgraspbench", "dexgraspbench-paper"}
-    lift = Protocol("pull", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
-    with pytest.raises(ValueError, match="protocol must be one of .* or a Protocol"):
+    lift = JudgingProtocol("pull", changed(JUDGING, push=1.0, directions=((0.0, 0.0, 1.0),), hold_seconds=0.3))
+    with pytest.raises(ValueError, match="protocol must be one of .* or a JudgingProtocol"):
         TrialSetup(object="box", protocol="pull")
     from graspmanifold.trials.grid import check_grid
 

@@ -16,7 +16,7 @@ HALF_SECOND = 250
 PERIOD = 0.02
 
 
-def flanged(obj: str = "box", hand: str = "ours", **limits) -> Scene:
+def flanged(obj: str = "box", hand: str = "shadow-primitives", **limits) -> Scene:
     scene = Scene(obj, hand=hand, flange=FlangeLimits(**limits), gravity=True)
     scene.set_hand_pose(*facing_pose(scene.object, clearance=0.03))
     return scene
@@ -124,9 +124,9 @@ def test_bad_flange_input_is_refused_by_name():
         Scene("box", flange={"speed": 0.1})
 
 
-@pytest.mark.parametrize("hand", ["ours", "gymnasium-robotics"])
+@pytest.mark.parametrize("hand", ["shadow-primitives", "gymnasium-robotics"])
 def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(hand):
-    if hand != "ours":
+    if hand != "shadow-primitives":
         pytest.importorskip("gymnasium_robotics")
     scene = flanged(hand=hand)
     model = mujoco.MjModel.from_xml_string(scene.to_xml())  # the flanged scene's XML round trip
@@ -145,7 +145,7 @@ def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
     from graspmanifold.sim.objects import get_object
 
     lift = PROTOCOLS["lift"]
-    assert lift.rules.needs_flange and not PROTOCOLS["ours"].rules.needs_flange and "raises the palm 0.2 m" in \
+    assert lift.rules.needs_flange and not PROTOCOLS["hold-test"].rules.needs_flange and "raises the palm 0.2 m" in \
         lift.summary()
     # an open hand: the object falls away from the rising palm, judged in the period it is 10 cm behind
     scene = supported_scene(get_object("cylinder"), flange=FlangeLimits(), rules=lift.rules)

@@ -174,7 +174,7 @@ def replay_holds(obj, posture, pose) -> bool:
     from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasp, replay
 
     grasp = open_loop_grasp(pose, posture, GRASP_STAGES["contacts"], gm.Scene(obj))
-    return bool(replay(obj, [grasp], "ours")[0][0])
+    return bool(replay(obj, [grasp], "hold-test")[0][0])
 
 
 def test_a_stored_experience_posture_is_a_verified_grasp():
@@ -402,7 +402,7 @@ def test_an_object_wider_than_the_hand_spans_is_refused_with_its_size_before_any
 
     from graspmanifold.sim.hand_models import hand_model
 
-    hand = hand_model("ours")
+    hand = hand_model("shadow-primitives")
     assert 0.18 < hand.span < 0.26  # thumb tip to little fingertip, the hand open
     started = time.perf_counter()
     with pytest.raises(gm.GenerationError, match=r"30\.0 cm across at its narrowest.*spans 22\.0 cm"):

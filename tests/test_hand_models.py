@@ -47,7 +47,7 @@ def test_every_hand_model_loads_and_its_fingertips_lie_in_a_hand_sized_box(name)
     assert coupling.shape == (len(hand.actuators), 22) and (coupling.sum(axis=0) <= 1).all()
 
 
-@pytest.mark.parametrize("name", [n for n in HAND_MODELS if n != "ours"])
+@pytest.mark.parametrize("name", [n for n in HAND_MODELS if n != "shadow-primitives"])
 def test_the_finger_joints_map_in_the_papers_order_and_sense(name):
     """A small turn of each mapped joint moves its fingertip the way ours does (the map's order and signs), and
     the four fingers' tips of the closed hand lie where ours do."""
@@ -186,7 +186,7 @@ def test_the_generator_and_the_evaluation_run_on_another_hand_and_its_experience
     grid = gm.grid_preset("quick", "cylinder")[:2]
     result = gm.evaluate("cylinder", postures, grid, workers=1, hand="gymnasium-robotics")
     assert len(result.trials) == 2 and all(t.valid for t in result.trials)
-    with pytest.raises(InvalidInput, match="postures of the 'gymnasium-robotics' hand; these trials run the 'ours'"):
+    with pytest.raises(InvalidInput, match="postures of the 'gymnasium-robotics' hand; these trials run the 'shadow-primitives'"):
         gm.evaluate("cylinder", postures, grid, workers=1)
     with pytest.raises(InvalidInput, match="backend='warp' runs our hand model only"):
         gm.evaluate("cylinder", None, grid, backend="warp", hand="gymnasium-robotics")
@@ -304,5 +304,5 @@ def test_the_command_takes_a_hand_by_name_or_path(tmp_path, capsys):
 
     assert main(["demo", "--object", "cylinder", "--seconds", "0.5", "--hand", ours_renamed(tmp_path)]) == 0
     assert "ffdistal" in capsys.readouterr().out  # touch read in the paper's segments, whatever the model's names
-    with pytest.raises(SystemExit, match=r"error: hand must be one of \('ours', 'gymnasium-robotics'"):
+    with pytest.raises(SystemExit, match=r"error: hand must be one of \('shadow-primitives', 'gymnasium-robotics'"):
         main(["demo", "--hand", "allegro"])

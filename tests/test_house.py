@@ -5,6 +5,7 @@ import importlib
 import sys
 import warnings
 
+import numpy as np
 import pytest
 
 import graspmanifold as gm
@@ -90,3 +91,70 @@ def test_a_recall_rule_that_steers_only_the_thumb_runs_on_the_controllers_public
     result = gm.evaluate("cylinder", database, poses, seed=0, workers=1, progress=False,
                          params=gm.ControllerParams(recall=ThumbOnly()))
     assert len(result.trials) == len(poses) and sum(t.matches for t in result.trials) > 0
+
+
+# -- files written by the previous version (tests/data/v0_1, made by main 6ef7e7f: "ours" named the hand and the
+# hold test) load, resume and say the names of now
+
+FIXTURES = __import__("pathlib").Path(__file__).parent / "data" / "v0_1"
+
+
+def test_the_hand_and_the_hold_test_have_names_that_say_what_they_are_and_the_old_ones_still_work():
+    from graspmanifold.base.moved import current_name
+    from graspmanifold.judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, get_protocol
+    from graspmanifold.sim.hand_models import HAND_MODELS, hand_model, hand_name
+
+    assert gm.SHADOW_HAND.name == "shadow-primitives" and "ours" not in HAND_MODELS
+    assert DEFAULT_PROTOCOL == "hold-test" and "ours" not in PROTOCOLS and "hold-test-faded" in PROTOCOLS
+    assert hand_name("ours") == "shadow-primitives" and hand_model("ours") is hand_model("shadow-primitives")
+    assert get_protocol("ours") is PROTOCOLS["hold-test"] and get_protocol("ours-faded") is PROTOCOLS["hold-test-faded"]
+    assert current_name("hand", "gymnasium-robotics") == "gymnasium-robotics" and current_name("protocol", 3) == 3
+    assert gm.GeneratorParams(verify_protocol="ours", hand="ours") == gm.GeneratorParams()
+    old = gm.TrialSetup(object="cylinder", hand="ours", protocol="ours")
+    assert old.hand is gm.TrialSetup(object="cylinder").hand and old.protocol is PROTOCOLS["hold-test"]
+    with pytest.raises(gm.InvalidInput, match="hand must be one of"):
+        hand_name("theirs")
+
+
+def test_a_posture_set_a_map_and_an_evaluation_of_the_previous_version_load_and_run_on():
+    postures = gm.PostureSet.load(FIXTURES / "postures.npz")
+    assert postures.metadata["hand"] == "ours" and postures.hand == "shadow-primitives" and len(postures) == 6
+    som = gm.SOM.load(FIXTURES / "som.npz")
+    result = gm.EvaluationResult.load(FIXTURES / "evaluation.npz")
+    assert len(result.trials) == 2 and result.made_by["hand"]["name"] == "ours"
+    # the old set is experience for trials of the hand as it is called now, and the map recalls as it did
+    setup = gm.TrialSetup(object="cylinder", experience=postures)
+    assert setup.experience is not None and setup.hand.name == "shadow-primitives"
+    again = gm.evaluate("cylinder", som, np.array([t.grid_pose for t in result.trials]), seed=0, workers=1, progress=False)
+    assert [t.hold for t in again.trials] == [t.hold for t in result.trials]
+    assert [t.matches for t in again.trials] == [t.matches for t in result.trials]
+
+
+def test_an_experiment_file_and_a_run_folder_of_the_previous_version_resume(tmp_path):
+    import json
+    import shutil
+
+    from graspmanifold.base.config_files import read_config
+    from graspmanifold.paper.reproduce import ReproduceConfig, reproduce
+
+    config = read_config(FIXTURES / "config.toml", ReproduceConfig(postures={"cylinder": 6}))
+    assert config.hand == "shadow-primitives" and config.protocol == "hold-test"
+    assert config.generator.verify_protocol == "hold-test" and config.generator.hand == "shadow-primitives"
+    run = tmp_path / "run"
+    shutil.copytree(FIXTURES / "run", run)  # the old run's record: the new run resumes it instead of refusing
+    summary = reproduce(run, config, workers=1, log=lambda line: None)
+    written = json.loads((run / "run.json").read_text())["config"]
+    assert written["hand"] == "shadow-primitives" and written["protocol"] == "hold-test"
+    assert written["generator"]["hand"] == "shadow-primitives"
+    assert [r["method"] for r in summary["evaluation"]][:3] == ["none", "database", "som"]
+    assert "ours" not in (run / "config.toml").read_text().replace("ours)", "")
+
+
+def test_the_judging_protocol_is_not_mistaken_for_typings_and_its_old_name_answers_with_a_warning():
+    from graspmanifold.judging import protocols
+
+    assert protocols.PROTOCOLS["hold-test"].__class__ is protocols.JudgingProtocol
+    with pytest.warns(DeprecationWarning, match="now JudgingProtocol"):
+        assert protocols.Protocol is protocols.JudgingProtocol
+    with pytest.raises(AttributeError):
+        protocols.NoSuchThing  # noqa: B018

@@ -221,10 +221,10 @@ def test_the_settled_squeeze_presses_nothing_until_every_finger_settles_then_ram
 def test_a_fading_release_hands_the_supports_load_to_the_grasp_gradually(box_plans):
     """`JudgingRules.release_seconds`: the support's spring weakens to nothing over that time, the hand acting on,
     before the grasp is recorded; the planned benchmark's protocol fades it, ours lets go at once."""
-    from graspmanifold.judging.protocols import OURS, OURS_FADED, get_protocol
+    from graspmanifold.judging.protocols import HOLD_TEST, HOLD_TEST_FADED, get_protocol
 
-    assert get_protocol("ours-faded") is OURS_FADED and OURS_FADED.rules.release_seconds > 0
-    assert OURS.rules.release_seconds == 0.0 and planned.PLANNED_PROTOCOL is OURS_FADED
+    assert get_protocol("hold-test-faded") is HOLD_TEST_FADED and HOLD_TEST_FADED.rules.release_seconds > 0
+    assert HOLD_TEST.rules.release_seconds == 0.0 and planned.PLANNED_PROTOCOL is HOLD_TEST_FADED
     _, plans = box_plans
     stiffness = []
 
@@ -232,12 +232,12 @@ def test_a_fading_release_hands_the_supports_load_to_the_grasp_gradually(box_pla
         scene = worlds.scenes[0]
         stiffness.append(float(scene.model.jnt_stiffness[scene.model.joint("object_free").id]))
 
-    for protocol in (OURS, OURS_FADED):
+    for protocol in (HOLD_TEST, HOLD_TEST_FADED):
         stiffness.clear()
         setup = TrialSetup(object="box", plan=plans[0], controller=OpenLoop(plans[0]), method="o", protocol=protocol)
         run_trials(setup, np.zeros((1, 4)), [np.random.default_rng(0)], observer=observe)
         steps = np.diff(stiffness)
-        if protocol is OURS:
+        if protocol is HOLD_TEST:
             assert np.count_nonzero(steps) == 1 and steps[steps != 0][0] == -stiffness[0]  # let go at once
         else:
             falling = steps[steps != 0]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.judging.protocols import DEXGRASPBENCH, PhysicsProfile, Protocol, pushed
+from graspmanifold.judging.protocols import DEXGRASPBENCH, PhysicsProfile, JudgingProtocol, pushed
 from graspmanifold.judging.judge import JUDGING
 from graspmanifold.judging.stages import JudgingRules
 from graspmanifold.trials.grid import grid_preset
@@ -50,7 +50,7 @@ def test_judging_rules_are_checked_when_made(field, value, message):
     with pytest.raises(gm.InvalidInput, match=message):
         JudgingRules(**{field: value})
     with pytest.raises(gm.InvalidInput, match=message):  # a protocol of one's own is made of them
-        Protocol("mine", replace(JUDGING, **{field: value}))
+        JudgingProtocol("mine", replace(JUDGING, **{field: value}))
 
 
 # bad 3: a test of zero length passed every grasp
@@ -172,7 +172,7 @@ def test_a_result_says_what_made_it(tmp_path):
     assert differs == {"touch"}
     record = made["sensors"]
     assert record["object"]["name"] == "box" and record["hand"]["digest"] and record["seed"] == 0
-    assert record["protocol"]["name"] == "ours" and record["protocol"]["registered"]
+    assert record["protocol"]["name"] == "hold-test" and record["protocol"]["registered"]
     assert record["controller"]["name"] == "paper" and record["controller"]["params"]["closing_rate"] == 0.8
     assert record["experience"]["kind"] == "SOM" and record["experience"]["references"] == 16
     assert record["library_version"] == gm.__version__

@@ -223,11 +223,11 @@ def test_a_judging_stage_of_ones_own_runs_without_a_change_to_the_loop():
     runs in `evaluate` (the trial loop and the judging loop unchanged), every world passes through it for its
     time, the hold test still runs in full after it, and the stages are part of the trials' key."""
     from graspmanifold.judging.judge import JUDGING
-    from graspmanifold.judging.protocols import Protocol
+    from graspmanifold.judging.protocols import JudgingProtocol
     from graspmanifold.judging.stages import HoldTest, MarginRamp
     from graspmanifold.trials.trial import TrialSetup
 
-    settled = Protocol("settled", replace(JUDGING, stages=(Settle, HoldTest, MarginRamp)))
+    settled = JudgingProtocol("settled", replace(JUDGING, stages=(Settle, HoldTest, MarginRamp)))
     poses = check_grid("quick", gm.get_object("box"))[1][:3]
     Settle.stays.clear()
     result = gm.evaluate("box", None, poses, seed=0, workers=1, progress=False, protocol=settled)

@@ -109,7 +109,7 @@ def test_the_open_loop_replays_the_nominal_plan_at_the_true_pose(monkeypatch):
     replayed = []
     real = uncertainty.replay
 
-    def spy(obj, grasps, protocol="ours", hand="ours"):
+    def spy(obj, grasps, protocol="hold-test", hand="shadow-primitives"):
         replayed.extend(grasps)
         return real(obj, grasps, protocol, hand)
 

@@ -20,6 +20,7 @@ from typing import Any  # argparse names its subparsers action privately
 from .base.config_files import read_config
 from .base.errors import GraspManifoldError, InvalidInput
 from .base.io import LOCK_FILE, check_writable_folder, output_lock, write_failure
+from .base.moved import current_name
 from .base.version import __version__
 from .base.workers import default_workers
 from .control.controller import CONTROLLERS
@@ -39,7 +40,7 @@ from .synthesis.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
 from .synthesis.starts import DESIGN_FAMILIES
 from .trials.grid import GRID_PRESETS
 
-HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} (gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
+HAND_HELP = (f"the hand model: {', '.join(HAND_MODELS)} ({SHADOW_HAND.name}: our MJCF of capsules, called ours before 0.2; gymnasium-robotics: pip install 'graspmanifold[hands]', from a checkout '.[hands]'; "
              "menagerie: MENAGERIE_ROOT set to a Menagerie checkout) or the path of a Shadow Hand's MJCF file")
 
 
@@ -334,10 +335,11 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 #: the defaults of `reproduce`'s configuration flags (a --config file's values stand unless a flag differs)
 REPRODUCE_DEFAULTS = {"hand": SHADOW_HAND.name, "controller": "paper", "protocol": DEFAULT_PROTOCOL, "manifold": "som"}
-PROTOCOL_HELP = ("how every grasp is judged: ours (gravity along six directions, the object within 2 cm), ours-faded "
-                 "(ours after a support that fades over 0.3 s before the release), lift (the field's closed-loop "
+PROTOCOL_HELP = ("how every grasp is judged: hold-test (gravity along six directions, the object within 2 cm), "
+                 "hold-test-faded (the hold test after a support that fades over 0.3 s before the release), lift (the field's closed-loop "
                  "protocol: an arm raises the palm 0.2 m, held when the object rises 0.1 m; the hand on a flange) or "
-                 "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper)")
+                 "DexGraspBench's external-force test, its main version or its paper's (dexgraspbench-paper); the "
+                 "names before 0.2, ours and ours-faded, still work")
 CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' target (the paper's reading); blend, the "
                    "closing heuristic's base (our earlier variant); closing-recall, the paper's reading with recalls "
                    "that only close a finger; blend-settled, the blend whose fingers squeeze together once the grasp "
@@ -360,6 +362,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 _FORMATTER = argparse.ArgumentDefaultsHelpFormatter
+
+
+def _protocol_name(name: str) -> str:
+    """--protocol's value by its current name (`ours` before 0.2 is `hold-test`)."""
+    return str(current_name("protocol", name))
 
 
 def _command(commands: Any, name: str, help: str) -> argparse.ArgumentParser:
@@ -395,7 +402,7 @@ def _add_reproduce(commands: Any) -> None:
     reproduce.add_argument("--hand", default=SHADOW_HAND.name, help=f"{HAND_HELP}: the postures are generated and the trials "
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
-    reproduce.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
+    reproduce.add_argument("--protocol", type=_protocol_name, choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
     reproduce.add_argument("--manifold", choices=("som", "ukr"), default="som",
                            help="the grasp manifold: som (the paper's), or ukr: a continuous UKR manifold trained beside "
                            "the SOM on the same postures, run by the same controller (methods ukr, ukr_all), resumed "
@@ -420,9 +427,9 @@ def _add_generate(commands: Any) -> None:
                           "hold the object, unless --no-verify")
     generate.add_argument("--no-verify", action="store_true",
                           help="keep every candidate without replaying it as a grasp (the paper's procedure)")
-    generate.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL,
-                          help="the protocol a candidate's open-loop replay must pass to be kept: ours (the hold "
-                          "test) or DexGraspBench's (its physics and pushes)")
+    generate.add_argument("--protocol", type=_protocol_name, choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL,
+                          help="the protocol a candidate's open-loop replay must pass to be kept: hold-test (ours) "
+                          "or DexGraspBench's (its physics and pushes)")
     generate.add_argument("--stages", choices=tuple(GRASP_STAGES), default=VERIFY_STAGES,
                           help="the replay's pregrasp and squeeze: made from the contacts (the default) or the open "
                           "hand's and the controller's squeeze")
@@ -473,7 +480,7 @@ def _add_evaluate(commands: Any) -> None:
                           help="physics engine: CPU MuJoCo in worker processes, or MuJoCo Warp on an NVIDIA GPU "
                                "(pip install 'graspmanifold[gpu]', from a checkout '.[gpu]')")
     evaluate.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
-    evaluate.add_argument("--protocol", choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
+    evaluate.add_argument("--protocol", type=_protocol_name, choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
     evaluate.add_argument("--palm", action="store_true",
                           help="hang the hand on an arm's flange (sim.flange.FlangeLimits: the palm's six degrees of "
                                "freedom, servoed, bounded, lockable; the cpu backend); the lift protocol brings one")

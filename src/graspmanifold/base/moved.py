@@ -1,4 +1,5 @@
-"""Modules that moved keep their old import paths for one release, with a `DeprecationWarning`.
+"""What was renamed keeps working: modules that moved keep their old import paths for one release, with a
+`DeprecationWarning`; names that files, flags and experiment files once wrote are read as their names now.
 
 `MOVED_MODULES` maps an old dotted name to the module that now holds its code (0.2: control/ split into
 control/, judging/ and synthesis/, and modules renamed after their idea). `install()` puts one finder at the end
@@ -34,8 +35,14 @@ MOVED_MODULES: dict[str, str] = {
     "studies.experience": "studies.experience_study",
     "studies.protocols": "studies.protocol_study",
 }
-#: the release after which the old names go
+#: the release after which the old module names go
 REMOVED_IN = "0.3"
+#: names a kind of value once had (in saved files, run.json, TOML files, flags) -> its name now (0.2: "ours" named
+#: both the hand model and the hold test)
+RENAMED_VALUES: dict[str, dict[str, str]] = {
+    "hand": {"ours": "shadow-primitives"},
+    "protocol": {"ours": "hold-test", "ours-faded": "hold-test-faded"},
+}
 _PACKAGE = __name__.split(".")[0]
 
 
@@ -49,6 +56,44 @@ def new_name(old: str) -> str | None:
         The new dotted name within the package, or None where `old` did not move.
     """
     return MOVED_MODULES.get(old.removeprefix(f"{_PACKAGE}."))
+
+
+def current_name(kind: str, name: object) -> object:
+    """A value's name as the library calls it now: an old one (`RENAMED_VALUES`) read from a file written before
+    the rename, or given by a user, becomes the new one; anything else is returned as it is (checked later).
+
+    Args:
+        kind: 'hand' or 'protocol'.
+        name: the name read or given.
+
+    Returns:
+        The current name.
+    """
+    return RENAMED_VALUES[kind].get(name, name) if isinstance(name, str) else name
+
+
+def upgrade_config(config: dict) -> dict:
+    """A run's configuration (run.json's `config`, a config.toml's table) as this version writes it, in place: the
+    hand's and the protocols' names before 0.2 (`RENAMED_VALUES`), and the generator's hand, which its settings name
+    since 0.2 (the run's hand).
+
+    Args:
+        config: the configuration read (a dict; the keys it lacks stay missing but the generator's hand).
+
+    Returns:
+        The same dict.
+    """
+    for key, kind in (("hand", "hand"), ("protocol", "protocol")):
+        if key in config:
+            config[key] = current_name(kind, config[key])
+    generator = config.get("generator")
+    if isinstance(generator, dict):
+        if "hand" in config:
+            generator.setdefault("hand", config["hand"])
+        for key, kind in (("hand", "hand"), ("verify_protocol", "protocol")):
+            if key in generator:
+                generator[key] = current_name(kind, generator[key])
+    return config
 
 
 def moved_warning(old: str, new: str) -> None:

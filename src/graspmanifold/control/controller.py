@@ -665,7 +665,7 @@ SETTLED_BLEND = replace(BLEND, squeeze_time=0.2, squeeze=0.3, max_match_distance
 touched, without pressing, until the grasp has settled; then every touching finger squeezes together, ramped over
 0.2 s, twice as far (0.3 rad); every match is trusted (a plan's own posture lies 0.5-1 rad RMS from its pregrasp, so
 the blend's 0.2 rad trust never recalled it there). Chosen on a probe (16 verified grasps each of the box, cylinder
-and pen, generator seed 0, a perfect recall from the plan's pregrasp, judged by `protocols.OURS_FADED`): the blend's
+and pen, generator seed 0, a perfect recall from the plan's pregrasp, judged by `protocols.HOLD_TEST_FADED`): the blend's
 immediate squeeze let the first fingers push the object 6-11 mm against the support before the others arrived (the
 open loop: 2-3 mm); scored on the other seeds' plans (docs/planned_grasps.md)."""
 
@@ -673,7 +673,7 @@ APPROACH = ControllerParams(recall=ApproachRecall(), squeeze=0.3)
 """The paper's reading with the execution of a verified grasp (`ApproachRecall`): a finger goes to its recall, closes
 on along the way it came (the fingers that set out at once arriving at once), and presses on along it by 0.3 rad
 once it touches; every match trusted. Traced on generator seed 1's first 10 plans of the marble, pen and disc (a
-perfect recall from the plan's pregrasp, judged by `protocols.OURS_FADED`): the blend's fingers passed the recalled
+perfect recall from the plan's pregrasp, judged by `protocols.HOLD_TEST_FADED`): the blend's fingers passed the recalled
 posture already part way to the fist and swept past a small object; the paper's reading reached it but closed on
 towards the fist, and its flexion squeeze of a fingertip pushed a marble out (pressing along the plan's own squeeze
 instead: 22 of 30 held, the open loop 23). Chosen on seed 0 (12 plans of each of the seven benchmark objects): 61 of
@@ -689,7 +689,7 @@ BOUNDED_APPROACH = replace(APPROACH, grip_force=15.0, grip_press=APPROACH.squeez
 segment forces"): the press of the holding fingers eases off while the segment forces sum to more than 15 N, and
 comes back up to the approach's 0.3 rad below it, while the grasp goes on and once it is done (`ControllerParams.
 grip_force`). Chosen on generator seed 0 (12 plans of each of the seven benchmark objects, a perfect recall at 0 cm,
-`protocols.OURS_FADED`; the approach without a bound held 61 of 84): a bound of 15 N held 63, 8 N 56, 30 N 61; a
+`protocols.HOLD_TEST_FADED`; the approach without a bound held 61 of 84): a bound of 15 N held 63, 8 N 56, 30 N 61; a
 press allowed up to 0.45 rad 58 (15 N) and 57 (25 N), up to 0.6 rad 58 (15 N) and 57 (30 N); regulated only once
 the grasp was done, up to 0.6 rad, 56 (10 N), 60 (20 N), 59 (40 N), and with the press kept at most the squeeze
 61 (no change). More press held every box plan and lost pens, discs and marbles: the summed normal force does not

@@ -43,7 +43,7 @@ from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.validation import Bounds, check_choice, check_int, check_number
 from ..control.controller import ControllerParams
 from ..judging.judge import Judgement, judge_worlds
-from ..judging.protocols import DEFAULT_PROTOCOL, Protocol
+from ..judging.protocols import DEFAULT_PROTOCOL, JudgingProtocol
 from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.objects import GraspObject
@@ -94,7 +94,7 @@ class _GraspWorlds:
     """The task over N worlds (the one mechanism both environments run): their scenes, their clocks, one control
     period of all, the judging of those done."""
 
-    def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | Protocol, grid: object,
+    def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | JudgingProtocol, grid: object,
                  noise: Noise | None, table: bool, pcp: bool, max_seconds: float, touch: str,
                  palm: bool | FlangeLimits):
         if not isinstance(palm, (bool, FlangeLimits)):
@@ -246,7 +246,7 @@ class TactileGraspEnv(gymnasium.Env):
     Args:
         object: the object, or its name.
         hand: the hand model, or its name.
-        protocol: how a grasp is judged (`protocols.PROTOCOLS` name, or a `Protocol`).
+        protocol: how a grasp is judged (`protocols.PROTOCOLS` name, or a `JudgingProtocol`).
         grid: the grid poses episodes draw from (a preset name or an (n, 4) array, m and rad).
         noise: pose noise of the object (`trials.trial.Noise`; joint noise is the agent's own business).
         table: the object stands on a table with gravity on (False: a spring support, gravity off).
@@ -263,7 +263,7 @@ class TactileGraspEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
 
     def __init__(self, object: str | GraspObject = "cylinder", hand: str | HandModel = SHADOW_HAND.name,
-                 protocol: str | Protocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
+                 protocol: str | JudgingProtocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
                  table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS, touch: str = "contacts",
                  palm: bool | FlangeLimits = False, render_mode: str | None = None, camera: str = "hand"):
         if render_mode not in (None, *self.metadata["render_modes"]):

@@ -1,4 +1,4 @@
-"""How a grasp is judged, one value per protocol (`Protocol`), and the registry of them by name (`PROTOCOLS`).
+"""How a grasp is judged, one value per protocol (`JudgingProtocol`), and the registry of them by name (`PROTOCOLS`).
 
 A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
 closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop replay
@@ -12,7 +12,7 @@ iterations, friction 0.6 sliding and 0.02 torsional, gravity off, the object's m
 Our hand keeps its own servos (DexGraspBench's Menagerie hand has kp 5 on main): the protocol judges the grasp, the
 hand is the one under test.
 
-A protocol of one's own is a `Protocol` value: `TrialSetup(protocol=...)`, `replay_grasp` and the generator's
+A protocol of one's own is a `JudgingProtocol` value: `TrialSetup(protocol=...)`, `replay_grasp` and the generator's
 verifier take one as they take a registered name.
 """
 
@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 import mujoco
 
 from ..base.errors import InvalidInput
+from ..base.moved import current_name
 from ..base.validation import Bounds, check_choice, check_directions, check_fields, check_number
 from ..sim.flange import FlangeLimits
 from ..sim.scene import Scene
@@ -159,7 +160,7 @@ class DexGraspBenchProtocol:
 
     @property
     def name(self) -> str:
-        """The name of its `Protocol` in `PROTOCOLS`."""
+        """The name of its `JudgingProtocol` in `PROTOCOLS`."""
         return "dexgraspbench" if self.version == "main" else f"dexgraspbench-{self.version}"
 
     @property
@@ -176,7 +177,7 @@ DEXGRASPBENCH_PAPER = DexGraspBenchProtocol("paper", _profile(0.03), translation
 
 
 @dataclass(frozen=True)
-class Protocol:
+class JudgingProtocol:
     """How a grasp is judged: the physics, the judging after a closed-loop grasp, the judging of a replay.
 
     Attributes:
@@ -193,11 +194,11 @@ class Protocol:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
-            raise InvalidInput(f"Protocol.name must be a non-empty string, got {self.name!r}")
+            raise InvalidInput(f"JudgingProtocol.name must be a non-empty string, got {self.name!r}")
         if not isinstance(self.rules, JudgingRules):
-            raise InvalidInput(f"Protocol.rules must be a JudgingRules, got {type(self.rules).__name__}")
+            raise InvalidInput(f"JudgingProtocol.rules must be a JudgingRules, got {type(self.rules).__name__}")
         if self.push_test is not None and not isinstance(self.push_test, DexGraspBenchProtocol):
-            raise InvalidInput(f"Protocol.push_test must be a DexGraspBenchProtocol or None, got "
+            raise InvalidInput(f"JudgingProtocol.push_test must be a DexGraspBenchProtocol or None, got "
                                f"{type(self.push_test).__name__}")
 
     @property
@@ -253,7 +254,7 @@ class Protocol:
                 f"{100 * p.translation_limit:.0f} cm and {math.degrees(p.angle_limit):.0f}°; {epsilon}")
 
 
-def pushed(test: DexGraspBenchProtocol, name: str | None = None) -> Protocol:
+def pushed(test: DexGraspBenchProtocol, name: str | None = None) -> JudgingProtocol:
     """The protocol of a DexGraspBench external-force test: its physics, its push test for a replay, and for a
     trial's grasp the rules of the one judging loop that do the same (a push of `push` N per direction, gravity
     off, each direction from the state at the grasp's end, `hold_chunks` x `steps_per_chunk` steps, the
@@ -264,45 +265,57 @@ def pushed(test: DexGraspBenchProtocol, name: str | None = None) -> Protocol:
         name: the protocol's name (None: the test's).
 
     Returns:
-        The `Protocol`.
+        The `JudgingProtocol`.
     """
     rules = replace(JUDGING, hold_seconds=test.hold_chunks * test.steps_per_chunk * test.physics.timestep,
                     hold_limit=test.translation_limit, push=test.push, angle_limit=test.angle_limit, from_grasp=True,
                     physics=test.physics.name)
-    return Protocol(name or test.name, rules, test)
+    return JudgingProtocol(name or test.name, rules, test)
 
 
 #: our hold test (`judge.JUDGING`): the default everywhere
-OURS = Protocol("ours")
+HOLD_TEST = JudgingProtocol("hold-test")
 #: our hold test after a support that fades over 0.3 s once the grasp is ready (`JudgingRules.release_seconds`),
 #: the hand acting on: a load the spring carried is handed to the grasp gradually (the planned-grasp benchmark's)
-OURS_FADED = Protocol("ours-faded", replace(JUDGING, release_seconds=0.3))
+HOLD_TEST_FADED = JudgingProtocol("hold-test-faded", replace(JUDGING, release_seconds=0.3))
 #: the lift of the field's closed-loop protocol (issue 66): the support released, gravity on, the arm raises the palm
 #: 0.2 m at 0.1 m/s and holds it 0.5 s; held when the object kept within 0.1 m of the palm's rise (it rose >= 0.1 m)
-LIFT = Protocol("lift", replace(JUDGING, hold_limit=0.1, stages=(Lift,)))
+LIFT = JudgingProtocol("lift", replace(JUDGING, hold_limit=0.1, stages=(Lift,)))
 #: every registered protocol by name: our hold test (at once, or after a fading support), the lift, and
 #: DexGraspBench's versions
-PROTOCOLS: dict[str, Protocol] = {p.name: p for p in (OURS, OURS_FADED, LIFT, pushed(DEXGRASPBENCH),
+PROTOCOLS: dict[str, JudgingProtocol] = {p.name: p for p in (HOLD_TEST, HOLD_TEST_FADED, LIFT, pushed(DEXGRASPBENCH),
                                                       pushed(DEXGRASPBENCH_PAPER))}
 #: the registered protocols' names
 PROTOCOL_NAMES: tuple[str, ...] = tuple(PROTOCOLS)
 #: the name of the protocol used where none is named
-DEFAULT_PROTOCOL: str = OURS.name
+DEFAULT_PROTOCOL: str = HOLD_TEST.name
 
 
-def get_protocol(protocol: str | Protocol, argument: str = "protocol") -> Protocol:
+def get_protocol(protocol: str | JudgingProtocol, argument: str = "protocol") -> JudgingProtocol:
     """A protocol by name, or one given as a value (returned as it is).
 
     Args:
-        protocol: a name in `PROTOCOLS`, or a `Protocol`.
+        protocol: a name in `PROTOCOLS`, or a `JudgingProtocol`.
         argument: the argument's name, for the error.
 
     Returns:
-        The `Protocol`.
+        The `JudgingProtocol`.
 
     Raises:
         InvalidInput: an unknown name or another type.
     """
-    if isinstance(protocol, Protocol):
+    if isinstance(protocol, JudgingProtocol):
         return protocol
-    return PROTOCOLS[check_choice(protocol, PROTOCOL_NAMES, argument, also="or a Protocol")]
+    return PROTOCOLS[check_choice(current_name("protocol", protocol), PROTOCOL_NAMES, argument, also="or a JudgingProtocol")]
+
+
+def __getattr__(name: str) -> object:
+    """`Protocol`, the class's name before 0.2 (beside typing's `Protocol` it misled), still answers, with a warning."""
+    if name == "Protocol":
+        import warnings
+
+        warnings.warn("graspmanifold.judging.protocols.Protocol is now JudgingProtocol; the old name goes in 0.3",
+                      DeprecationWarning, stacklevel=2)
+        return JudgingProtocol
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+

@@ -37,7 +37,7 @@ from ..sim.objects import GraspObject, object_from_params
 from ..sim.posture import open_posture
 from ..sim.scene import Scene
 from .judge import VERIFY_HOLD_SECONDS, Judgement, judge_scene, reading_epsilon
-from .protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, DexGraspBenchProtocol, Protocol, get_protocol
+from .protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, DexGraspBenchProtocol, JudgingProtocol, get_protocol
 from .quality import epsilon_l1
 
 #: m: contacts farther from the object than this do not count for `q1`
@@ -376,7 +376,7 @@ class Replay:
         return self.refused or self.judgement.fault
 
 
-def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = DEFAULT_PROTOCOL,
+def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | JudgingProtocol = DEFAULT_PROTOCOL,
                  hold_seconds: float | None = None, observe: Callable[[Scene], None] | None = None) -> Replay:
     """The one replay of an open-loop grasp: the scene reset to the pregrasp (the object free and unsupported,
     gravity off; a pregrasp deeper than DexGraspBench's `max_penetration` inside the object is refused, whatever
@@ -390,7 +390,7 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = 
             applies it to the scene for good; one that moves the palm (the lift) needs the hand on a flange
             (`Scene(..., flange=FlangeLimits())`).
         grasp: the grasp.
-        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol` (one changed for an ablation, or one's own).
+        protocol: a name in `protocols.PROTOCOLS`, or a `JudgingProtocol` (one changed for an ablation, or one's own).
         hold_seconds: s per direction of a hold test by rules (None: the protocol's rules'); an external-force
             test has its own.
         observe: called with the scene at the squeeze's end, before the judging (a study's look at what is
@@ -421,7 +421,7 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | Protocol = 
     return Replay(judge_scene(scene, rules))
 
 
-def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | Protocol = DEFAULT_PROTOCOL,
+def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | JudgingProtocol = DEFAULT_PROTOCOL,
            hand: str = SHADOW_HAND.name) -> tuple[np.ndarray, list[str]]:
     """Open-loop grasps executed as DexGraspBench executes them and judged by the protocol named
     (`replay_grasp` of each).
@@ -429,7 +429,7 @@ def replay(obj: str | GraspObject, grasps: list[OpenLoopGrasp], protocol: str | 
     Args:
         obj: the object, or its name.
         grasps: the grasps.
-        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol`.
+        protocol: a name in `protocols.PROTOCOLS`, or a `JudgingProtocol`.
         hand: the hand model's name.
 
     Returns:
@@ -556,12 +556,12 @@ class GraspVerifier:
         stages: how the pregrasp and squeeze are made (`GRASP_STAGES`).
         hold_seconds: s per direction of our hold test.
         hand: the hand model, or its name.
-        protocol: a name in `protocols.PROTOCOLS`, or a `Protocol`.
+        protocol: a name in `protocols.PROTOCOLS`, or a `JudgingProtocol`.
     """
 
     def __init__(self, obj: GraspObject, stages: GraspStages = GRASP_STAGES[VERIFY_STAGES],
                  hold_seconds: float = VERIFY_HOLD_SECONDS, hand: str | HandModel = SHADOW_HAND.name,
-                 protocol: str | Protocol = DEFAULT_PROTOCOL):
+                 protocol: str | JudgingProtocol = DEFAULT_PROTOCOL):
         self.protocol = get_protocol(protocol)
         self.scene = Scene(obj, free_object=True, hand=hand, flange=self.protocol.flange)
         self._shaping = Scene(obj, hand=hand) if stages.from_contacts else None

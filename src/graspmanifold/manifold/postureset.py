@@ -9,6 +9,7 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, Tabular
+from ..base.moved import current_name
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 
 
@@ -66,7 +67,7 @@ class PostureSet(Tabular, NpzRecord):
     @property
     def hand(self) -> str:
         """The name of the hand model the postures are of (`metadata["hand"]`; ours for a set that names none)."""
-        return str(self.metadata.get("hand", SHADOW_HAND.name))
+        return str(current_name("hand", self.metadata.get("hand", SHADOW_HAND.name)))
 
     def __array__(self, dtype: object = None, copy: bool | None = None) -> np.ndarray:
         """The (n, 22) postures, so a PostureSet goes wherever postures do (`np.asarray`, `SOM.fit`)."""

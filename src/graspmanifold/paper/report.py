@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 from ..base.config_files import apply_table
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import atomic_write, markdown_table, write_text_atomic
+from ..base.moved import upgrade_config
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.controller import BLEND, ControllerParams
 from ..judging.judge import JUDGING
@@ -85,6 +86,7 @@ class RunData:
             config = json.loads((out / "run.json").read_text())["config"]
             if not isinstance(config, dict) or not isinstance(config.get("postures"), dict):
                 raise TypeError("its config names no objects")
+            upgrade_config(config)  # the names a run before 0.2 wrote
         except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError) as error:
             raise InvalidInput(f"{out / 'run.json'} is not a graspmanifold run's record ({type(error).__name__}: "
                              f"{error})") from None

@@ -29,6 +29,7 @@ from ..base.checkpoints import remove_checkpoints, result_key
 from ..base.config_files import apply_table, to_toml
 from ..base.errors import InvalidInput
 from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
+from ..base.moved import current_name, upgrade_config
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_choice, check_input_file, check_int
 from ..base.workers import default_workers, worker_pool
@@ -110,6 +111,7 @@ class ReproduceConfig:
             meshes[name] = {"file": str(check_input_file(mesh["file"], f"ReproduceConfig.meshes[{name!r}].file")
                                         .resolve()), "scale": float(scale)}
         object.__setattr__(self, "meshes", meshes)
+        object.__setattr__(self, "protocol", current_name("protocol", self.protocol))  # a name before 0.2
         check_choice(self.protocol, PROTOCOL_NAMES, "ReproduceConfig.protocol")
         check_choice(self.manifold, MANIFOLDS, "ReproduceConfig.manifold")
         object.__setattr__(self, "hand", hand_name(self.hand, "ReproduceConfig.hand"))
@@ -310,8 +312,7 @@ def _check_output(out: Path, config: ReproduceConfig, force: bool) -> None:
             previous = None
         if isinstance(previous, dict):
             previous.setdefault("hand", SHADOW_HAND.name)  # a run.json written before the choice of hand
-            if isinstance(previous.get("generator"), dict):  # before the generator's settings named the hand
-                previous["generator"].setdefault("hand", previous["hand"])
+            upgrade_config(previous)
             previous.setdefault("controller", {**json.loads(json.dumps(BLEND.to_table())), "max_match_distance": "0.2"})
             previous["controller"] = ControllerParams.upgrade_table(previous["controller"])
         if previous != json.loads(json.dumps(config.to_json())) and not force:

@@ -277,7 +277,7 @@ class HandModel:
 
 
 SHADOW_HAND = HandModel(
-    name="ours",
+    name="shadow-primitives",
     mjcf="shadow_hand.xml",
     finger_joints=(
         "FFJ4", "FFJ3", "FFJ2", "FFJ1",

@@ -2,7 +2,8 @@
 and the community's, loaded from where their users already have them (no third-party model file is copied
 into this repository).
 
-- `"ours"`: our MJCF, written from the published kinematics (`hand.SHADOW_HAND`).
+- `"shadow-primitives"`: our MJCF of primitive collision geometry, written from the published kinematics
+  (`hand.SHADOW_HAND`; called "ours" before 0.2, a name files and flags may still give).
 - `"gymnasium-robotics"` (and `"gymnasium-robotics-touch"`, its variant with 92 touch sensors on palm and
   phalanges, which `Scene.touch` reads per segment): the Shadow Hand of Gymnasium-Robotics (MIT code, Apache-2.0
   assets), read from the installed package (`pip install 'graspmanifold[hands]'`): `robot0:WRJ1, WRJ0, FFJ3 ...
@@ -37,6 +38,7 @@ import mujoco
 import numpy as np
 
 from ..base.errors import InvalidInput
+from ..base.moved import current_name
 from ..base.validation import check_input_file
 from .hand import DISTAL_SEGMENTS, FINGERS, HAND_JOINTS, SHADOW_HAND, WRIST_JOINTS, HandModel, finger_of
 
@@ -396,6 +398,7 @@ def hand_name(hand: str | Path, argument: str = "hand") -> str:
     Raises:
         InvalidInput: neither a known name nor the path of an .xml file.
     """
+    hand = current_name("hand", hand)  # a name written before 0.2
     if isinstance(hand, str) and hand in HAND_MODELS:
         return hand
     if isinstance(hand, (str, Path)) and str(hand).endswith(".xml"):

@@ -51,6 +51,7 @@ from scipy.spatial.transform import Rotation
 from ..base.checkpoints import JOB_PARTS, PartStore, result_key
 from ..base.errors import GenerationError, InvalidInput, SimulationError
 from ..base.io import library_version, load_npz, save_npz
+from ..base.moved import current_name
 from ..base.paper_numbers import DATASET_SIZES
 from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
@@ -143,6 +144,8 @@ class GeneratorParams:
         if self.designs is None:
             object.__setattr__(self, "designs", "grasp_types" if self.verify else "five_fingertip")
         check_choice(self.mode, MODES, "GeneratorParams.mode")
+        object.__setattr__(self, "verify_protocol", current_name("protocol", self.verify_protocol))  # before 0.2
+        object.__setattr__(self, "hand", current_name("hand", self.hand))
         check_choice(self.verify_protocol, PROTOCOL_NAMES, "GeneratorParams.verify_protocol")
         check_choice(self.stages, GRASP_STAGES, "GeneratorParams.stages")
         check_choice(self.designs, DESIGN_FAMILIES, "GeneratorParams.designs")

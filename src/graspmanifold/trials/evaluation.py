@@ -330,7 +330,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
             method (the result's label; empty: 'none', 'database' or 'som'), hand (a model, its name or an MJCF
             path), controller (a user's own factory `controller(n, hand)`, with a method label), margin (N of
             disturbance a held grasp resists, up to 1.8 s more simulation each; False: NaN), regrasp
-            (`regrasp.Regrasp`), protocol (a name in `protocols.PROTOCOLS` or a `Protocol`; a result's `hold` is
+            (`regrasp.Regrasp`), protocol (a name in `protocols.PROTOCOLS` or a `JudgingProtocol`; a result's `hold` is
             its success), batch_size.
 
     Returns:

@@ -48,7 +48,7 @@ from ..base.poses import invert
 from ..base.workers import parallel_map
 from ..control.controller import APPROACH, CONTROLLERS, ControllerParams, PalmSteering
 from ..control.regrasp import Regrasp
-from ..judging.protocols import OURS_FADED
+from ..judging.protocols import HOLD_TEST_FADED
 from ..judging.replay import OpenLoop, OpenLoopGrasp
 from ..manifold.experience import Experience, PostureDatabase
 from ..sim.flange import FlangeLimits
@@ -63,9 +63,9 @@ LEVELS: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.05)
 DIRECTIONS = 8
 #: rad, the largest yaw about the palm normal (at the largest level; a level's bound scales with it)
 MAX_YAW = math.radians(30.0)
-#: how every arm is judged: our hold test after a support that fades over 0.3 s (`protocols.OURS_FADED`): with the
+#: how every arm is judged: our hold test after a support that fades over 0.3 s (`protocols.HOLD_TEST_FADED`): with the
 #: support let go at once, the blend lost grasps whose squeeze had pushed the object 6-16 mm against the spring
-PLANNED_PROTOCOL = OURS_FADED
+PLANNED_PROTOCOL = HOLD_TEST_FADED
 
 
 @dataclass(frozen=True)

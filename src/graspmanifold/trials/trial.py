@@ -40,7 +40,7 @@ from ..base.validation import check_choice, check_int
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.regrasp import LiftProbe, Regrasp
 from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
-from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, Protocol, get_protocol
+from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol, get_protocol
 from ..judging.replay import OpenLoopGrasp
 from ..judging.stages import JudgingRules
 from ..manifold.experience import Experience, check_experience
@@ -134,7 +134,7 @@ class TrialSetup:
             stay at their defaults), and `method` names it. None: ours with `params`.
         margin: measure the disturbance margin of every grasp that holds (`judge` module doc; up to 1.8 s more
             simulation per held grasp); False: `Trial.margin` is NaN.
-        protocol: how the grasps are judged (`protocols.Protocol`, a registered name is looked up): our hold test
+        protocol: how the grasps are judged (`protocols.JudgingProtocol`, a registered name is looked up): our hold test
             (`protocols.DEFAULT_PROTOCOL`, `judge.JUDGING`) or DexGraspBench's ('dexgraspbench',
             'dexgraspbench-paper': its physics profile from the start, its external-force test after the grasp).
         regrasp: the controller's attempts, its lift probe and how it chooses the next attempt (`regrasp.Regrasp`;
@@ -178,7 +178,7 @@ class TrialSetup:
     controller: str | ControllerFactory | None = None
     margin: bool = False
     regrasp: Regrasp = Regrasp()
-    protocol: Protocol = DEFAULT_PROTOCOL
+    protocol: JudgingProtocol = DEFAULT_PROTOCOL
     batch_size: int = WARP_BATCH
     touch: str = "contacts"
     plan: OpenLoopGrasp | None = None
