@@ -87,13 +87,14 @@ class PartStore(Generic[Part]):
             The parts by path.
         """
         matches = names.fullmatch if isinstance(names, re.Pattern) else names.__eq__
-        found, discarded = {}, []
+        found: dict[Path, Part] = {}
+        discarded: list[str] = []
         for path in sorted(p for p in self.directory.iterdir() if p.is_file() and matches(p.name)):
             try:
                 part, meta = self._read(path)
             except (ValueError, KeyError):  # truncated, or not a part of ours
                 part, meta = None, {}
-            if isinstance(meta, dict) and meta.get("key") == self.key and accept(path, part, meta):
+            if part is not None and isinstance(meta, dict) and meta.get("key") == self.key and accept(path, part, meta):
                 found[path] = part
             else:
                 discarded.append(path.name)

@@ -25,9 +25,13 @@ import json
 import math
 import os
 import tomllib
+from typing import TypeVar, cast
 from pathlib import Path
 
 from .errors import InvalidInput
+
+#: a configuration: a dataclass value (`ReproduceConfig`, `GeneratorParams`, ...)
+Config = TypeVar("Config")
 
 
 def _value(field_type: object, value: object) -> object:
@@ -37,7 +41,7 @@ def _value(field_type: object, value: object) -> object:
     return value
 
 
-def apply_table(base: object, table: dict, where: str) -> object:
+def apply_table(base: Config, table: dict, where: str) -> Config:
     """`base` (a dataclass) with the fields a TOML table sets; nested dataclass fields take sub-tables.
 
     Args:
@@ -65,10 +69,10 @@ def apply_table(base: object, table: dict, where: str) -> object:
             changes[name] = apply_table(current, value, f"{where}.{name}" if where else name)
         else:
             changes[name] = _value(fields[name].type, value)
-    return dataclasses.replace(base, **changes)
+    return cast(Config, dataclasses.replace(base, **changes))  # type: ignore[type-var]
 
 
-def read_config(path: str | os.PathLike, base: object) -> object:
+def read_config(path: str | os.PathLike, base: Config) -> Config:
     """A configuration from a TOML file, over a base configuration.
 
     Args:

@@ -25,7 +25,7 @@ class MissingFile(InvalidInput, FileNotFoundError):
         self.filename, self.strerror = path, message
 
     def __str__(self) -> str:
-        return self.strerror
+        return str(self.strerror)
 
 
 class NotFittedError(GraspManifoldError, RuntimeError, AttributeError):

@@ -19,7 +19,7 @@ import zipfile
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO
+from typing import IO, Self
 
 import numpy as np
 
@@ -423,7 +423,7 @@ class NpzRecord:
         raise NotImplementedError
 
     @classmethod
-    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> NpzRecord:
+    def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> Self:
         raise NotImplementedError
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = True, extra: dict | None = None) -> Path:
@@ -441,7 +441,7 @@ class NpzRecord:
         return save_npz(path, self.NPZ_KIND, arrays, {**meta, **(extra or {})}, overwrite=overwrite)
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> NpzRecord:
+    def load(cls, path: str | os.PathLike) -> Self:
         """Read one written by `save`, checking its kind, schema and array shapes.
 
         Args:

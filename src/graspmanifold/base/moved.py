@@ -15,6 +15,9 @@ import importlib.machinery
 import sys
 import warnings
 from types import ModuleType
+from typing import TypeVar, cast
+
+Named = TypeVar("Named")
 
 #: old module -> the module that holds its code now (both within `graspmanifold`)
 MOVED_MODULES: dict[str, str] = {
@@ -58,7 +61,7 @@ def new_name(old: str) -> str | None:
     return MOVED_MODULES.get(old.removeprefix(f"{_PACKAGE}."))
 
 
-def current_name(kind: str, name: object) -> object:
+def current_name(kind: str, name: Named) -> Named:
     """A value's name as the library calls it now: an old one (`RENAMED_VALUES`) read from a file written before
     the rename, or given by a user, becomes the new one; anything else is returned as it is (checked later).
 
@@ -69,7 +72,7 @@ def current_name(kind: str, name: object) -> object:
     Returns:
         The current name.
     """
-    return RENAMED_VALUES[kind].get(name, name) if isinstance(name, str) else name
+    return cast(Named, RENAMED_VALUES[kind].get(name, name)) if isinstance(name, str) else name
 
 
 def upgrade_config(config: dict) -> dict:

@@ -316,9 +316,13 @@ def open_loop_grasp(hand_pose: np.ndarray, posture: np.ndarray, stages: GraspSta
         away = pose[:3] / max(float(np.linalg.norm(pose[:3])), 1e-9)
         pregrasp = np.r_[pose[:3] + stages.back_off * away, pose[3:]], open_posture(hand)
     else:
+        assert scene is not None  # refused above
         pregrasp = pose, offset_along_normals(scene, pose, posture, -stages.back_off)
-    squeeze = (squeezed(posture, stages.squeeze_angle, hand) if stages.squeeze == "flexion"
-               else offset_along_normals(scene, pose, posture, stages.squeeze_depth))
+    if stages.squeeze == "flexion":
+        squeeze = squeezed(posture, stages.squeeze_angle, hand)
+    else:
+        assert scene is not None  # refused above
+        squeeze = offset_along_normals(scene, pose, posture, stages.squeeze_depth)
     return OpenLoopGrasp(np.array([pregrasp[0], pose, pose]), np.array([pregrasp[1], posture, squeeze]))
 
 

@@ -134,9 +134,9 @@ def flanged_spec(hand_spec: mujoco.MjSpec, mount: str, palm_pose: tuple[np.ndarr
     flange = base.add_body(name=FLANGE)
     flange.mass, flange.inertia, flange.explicitinertial = FLANGE_MASS, [FLANGE_MASS * 0.001] * 3, True
     position, quat = palm_pose
-    axes = np.zeros(9)
-    mujoco.mju_quat2Mat(axes, np.asarray(quat, dtype=float))
-    axes = axes.reshape(3, 3).T  # rows: the palm's x, y, z in the mount's frame
+    matrix = np.zeros(9)
+    mujoco.mju_quat2Mat(matrix, np.asarray(quat, dtype=float))
+    axes = matrix.reshape(3, 3).T  # rows: the palm's x, y, z in the mount's frame
     for index, joint in enumerate(FLANGE_JOINTS):
         slide = index < 3
         flange.add_joint(name=joint, type=mujoco.mjtJoint.mjJNT_SLIDE if slide else mujoco.mjtJoint.mjJNT_HINGE,

@@ -66,7 +66,7 @@ def sample(config: ReproduceConfig, name: str, size: int, seed: int) -> np.ndarr
 
 def compared(mine: dict, theirs: dict) -> dict:
     """Per object: the poses both runs sampled, how many outcomes differ and the largest value differences."""
-    found = {}
+    found: dict[str, dict | None] = {}
     for name, ours in mine["objects"].items():
         other = theirs.get("objects", {}).get(name)
         if other is None or np.shape(other["poses"]) != np.shape(ours["poses"]) \

@@ -17,6 +17,7 @@ import argparse
 import os
 import platform
 import time
+from typing import Any
 
 import numba
 import numpy as np
@@ -50,7 +51,7 @@ def measure(args: argparse.Namespace) -> None:
     for n in args.sizes:
         train = data[:n]
         queries, masks = pcp_queries(train, args.queries)
-        made = {}
+        made: dict[str, Any] = {}
         seconds = {"ukr": _seconds(lambda: made.setdefault("ukr", UKR().fit(train, progress=False))),
                    "som": _seconds(lambda: made.setdefault("som", SOM(25, 25, 22, seed=0).fit(train, progress=False))),
                    "database": _seconds(lambda: made.setdefault("database", PostureDatabase(train)))}
