@@ -9,6 +9,7 @@ import os
 import re
 import stat
 import warnings
+from typing import TypeVar
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -149,7 +150,11 @@ def check_directions(value: object, name: str) -> tuple[tuple[float, float, floa
     return tuple(tuple(map(float, row)) for row in rows)
 
 
-def check_choice(value: object, choices: Iterable[object], name: str, also: str = "") -> object:
+#: a value checked against choices, returned as it is
+Chosen = TypeVar("Chosen")
+
+
+def check_choice(value: Chosen, choices: Iterable[object], name: str, also: str = "") -> Chosen:
     """`value` when it is one of `choices`; an error naming `name`, the choices and what was given otherwise.
 
     Args:

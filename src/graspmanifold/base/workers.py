@@ -279,7 +279,7 @@ class _PoolBroke(Exception):
         self.unfinished, self.why = unfinished, why
 
 
-def _result(future: Future, timeout: float | None, executor: Executor) -> Result:
+def _result(future: Future[Result], timeout: float | None, executor: Executor) -> Result:
     """The future's result; on a `ClusterExecutor`, `_PoolBroke` once the cluster's scheduler is gone
     or it has had no worker for `CLUSTER_PATIENCE` s (with a warning when the wait begins)."""
     if not isinstance(executor, ClusterExecutor):

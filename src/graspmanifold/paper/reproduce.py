@@ -130,7 +130,7 @@ class ReproduceConfig:
             raise InvalidInput("ReproduceConfig: procedure 'verified' verifies the generator's candidates itself; "
                              "leave generator.verify False")
         def positive_int(value: object) -> bool:
-            return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > 0
+            return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and bool(value > 0)
 
         if not isinstance(self.postures, dict) or not self.postures \
                 or not all(positive_int(v) for v in self.postures.values()):
@@ -344,7 +344,7 @@ def reproduce(out: str | os.PathLike, preset: str | ReproduceConfig = "quick", w
     with output_lock(out / LOCK_FILE):
         pool_size = default_workers() if workers is None else workers
         if executor is not None or pool_size == 1:
-            return _run(out, config, hand, workers, log, executor)
+            return _run(out, config, hand, pool_size, log, executor)
         with worker_pool(pool_size) as pool:  # one pool for every stage: a pool's start costs about a second
             return _run(out, config, hand, pool_size, log, pool)
 

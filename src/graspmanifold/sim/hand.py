@@ -142,8 +142,8 @@ class HandModel:
     @functools.cached_property
     def joint_ranges(self) -> dict[str, tuple[float, float]]:
         """Each wrist and finger joint's range, rad, by name, as its MJCF gives it (where ranges are written)."""
-        return {name: tuple(float(v) for v in self.model.joint(name).range)
-                for name in self.wrist_joints + self.finger_joints}
+        ranges = {name: self.model.joint(name).range for name in self.wrist_joints + self.finger_joints}
+        return {name: (float(low), float(high)) for name, (low, high) in ranges.items()}
 
     @functools.cached_property
     def _limits(self) -> np.ndarray:
@@ -216,7 +216,7 @@ class HandModel:
             if key not in self.postures:
                 raise InvalidInput(f"the hand model {self.name!r} has no keyframe {key!r}") from None
             ranges = np.array([model.joint(name).range for name in self.finger_joints])
-            return self.from_model(np.clip(self.to_model(self.postures[key]), ranges[:, 0], ranges[:, 1]))
+            return self.from_model(np.clip(self.to_model(np.asarray(self.postures[key])), ranges[:, 0], ranges[:, 1]))
         return self.from_model(np.array([qpos[model.joint(name).qposadr[0]] for name in self.finger_joints]))
 
     @functools.cached_property

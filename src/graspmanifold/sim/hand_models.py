@@ -204,11 +204,11 @@ def describe_shadow_hand(loader: Callable[[], mujoco.MjSpec], name: str, mjcf: s
         raise InvalidInput(f"the hand model {name!r} lacks what a Shadow Hand has: {', '.join(absent)}")
     mount = mount or model.body(model.body(body["palm"]).rootid[0]).name
     distal = tuple(body[s] for s in DISTAL_SEGMENTS)
-    tips = [_tip_site(model, b) for b in distal]
-    if any(site is None for site in tips):
-        ends = {b: _far_end(model, b) for b, site in zip(distal, tips) if site is None}
+    found = [_tip_site(model, b) for b in distal]
+    if any(site is None for site in found):
+        ends = {b: _far_end(model, b) for b, site in zip(distal, found) if site is None}
         loader = functools.partial(_with_tip_sites, loader, ends)
-        tips = [site or f"{b}_tip" for b, site in zip(distal, tips)]
+    tips = [site or f"{b}_tip" for b, site in zip(distal, found)]
     flipped = _flipped(model, finger_joints, body["palm"])
     hand_joint_ids = {model.joint(rename[j]).id for j in HAND_JOINTS}
     actuators = tuple(model.actuator(a).name for a in range(model.nu) if _drives(model, a) & hand_joint_ids)

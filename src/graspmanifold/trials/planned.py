@@ -215,7 +215,7 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
     else:
         raise InvalidInput(f"arm {arm.name!r} recalls from the {arm.experience!r} experience: give it "
                            f"(experiences has {sorted(experiences)})")
-    return TrialSetup(object=obj, experience=experience, params=arm_params(arm), plan=plan, method=label,
+    return TrialSetup(object=obj, experience=experience, params=arm_params(arm) or ControllerParams(), plan=plan, method=label,
                       protocol=PLANNED_PROTOCOL, palm=palm, oracle=arm.oracle, regrasp=Regrasp(attempts=arm.attempts))
 
 

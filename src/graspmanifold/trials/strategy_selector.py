@@ -76,9 +76,9 @@ class StrategySelector:
         self._varying = np.flatnonzero(varying)
         self._model = None
         if len(self._varying):
-            self._model = _learner()(n_estimators=self.trees, min_samples_leaf=2, random_state=self.seed, n_jobs=1)
+            model = _learner()(n_estimators=self.trees, min_samples_leaf=2, random_state=self.seed, n_jobs=1)
             target = outcomes[:, self._varying]
-            self._model.fit(_design(features), target[:, 0] if len(self._varying) == 1 else target)
+            self._model = model.fit(_design(features), target[:, 0] if len(self._varying) == 1 else target)
         return self
 
     def probabilities(self, features: np.ndarray) -> np.ndarray:
