@@ -25,7 +25,7 @@ import json
 import math
 import os
 import tomllib
-from typing import TypeVar, cast
+from typing import Any, TypeVar, cast
 from pathlib import Path
 
 from .errors import InvalidInput
@@ -54,7 +54,7 @@ def apply_table(base: Config, table: dict, where: str) -> Config:
     """
     upgrade = getattr(type(base), "upgrade_table", None)  # a table of an older form, in today's
     table = upgrade(table) if upgrade is not None else table
-    fields = {f.name: f for f in dataclasses.fields(base)}
+    fields = {f.name: f for f in dataclasses.fields(cast(Any, base))}
     unknown = sorted(set(table) - set(fields))
     if unknown:
         raise InvalidInput(f"unknown key{'s' if len(unknown) > 1 else ''} {', '.join(unknown)} in "
@@ -69,7 +69,7 @@ def apply_table(base: Config, table: dict, where: str) -> Config:
             changes[name] = apply_table(current, value, f"{where}.{name}" if where else name)
         else:
             changes[name] = _value(fields[name].type, value)
-    return cast(Config, dataclasses.replace(base, **changes))  # type: ignore[type-var]
+    return cast(Config, dataclasses.replace(cast(Any, base), **changes))
 
 
 def read_config(path: str | os.PathLike, base: Config) -> Config:
@@ -104,7 +104,7 @@ def read_config(path: str | os.PathLike, base: Config) -> Config:
 
 def _toml_value(value: object) -> str:
     if hasattr(value, "with_table"):  # a value of one of several kinds: an inline table that names its kind
-        value = value.to_table()
+        value = cast(Any, value).to_table()
     elif dataclasses.is_dataclass(value) and not isinstance(value, type):  # a nested value: an inline table
         value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
     if isinstance(value, bool):
@@ -134,7 +134,7 @@ def to_toml(config: object, written: dict | None = None) -> str:
         The text.
     """
     plain, tables = [], []
-    for field in dataclasses.fields(config):
+    for field in dataclasses.fields(cast(Any, config)):
         value = (written or {}).get(field.name, getattr(config, field.name))
         if dataclasses.is_dataclass(value) and not hasattr(value, "with_table"):
             tables.append(f"\n[{field.name}]\n" + "".join(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -206,7 +206,7 @@ def write_figures(directory: Path, run: RunData, log: Callable[[str], None] = pr
     return {"rendered": render is not None, "message": message, "figures": written}
 
 
-def _table(header: list[str], rows: list[list[object]]) -> str:
+def _table(header: list[str], rows: Sequence[Sequence[object]]) -> str:
     return "\n".join(markdown_table(header, rows)) + "\n\n"
 
 
