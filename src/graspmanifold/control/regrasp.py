@@ -18,7 +18,7 @@ what the failed attempt sensed:
   touching segments, Eq. 1-2) among the references of another grasp type than the one the hand ended in
   (the type of the reference nearest to its last posture): regrasp with experience;
 - `preshapes` given: a fixed sequence, row k the preshape of attempt k + 2 (NaN row: none, the plain heuristic);
-- `chooser` given: a learned choice from what the failed attempt sensed (`trials.selector.StrategySelector`);
+- `chooser` given: a learned choice from what the failed attempt sensed (`trials.strategy_selector.StrategySelector`);
 - neither: the first attempt's way again (the heuristic retried, or its constant preshape again).
 
 A grasp that passes the probe, or the last attempt, goes to the judge's full hold test, once.
@@ -74,7 +74,7 @@ class Regrasp:
             the experience, another type than the failed one.
         chooser: `chooser(features)` -> (m, 22) rad, the next preshapes (NaN rows: none) from what the failed
             attempts sensed, (m, 22 + len(SEGMENTS)): their joints and segment forces (`Trial.failure`); e.g. a
-            fitted `trials.selector.StrategySelector`. A picklable object, for worker processes.
+            fitted `trials.strategy_selector.StrategySelector`. A picklable object, for worker processes.
         support_stiffness: N/m (and N m/rad) of the support re-engaged after a failed probe; a tenth of the first
             closing's (`judge.JUDGING`): with that one, 11 of 191 second attempts on the benchmark's selection
             split failed their physics (a contact deeper than 5 mm), with this one none (issue 51).
