@@ -158,3 +158,22 @@ def test_the_judging_protocol_is_not_mistaken_for_typings_and_its_old_name_answe
         assert protocols.Protocol is protocols.JudgingProtocol
     with pytest.raises(AttributeError):
         protocols.NoSuchThing  # noqa: B018
+
+
+def test_the_environments_take_a_trial_setup_and_refuse_what_an_episode_does_not_run():
+    """An episode is a trial whose controller is the agent: both environments take the `TrialSetup` (or its fields
+    by name), and the same set-up gives the same first observation either way."""
+    pytest.importorskip("gymnasium")
+    from graspmanifold.envs.tactile_grasp import TactileGraspEnv, TactileGraspVectorEnv, episode_setup
+
+    setup = gm.TrialSetup(object="box", protocol="hold-test", table=False)
+    whole, by_name = TactileGraspEnv(setup), TactileGraspEnv(object="box", protocol="hold-test")
+    np.testing.assert_array_equal(whole.reset(seed=3)[0], by_name.reset(seed=3)[0])
+    vector = TactileGraspVectorEnv(2, setup=setup)
+    np.testing.assert_array_equal(vector.reset(seed=3)[0][0], whole.reset(seed=3)[0])
+    with pytest.raises(gm.InvalidInput, match=r"the set-up's \['experience'\] are a trial's"):
+        episode_setup(gm.TrialSetup(object="box", experience=gm.PostureDatabase(np.array([gm.open_posture()]))))
+    with pytest.raises(gm.InvalidInput, match="unknown argument"):
+        TactileGraspEnv("box", margin=True)
+    with pytest.raises(gm.InvalidInput, match="a TrialSetup is given whole"):
+        TactileGraspEnv(setup, hand="shadow-primitives")

@@ -41,18 +41,17 @@ from gymnasium.vector.utils import batch_space
 
 from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.validation import Bounds, check_choice, check_int, check_number
-from ..control.controller import ControllerParams
 from ..judging.judge import Judgement, judge_worlds
-from ..judging.protocols import DEFAULT_PROTOCOL, JudgingProtocol
 from ..sim.flange import FlangeLimits
-from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
+from ..sim.grip import CONTROL_PERIOD
+from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject
 from ..sim.posture import pcp_masks
 from ..sim.render import THUMB_SIDE
 from ..sim.scene import CAMERAS, Scene
 from ..sim.worlds import CpuWorlds
 from ..trials.grid import check_grid
-from ..trials.trial import Noise, TrialSetup, trial_scene
+from ..trials.trial import TrialSetup, trial_scene
 
 #: s of a grasp after which it is judged as it is, done or not
 MAX_SECONDS = 10.0
@@ -90,26 +89,64 @@ def _check_poses(poses: object, count: int, name: str) -> np.ndarray:
     return rows.astype(float).reshape(count, 4)
 
 
+#: the `TrialSetup` fields an episode runs (the agent is its controller): what an environment takes by name
+EPISODE_FIELDS = ("object", "hand", "protocol", "noise", "table", "touch", "palm")
+
+
+def episode_setup(setup: str | GraspObject | TrialSetup = "cylinder", **fields: object) -> TrialSetup:
+    """What an episode is: a `TrialSetup` given whole, or the object with the fields an episode runs by name
+    (`EPISODE_FIELDS`; `palm=True` is the default flange, False none).
+
+    Args:
+        setup: a `TrialSetup`, or the object (or its name).
+        **fields: `EPISODE_FIELDS` by name (not beside a whole set-up).
+
+    Returns:
+        The set-up.
+
+    Raises:
+        InvalidInput: a field an episode does not run, a flag that is not True or False, or a set-up whose
+            controller is not the agent (an experience, a controller, a regrasp, a plan, another backend).
+    """
+    unknown = sorted(set(fields) - set(EPISODE_FIELDS))
+    if unknown:
+        raise InvalidInput(f"unknown argument(s) {unknown}; an episode takes a TrialSetup or {list(EPISODE_FIELDS)}")
+    if "object" in fields:
+        if not isinstance(setup, str) or setup != "cylinder":
+            raise InvalidInput("give the object once: as the set-up (the first argument) or as object=")
+        setup = fields.pop("object")  # type: ignore[assignment]
+    palm = fields.get("palm", False)
+    if not isinstance(palm, (bool, FlangeLimits)):
+        raise InvalidInput(f"palm must be True, False or a FlangeLimits, got {palm!r}")
+    if "palm" in fields:
+        fields["palm"] = FlangeLimits() if palm is True else palm or None
+    if not isinstance(fields.get("table", False), (bool, np.bool_)):  # table="no" ran with the table
+        raise InvalidInput(f"table must be True or False, got {fields['table']!r}")
+    built = TrialSetup.build(setup, **fields)
+    agent_only = {"experience": built.experience is None, "controller": built.controller is None,
+                  "preshape": built.preshape is None, "regrasp": built.regrasp.attempts == 1,
+                  "plan": built.plan is None, "oracle": not built.oracle, "backend": built.backend == "cpu"}
+    theirs = sorted(name for name, fine in agent_only.items() if not fine)
+    if theirs:
+        raise InvalidInput(f"an episode's controller is the agent: the set-up's {theirs} are a trial's, not an "
+                           "episode's (leave them at their defaults)")
+    return built
+
+
 class _GraspWorlds:
     """The task over N worlds (the one mechanism both environments run): their scenes, their clocks, one control
     period of all, the judging of those done."""
 
-    def __init__(self, n: int, object: str | GraspObject, hand: str | HandModel, protocol: str | JudgingProtocol, grid: object,
-                 noise: Noise | None, table: bool, pcp: bool, max_seconds: float, touch: str,
-                 palm: bool | FlangeLimits):
-        if not isinstance(palm, (bool, FlangeLimits)):
-            raise InvalidInput(f"palm must be True, False or a FlangeLimits, got {palm!r}")
-        for name, flag in (("table", table), ("pcp", pcp)):
-            if not isinstance(flag, (bool, np.bool_)):  # table="no" ran with the table
-                raise InvalidInput(f"{name} must be True or False, got {flag!r}")
+    def __init__(self, n: int, setup: TrialSetup, grid: object, pcp: bool, max_seconds: float):
+        if not isinstance(pcp, (bool, np.bool_)):
+            raise InvalidInput(f"pcp must be True or False, got {pcp!r}")
         max_seconds = check_number(max_seconds, "max_seconds", Bounds(0.0, 600.0, above_low=True, unit="s"))
-        self.setup = TrialSetup(object=object, hand=hand, protocol=protocol, noise=noise, table=table, touch=touch,
-                                palm=FlangeLimits() if palm is True else palm or None)
+        self.setup = setup
         self.palm = self.setup.palm  # the flange's limits, or None
         self.hand = self.setup.hand
-        self.poses = check_grid(grid, self.setup.object, table)[1]
+        self.poses = check_grid(grid, self.setup.object, self.setup.table)[1]
         self.n, self.pcp, self.max_seconds = n, pcp, float(max_seconds)
-        self.period = ControllerParams().control_period
+        self.period = CONTROL_PERIOD
         self.initial = self.hand.keyframe_posture("open")
         self.limits = self.hand.limits()
         self.scenes: list[Scene | None] = [None] * n
@@ -244,32 +281,30 @@ class TactileGraspEnv(gymnasium.Env):
     """The tactile grasp task in one world (see the module doc).
 
     Args:
-        object: the object, or its name.
-        hand: the hand model, or its name.
-        protocol: how a grasp is judged (`protocols.PROTOCOLS` name, or a `JudgingProtocol`).
+        setup: what an episode is: a `TrialSetup` (its object, hand, protocol, noise, table, touch and palm; the agent
+            is the controller), or the object or its name, the other fields by name (`**fields`).
         grid: the grid poses episodes draw from (a preset name or an (n, 4) array, m and rad).
-        noise: pose noise of the object (`trials.trial.Noise`; joint noise is the agent's own business).
-        table: the object stands on a table with gravity on (False: a spring support, gravity off).
         pcp: add the Partial Contact Posture's mask to the observation.
         max_seconds: s after which a grasp is judged as it is.
-        touch: where the observed segment forces come from (`scene.TOUCH_SOURCES`: the contacts', or MuJoCo's
-            touch sensors).
-        palm: the hand on an arm's flange (True: `FlangeLimits()`, or the limits): the action's six palm targets
-            and the observation's six flange positions (the module doc); False: the palm stays where it was placed.
         render_mode: None or 'rgb_array'.
         camera: the camera `render` draws from (`scene.CAMERAS`).
+        **fields: `EPISODE_FIELDS` by name beside an object: hand (a model or its name), protocol (how a grasp is
+            judged: a `protocols.PROTOCOLS` name or a `JudgingProtocol`), noise (the object's pose noise, `Noise`;
+            joint noise is the agent's own business), table (the object on a table with gravity on; False: a
+            spring support, gravity off), touch (where the observed segment forces come from, `scene.TOUCH_SOURCES`),
+            palm (the hand on an arm's flange, True: `FlangeLimits()`, or the limits: the action's six palm targets
+            and the observation's six flange positions; False: the palm stays where it was placed).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
 
-    def __init__(self, object: str | GraspObject = "cylinder", hand: str | HandModel = SHADOW_HAND.name,
-                 protocol: str | JudgingProtocol = DEFAULT_PROTOCOL, grid: object = "quick", noise: Noise | None = None,
-                 table: bool = False, pcp: bool = False, max_seconds: float = MAX_SECONDS, touch: str = "contacts",
-                 palm: bool | FlangeLimits = False, render_mode: str | None = None, camera: str = "hand"):
+    def __init__(self, setup: str | GraspObject | TrialSetup = "cylinder", grid: object = "quick", pcp: bool = False,
+                 max_seconds: float = MAX_SECONDS, render_mode: str | None = None, camera: str = "hand",
+                 **fields: object):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InvalidInput(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         check_choice(camera, RENDER_CAMERAS, "camera")  # 'bogus' was refused only at render()
-        self.task = _GraspWorlds(1, object, hand, protocol, grid, noise, table, pcp, max_seconds, touch, palm)
+        self.task = _GraspWorlds(1, episode_setup(setup, **fields), grid, pcp, max_seconds)
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.render_mode, self.camera = render_mode, camera
@@ -326,7 +361,8 @@ class TactileGraspVectorEnv(VectorEnv):
 
     Args:
         num_envs: worlds.
-        **kwargs: as `TactileGraspEnv` takes them (render_mode aside).
+        **kwargs: as `TactileGraspEnv` takes them (render_mode and camera aside): setup, grid, pcp, max_seconds and
+            `EPISODE_FIELDS`.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
@@ -336,13 +372,10 @@ class TactileGraspVectorEnv(VectorEnv):
         if kwargs.pop("render_mode", None) is not None or kwargs.pop("camera", None) is not None:
             raise InvalidInput("TactileGraspVectorEnv does not render: give no render_mode or camera (render one world "
                                "with TactileGraspEnv)")
-        names = ("object", "hand", "protocol", "grid", "noise", "table", "pcp", "max_seconds", "touch", "palm")
-        unknown = sorted(set(kwargs) - set(names))
-        if unknown:
-            raise InvalidInput(f"unknown argument(s) {unknown}; TactileGraspVectorEnv takes {list(names)}")
-        defaults = dict(object="cylinder", hand=SHADOW_HAND.name, protocol=DEFAULT_PROTOCOL, grid="quick", noise=None,
-                        table=False, pcp=False, max_seconds=MAX_SECONDS, touch="contacts", palm=False)
-        self.task = _GraspWorlds(self.num_envs, **{**defaults, **kwargs})
+        task = {name: kwargs.pop(name) for name in ("grid", "pcp", "max_seconds") if name in kwargs}
+        setup = episode_setup(kwargs.pop("setup", "cylinder"), **kwargs)
+        self.task = _GraspWorlds(self.num_envs, setup, task.get("grid", "quick"), task.get("pcp", False),
+                                 task.get("max_seconds", MAX_SECONDS))
         self.single_observation_space = self.task.observation_space
         self.single_action_space = self.task.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
