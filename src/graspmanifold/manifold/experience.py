@@ -38,7 +38,10 @@ class Experience(Protocol):
     The API reference shows an experience base of one's own, recalled in a trial.
     """
 
-    dim: int
+    @property
+    def dim(self) -> int | None:
+        """The postures' dimension (a map before its first fit may not know it yet)."""
+        ...
 
     @property
     def references(self) -> np.ndarray:
