@@ -310,7 +310,8 @@ def grasp_type_preshapes(sets: dict[str, PostureSet]) -> dict[str, np.ndarray]:
 
 def sequence(strategies: dict[str, np.ndarray | None], second: str) -> Regrasp:
     """Two attempts, the second with the strategy `second` (the plain heuristic where it is None)."""
-    row = np.full(N_FINGER_JOINTS, np.nan) if strategies[second] is None else strategies[second]
+    chosen = strategies[second]
+    row = np.full(N_FINGER_JOINTS, np.nan) if chosen is None else chosen
     return Regrasp(ATTEMPTS, preshapes=row[None])
 
 

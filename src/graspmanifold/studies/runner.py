@@ -238,7 +238,7 @@ class StudyRun:
         return result
 
 
-def run_command(out: str | Path, body: Callable[[], None]) -> None:
+def run_command(out: str | Path, body: Callable[[], object]) -> None:
     """Run a study's body as a command: Ctrl-C ends in one line that says how to resume (exit status 130), a
     library error (bad input, a folder another run writes) or a file that could not be written (a full disk) in one
     line (status 1).

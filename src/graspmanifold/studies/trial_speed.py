@@ -40,7 +40,7 @@ FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_t
 
 def _one_by_one(task: tuple[list[int], np.ndarray], *, obj: str) -> list:
     indices, poses = task
-    setup = TrialSetup(object=obj)
+    setup = TrialSetup(object=get_object(obj))
     return [run_trial(setup, pose, np.random.default_rng([0, i])) for i, pose in zip(indices, poses)]
 
 
@@ -105,7 +105,7 @@ def bench_gpu(args: argparse.Namespace) -> None:
         finally:
             physics["s"] += time.perf_counter() - start
 
-    warp_worlds.WarpWorlds.step = timed_step
+    warp_worlds.WarpWorlds.step = timed_step  # type: ignore[method-assign]  # the benchmark times the real step
     obj = get_object(args.object)
     _, paper = check_grid("paper", obj)
     noise = Noise(position=0.003, yaw=0.05)
