@@ -206,7 +206,14 @@ class Recall:
     """The `experience.Experience` protocol's queries (documented there) answered by a `MaskedNearest` of the
     `references` a subclass provides with `masked_search()`: what the SOM and the posture database share."""
 
-    references: np.ndarray
+    @property
+    def references(self) -> np.ndarray:
+        """The reference postures (k, dim) that `best_match` indexes (a subclass provides them).
+
+        Returns:
+            The postures, rad.
+        """
+        raise NotImplementedError
 
     def masked_search(self) -> MaskedNearest:
         """The masked nearest search over `references` that `best_match` runs (a subclass provides it).

@@ -133,7 +133,7 @@ def _control_winners(result: EvaluationResult, hits: np.ndarray) -> dict | None:
     if any(t.winners is None for t in result.trials):
         return None
     unsupported = hits.ravel() == 0
-    trials = [t.winners for t in result.trials if t.valid and len(t.winners)]
+    trials = [t.winners for t in result.trials if t.valid and t.winners is not None and len(t.winners)]
     events = np.concatenate([np.zeros(0, dtype=int), *trials])
     return {"trials": len(trials), "mainly_unsupported": int(sum(unsupported[w].mean() > 0.5 for w in trials)),
             "winners": int(len(events)), "winners_unsupported": int(unsupported[events].sum()),

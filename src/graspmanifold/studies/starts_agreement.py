@@ -22,6 +22,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -96,7 +97,7 @@ def row(name: str, family: str, found: dict[str, dict]) -> dict:
     """One object's and family's comparison of its runs and of the shipped file."""
     base = found["as_is"]
     shipped = [s.name for s in shipped_starting_postures(named(name), family) or []]
-    result = {"object": name, "family": family, "kept": list(base), "shipped": shipped,
+    result: dict[str, Any] = {"object": name, "family": family, "kept": list(base), "shipped": shipped,
               "shipped_kept": sum(n in base for n in shipped), "runs": {}}
     for run, other in found.items():
         if run != "as_is":
@@ -147,7 +148,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--emit", nargs=2, metavar=("OBJECT", "FAMILY"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.emit:  # one search, printed as JSON (what `search_elsewhere` runs in a fresh interpreter)
-        print(json.dumps(search(*args.emit, 0.0, args.workers)))
+        name, family = args.emit
+        print(json.dumps(search(name, family, 0.0, args.workers)))
         return
     entries = [(n, f) for n, f in shipped_entries() if f in args.families and (not args.objects or n in args.objects)]
     if not entries:
