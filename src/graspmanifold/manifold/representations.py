@@ -32,8 +32,9 @@ REPRESENTATIONS: dict[str, str] = {
     "linear": "a 5-component linear manifold (PCA hand synergies)",
 }
 _REPRESENTATION_KINDS = {"database": PostureDatabase, "som": SOM, "ukr": UKR, "linear": LinearManifold}
-_FILE_KINDS = {SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: LinearManifold,
-               PostureDatabase.NPZ_KIND: PostureDatabase}
+_FILE_KINDS: dict[str, type[SOM] | type[UKR] | type[LinearManifold] | type[PostureDatabase]] = {
+    SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: LinearManifold,
+    PostureDatabase.NPZ_KIND: PostureDatabase}
 
 
 def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progress: bool | None = None

@@ -36,7 +36,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.io import markdown_table
 from ..control.controller import CONTROLLERS
-from ..manifold.experience import Experience, object_places
+from ..manifold.experience import object_places
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..sim.flange import FlangeLimits
@@ -113,7 +113,7 @@ PALM = Family("palm", "The palm that follows touch: a wrist the controller moves
 FAMILIES[PALM.name] = PALM
 
 
-def _grid_experience(study: StudyRun, name: str, seed: int, config: PlannedStudyConfig) -> Experience:
+def _grid_experience(study: StudyRun, name: str, seed: int, config: PlannedStudyConfig) -> SOM:
     """The object's experience of part 1 (the same verified grasps, kept in the study folder), carrying places."""
     plans = config.sizes[0]
     postures: PostureSet = study.postures(

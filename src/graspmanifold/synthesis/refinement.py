@@ -234,6 +234,7 @@ class _Residuals:
         joints, p, q = self.unpack(v)
         self.geometry.place(joints, p, q)
         pushes, push_rows = self.geometry.push_jacobians()
+        assert push_rows is not None  # asked for (rows=True)
         rows = [push_rows.mean(axis=0)] if balance else []
         rows += [self.geometry.pressing_jacobian(joints, pushes, push_rows)[1]] if press else []
         stacked = np.vstack(rows)
@@ -311,9 +312,9 @@ class Refiner:
         bounds = (np.concatenate([lower, [-0.03] * 3, [-0.5] * 3]), np.concatenate([upper, [0.03] * 3, [0.5] * 3]))
 
         def search(start: np.ndarray, balance: float, press: float) -> np.ndarray:
-            terms = {"balance": balance, "press": press}
-            return _search(partial(residuals.measure, **terms), partial(residuals.measure_jacobian, **terms),
-                           partial(residuals.weigh, **terms), anchor, design, start, bounds)
+            return _search(partial(residuals.measure, balance=balance, press=press),
+                           partial(residuals.measure_jacobian, balance=balance, press=press),
+                           partial(residuals.weigh, balance=balance, press=press), anchor, design, start, bounds)
 
         key = np.concatenate([pos, base_quat, posture]).tobytes()
         if key not in self._touching:
