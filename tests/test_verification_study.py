@@ -7,7 +7,7 @@ from graspmanifold.studies.verification import ablate, ablations, verify_object
 
 def test_an_objects_verified_grasps_hold_under_their_protocol_and_the_base_ablation_is_the_plain_replay():
     result = verify_object(("cube", "hold-test", 2))
-    assert "error" not in result and result["held_ours"].all()  # verified under ours: held when replayed under ours
+    assert "error" not in result and result["held_hold-test"].all()  # verified under ours: held when replayed under ours
     assert len(result["q1"]) == 2 and (result["q1"] >= 0).all() and (result["penetration"] <= 0.003).all()
     assert set(result["grasp_type"]) <= {"power", "precision", "tripod", "lateral"} and len(result["design"]) == 2
     assert 2 <= int(result["candidates"]) and float(result["seconds"]) > 0

@@ -184,8 +184,8 @@ def measure(study: StudyRun, postures: int, held_out: bool) -> Verification:
     # member's starts are searched once, under the first, and taken from the cache under the second
     verified = study.keep_each("verified", tasks, verify_object, _read, _write, lambda task, r: (
         f"{task[0]} verified under {task[1]}: " + (str(r["error"])[:120] if "error" in r else
-        f"{len(r['q1'])} in {float(r['seconds']):.0f} s, held under ours {r['held_ours'].mean():.0%}, "
-        f"under dexgraspbench {r['held_dexgraspbench'].mean():.0%}")))
+        f"{len(r['q1'])} in {float(r['seconds']):.0f} s, " + ", ".join(
+            f"held under {p} {r[f'held_{p}'].mean():.0%}" for p in VERIFYING))))
     ablated = study.keep_each("ablations", [(name, label, 2 * postures) for name in BENCHMARK_OBJECTS
                                              for label in ablations()],
                               ablate, _read, _write, lambda task, r: f"{task[0]}, {task[1]}: {r['held'].mean():.0%}")
@@ -204,7 +204,7 @@ def section(found: Verification) -> tuple[list[str], list[tuple[str, PairedCompa
     rows, pooled, by_type, by_design, speed, yields = _tally(found)
     tests: list[tuple[str, PairedComparison]] = []
     header = ["object"] + [f"{label} ({p})" for p in VERIFYING for label in (
-        "yield", "verified / s / core", "held under ours", "held under dexgraspbench", "Q1 median / penetration max (mm)")]
+        "yield", "verified / s / core", *(f"held under {q}" for q in VERIFYING), "Q1 median / penetration max (mm)")]
     pooled_rows = []
     for p in VERIFYING:
         cells = {q: np.concatenate(pooled[p][q]) if pooled[p][q] else np.zeros(0, dtype=bool) for q in VERIFYING}
