@@ -209,10 +209,10 @@ class WarpWorlds:
     def object_quats(self) -> np.ndarray:
         raise InvalidInput("the objects' orientations (DexGraspBench's angle limit) are read on the cpu backend only")
 
-    def save(self, world: int) -> object:
+    def save(self, world: int) -> np.ndarray:
         raise InvalidInput("saving a world's state (DexGraspBench's protocol) runs on the cpu backend only")
 
-    def restore(self, world: int, state: object) -> None:
+    def restore(self, world: int, state: np.ndarray) -> None:
         raise InvalidInput("restoring a world's state (DexGraspBench's protocol) runs on the cpu backend only")
 
     def set_gravity(self, worlds: np.ndarray, vectors: np.ndarray) -> None:

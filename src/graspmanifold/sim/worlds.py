@@ -36,9 +36,9 @@ class Worlds(Protocol):
 
     def object_quats(self) -> np.ndarray: ...  # (n, 4), w x y z
 
-    def save(self, world: int) -> object: ...  # the world's whole simulation state
+    def save(self, world: int) -> np.ndarray: ...  # the world's whole simulation state
 
-    def restore(self, world: int, state: object) -> None: ...  # back to a saved state
+    def restore(self, world: int, state: np.ndarray) -> None: ...  # back to a saved state
 
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None: ...
 
