@@ -149,7 +149,7 @@ class HoldTest(Stage):
         self.cycles = run.rules.cycles(run.rules.hold_seconds, run.period)
         self.direction = np.zeros(run.n, dtype=int)  # which of the directions each world is at
         self.count = np.zeros(run.n, dtype=int)  # control periods done in it
-        self.saved: dict[int, object] = {}  # the state each direction starts from (`JudgingRules.from_grasp`)
+        self.saved: dict[int, np.ndarray] = {}  # the state each direction starts from (`JudgingRules.from_grasp`)
 
     def begin(self, worlds: np.ndarray) -> None:
         if self.run.rules.from_grasp:
