@@ -483,7 +483,7 @@ def test_the_papers_reading_takes_every_free_finger_to_its_recall_before_it_clos
     """recall='target' (the default) with a one-posture experience, in a real MuJoCo scene where nothing
     touches: every finger's target moves straight to its part of the recalled posture, and closes on
     towards the closed hand only once the finger's sensed joints are within `TargetRecall.tolerance` of it."""
-    from graspmanifold.control.controller import FINGER_JOINT_MASKS
+    from graspmanifold.control.state import FINGER_JOINT_MASKS
 
     recalled = gm.open_posture() + 0.4 * (gm.closed_posture() - gm.open_posture())
     params = gm.ControllerParams()
@@ -614,7 +614,7 @@ def test_a_recall_rule_of_ones_own_runs_without_a_change_to_the_controller():
     from dataclasses import dataclass
 
     from graspmanifold.base.config_files import apply_table, to_toml
-    from graspmanifold.control.controller import BlendRecall, RecallRule, TargetRecall
+    from graspmanifold.control.recall import BlendRecall, RecallRule, TargetRecall
     from graspmanifold.trials.grid import check_grid
 
     @dataclass(frozen=True)
@@ -656,7 +656,8 @@ def test_the_approach_takes_every_finger_to_its_recall_together_then_on_along_th
     from a start posture short of the recall: every finger's target moves straight to its part of the recall, all
     arriving in the same cycle, and closes on along the way it came (never towards the closed fist) to at most the
     overshoot beyond it."""
-    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+    from graspmanifold.control.controller import APPROACH
+    from graspmanifold.control.state import FINGER_JOINT_MASKS
 
     recalled = gm.open_posture() + 0.5 * (gm.closed_posture() - gm.open_posture())
     recalled[gm.FINGER_JOINTS.index("THJ5")] -= 0.3  # the thumb's way is not the fist's
@@ -692,7 +693,8 @@ def test_the_approach_takes_every_finger_to_its_recall_together_then_on_along_th
 def test_a_finger_the_heuristic_would_not_move_does_not_stop_the_others_on_their_way_together():
     """A finger whose start is already the closed posture has no closing speed; its way's time was infinite and
     held every finger of the approach where it started."""
-    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+    from graspmanifold.control.controller import APPROACH
+    from graspmanifold.control.state import FINGER_JOINT_MASKS
 
     start = gm.open_posture() + 0.1 * (gm.closed_posture() - gm.open_posture())
     first = FINGER_JOINT_MASKS[0]
@@ -711,7 +713,8 @@ def test_a_touching_finger_presses_on_along_its_way_and_without_a_way_the_approa
     """A finger that touches holds where it touched and presses `squeeze` rad (its joints' norm) on along the way it
     came to its recall; with no experience there is no way, and the approach closes and presses exactly as the
     paper's reading with the same squeeze does."""
-    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+    from graspmanifold.control.controller import APPROACH
+    from graspmanifold.control.state import FINGER_JOINT_MASKS
 
     start = gm.open_posture()
     recalled = start + 0.3 * (gm.closed_posture() - start)
@@ -749,7 +752,8 @@ def test_the_grip_is_regulated_to_the_grip_force_within_its_press_bounds_while_g
     while it is above `grip_force`, more while below, never outside [0, `grip_press`] rad; along the approach's way,
     so the press targets stay on it. Without a grip force (inf) the press is the squeeze, and a done grasp keeps its
     targets whatever it senses."""
-    from graspmanifold.control.controller import APPROACH, FINGER_JOINT_MASKS
+    from graspmanifold.control.controller import APPROACH
+    from graspmanifold.control.state import FINGER_JOINT_MASKS
 
     start = gm.open_posture()
     recalled = start + 0.3 * (gm.closed_posture() - start)

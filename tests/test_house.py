@@ -56,7 +56,9 @@ def test_a_recall_rule_that_steers_only_the_thumb_runs_on_the_controllers_public
 
     import numpy as np
 
-    from graspmanifold.control.controller import JOINT_FINGER, BatchController, RecallRule
+    from graspmanifold.control.controller import BatchController
+    from graspmanifold.control.recall import RecallRule
+    from graspmanifold.control.state import JOINT_FINGER
     from graspmanifold.sim.hand import FINGERS
 
     thumb = JOINT_FINGER == FINGERS.index("th")
@@ -154,8 +156,14 @@ def test_the_judging_protocol_is_not_mistaken_for_typings_and_its_old_name_answe
     from graspmanifold.judging import protocols
 
     assert protocols.PROTOCOLS["hold-test"].__class__ is protocols.JudgingProtocol
-    with pytest.warns(DeprecationWarning, match="now JudgingProtocol"):
+    with pytest.warns(DeprecationWarning, match="is now graspmanifold.judging.protocols.JudgingProtocol"):
         assert protocols.Protocol is protocols.JudgingProtocol
+    with pytest.warns(DeprecationWarning, match="HOLD_TEST"):
+        assert protocols.OURS is protocols.HOLD_TEST
+    from graspmanifold.control import controller, recall
+
+    with pytest.warns(DeprecationWarning, match="control.recall.BlendRecall"):
+        assert controller.BlendRecall is recall.BlendRecall
     with pytest.raises(AttributeError):
         protocols.NoSuchThing  # noqa: B018
 

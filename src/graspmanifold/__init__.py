@@ -16,14 +16,8 @@ install()  # the modules that moved in 0.2 answer to their old names, with a war
 choose_offscreen_backend()  # before MuJoCo's first import (below): pictures in this process on a headless machine
 
 from .manifold.analysis import resume_learning, smoothness  # noqa: E402
-from .control.controller import (
-    ApproachRecall,
-    BlendRecall,
-    ControllerParams,
-    GraspController,
-    PalmSteering,
-    TargetRecall,
-)
+from .control.controller import ControllerParams, GraspController, PalmSteering
+from .control.recall import ApproachRecall, BlendRecall, TargetRecall
 from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase

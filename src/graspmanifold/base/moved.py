@@ -61,6 +61,38 @@ def new_name(old: str) -> str | None:
     return MOVED_MODULES.get(old.removeprefix(f"{_PACKAGE}."))
 
 
+#: names that left a module that stays -> where they live now ('module:name', within the package)
+MOVED_NAMES: dict[str, dict[str, str]] = {
+    "control.controller": {name: f"control.recall:{name}" for name in ("BlendRecall", "REST_SPEED", "palm_shift")},
+    "judging.protocols": {"Protocol": "judging.protocols:JudgingProtocol", "OURS": "judging.protocols:HOLD_TEST",
+                          "OURS_FADED": "judging.protocols:HOLD_TEST_FADED"},
+}
+
+
+def moved_attribute(module: str, name: str) -> object:
+    """A name that left `module` (`MOVED_NAMES`), from where it lives now, with a `DeprecationWarning`; the
+    `__getattr__` of a module that names moved out of calls it.
+
+    Args:
+        module: the module's `__name__`.
+        name: the attribute asked for.
+
+    Returns:
+        The object.
+
+    Raises:
+        AttributeError: a name that never was the module's.
+    """
+    short = module.removeprefix(f"{_PACKAGE}.")
+    where = MOVED_NAMES.get(short, {}).get(name)
+    if where is None:
+        raise AttributeError(f"module {module!r} has no attribute {name!r}")
+    new_module, new_name = where.split(":")
+    warnings.warn(f"{module}.{name} is now {_PACKAGE}.{new_module}.{new_name}; the old name goes in {REMOVED_IN}",
+                  DeprecationWarning, stacklevel=3)
+    return getattr(importlib.import_module(f"{_PACKAGE}.{new_module}"), new_name)
+
+
 def current_name(kind: str, name: Named) -> Named:
     """A value's name as the library calls it now: an old one (`RENAMED_VALUES`) read from a file written before
     the rename, or given by a user, becomes the new one; anything else is returned as it is (checked later).

@@ -72,11 +72,11 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from ..base.errors import InvalidInput
-from ..base.validation import Bounds, check_choice, check_fields, check_number
+from ..base.moved import moved_attribute
+from ..base.validation import Bounds, check_choice, check_fields
 from ..manifold.experience import Experience, check_experience
-from ..sim.grip import CONTROL_PERIOD, FLEXION, SQUEEZE, pressed_towards, row_norms
+from ..sim.grip import CONTROL_PERIOD, FLEXION, SQUEEZE
 from ..sim.hand import (
-    FINGER_JOINTS,
     FINGERS,
     N_FINGER_JOINTS,
     PHYSICS_TIMESTEP,
@@ -84,26 +84,19 @@ from ..sim.hand import (
     SHADOW_HAND,
     HandModel,
     SegmentKinematics,
-    finger_of,
 )
 from ..sim.posture import SEGMENT_FINGER, pcp_masks, validate_posture
 from ..sim.scene import GRASP_CENTRE_IN_PALM
+from .recall import RECALL_RULES, ApproachRecall, RecallRule, TargetRecall
 from .regrasp import Regrasp
+from .state import FINGER_JOINT_MASKS, FINGER_SEGMENT_MASKS, JOINT_FINGER, GraspState, bounded_step, per_finger
 
-#: the index into FINGERS of each finger joint's finger: `per_finger[:, JOINT_FINGER]` spreads (n, 5) over (n, 22)
-JOINT_FINGER = np.array([FINGERS.index(finger_of(j)) for j in FINGER_JOINTS])
-#: (5, 22): which joints belong to which finger (FINGERS order)
-FINGER_JOINT_MASKS = JOINT_FINGER[None, :] == np.arange(len(FINGERS))[:, None]
-#: (5, len(SEGMENTS)): which tactile segments belong to which finger (FINGERS order)
-_FINGER_SEGMENTS = SEGMENT_FINGER[None, :] == np.array(FINGERS)[:, None]
 #: which joints of a steered finger take the matched posture: all, or only the spread joints (finger
 #: abduction, little-finger cupping, thumb rotation, abduction and roll); flexion is then left to the
 #: closing heuristic, which stops at the contact
 STEERED_JOINTS = {"all": np.ones(N_FINGER_JOINTS, dtype=bool), "spread": ~FLEXION}
 #: the grasp phase of each world, as `GraspController.phase` names it
 PHASES: tuple[str, ...] = ("A", "B", "C", "done")
-#: rad/s: a finger on its way to a recalled posture whose joints move slower than this has stopped short of it
-REST_SPEED = 0.1
 
 
 #: the ranges of `ControllerParams`' numbers: the largest values still describe a controller (a closing rate of
@@ -121,387 +114,6 @@ CONTROLLER_BOUNDS = {"control_period": Bounds(0.0, 1.0, above_low=True, unit="s"
                      "grip_force": Bounds(0.0, 1e4, above_low=True, infinite=True, unit="N"),
                      "grip_gain": Bounds(0.0, 50.0, above_low=True, unit="rad/s"),
                      "grip_press": Bounds(0.0, 1.0, unit="rad")}
-
-
-class RecallRule:
-    """What a best match does (see the module doc): the hooks `BatchController` calls with itself, so that a rule of
-    one's own runs without a change to the controller (`ControllerParams(recall=MyRule())`; a frozen dataclass, its
-    fields part of the trials' key). The hooks work on the controller's arrays of the worlds given; the closing
-    heuristic, the holding and the finishing stay the controller's.
-
-    What a rule reads and changes is the controller's public view, nothing private: `c.state` (the `GraspState`,
-    per-world arrays such as `target`, `base`, `held`, `visited`, which a rule changes), `c.steered_joint_mask`
-    (22,) and `c.steered_finger_mask` (5,) (which joints and fingers a match may set: `steered_fingers`,
-    `steered_joints`), `c.kinematics` (the hand's `SegmentKinematics` where a rule or the palm steering moves the
-    palm, else None), `c.closed`, `c.limits`, `c.speed`, `c.params`, `c.experience`, `c.time`.
-
-    Attributes:
-        name: the rule's name (`ControllerParams.recall` for ours).
-        moves_palm: whether a recall may move the palm (the trials then carry each palm to `palm_offset`).
-        reach_speed: m/s a recall moves the palm at.
-    """
-
-    name = "rule"
-    moves_palm = False
-    reach_speed = 0.0
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        """Phase B with a constant preshape, nothing touching yet.
-
-        Args:
-            c: the controller (its `state` is what a rule changes).
-            worlds: (m,) the worlds' indices.
-            postures: (m, 22) rad, their preshapes.
-        """
-        raise NotImplementedError
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        """Trusted best matches, once a control cycle.
-
-        Args:
-            c: the controller.
-            worlds: (m,) the worlds with a trusted match.
-            winners: (m,) their winning reference rows.
-            match: (m, 22) rad, their recalled postures.
-            joints: (N, 22) rad, every world's sensed joints.
-            touching_segments: (N, segments) bool, every world's touching segments.
-            fingers_touching: (N, 5) bool, every world's touching fingers.
-        """
-        raise NotImplementedError
-
-    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        """After the holding of phase D, every cycle (nothing by default).
-
-        Args:
-            c: the controller.
-            act: (N,) bool, the worlds acting this cycle.
-            newly_held: (N, 5) bool, the (world, finger) pairs that touched now for the first time.
-            joints: (N, 22) rad, the sensed joints.
-        """
-
-    def pressed(self, c: BatchController, amount: float | np.ndarray) -> np.ndarray:
-        """Where the holding fingers press (phase D's squeeze): by default each flexion joint `amount` on from where
-        its finger touched, towards the closed hand (`squeezed`).
-
-        Args:
-            c: the controller.
-            amount: rad, how far: one, or (N, 1) one per world.
-
-        Returns:
-            (N, 22) rad, every world's pressing targets (the controller takes those of the holding fingers).
-        """
-        return pressed_towards(c.state.held_posture, amount, c.closed, c.limits)
-
-    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """Which (world, finger) pairs count as fully closed for the grasp's end.
-
-        Args:
-            c: the controller.
-            closed: (N, 5) bool, the pairs whose closure reached 1.
-
-        Returns:
-            (N, 5) bool; `closed` by default.
-        """
-        return closed
-
-    def check(self, params: ControllerParams) -> None:
-        """Refuse controller parameters this rule cannot work with (none by default).
-
-        Args:
-            params: the parameters that hold it.
-
-        Raises:
-            InvalidInput: a combination it cannot work with.
-        """
-
-    def to_table(self) -> dict:
-        """The rule as a table (a configuration file's, run.json's, the trials' key): its name under 'rule', then its
-        fields."""
-        return {"rule": self.name, **{f.name: getattr(self, f.name) for f in fields(self)}}
-
-    def with_table(self, table: str | dict) -> RecallRule:
-        """This rule as a configuration file's table changes it: a name alone is that rule of ours with its defaults;
-        {rule, field = value, ...} the rule named (this one where the name is its own) with those fields.
-
-        Args:
-            table: the table, or a name in `RECALL_RULES`.
-
-        Returns:
-            The rule.
-
-        Raises:
-            InvalidInput: an unknown rule or field.
-        """
-        table = {"rule": table} if isinstance(table, str) else dict(table)
-        name = table.pop("rule", self.name)
-        base = self if name == self.name else RECALL_RULES[check_choice(name, tuple(RECALL_RULES), "recall rule")]()
-        known = [f.name for f in fields(base)]
-        unknown = sorted(set(table) - set(known))
-        if unknown:
-            raise InvalidInput(f"unknown setting(s) {unknown} of the recall rule {name!r}; it has {known}")
-        return replace(base, **table)
-
-
-@dataclass(frozen=True)
-class TargetRecall(RecallRule):
-    """The paper's reading (`recall="target"`): the recall is the steered free fingers' target; a finger closes on
-    from it once there (see the module doc).
-
-    Attributes:
-        tolerance: rad: a finger is there once every joint is this close to its recall (or at rest short of it).
-        closes_only: a recall moves a joint only towards the closed hand (`CLOSING_RECALL`).
-    """
-
-    tolerance: float = 0.05
-    closes_only: bool = False
-    name = "target"
-
-    def __post_init__(self) -> None:
-        check_number(self.tolerance, "TargetRecall.tolerance", Bounds(0.0, 10.0, above_low=True, unit="rad"))
-        if not isinstance(self.closes_only, bool):
-            raise InvalidInput(f"TargetRecall.closes_only must be True or False, got {self.closes_only!r}")
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        """The preshape is the steered free fingers' first recall (its key 0).
-
-        Args:
-            c: the controller.
-            worlds: (m,) the worlds' indices.
-            postures: (m, 22) rad, their preshapes.
-        """
-        self._recall_for(c, worlds, np.zeros(len(worlds), dtype=np.int64), postures)
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        """Each match becomes the target of the steered free fingers not on their way to it or done with it.
-
-        Args:
-            c: the controller.
-            worlds: (m,) the worlds with a trusted match.
-            winners: (m,) their winning reference rows (each recall's key: the row + 1).
-            match: (m, 22) rad, their recalled postures.
-            joints: (N, 22) rad, every world's sensed joints (not read).
-            touching_segments: (N, segments) bool (not read).
-            fingers_touching: (N, 5) bool (not read).
-        """
-        self._recall_for(c, worlds, np.asarray(winners, dtype=np.int64) + 1, match)
-
-    def follow(self, c: BatchController, act: np.ndarray, newly_held: np.ndarray, joints: np.ndarray) -> None:
-        # a finger that touched on its way is done with its recall; one that arrived closes on from it
-        self._done_with(c, newly_held)  # touched on its way: that recall is done with
-        self._arrive(c, act, joints)
-
-    def settled(self, c: BatchController, closed: np.ndarray) -> np.ndarray:
-        """A finger whose recall was the closed hand is fully closed once there; one on its way is not.
-
-        Args:
-            c: the controller.
-            closed: (N, 5) bool, the pairs whose closure reached 1.
-
-        Returns:
-            (N, 5) bool.
-        """
-        return ~c.state.approaching & (closed | _per_finger(c.state.target == c.closed, FINGER_JOINT_MASKS))
-
-    def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
-        """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
-        its steered free fingers that are not on their way to it already, nor done with it."""
-        visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (c.steered_finger_mask & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
-               & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
-        recalled = np.clip(np.where(c.steered_joint_mask, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
-        if self.closes_only:  # no joint sent back towards the open hand
-            now = c.state.target[worlds]
-            recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
-        c.state.recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recall[worlds])
-        c.state.approaching[worlds] |= new
-        c.state.heading[worlds] = np.where(new, keys[:, None], c.state.heading[worlds])
-
-    @staticmethod
-    def _done_with(c: BatchController, fingers: np.ndarray) -> None:
-        """These (world, finger) pairs are done with the recall they were on their way to."""
-        fingers = fingers & c.state.approaching
-        worlds, which = np.nonzero(fingers)
-        c.state.visited = np.union1d(c.state.visited, c.state.visit(worlds, which, c.state.heading[fingers]))
-        c.state.approaching &= ~fingers
-
-    def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
-        """A free finger whose target has reached its recall, its joints within `tolerance` of it or at rest
-        short of it, closes on from it, its closure from 0."""
-        with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
-            still = _per_finger(np.abs(joints - c.state.previous) <= REST_SPEED * c.params.control_period,
-                                FINGER_JOINT_MASKS)
-        near = _per_finger(np.abs(joints - c.state.recall) <= self.tolerance, FINGER_JOINT_MASKS)
-        arrived = (act[:, None] & c.state.approaching & ~c.state.held & (near | still)
-                   & _per_finger(c.state.target == c.state.recall, FINGER_JOINT_MASKS))
-        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recall, c.state.base)
-        c.state.closure[arrived] = 0.0
-        c.state.lost &= ~arrived
-        self._done_with(c, arrived)
-
-
-@dataclass(frozen=True)
-class ApproachRecall(TargetRecall):
-    """The execution of a recalled grasp as a verified grasp is executed (`recall="approach"`, `APPROACH`): the
-    paper's reading of a recall as the steered free fingers' target, with the way to it kept (`GraspState.way`:
-    from the posture the attempt started in, the open hand or a plan's pregrasp, to the recall). A finger that
-    reached its recall
-    without a contact closes on *along that way*, up to `overshoot` times its length further (the paper's reading
-    closes it on towards the closed fist, which sweeps a fingertip past a small object); a finger that touches
-    presses on along its way by `ControllerParams.squeeze` (rad, the finger's joints together) instead of flexing
-    towards the fist. A grasp's pregrasp lies back from it along the contacts' normals, so from there the way is
-    the normals' way, and the press is what a verified grasp's squeeze does (`sim/normal_offsets`) without knowing the
-    normals. A finger with no way (never recalled) closes and presses as the paper's reading does.
-
-    Attributes:
-        tolerance, closes_only: as `TargetRecall`'s.
-        overshoot: how far past its recall a finger that arrived untouched may close, in lengths of its way.
-        together: the fingers that set out for a recall at once arrive at once (the slowest at the heuristic's
-            speed, the others slowed to its time: `GraspState.pace`), as a replayed grasp's fingers do; otherwise
-            each at the heuristic's speed.
-    """
-
-    overshoot: float = 1.0
-    together: bool = True
-    name = "approach"
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        check_number(self.overshoot, "ApproachRecall.overshoot", Bounds(0.0, 10.0))
-        if not isinstance(self.together, bool):
-            raise InvalidInput(f"ApproachRecall.together must be True or False, got {self.together!r}")
-
-    def _recall_for(self, c: BatchController, worlds: np.ndarray, keys: np.ndarray, postures: np.ndarray) -> None:
-        """As `TargetRecall`'s, and each finger that sets out for a recall keeps its way there: from the attempt's
-        starting posture, not from where the finger is (a recall that came late, near the finger, would leave it a
-        way too short to close on along: on the experience study's selection split such fingers counted as closed
-        without touching)."""
-        setting_out = ~c.state.approaching[worlds] | (c.state.heading[worlds] != keys[:, None])
-        start = c.state.target[worlds]
-        super()._recall_for(c, worlds, keys, postures)
-        new = setting_out & c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])
-        c.state.way[worlds] = np.where(new[:, JOINT_FINGER], c.state.recall[worlds] - c.initial, c.state.way[worlds])
-        if self.together:  # the slowest finger's time at its own speed, the others slowed to it
-            length = np.sqrt(((c.state.recall[worlds] - start) ** 2) @ FINGER_JOINT_MASKS.T)  # (m, 5) to travel
-            moves = new & (c.speed > 0)  # a finger the heuristic would not move (start at closed) sets no time
-            time = np.max(np.where(moves, length / np.where(c.speed > 0, c.speed, 1.0), 0.0), axis=1, keepdims=True)
-            pace = np.where(time > 0, length / np.where(time > 0, time, 1.0), c.speed)
-            c.state.pace[worlds] = np.where(new, pace, c.state.pace[worlds])
-
-    def _arrive(self, c: BatchController, act: np.ndarray, joints: np.ndarray) -> None:
-        """As `TargetRecall`'s, and a finger that arrives closes on along its way (its `GraspState.aim`)."""
-        before = c.state.approaching.copy()
-        super()._arrive(c, act, joints)
-        arrived = (before & ~c.state.approaching & ~c.state.held)[:, JOINT_FINGER]
-        aim = np.clip(c.state.recall + self.overshoot * c.state.way, c.limits[:, 0], c.limits[:, 1])
-        c.state.aim = np.where(arrived, aim, c.state.aim)
-
-    def pressed(self, c: BatchController, amount: float | np.ndarray) -> np.ndarray:
-        """A holding finger with a way presses on along it, `amount` rad (its joints' norm); one without, as the
-        paper's reading does.
-
-        Args:
-            c: the controller.
-            amount: rad: one, or (N, 1) one per world.
-
-        Returns:
-            (N, 22) rad.
-        """
-        length = np.sqrt((c.state.way ** 2) @ FINGER_JOINT_MASKS.T)[:, JOINT_FINGER]  # (N, 22): each finger's
-        along = c.state.held_posture + amount * c.state.way / np.where(length > 0, length, 1.0)
-        along = np.clip(along, c.limits[:, 0], c.limits[:, 1])
-        return np.where(length > 0, along, super().pressed(c, amount))
-
-
-@dataclass(frozen=True)
-class BlendRecall(RecallRule):
-    """Our earlier blend (`recall="base"`, `BLEND`): the recall is the closing heuristic's base (see the module doc).
-
-    Attributes:
-        restart_closure: the first trusted match after a contact restarts the free fingers' closure at 0.
-        reach: m: that match may also move the palm by up to this much (0: the palm stays).
-        reach_speed: m/s the palm moves at then.
-    """
-
-    restart_closure: bool = False
-    reach: float = 0.0
-    reach_speed: float = 0.1
-    name = "base"
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.restart_closure, bool):
-            raise InvalidInput(f"BlendRecall.restart_closure must be True or False, got {self.restart_closure!r}")
-        check_number(self.reach, "BlendRecall.reach", Bounds(0.0, 0.2, unit="m"))
-        check_number(self.reach_speed, "BlendRecall.reach_speed", Bounds(0.0, 10.0, above_low=True, unit="m/s"))
-
-    def check(self, params: ControllerParams) -> None:
-        """Its extensions need every joint of a steered finger recalled.
-
-        Args:
-            params: the parameters that hold it.
-
-        Raises:
-            InvalidInput: `restart_closure` or `reach` with `steered_joints='spread'`.
-        """
-        if (self.restart_closure or self.reach) and params.steered_joints != "all":
-            raise InvalidInput(f"BlendRecall({'restart_closure' if self.restart_closure else 'reach'}) needs "
-                               "steered_joints='all': with only the spread joints recalled, a restarted closure would "
-                               "open the fingers' flexion again")
-
-    @property
-    def moves_palm(self) -> bool:
-        return self.reach > 0
-
-    def preshape(self, c: BatchController, worlds: np.ndarray, postures: np.ndarray) -> None:
-        """The preshape is the closing heuristic's base.
-
-        Args:
-            c: the controller.
-            worlds: (m,) the worlds' indices.
-            postures: (m, 22) rad, their preshapes.
-        """
-        c.state.base[worlds] = postures
-
-    def recall(self, c: BatchController, worlds: np.ndarray, winners: np.ndarray, match: np.ndarray,
-               joints: np.ndarray, touching_segments: np.ndarray, fingers_touching: np.ndarray) -> None:
-        """Each match is the base of the steered joints; the first after a contact may restart the closure and
-        move the palm (`restart_closure`, `reach`).
-
-        Args:
-            c: the controller.
-            worlds: (m,) the worlds with a trusted match.
-            winners: (m,) their winning reference rows (not read).
-            match: (m, 22) rad, their recalled postures.
-            joints: (N, 22) rad, every world's sensed joints.
-            touching_segments: (N, segments) bool, every world's touching segments.
-            fingers_touching: (N, 5) bool, every world's touching fingers.
-        """
-        c.state.base[worlds] = np.where(c.steered_joint_mask, match, c.state.base[worlds])
-        if not (self.restart_closure or self.reach > 0):
-            return
-        any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
-        restart = worlds[any_touch[worlds] & ~c.state.recalled[worlds]]
-        c.state.recalled[restart] = True
-        touching = fingers_touching[restart]
-        if self.reach > 0:
-            for world, row in zip(restart, match[np.isin(worlds, restart)]):
-                self._start_reach(c, world, joints[world], row, touching_segments[world])
-            reset = np.broadcast_to(c.steered_finger_mask, touching.shape)
-        else:
-            reset = ~touching & ~c.state.held[restart] & c.steered_finger_mask
-        c.state.closure[restart] = np.where(reset, 0.0, c.state.closure[restart])
-
-    def _start_reach(self, c: BatchController, world: int, joints: np.ndarray, match: np.ndarray,
-                     touching: np.ndarray) -> None:
-        """The palm's way to the recalled grasp (`palm_shift`); every finger lets go to follow the recall."""
-        rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
-        if not len(rows):
-            return
-        c.state.palm_goal[world] = palm_shift(c.kinematics, joints, match, rows, self.reach)
-        c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
-        c.state.held[world] = False
-        c.state.lost[world] = False
 
 
 @dataclass(frozen=True)
@@ -555,8 +167,6 @@ class PalmSteering:
 STILL_PALM = PalmSteering()
 
 
-#: our recall rules by name (`ControllerParams(recall="base")`, a configuration file's `recall = "base"`)
-RECALL_RULES: dict[str, type[RecallRule]] = {"target": TargetRecall, "base": BlendRecall, "approach": ApproachRecall}
 #: the flat settings of a controller table before the recall rule was a value, and their names in the rule's
 _FLAT_RECALL_SETTINGS = {"recall_tolerance": "tolerance", "recall_closes_only": "closes_only",
                          "restart_closure": "restart_closure", "reach": "reach", "reach_speed": "reach_speed"}
@@ -733,17 +343,6 @@ class Controller(Protocol):
 ControllerFactory = Callable[[int, HandModel], Controller]  # `factory(n, hand)`: what `evaluate(controller=...)` takes
 
 
-def palm_shift(kinematics: SegmentKinematics, joints: np.ndarray, recalled: np.ndarray, touching: np.ndarray,
-               reach: float) -> np.ndarray:
-    """How far (3,), m, palm frame, the palm should move so that the object lies where a recalled grasp
-    (22,), rad, holds it: the mean difference between where the touching segments (indices into SEGMENTS)
-    are now, at the sensed joints (22,), rad, and where the recall puts them, at most `reach` m long."""
-    now, then = kinematics.positions(joints), kinematics.positions(recalled)
-    shift = np.mean(now[touching] - then[touching], axis=0)
-    length = float(np.linalg.norm(shift))
-    return shift if length <= reach else shift * (reach / length)
-
-
 def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:
     """RMS of every row over its masked columns, as `np.mean` of that row's masked entries alone sums them."""
     rms = np.empty(len(differences))
@@ -752,127 +351,6 @@ def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:
         rows = which.ravel() == k
         rms[rows] = np.sqrt(np.mean(differences[rows][:, pattern] ** 2, axis=1))
     return rms
-
-
-def _per_finger(values: np.ndarray, masks: np.ndarray, reduce: Callable = np.all) -> np.ndarray:
-    """(n, 5): `reduce` of each row's columns of each finger (`masks`: (5, columns), FINGERS order)."""
-    return np.column_stack([reduce(values[:, mask], axis=1) for mask in masks])
-
-
-def _bounded_step(current: np.ndarray, goal: np.ndarray, limit: float | np.ndarray) -> np.ndarray:
-    """Each row moved from `current` towards `goal` by at most `limit` (Euclidean; one, or one per row),
-    landing on the goal exactly when it is within reach."""
-    move = goal - current
-    distance = row_norms(move)
-    scale = np.where(distance <= limit, 1.0, limit / np.where(distance > 0, distance, 1.0))
-    return current + move * scale[:, None]  # move * 1.0 is move, bit for bit
-
-
-@dataclass
-class GraspState:
-    """What the controller keeps of every world besides what it reports (`BatchController`'s public attributes):
-    one row per world. `new` makes it for a first grasp; `restart` makes these worlds' rows anew for their next
-    attempt. Recall rules (`RecallRule`) read and write it.
-
-    Attributes:
-        closure: (N, 5) each finger's closure c of phase D, 0 to 1.
-        held, held_posture: (N, 5) the fingers that hold where they touched, and (N, 22) rad where that was.
-        lost, lost_posture: (N, 5) the fingers that lost their contact, and (N, 22) rad where they had held.
-        last_touch: (N, 5) s, when each finger last touched.
-        base: (N, 22) rad, where a closing finger closes from.
-        aim: (N, 22) rad, where it closes to (its closure 1): the closed hand, unless a recall rule set it.
-        way: (N, 22) rad, each finger's way to its last recall, from where it set out (`ApproachRecall`; 0: none).
-        pace: (N, 5) rad/s, how fast each finger on its way to a recall moves (the heuristic's speed unless a rule
-            set it).
-        target: (N, 22) rad, the targets of the last cycle.
-        touching, stable_since: (N, 5) the fingers touching, and (N,) s since when that set is unchanged.
-        recalled: (N,) the blend's first trusted match after a contact has come.
-        palm_goal, reaching: (N, 3) m, where each palm is going (`BlendRecall.reach`), and (N,) whether it is.
-        touched_once: (N,) something has touched in this attempt (the palm's guarded approach is over).
-        palm_aim: (N, 2) m, where the palm re-centres to in its plane (x, z; NaN: nowhere yet), `PalmSteering`.
-        approaching, heading, recall: (N, 5) the fingers on their way to a recalled posture ('target'), its key
-            (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
-        visited: the `visit` index of every (world, finger, key) recall a finger is done with.
-        previous: (N, 22) rad, the joints sensed one cycle before (NaN: none yet).
-        started: (N,) s, when each world's attempt began.
-        squeezing: (N,) how far each world's squeeze has come, 0 to 1 (`ControllerParams.squeeze_time`).
-        grip: (N,) rad, how far each world's holding fingers press, while grasping and once done: the squeeze, or
-            regulated to `ControllerParams.grip_force`.
-        preshapes: (N, 22) rad, each world's phase-B preshape (NaN rows: none).
-        rows: the recall keys one finger can have (the experience's reference rows + 1, for the preshape).
-    """
-
-    closure: np.ndarray
-    held: np.ndarray
-    held_posture: np.ndarray
-    lost: np.ndarray
-    lost_posture: np.ndarray
-    last_touch: np.ndarray
-    base: np.ndarray
-    aim: np.ndarray
-    way: np.ndarray
-    pace: np.ndarray
-    target: np.ndarray
-    touching: np.ndarray
-    stable_since: np.ndarray
-    recalled: np.ndarray
-    palm_goal: np.ndarray
-    reaching: np.ndarray
-    touched_once: np.ndarray
-    palm_aim: np.ndarray
-    approaching: np.ndarray
-    heading: np.ndarray
-    recall: np.ndarray
-    visited: np.ndarray
-    previous: np.ndarray
-    started: np.ndarray
-    squeezing: np.ndarray
-    grip: np.ndarray
-    preshapes: np.ndarray
-    rows: int
-
-    @classmethod
-    def new(cls, n: int, initial: np.ndarray, closed: np.ndarray, speed: np.ndarray, preshape: np.ndarray | None,
-            rows: int) -> GraspState:
-        """The state of n worlds before their first grasp, the hand at `initial` (22,), rad, closing towards
-        `closed` (22,), rad, each finger at `speed` (5,), rad/s; `preshape` (22,) rad or None, every world's; `rows`
-        recall keys per finger."""
-        fingers = len(FINGERS)
-        return cls(closure=np.zeros((n, fingers)), held=np.zeros((n, fingers), dtype=bool),
-                   held_posture=np.zeros((n, N_FINGER_JOINTS)), lost=np.zeros((n, fingers), dtype=bool),
-                   lost_posture=np.zeros((n, N_FINGER_JOINTS)), last_touch=np.full((n, fingers), -np.inf),
-                   base=np.tile(initial, (n, 1)), aim=np.tile(closed, (n, 1)),
-                   way=np.zeros((n, N_FINGER_JOINTS)), pace=np.tile(speed, (n, 1)), target=np.tile(initial, (n, 1)),
-                   touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
-                   recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
-                   touched_once=np.zeros(n, dtype=bool), palm_aim=np.full((n, 2), np.nan),
-                   approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
-                   recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
-                   previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
-                   grip=np.zeros(n),
-                   preshapes=np.full((n, N_FINGER_JOINTS), np.nan) if preshape is None else np.tile(preshape, (n, 1)),
-                   rows=rows)
-
-    def restart(self, worlds: np.ndarray, initial: np.ndarray, closed: np.ndarray, speed: np.ndarray,
-                palm_offset: np.ndarray, time: float) -> None:
-        """These worlds' next attempt: their fingers free and open-based at `initial` closing towards `closed` at
-        `speed`, no way kept, the palm staying where it is
-        (`palm_offset`, (N, 3) m), their recalls forgotten, started at `time` s; the preshapes stay (the regrasp
-        has set them)."""
-        for array in (self.closure, self.held, self.lost, self.touching, self.recalled, self.reaching,
-                      self.touched_once, self.approaching, self.heading, self.squeezing):
-            array[worlds] = 0
-        self.last_touch[worlds] = -np.inf
-        self.base[worlds] = self.recall[worlds] = initial
-        self.aim[worlds], self.way[worlds], self.pace[worlds] = closed, 0.0, speed
-        self.palm_goal[worlds] = palm_offset[worlds]
-        self.palm_aim[worlds] = self.previous[worlds] = np.nan
-        self.started[worlds] = time
-        self.visited = self.visited[~np.isin(self.visited // (len(FINGERS) * self.rows), worlds)]
-
-    def visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
-        """The visit index of (world, finger, recall key), broadcast: one integer each, for `visited`."""
-        return (worlds * len(FINGERS) + fingers) * self.rows + keys
 
 
 class BatchController:
@@ -1004,7 +482,7 @@ class BatchController:
         joints, forces = self._checked_readings(joints, segment_forces)
         self.time += self.params.control_period
         touching_segments = forces > 0.0
-        touching = _per_finger(touching_segments, _FINGER_SEGMENTS, np.any)
+        touching = per_finger(touching_segments, FINGER_SEGMENT_MASKS, np.any)
         elapsed = self.time - self.state.started
         waiting = self._wait(touching_segments.any(axis=1), elapsed)
         act = ~self.done & ~waiting
@@ -1076,14 +554,14 @@ class BatchController:
             goal = np.where(going[:, None], self.state.recall[np.ix_(free, of)],
                             base + closure[:, None] * (self.state.aim[np.ix_(free, of)] - base))
             pace = np.where(going, self.state.pace[free, finger], p.follow_speed * self.speed[finger])
-            target[np.ix_(free, of)] = _bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
+            target[np.ix_(free, of)] = bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
         self.state.target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
 
     def _move_palms(self, act: np.ndarray) -> None:
         """Palms on their way to the recalled grasps' places move on, at the recall rule's reach speed."""
         moving = np.flatnonzero(act & self.state.reaching)
         if len(moving):
-            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
+            self.palm_offset[moving] = bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
                                                      self.params.recall.reach_speed * self.params.control_period)
             self.state.reaching[moving] = np.any(self.palm_offset[moving] != self.state.palm_goal[moving], axis=1)
 
@@ -1150,7 +628,7 @@ class BatchController:
         step[centring] = palm.speed * dt
         moving = np.flatnonzero(step > 0)
         if len(moving):
-            self.palm_offset[moving] = _bounded_step(self.palm_offset[moving], goal[moving], step[moving])
+            self.palm_offset[moving] = bounded_step(self.palm_offset[moving], goal[moving], step[moving])
 
     def _regulate_grip(self, forces: np.ndarray, acting: np.ndarray) -> None:
         """The press of the holding fingers regulated to the total grip force `ControllerParams.grip_force`: an
@@ -1263,3 +741,9 @@ class GraspController:
         if forces.shape != (len(SEGMENTS),) or not np.all(np.isfinite(forces)):
             raise InvalidInput(f"segment_forces must be {len(SEGMENTS)} finite forces in SEGMENTS order")
         return self.batch.step(joints[None], forces[None])[0]
+
+
+def __getattr__(name: str) -> object:
+    """The recall rules and the grasp state moved out in 0.2 (`control.recall`, `control.state`), with a warning."""
+    return moved_attribute(__name__, name)
+

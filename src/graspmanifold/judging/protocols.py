@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 import mujoco
 
 from ..base.errors import InvalidInput
-from ..base.moved import current_name
+from ..base.moved import current_name, moved_attribute
 from ..base.validation import Bounds, check_choice, check_directions, check_fields, check_number
 from ..sim.flange import FlangeLimits
 from ..sim.scene import Scene
@@ -310,12 +310,5 @@ def get_protocol(protocol: str | JudgingProtocol, argument: str = "protocol") ->
 
 
 def __getattr__(name: str) -> object:
-    """`Protocol`, the class's name before 0.2 (beside typing's `Protocol` it misled), still answers, with a warning."""
-    if name == "Protocol":
-        import warnings
-
-        warnings.warn("graspmanifold.judging.protocols.Protocol is now JudgingProtocol; the old name goes in 0.3",
-                      DeprecationWarning, stacklevel=2)
-        return JudgingProtocol
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
+    """The names before 0.2 (`Protocol`, `OURS`, `OURS_FADED`), with a warning (`base.moved.MOVED_NAMES`)."""
+    return moved_attribute(__name__, name)

@@ -60,7 +60,8 @@ from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
 from ..base.io import markdown_table, write_text_atomic
 from ..base.validation import check_int
-from ..control.controller import APPROACH, BLEND, BlendRecall, ControllerParams
+from ..control.controller import APPROACH, BLEND, ControllerParams
+from ..control.recall import BlendRecall
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from ..manifold.experience import Experience, scrambled
 from ..manifold.som import SOM

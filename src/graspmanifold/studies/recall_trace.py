@@ -25,7 +25,8 @@ import glob
 
 import numpy as np
 
-from ..control.controller import BLEND, CLOSING_RECALL, FINGER_JOINT_MASKS, BatchController, ControllerParams
+from ..control.controller import BLEND, CLOSING_RECALL, BatchController, ControllerParams
+from ..control.state import FINGER_JOINT_MASKS
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..sim.hand import HandModel
