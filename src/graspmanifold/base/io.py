@@ -91,7 +91,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO]:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=TEMPORARY_SUFFIX, dir=path.parent)
     try:
-        with os.fdopen(fd, mode, **({"encoding": "utf-8"} if mode == "w" else {})) as handle:
+        with os.fdopen(fd, mode, encoding="utf-8" if mode == "w" else None) as handle:
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
@@ -456,7 +456,7 @@ class NpzRecord:
         return cls.load_with_metadata(path)[0]
 
     @classmethod
-    def load_with_metadata(cls, path: str | os.PathLike) -> tuple[NpzRecord, dict]:
+    def load_with_metadata(cls, path: str | os.PathLike) -> tuple[Self, dict]:
         """`load`, with the file's metadata (what `save` was given as `extra` among it).
 
         Args:

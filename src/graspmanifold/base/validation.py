@@ -9,7 +9,7 @@ import os
 import re
 import stat
 import warnings
-from typing import TypeVar
+from typing import TypeVar, cast
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -100,7 +100,7 @@ def check_number(value: object, name: str, bounds: Bounds) -> float:
     """
     if not bounds.holds(value):
         raise InvalidInput(f"{name} must be {bounds.describe()}, got {value!r}")
-    return int(value) if bounds.whole else value  # type: ignore[return-value]
+    return int(cast(float, value)) if bounds.whole else value  # type: ignore[return-value]
 
 
 def check_fields(value: object, numbers: Mapping[str, Bounds], flags: Iterable[str] = ()) -> None:
@@ -147,7 +147,7 @@ def check_directions(value: object, name: str) -> tuple[tuple[float, float, floa
     length = np.linalg.norm(rows, axis=1)
     if not np.all(np.isfinite(rows)) or np.any(np.abs(length - 1.0) > 1e-6):
         raise InvalidInput(f"{name} must be unit vectors (length 1), got lengths {np.round(length, 6).tolist()}")
-    return tuple(tuple(map(float, row)) for row in rows)
+    return tuple((float(row[0]), float(row[1]), float(row[2])) for row in rows)
 
 
 #: a value checked against choices, returned as it is

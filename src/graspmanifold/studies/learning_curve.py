@@ -267,7 +267,8 @@ def measure_seed(study: LearningCurveStudy, seed: int) -> dict:
 
 def _pooled(runs: list[dict], keeps: list[dict] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(held, valid) of the trials of one controller's runs of every seed, concatenated."""
-    parts = [pooled(r, keep=None if keeps is None else k) for r, k in zip(runs, keeps or [None] * len(runs))]
+    parts = ([pooled(r) for r in runs] if keeps is None else
+             [pooled(r, keep=k) for r, k in zip(runs, keeps)])
     return np.concatenate([h for h, _ in parts]), np.concatenate([v for _, v in parts])
 
 
