@@ -49,6 +49,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import ClassVar
@@ -279,8 +280,9 @@ class ExperienceStudy(StudyRun):
         """The markdown report of what `measure` returned."""
         return report(self.config, info)
 
-    #: draws the report's figure beside it (`runner.publish`), or None: this study's report has none
-    figure = None
+    #: draws the report's figure beside it (`runner.publish`: `figure(info, path)` -> the file's name), or None: this
+    #: study's report has none
+    figure: Callable[[dict, Path], str] | None = None
 
     def run(self) -> dict:
         """The whole study, with OUT locked and one pool of workers; writes the report (and its figure),

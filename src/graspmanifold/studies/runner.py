@@ -325,7 +325,7 @@ def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callabl
     print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {time.perf_counter() - study.started:.0f} s")
 
 
-def rate_curve(ax: object, xs: Sequence[float], counts: Sequence[Sequence[int]], **style: object) -> None:
+def rate_curve(ax: object, xs: Sequence[float] | np.ndarray, counts: Sequence[Sequence[int]], **style: object) -> None:
     """Rates in percent with their 95 % Wilson intervals as error bars, on a matplotlib axis.
 
     Args:

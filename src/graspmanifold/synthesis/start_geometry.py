@@ -14,6 +14,7 @@ hand.
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -74,7 +75,7 @@ class SearchGeometry:
         hand_geoms = [int(g) for g in np.flatnonzero(segment_of >= 0)]
         self.distal = [int(g) for s in contacts for g in np.flatnonzero(segment_of == SEGMENTS.index(s))]
         self.other = [g for g in hand_geoms if g not in self.distal and SEGMENTS[segment_of[g]] != "forearm"]
-        fingers = {g: finger_of(SEGMENTS[segment_of[g]]) for g in hand_geoms}
+        fingers = {g: finger_of(SEGMENTS[segment_of[g]]) or "" for g in hand_geoms}
         order = ["ff", "mf", "rf", "lf"]
         pairs = [(a, b) for a in hand_geoms for b in hand_geoms if a < b and fingers[a] and fingers[b]
                  and fingers[a] != fingers[b]
@@ -174,7 +175,7 @@ class SearchGeometry:
             moves[body], turns[body] = jacp[:, self._dofs], jacr[:, self._dofs]
         return moves, turns, data.xpos.copy()
 
-    def _points_jacobian(self, points: np.ndarray, geoms: np.ndarray,
+    def _points_jacobian(self, points: np.ndarray, geoms: Sequence[int] | np.ndarray,
                          frames: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
         """(n, 3, 28): how points (n, 3) fixed to hand geoms (n,) move with the finger joints (22), the palm's
         translation (3) and its rotation (3, a small turn about the palm's origin in the object frame), given the
@@ -301,7 +302,7 @@ class SearchGeometry:
             push_rows[i] = change[:, :3] @ moves[i] + change[:, 3:] @ turns[i]
         return pushes, push_rows
 
-    def _nearest_on_cores(self, geoms: list[int], cores: np.ndarray) -> np.ndarray:
+    def _nearest_on_cores(self, geoms: Sequence[int] | np.ndarray, cores: np.ndarray) -> np.ndarray:
         """The points (len(geoms), 3) of these capsules' or spheres' cores nearest a primitive object, exact:
         MuJoCo's (`cores`, the convex distance's witness points: good to about 1e-7 m on a curved object, although
         the distance is good to 1e-13 m, as a distance is flat at its minimum) taken two Newton steps along each
