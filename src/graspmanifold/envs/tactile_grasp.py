@@ -41,7 +41,7 @@ from gymnasium.vector.utils import batch_space
 
 from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.validation import Bounds, check_choice, check_int, check_number
-from ..judging.judge import Judgement, judge_worlds
+from ..judging.judge import Judgement
 from ..sim.flange import FlangeLimits
 from ..sim.grip import CONTROL_PERIOD
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
@@ -51,7 +51,7 @@ from ..sim.render import THUMB_SIDE
 from ..sim.scene import CAMERAS, Scene
 from ..sim.worlds import CpuWorlds
 from ..trials.grid import check_grid
-from ..trials.trial import TrialSetup, trial_scene
+from ..trials.trial import Episodes, TrialSetup, trial_scene
 
 #: s of a grasp after which it is judged as it is, done or not
 MAX_SECONDS = 10.0
@@ -154,7 +154,6 @@ class _GraspWorlds:
         self.pose = np.zeros((n, 4))  # each episode's grid pose
         self.ended = np.ones(n, dtype=bool)  # each world's episode is over (judged), or not begun
         self.rngs = [seeding.np_random(None)[0] for _ in range(n)]
-        self._nstep = 0
 
     @property
     def observation_space(self) -> spaces.Box:
@@ -192,7 +191,6 @@ class _GraspWorlds:
             self.scenes[world] = trial_scene(self.setup, pose, rng, self.initial)
             self.clock[world] = 0.0
             self.ended[world] = False
-        self._nstep = max(1, round(self.period / self.scenes[worlds[0]].model.opt.timestep))
 
     def observe(self, worlds: np.ndarray) -> np.ndarray:
         """(len(worlds), observation size): joints, segment forces, the PCP's mask."""
@@ -240,12 +238,11 @@ class _GraspWorlds:
         """
         palm = len(self.palm_reach)
         actions = self.check_actions(actions)
-        cpu = CpuWorlds([self.scenes[w] for w in worlds])
+        acting = Episodes(self.setup, [self.scenes[w] for w in worlds], self.period)
         index = np.arange(len(worlds))
-        cpu.set_targets(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]))
-        for scene, target in zip(cpu.scenes, actions[:, N_FINGER_JOINTS:N_FINGER_JOINTS + palm] if palm else ()):
-            scene.steer_flange(target, self.period)
-        failed = cpu.step(index, self._nstep)
+        acting.act(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]),
+                   actions[:, N_FINGER_JOINTS:N_FINGER_JOINTS + palm] if palm else None)
+        failed = acting.physics(index)
         self.clock[worlds] += self.period
         done = (actions[:, -1] >= 0.5) | (self.clock[worlds] >= self.max_seconds - 1e-9)
         rewards, infos = np.zeros(len(worlds)), [{"time": float(self.clock[w]), "judged": False} for w in worlds]
@@ -255,11 +252,8 @@ class _GraspWorlds:
         judging = np.flatnonzero(done & ~np.isin(index, list(failed)))
         self.ended[worlds[judging]] = True
         if len(judging):
-            judged = CpuWorlds([cpu.scenes[k] for k in judging])
-            for k, judgement in zip(judging, judge_worlds(judged, self.period,
-                                                          lambda live: judged.step(live, self._nstep),
-                                                          friction=self.setup.object.friction,
-                                                          rules=self.setup.rules)):
+            judged = Episodes(self.setup, [self.scenes[worlds[k]] for k in judging], self.period)
+            for k, judgement in zip(judging, judged.judge()):
                 rewards[k] = float(judgement.hold and not judgement.fault)
                 infos[k].update(self._judged(judgement))
         return rewards, infos

@@ -489,9 +489,70 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     loop = _TrialLoop(setup, np.asarray(poses, dtype=float), rngs, observer)
     if observer is not None:
         observer(loop.worlds)
-    judgements = judge_worlds(loop.worlds, loop.period, loop.advance, friction=setup.object.friction,
-                              rules=setup.rules, ready=loop.ready)
+    judgements = loop.episodes.judge(loop.advance, loop.ready)
     return [loop.trial(world, judged) for world, judged in enumerate(judgements)]
+
+
+class Episodes:
+    """The one episode loop: trials' worlds on one clock of control periods. The scenes a `TrialSetup` made (on its
+    backend), one control period of physics under the targets given, and the judge (`judge.judge_worlds`, the
+    set-up's rules and the object's friction) once a grasp is done. `run_trials` drives it with a controller, the
+    Gymnasium environments (`envs.tactile_grasp`) with an agent's actions.
+
+    Args:
+        setup: what the trials are.
+        scenes: their scenes (`trial_scene`), one per world.
+        period: s of one control period.
+    """
+
+    def __init__(self, setup: TrialSetup, scenes: list[Scene], period: float):
+        self.setup, self.period = setup, period
+        if setup.backend == "cpu":
+            self.worlds: Worlds = CpuWorlds(scenes)
+        else:
+            from ..sim.warp_worlds import WarpWorlds
+
+            self.worlds = WarpWorlds(scenes)
+        #: physics steps of one control period
+        self.nstep = max(1, round(period / scenes[0].model.opt.timestep))
+
+    def act(self, live: np.ndarray, targets: np.ndarray, palm: np.ndarray | None = None) -> None:
+        """Set these worlds' finger targets (and their flanges' set points) for the next control period.
+
+        Args:
+            live: (m,) the worlds' indices.
+            targets: (m, 22) joint targets, rad.
+            palm: (m, 6) flange set points (m, rad), or None: the palms stay.
+        """
+        self.worlds.set_targets(live, targets)
+        if palm is not None:
+            self.worlds.steer_flanges(live, palm, self.period)
+
+    def physics(self, live: np.ndarray) -> dict[int, str]:
+        """One control period of physics of these worlds.
+
+        Args:
+            live: (m,) the worlds' indices.
+
+        Returns:
+            {world: why} for the worlds whose physics failed.
+        """
+        return self.worlds.step(live, self.nstep)
+
+    def judge(self, advance: Callable[[np.ndarray], dict[int, str]] | None = None,
+              ready: Callable[[], np.ndarray] | None = None) -> list[Judgement]:
+        """Run the worlds to their judgement: `advance(live)` every control period until `ready()` says a world's
+        grasp is done (None: every world's is), then its protocol's stages.
+
+        Args:
+            advance: one control period of the live worlds (None: their physics alone, the targets kept).
+            ready: which worlds' grasps go to the judge now (None: all at once).
+
+        Returns:
+            One `Judgement` per world.
+        """
+        return judge_worlds(self.worlds, self.period, advance or self.physics, friction=self.setup.object.friction,
+                            rules=self.setup.rules, ready=ready)
 
 
 class _TrialLoop:
@@ -505,14 +566,9 @@ class _TrialLoop:
         self.setup, self.poses, self.rngs, self.observer, self.n = setup, poses, rngs, observer, n
         self.controller = controller = setup.make_controller(n)
         self.period = period = controller.control_period
-        scenes = [trial_scene(setup, pose, rng, controller.initial) for pose, rng in zip(poses, rngs)]
-        if setup.backend == "cpu":
-            self.worlds: Worlds = CpuWorlds(scenes)
-        else:
-            from ..sim.warp_worlds import WarpWorlds
-
-            self.worlds = WarpWorlds(scenes)
-        self.nstep = max(1, round(period / scenes[0].model.opt.timestep))
+        self.episodes = Episodes(setup, [trial_scene(setup, pose, rng, controller.initial)
+                                         for pose, rng in zip(poses, rngs)], period)
+        self.worlds = self.episodes.worlds
         self.grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
         self.clock, self.time_to_grasp, self.failed = 0.0, np.full(n, np.nan), {}
         self.first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
@@ -535,8 +591,7 @@ class _TrialLoop:
         world's state may not be finite); their controller's targets no longer matter."""
         if self.correcting:  # the oracle's correction: the fingers held, the flange carrying the palm
             self.correcting -= 1
-            self.worlds.set_targets(live, np.tile(self.controller.initial, (len(live), 1)))
-            self.worlds.steer_flanges(live, self.corrections[live], self.period)
+            self.episodes.act(live, np.tile(self.controller.initial, (len(live), 1)), self.corrections[live])
             return self._physics(live, np.zeros(self.n, dtype=bool))
         sensed = self._sense(live)
         targets = self.controller.step(*sensed)
@@ -579,7 +634,7 @@ class _TrialLoop:
 
     def _physics(self, live: np.ndarray, newly_done: np.ndarray) -> dict[int, str]:
         """The physics of one control period; a failed world keeps its recalls as they were when it failed."""
-        failures = self.worlds.step(live, self.nstep)
+        failures = self.episodes.physics(live)
         self.failed.update({world: self.recalls(world) for world in failures})
         self.grasping[newly_done] = self.grasping[list(failures)] = False
         if self.observer is not None:
