@@ -19,6 +19,7 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..base.errors import InvalidInput
 from ..base.workers import usable_cores
@@ -65,7 +66,7 @@ def argmin_tied(values: np.ndarray, axis: int | None = None) -> int | np.ndarray
     return int(index) if np.ndim(index) == 0 else index
 
 
-def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
+def check_queries(x: ArrayLike, mask: ArrayLike | None, dim: int) -> tuple[np.ndarray, np.ndarray]:
     """Validate queries and masks; return float arrays (m, dim) with unspecified entries zeroed.
 
     `x` is (dim,) or (m, dim); it may hold NaN where the mask is 0 (the PCP's unspecified joints).
@@ -99,7 +100,7 @@ def check_queries(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.nda
     return queries, np.ascontiguousarray(weights)
 
 
-def check_query(x: object, mask: object, dim: int) -> tuple[np.ndarray, np.ndarray]:
+def check_query(x: ArrayLike, mask: ArrayLike | None, dim: int) -> tuple[np.ndarray, np.ndarray]:
     """`check_queries` for one query (dim,): returns float (dim,) arrays."""
     if np.ndim(x) != 1:
         raise InvalidInput(f"x must have shape ({dim},), got {np.shape(x)}")
@@ -264,8 +265,7 @@ class ManifoldRecall(Recall):
     @property
     def references(self) -> np.ndarray:
         """The manifold's postures at its training data (k, dim), rad, read-only: `best_match` gives a row of them."""
-        self._require()
-        return self._search.points
+        return self.masked_search().points
 
     def masked_search(self) -> MaskedNearest:
         """The masked nearest search over the kept references (`Recall.masked_search`).
@@ -274,6 +274,8 @@ class ManifoldRecall(Recall):
             The `MaskedNearest` over `references`.
         """
         self._require()
+        if self._search is None:
+            raise NotImplementedError("a ManifoldRecall keeps its references (keep_references) when it is fitted")
         return self._search
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:

@@ -201,8 +201,9 @@ def summarize(run: RunData, figure_info: dict) -> RunSummary:
 def _manifold_summary(ukr: UKR, resumed: UKR | None) -> dict:
     """A UKR manifold's fit (its start, leave-one-out errors) and its resumed learning."""
     fit = ukr.history[0]
+    assert ukr.postures is not None  # a fitted manifold's
     out = {"postures": len(ukr.postures), "latent_dim": ukr.latent_dim, "start": fit.get("start"),
            "scale": fit.get("scale"), "loo_start": fit.get("loo_start"), "loo": fit.get("loo")}
-    if resumed is not None:
+    if resumed is not None and resumed.postures is not None:
         out |= {"resumed_postures": len(resumed.postures) - len(ukr.postures), "loo_resumed": resumed.loo_error()}
     return out

@@ -16,6 +16,7 @@ from collections.abc import Iterable
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, invert
@@ -108,7 +109,9 @@ def _add_object_geoms(spec: mujoco.MjSpec, body: mujoco.MjsBody, obj: GraspObjec
     body.explicitinertial = True
     body.mass = obj.mass
     body.ipos = [0.0, 0.0, 0.0]  # the object frame is at the centre of mass, on the principal axes
-    body.inertia = np.diag(obj.mesh.moment_inertia) * obj.mass / obj.mesh.mass
+    mesh = obj.mesh
+    assert mesh is not None  # a mesh object's (the primitives returned above)
+    body.inertia = np.diag(mesh.moment_inertia) * obj.mass / mesh.mass
     for i, part in enumerate(obj.parts):
         name = "object" if i == 0 else f"object_{i}"
         spec.add_mesh(name=f"{name}_mesh", uservert=part.vertices.ravel().tolist(), userface=part.faces.ravel().tolist())
@@ -513,7 +516,7 @@ class Scene:
         self._check_flange()
         return self.data.ctrl[self.flange_actuators].copy()
 
-    def steer_flange(self, target: Iterable[float], period: float) -> None:
+    def steer_flange(self, target: ArrayLike, period: float) -> None:
         """Move the flange's set point towards a pose from home for one control period: each joint's by at most its
         speed (`FlangeLimits.speeds`) times `period`, within the travel; it stays there until steered again.
 
@@ -533,6 +536,7 @@ class Scene:
         if self.flange_locked:
             raise InvalidInput("the flange is locked: unlock_flange() before steering it")
         limits, now = self.flange_limits, self.data.ctrl[self.flange_actuators]
+        assert limits is not None  # _check_flange refused a scene without one
         step = np.clip(np.clip(goal, -limits.reach(), limits.reach()) - now, -limits.speeds() * period,
                        limits.speeds() * period)
         self.data.ctrl[self.flange_actuators] = now + step
