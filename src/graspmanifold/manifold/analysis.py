@@ -9,6 +9,7 @@ import copy
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..base.errors import NotFittedError
 from .som import RESUME, SOM
 from .ukr import UKR
 
@@ -154,6 +155,8 @@ def latent_grid(ukr: UKR, size: int = 6, spread: float = 90.0) -> tuple[np.ndarr
         The latent points (rows, size, q) and the postures there (rows, size, dim), rad.
     """
     latent = ukr.latent
+    if latent is None:
+        raise NotFittedError("the UKR manifold is not fitted yet: call fit first")
     low, high = np.percentile(latent, [50 - spread / 2, 50 + spread / 2], axis=0)
     axes = [np.linspace(low[a], high[a], size) for a in range(latent.shape[1])]
     if latent.shape[1] == 1:

@@ -37,16 +37,16 @@ def plot_lattice(som: SOM, ax: Axes | None = None, *, hits: np.ndarray | None = 
         raise InvalidInput(f"scale must be 'linear' or 'log', got {scale!r}")
     ax = ax if ax is not None else _new_axes()
     horizontal, vertical = som.internode_distances()
-    segments, values = [], []
+    segments, lengths = [], []
     for r in range(som.rows):
         for c in range(som.cols - 1):
             segments.append([(c, r), (c + 1, r)])
-            values.append(horizontal[r, c])
+            lengths.append(horizontal[r, c])
     for r in range(som.rows - 1):
         for c in range(som.cols):
             segments.append([(c, r), (c, r + 1)])
-            values.append(vertical[r, c])
-    values = np.degrees(values) if degrees else np.asarray(values)
+            lengths.append(vertical[r, c])
+    values = np.degrees(lengths) if degrees else np.asarray(lengths)
     if hits is not None:
         hits = np.asarray(hits)
         if hits.shape != (som.rows, som.cols):

@@ -17,6 +17,7 @@ from ..base.io import atomic_write, markdown_table, write_text_atomic
 from ..base.moved import upgrade_config
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.controller import BLEND, ControllerParams
+from ..control.recall import TargetRecall
 from ..judging.judge import JUDGING
 from ..judging.protocols import DEFAULT_PROTOCOL, get_protocol
 from ..manifold.postureset import PostureSet
@@ -264,7 +265,8 @@ def _choices(run: RunData) -> list[list[str]]:
          f"heuristic's joint speed; a finger closes on from it once within {c.recall.tolerance} rad of it (or at "
          "rest short of it, no contact), its closure from 0; phase B matches the whole posture; each recall at most "
          "once per finger; a finger that lost its contact closes on from where it held; `_blend` methods: `BLEND`"
-         if c.recall.name == "target" else "`recall='base'` (the blend): the heuristic's base, goal = match + c (closed "
+         if isinstance(c.recall, TargetRecall) and c.recall.name == "target"
+         else "`recall='base'` (the blend): the heuristic's base, goal = match + c (closed "
          "- match), c grown since phase B began", "\"acts as the target posture for the current control cycle\"; a "
          "generic closing heuristic finalises the grasp"],
         ["object support while the hand closes", f"a spring-damper, {JUDGING.support_stiffness:g} N/m and {JUDGING.support_damping:g} "
