@@ -65,7 +65,7 @@ class PartStore(Generic[Part]):
         read: reads one part file: its content and its metadata (raises `ValueError` when unreadable).
     """
 
-    def __init__(self, directory: str | Path, key: str, read: Callable[[Path], tuple[Part, dict]]):
+    def __init__(self, directory: str | os.PathLike, key: str, read: Callable[[Path], tuple[Part, dict]]):
         if not isinstance(key, str) or not key:
             raise InvalidInput(f"key must be a non-empty string, got {key!r}")
         self.directory = Path(directory)

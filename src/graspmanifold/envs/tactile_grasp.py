@@ -122,7 +122,7 @@ def episode_setup(setup: str | GraspObject | TrialSetup = "cylinder", **fields: 
         fields["palm"] = FlangeLimits() if palm is True else palm or None
     if not isinstance(fields.get("table", False), (bool, np.bool_)):  # table="no" ran with the table
         raise InvalidInput(f"table must be True or False, got {fields['table']!r}")
-    built = TrialSetup.build(setup, **fields)
+    built = TrialSetup.build(setup, None, **fields)  # an agent's episode recalls no experience
     agent_only = {"experience": built.experience is None, "controller": built.controller is None,
                   "preshape": built.preshape is None, "regrasp": built.regrasp.attempts == 1,
                   "plan": built.plan is None, "oracle": not built.oracle, "backend": built.backend == "cpu"}
@@ -245,7 +245,8 @@ class _GraspWorlds:
         failed = acting.physics(index)
         self.clock[worlds] += self.period
         done = (actions[:, -1] >= 0.5) | (self.clock[worlds] >= self.max_seconds - 1e-9)
-        rewards, infos = np.zeros(len(worlds)), [{"time": float(self.clock[w]), "judged": False} for w in worlds]
+        rewards = np.zeros(len(worlds))
+        infos: list[dict[str, object]] = [{"time": float(self.clock[w]), "judged": False} for w in worlds]
         for k, why in failed.items():
             infos[k].update(judged=True, hold=False, force_closure=False, fault=why)
         self.ended[worlds[list(failed)]] = True
@@ -253,7 +254,7 @@ class _GraspWorlds:
         self.ended[worlds[judging]] = True
         if len(judging):
             judged = Episodes(self.setup, [self.scenes[worlds[k]] for k in judging], self.period)
-            for k, judgement in zip(judging, judged.judge()):
+            for k, judgement in zip(judging.tolist(), judged.judge()):
                 rewards[k] = float(judgement.hold and not judgement.fault)
                 infos[k].update(self._judged(judgement))
         return rewards, infos
@@ -268,6 +269,8 @@ class _GraspWorlds:
         from ..sim.render import render_states
 
         scene = self.scenes[world]
+        if scene is None:
+            raise InvalidInput(f"world {world} has no episode to draw yet: reset it first")
         return render_states(scene, scene.state()[None], camera, width, height)[0]
 
 
@@ -387,15 +390,15 @@ class TactileGraspVectorEnv(VectorEnv):
         Returns:
             (observations (N, size), {"pose": (N, 4) the grid poses}).
         """
-        seeds = [None] * self.num_envs if seed is None else list(seed) if isinstance(seed, (list, tuple)) else \
-            [int(seed) + i for i in range(self.num_envs)]
+        seeds: list[int | None] = [None] * self.num_envs if seed is None else \
+            list(seed) if isinstance(seed, (list, tuple)) else [int(seed) + i for i in range(self.num_envs)]
         poses = _check_options(options, ("poses",)).get("poses")
-        poses = [None] * self.num_envs if poses is None else \
+        given: list[np.ndarray | None] = [None] * self.num_envs if poses is None else \
             list(_check_poses(poses, self.num_envs, 'options["poses"]'))
-        if len(seeds) != self.num_envs or len(poses) != self.num_envs:
+        if len(seeds) != self.num_envs or len(given) != self.num_envs:
             raise InvalidInput(f"reset takes one seed and one pose per world ({self.num_envs})")
         worlds = list(range(self.num_envs))
-        self.task.reset(worlds, seeds, poses)
+        self.task.reset(worlds, seeds, given)
         return self.task.observe(np.arange(self.num_envs)), {"pose": self.task.pose.copy()}
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:

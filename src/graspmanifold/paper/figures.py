@@ -11,7 +11,8 @@ clusters' centres with the step between neighbours.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from matplotlib import colormaps
@@ -20,6 +21,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from ..base.errors import NotFittedError
 from ..manifold.analysis import border_measures, border_runs, latent_grid, latent_path, node_distances
 from ..manifold.plots import plot_lattice
 from ..manifold.som import SOM
@@ -66,7 +68,7 @@ def _node_picture(ax, image: np.ndarray, distance: float, scale: tuple[float, fl
     ax.set_axis_off()
 
 
-def _colourbar(figure: Figure, scale: tuple[float, float], rect: list[float]) -> None:
+def _colourbar(figure: Figure, scale: tuple[float, float], rect: tuple[float, float, float, float]) -> None:
     bar = figure.colorbar(ScalarMappable(Normalize(*scale), DISTANCE_COLOURS), cax=figure.add_axes(rect))
     bar.set_label("mean distance to neighbours (°)")
 
@@ -85,9 +87,9 @@ def extract_figure(som: SOM, hits: np.ndarray, render: Renderer, corner: tuple[i
     figure = Figure(figsize=(1.6 * cols + 1.6, 1.6 * rows + 0.5))
     width, top = 1.6 * cols / (1.6 * cols + 1.6), 1.0 - 0.5 / (1.6 * rows + 0.5)
     for k, ((r, c), image) in enumerate(zip(nodes, images)):
-        ax = figure.add_axes([width * (k % cols) / cols, top * (1 - (k // cols + 1) / rows), width / cols, top / rows])
+        ax = figure.add_axes((width * (k % cols) / cols, top * (1 - (k // cols + 1) / rows), width / cols, top / rows))
         _node_picture(ax, image, distance[r, c], scale, support[r, c])
-    _colourbar(figure, scale, [width + 0.015, 0.1, 0.02, 0.8 * top])
+    _colourbar(figure, scale, (width + 0.015, 0.1, 0.02, 0.8 * top))
     figure.suptitle(f"{title}: nodes ({r0}..{r0 + rows - 1}, {c0}..{c0 + cols - 1}); border: node distance; "
                     "bar: training data on the node", y=0.998, fontsize=11)
     return figure
@@ -107,14 +109,14 @@ def border_figure(som: SOM, hits: np.ndarray, render: Renderer, title: str = "",
     figure = Figure(figsize=(8.0, 2.3 * len(runs) + 0.6))
     for i, (run, measure) in enumerate(zip(runs, measures)):
         for j, cell in enumerate(run):
-            ax = figure.add_axes([0.02 + 0.2 * j, 1 - (i + 1) * 0.88 / len(runs) - 0.06, 0.19, 0.7 / len(runs)])
+            ax = figure.add_axes((0.02 + 0.2 * j, 1 - (i + 1) * 0.88 / len(runs) - 0.06, 0.19, 0.7 / len(runs)))
             _node_picture(ax, images[4 * i + j], distance[cell], scale, support[cell])
             middle = "" if j in (0, 3) else (", between" if measure["middle_intermediate"][j - 1] else ", not between")
             ax.set_title(f"{cell}: {'data' if hits[cell] else 'no data'}{middle}", fontsize=8)
         steps = " | ".join(f"{s:.0f}°" for s in measure["steps_deg"])
         figure.text(0.42, 1 - (i + 1) * 0.88 / len(runs) - 0.1, f"steps between neighbours: {steps}",
                     ha="center", fontsize=9)
-    _colourbar(figure, scale, [0.84, 0.12, 0.025, 0.72])
+    _colourbar(figure, scale, (0.84, 0.12, 0.025, 0.72))
     figure.suptitle(f"{title} (a middle node is 'between' when it lies closer to each end than the ends lie "
                     "to each other)", fontsize=9)
     return figure
@@ -130,25 +132,25 @@ def lattice_panels(som: SOM, panels: list[tuple[str, np.ndarray | None]], title:
     return figure
 
 
-def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure:
+def rates_figure(summaries: Sequence[Mapping[str, Any]], methods: tuple[str, ...] = ()) -> Figure:
     """Hold and force-closure rates per object and method with 95 % Wilson intervals; methods in the
     given order (others after them) and each method in one colour throughout."""
     objects = list(dict.fromkeys(s["object"] for s in summaries))
     present = list(dict.fromkeys(s["method"] for s in summaries))
-    methods = [m for m in methods if m in present] + [m for m in present if m not in methods]
-    rows_of_legend = -(-len(methods) // 6)  # at most six methods a row, below the panels
+    order = [m for m in methods if m in present] + [m for m in present if m not in methods]
+    rows_of_legend = -(-len(order) // 6)  # at most six methods a row, below the panels
     figure = Figure(figsize=(max(6.4, 3.6 * len(objects) + 1), 3.6 + 0.25 * rows_of_legend), layout="constrained")
     axes = figure.subplots(1, 2, sharey=True)
-    width = 0.8 / len(methods)
+    width = 0.8 / len(order)
     colours = colormaps["tab10"]
     for ax, key, label in zip(axes, ("hold_rate", "force_closure_rate"), ("hold", "force closure")):
-        for m, method in enumerate(methods):
+        for m, method in enumerate(order):
             rows = [next((s for s in summaries if s["object"] == o and s["method"] == method), None) for o in objects]
             values = np.array([r[key] if r else np.nan for r in rows])
             intervals = np.array([wilson_interval(round(r[key] * r["trials"]), r["trials"]) if r and r["trials"]
                                   else (np.nan, np.nan) for r in rows])
             error = np.abs(intervals.T - values)
-            ax.bar(np.arange(len(objects)) + (m - (len(methods) - 1) / 2) * width, values, width, yerr=error,
+            ax.bar(np.arange(len(objects)) + (m - (len(order) - 1) / 2) * width, values, width, yerr=error,
                    capsize=2, label=method, color=colours(m % 10), error_kw={"linewidth": 0.8})
         ax.set_xticks(range(len(objects)), objects)
         ax.set_ylim(0, 1.05)
@@ -156,11 +158,11 @@ def rates_figure(summaries: list[dict], methods: tuple[str, ...] = ()) -> Figure
         ax.set_title(f"{label} rate (95 % CI)", fontsize=10)
     axes[0].set_ylabel("rate")
     handles, labels = axes[0].get_legend_handles_labels()
-    figure.legend(handles, labels, loc="outside lower center", ncol=min(6, len(methods)), fontsize=8, frameon=False)
+    figure.legend(handles, labels, loc="outside lower center", ncol=min(6, len(order)), fontsize=8, frameon=False)
     return figure
 
 
-def cluster_ends(ukr: UKR, labels: np.ndarray, ends: tuple[object, object] | None = None
+def cluster_ends(ukr: UKR, labels: np.ndarray, ends: Sequence[object] | None = None
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Two clusters of a manifold's training postures as latent points: each cluster's training point nearest its
     latent centre (a centre itself may lie where no posture is, between a cluster's parts).
@@ -168,23 +170,27 @@ def cluster_ends(ukr: UKR, labels: np.ndarray, ends: tuple[object, object] | Non
     Args:
         ukr: the fitted manifold.
         labels: (n,) a cluster label per training posture, in its order (a posture set's `start_ids`).
-        ends: the two labels (None: the two largest clusters, ties to the lower label).
+        ends: the two labels, or one (then its far end is the training point farthest from it); None: the two
+            largest clusters, ties to the lower label.
 
     Returns:
         The two latent points (q,), (q,); a single cluster: its point and the training point farthest from it.
     """
+    latent = ukr.latent
+    if latent is None:
+        raise NotFittedError("cluster_ends needs a fitted UKR; call fit(postures) first")
     labels = np.asarray(labels)
     values, counts = np.unique(labels, return_counts=True)
     chosen = list(ends) if ends is not None else list(values[np.lexsort((values, -counts))][:2])
 
     def medoid(label: object) -> np.ndarray:
-        members = ukr.latent[labels == label]
+        members = latent[labels == label]
         return members[np.argmin(np.linalg.norm(members - members.mean(axis=0), axis=1))]
 
     first = medoid(chosen[0])
     if len(chosen) > 1:
         return first, medoid(chosen[1])
-    return first, ukr.latent[np.argmax(np.linalg.norm(ukr.latent - first, axis=1))]
+    return first, latent[np.argmax(np.linalg.norm(latent - first, axis=1))]
 
 
 def latent_figure(ukr: UKR, render: Renderer, start: np.ndarray, end: np.ndarray, title: str = "",
@@ -213,12 +219,12 @@ def latent_figure(ukr: UKR, render: Renderer, start: np.ndarray, end: np.ndarray
     figure = Figure(figsize=(1.5 * max(cols, steps), 1.5 * rows + 2.4))
     height = 1.5 * rows + 2.4
     for k, picture in enumerate(pictures[:len(flat)]):
-        ax = figure.add_axes([(k % cols) / max(cols, steps), 1 - (0.4 + 1.5 * (k // cols + 1)) / height,
-                              1 / max(cols, steps), 1.45 / height])
+        ax = figure.add_axes(((k % cols) / max(cols, steps), 1 - (0.4 + 1.5 * (k // cols + 1)) / height,
+                              1 / max(cols, steps), 1.45 / height))
         ax.imshow(picture)
         ax.set_axis_off()
     for k, picture in enumerate(pictures[len(flat):]):
-        ax = figure.add_axes([k / max(cols, steps), 0.02, 1 / max(cols, steps), 1.45 / height])
+        ax = figure.add_axes((k / max(cols, steps), 0.02, 1 / max(cols, steps), 1.45 / height))
         ax.imshow(picture)
         ax.set_axis_off()
         step = f"+{path['steps_deg'][k - 1]:.0f}°, " if k else ""

@@ -186,7 +186,7 @@ def summarize(run: RunData, figure_info: dict) -> RunSummary:
     rows = comparison_rows(keyed, ("database", "som", "som_all", *UKR_METHODS, *BLEND_METHODS), ("none",))
     summary = RunSummary(
         library_version=library_version(), procedure=run.config.get("procedure", "paper"), objects=objects,
-        evaluation=[result.summary for result in run.results.values()], figures=figure_info, figure_object=obj,
+        evaluation=[dict(result.summary) for result in run.results.values()], figures=figure_info, figure_object=obj,
         fig5={"object": obj, "runs": border_measures(run.maps[obj], obj_hits, border_runs(run.maps[obj], obj_hits))},
         comparisons=rows, verdict=judge_target(rows).text, claims=[])
     summary.claims = verdict_rows(judge_claims(summary.to_json()))

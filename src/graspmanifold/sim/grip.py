@@ -37,12 +37,13 @@ def squeezed(posture: np.ndarray, amount: float, hand: HandModel = SHADOW_HAND) 
     return pressed_towards(posture, amount, hand.keyframe_posture("closed"), hand.limits())
 
 
-def pressed_towards(posture: np.ndarray, amount: float, closed: np.ndarray, limits: np.ndarray) -> np.ndarray:
+def pressed_towards(posture: np.ndarray, amount: float | np.ndarray, closed: np.ndarray, limits: np.ndarray
+                    ) -> np.ndarray:
     """`squeezed` with the hand's closed posture and ranges given (a controller keeps them at hand).
 
     Args:
         posture: finger postures (..., 22), rad.
-        amount: how far to push each flexion joint, rad.
+        amount: how far to push each flexion joint, rad: one, or one per posture (..., 1).
         closed: the closed hand's posture (22,), rad.
         limits: the joint ranges (22, 2), rad.
 

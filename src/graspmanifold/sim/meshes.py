@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -30,6 +31,9 @@ from scipy.spatial.transform import Rotation
 from ..base.errors import InvalidInput
 from ..base.validation import check_input_file
 from .mesh_queries import MeshQueries
+
+if TYPE_CHECKING:
+    import mujoco
 
 MIN_EXTENT = 0.005  # m: smaller than this is below what the fingertips can resolve
 MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a unit error)
@@ -46,6 +50,20 @@ PIECE_GAP = 0.001
 
 #: V-HACD settings: enough parts for a handle or a mug, deterministic (single-threaded)
 DECOMPOSITION = {"maxConvexHulls": 16, "resolution": 100_000, "maxNumVerticesPerCH": 64, "asyncACD": False}
+
+
+def _joined(pieces: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """Meshes as one mesh (`trimesh.util.concatenate`: their vertices and faces side by side, nothing merged).
+
+    Args:
+        pieces: one or more meshes.
+
+    Returns:
+        The one mesh.
+    """
+    mesh = trimesh.util.concatenate(pieces)
+    assert isinstance(mesh, trimesh.Trimesh)  # meshes in, a mesh out
+    return mesh
 
 
 def model_file_mesh(path: Path) -> trimesh.Trimesh:
@@ -101,10 +119,10 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
     if not pieces:
         raise InvalidInput(f"object file {str(path)!r} names no geometry (no mesh, box, sphere, cylinder, capsule "
                            "or ellipsoid geom)")
-    return trimesh.util.concatenate(pieces)
+    return _joined(pieces)
 
 
-def _mesh_file_piece(model: object, mesh_id: int, folder: Path) -> trimesh.Trimesh:
+def _mesh_file_piece(model: mujoco.MjModel, mesh_id: int, folder: Path) -> trimesh.Trimesh:
     """A mesh geom's mesh read from its file by trimesh (every object of an .obj: MuJoCo's own reader keeps the
     faces of the first), scaled as the model scales it, and placed as MuJoCo's compiled mesh is in its geom's frame
     (MuJoCo moves a mesh's vertices into its inertial frame, `mesh_pos` and `mesh_quat`)."""
@@ -174,8 +192,8 @@ def read_mesh_file(path: Path) -> trimesh.Trimesh:
                            f"{error.name or error} for it (pip install {error.name or 'it'})") from None
     except Exception as error:  # trimesh raises many kinds for a file it cannot parse
         raise InvalidInput(f"mesh file {str(path)!r} could not be read as a mesh: {error}") from None
-    pieces = list(loaded.dump()) if isinstance(loaded, trimesh.Scene) else [loaded]
-    pieces = [p for p in pieces if isinstance(p, trimesh.Trimesh) and len(p.faces)]
+    found = list(loaded.dump()) if isinstance(loaded, trimesh.Scene) else [loaded]
+    pieces = [p for p in found if isinstance(p, trimesh.Trimesh) and len(p.faces)]
     faces = sum(len(p.faces) for p in pieces)
     if not faces:
         raise InvalidInput(f"mesh file {str(path)!r} holds no triangles")
@@ -189,7 +207,7 @@ def read_mesh_file(path: Path) -> trimesh.Trimesh:
             raise InvalidInput(f"mesh file {str(path)!r} has {len(bad)} vertices with non-finite coordinates (NaN or "
                                f"inf), the first at index {bad[0]}")
         piece.process()
-    return trimesh.util.concatenate(pieces) if len(pieces) > 1 else pieces[0]
+    return _joined(pieces) if len(pieces) > 1 else pieces[0]
 
 
 def load_mesh(mesh: trimesh.Trimesh | str | os.PathLike, scale: float = 1.0) -> trimesh.Trimesh:
@@ -327,7 +345,7 @@ def canonical_order(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     if int(mesh.body_count) > 1:
         solids = sorted((canonical_order(body) for body in mesh.split(only_watertight=False)),
                         key=lambda body: tuple(body.vertices[0]))
-        return trimesh.util.concatenate(solids)
+        return _joined(solids)
     points = np.asarray(mesh.vertices, dtype=float) + 0.0
     vertices, inverse = np.unique(points, axis=0, return_inverse=True)
     ordered = _sorted_faces(vertices, inverse.reshape(-1)[np.asarray(mesh.faces)])

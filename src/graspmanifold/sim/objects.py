@@ -64,6 +64,7 @@ class GraspObject:
         minimum width). What a hand has to span to close around it."""
         if self.shape != "mesh":
             return float(2 * self.half_extents.min())
+        assert self.mesh is not None  # a mesh object carries its mesh (`make_object`)
         hull = self.mesh.convex_hull
         directions = np.vstack([np.eye(3), hull.face_normals])
         heights = hull.vertices @ directions.T
@@ -88,7 +89,8 @@ class GraspObject:
         if not differs and name is None:
             return self
         label = name or self.name + "".join(f"_{k}{v:g}" for k, v in differs.items())
-        return replace(self, name=label, **differs)
+        return replace(self, name=label, mass=differs.get("mass", self.mass),
+                       friction=differs.get("friction", self.friction))
 
     def params(self) -> dict[str, object]:
         """Plain parameters for metadata (a mesh is named by its digest, not written out)."""
@@ -152,6 +154,8 @@ class GraspObject:
     @cached_property
     def _surface(self) -> MeshQueries:
         """The mesh's query structures (`mesh_queries`), built on first use in a process and kept with the object."""
+        if self.mesh is None:
+            raise InvalidInput(f"{self.name} is a {self.shape}, not a mesh: it has no mesh surface to query")
         return mesh_queries(self.mesh, self.mesh_digest)
 
     def __getstate__(self) -> dict:
@@ -160,11 +164,11 @@ class GraspObject:
 
 
 def _check_points(points: object) -> tuple[np.ndarray, bool]:
-    p = np.asarray(points, dtype=float)
-    single = p.ndim == 1
-    p = np.atleast_2d(p)
+    given = np.asarray(points, dtype=float)
+    single = given.ndim == 1
+    p = np.atleast_2d(given)
     if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
-        raise InvalidInput(f"points must be finite with shape (n, 3) or (3,), got shape {np.shape(points)}")
+        raise InvalidInput(f"points must be finite with shape (n, 3) or (3,), got shape {given.shape}")
     return p, single
 
 
@@ -307,7 +311,10 @@ def make_object(shape: str, *, mass: float | None = None, friction: float | None
             raise InvalidInput("a mesh object needs mesh= (a trimesh.Trimesh or a path to a mesh file)")
         if extra:
             raise InvalidInput(f"a mesh takes mesh= and scale=, not {extra}")
-        return _mesh_object(given["mesh"], given.get("scale"), mass, friction, name)
+        mesh, scale = given["mesh"], given.get("scale", 1.0)
+        if not isinstance(mesh, (trimesh.Trimesh, str, os.PathLike)):
+            raise InvalidInput(f"mesh must be a trimesh.Trimesh or a path to a mesh file, got {type(mesh).__name__}")
+        return _mesh_object(mesh, _positive(scale, "scale"), mass, friction, name)
     if "mesh" in given or "scale" in given:
         raise InvalidInput(f"mesh= and scale= are for shape 'mesh', not {shape!r}")
     if shape not in DIMENSIONS:
@@ -335,15 +342,16 @@ def _primitive_half_sizes(shape: str, given: dict[str, object]) -> tuple[tuple[f
             raise InvalidInput(f"size must be three extents (x, y, z) in metres, got {given['size']!r}")
         return tuple(_positive(e, "size") / 2.0 for e in extents), "box_{:.3f}x{:.3f}x{:.3f}".format(*extents)
     if shape == "cylinder":
-        half = (_positive(given["radius"], "radius"), _positive(given["length"], "length") / 2.0)
+        half: tuple[float, ...] = (_positive(given["radius"], "radius"), _positive(given["length"], "length") / 2.0)
         return half, f"cylinder_r{half[0]:.3f}_l{2 * half[1]:.3f}"
     half = (_positive(given["radius"], "radius"),)
     return half, f"sphere_r{half[0]:.3f}"
 
 
-def _mesh_object(mesh: object, scale: object, mass: float, friction: float, name: str | None) -> GraspObject:
+def _mesh_object(mesh: trimesh.Trimesh | str | os.PathLike, scale: float, mass: float, friction: float,
+                 name: str | None) -> GraspObject:
     """A mesh object: the mesh loaded at its scale, made one watertight solid on its principal axes, in parts."""
-    loaded = load_mesh(mesh, 1.0 if scale is None else scale)
+    loaded = load_mesh(mesh, scale)
     try:
         solid, parts, digest, repair = object_geometry(loaded)
     except InvalidInput as error:  # what no repair saves, said of the file it came from

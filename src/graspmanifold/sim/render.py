@@ -103,18 +103,20 @@ class _DrawingProcess:
 
     def draw(self, job: dict[str, np.ndarray]) -> np.ndarray:
         buffer = io.BytesIO()
-        np.savez(buffer, **job)
+        np.savez(buffer, **dict[str, Any](job))
+        stdin, stdout, stderr = self.process.stdin, self.process.stdout, self.process.stderr
+        assert stdin is not None and stdout is not None and stderr is not None  # opened as pipes
         try:
-            self.process.stdin.write(len(buffer.getvalue()).to_bytes(8, "little") + buffer.getvalue())
-            self.process.stdin.flush()
-            header = self.process.stdout.read(9)
-            payload = self.process.stdout.read(int.from_bytes(header[1:], "little")) if len(header) == 9 else b""
+            stdin.write(len(buffer.getvalue()).to_bytes(8, "little") + buffer.getvalue())
+            stdin.flush()
+            header = stdout.read(9)
+            payload = stdout.read(int.from_bytes(header[1:], "little")) if len(header) == 9 else b""
         except (BrokenPipeError, OSError):
             header, payload = b"", b""
         if len(header) == 9 and header[0] == 0:
             return np.load(io.BytesIO(payload))
         self.close()
-        why = payload.decode(errors="replace") if header else self.process.stderr.read().decode(errors="replace")
+        why = payload.decode(errors="replace") if header else stderr.read().decode(errors="replace")
         raise RenderingUnavailable(f"{self.backend}: {why.strip().splitlines()[-1:] or ['failed']}")
 
     def close(self) -> None:
@@ -270,22 +272,22 @@ def _draw_postures(postures: np.ndarray, size: int, hand: str) -> np.ndarray:
     from .hand_models import hand_model
     from .posture import posture_to_ctrl
 
-    hand = hand_model(hand)
-    model = hand.spec().compile()
-    hidden = [model.body(name).id for name in hand.base_segments[:2]]  # forearm and wrist: the palm and fingers
+    model_hand = hand_model(hand)
+    model = model_hand.spec().compile()
+    hidden = [model.body(name).id for name in model_hand.base_segments[:2]]  # forearm and wrist: the palm and fingers
     model.geom_rgba[np.isin(model.geom_bodyid, hidden), 3] = 0.0  # are the subject
     model.vis.global_.offwidth = max(model.vis.global_.offwidth, size)
     model.vis.global_.offheight = max(model.vis.global_.offheight, size)
     data = mujoco.MjData(model)
     renderer = mujoco.Renderer(model, size, size)
-    finger_qpos = np.array([model.joint(name).qposadr[0] for name in hand.finger_joints])
-    actuators = np.array([model.actuator(name).id for name in hand.actuators])
-    _turn_palm_as_ours(model, data, hand)
-    camera = _thumb_side_camera(model, data, palm=hand.palm)
+    finger_qpos = np.array([model.joint(name).qposadr[0] for name in model_hand.finger_joints])
+    actuators = np.array([model.actuator(name).id for name in model_hand.actuators])
+    _turn_palm_as_ours(model, data, model_hand)
+    camera = _thumb_side_camera(model, data, palm=model_hand.palm)
     images = np.empty((len(postures), size, size, 3), dtype=np.uint8)
     for i, posture in enumerate(postures):
-        data.qpos[finger_qpos] = hand.to_model(posture)
-        data.ctrl[actuators] = posture_to_ctrl(posture, hand=hand)
+        data.qpos[finger_qpos] = model_hand.to_model(posture)
+        data.ctrl[actuators] = posture_to_ctrl(posture, hand=model_hand)
         mujoco.mj_kinematics(model, data)
         renderer.update_scene(data, camera)
         renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False  # a model's own sky (Gymnasium-Robotics')

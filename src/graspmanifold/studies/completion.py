@@ -42,6 +42,7 @@ import copy
 import json
 import time
 from collections.abc import Callable
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -56,19 +57,31 @@ from ..manifold.analysis import latent_path
 from ..manifold.experience import Experience, PostureDatabase
 from ..manifold.linear import LinearManifold
 from ..manifold.postureset import PostureSet
+from ..manifold.representations import Representation
 from ..manifold.som import SOM
 from ..manifold.ukr import UKR
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SegmentKinematics, finger_of
 from ..trials.benchmark import OBJECTS, pooled, run_benchmark
+from ..trials.evaluation import EvaluationResult
 from ..trials.planned import run_planned
 from ..trials.stats import holm, mcnemar, rate_text
 from .runner import StudyRun, comparison_table, holm_family, publish, run_study, save_figure
 
+def _fitted_ukr(q: int) -> Callable[[np.ndarray, int], Representation]:
+    """How a UKR of `q` latent dimensions is trained (its fit is deterministic: no seed)."""
+    return lambda data, seed: UKR(q).fit(data, progress=False)
+
+
+def _fitted_linear(k: int) -> Callable[[np.ndarray, int], Representation]:
+    """How a linear manifold of `k` principal axes is trained (deterministic: no seed)."""
+    return lambda data, seed: LinearManifold(k).fit(data)
+
+
 #: the representations compared: name -> how one is trained on postures (n, 22) with a seed
-REPRESENTATIONS: dict[str, Callable[[np.ndarray, int], Experience]] = {
+REPRESENTATIONS: dict[str, Callable[[np.ndarray, int], Representation]] = {
     "som": lambda data, seed: SOM(25, 25, N_FINGER_JOINTS, seed=seed).fit(data, progress=False),
-    **{f"ukr{q}": (lambda data, seed, q=q: UKR(q).fit(data, progress=False)) for q in (1, 2, 3)},
-    **{f"pca{k}": (lambda data, seed, k=k: LinearManifold(k).fit(data)) for k in (2, 5, 10)},
+    **{f"ukr{q}": _fitted_ukr(q) for q in (1, 2, 3)},
+    **{f"pca{k}": _fitted_linear(k) for k in (2, 5, 10)},
     "database": lambda data, seed: PostureDatabase(data),
 }
 #: the shares of the joints hidden, and how they are hidden
@@ -140,14 +153,15 @@ def _kept_representation(run: StudyRun, name: str, data: np.ndarray, fold: int) 
     if name == "database":
         start = time.perf_counter()
         return REPRESENTATIONS[name](data, fold), time.perf_counter() - start
-    kind = {"som": SOM, "ukr": UKR, "pca": LinearManifold}[name[:3]]
+    kinds: dict[str, type[SOM | UKR | LinearManifold]] = {"som": SOM, "ukr": UKR, "pca": LinearManifold}
+    kind = kinds[name[:3]]
 
-    def compute() -> tuple[Experience, float]:
+    def compute() -> tuple[Representation, float]:
         start = time.perf_counter()
         made = REPRESENTATIONS[name](data, fold)
         return made, time.perf_counter() - start
 
-    def read(path: Path) -> tuple[tuple[Experience, float], dict]:
+    def read(path: Path) -> tuple[tuple[Representation, float], dict]:
         made, meta = kind.load_with_metadata(path)
         return (made, float(meta["seconds"])), meta
 
@@ -212,7 +226,7 @@ def measure_completion(run: StudyRun, sets: list[dict[str, PostureSet]]) -> tupl
                          "deg_ci": float(1.96 * deg.std(ddof=1) / np.sqrt(len(deg))), "deg_median": float(np.median(deg)),
                          "mm_mean": float(mm.mean()), "mm_ci": float(1.96 * mm.std(ddof=1) / np.sqrt(len(mm)))})
     for name, baseline in PAIRS:
-        family = []
+        family: list[dict[str, Any]] = []
         for cond, by in pooled_errors.items():
             difference = by[name][0] - by[baseline][0]
             family.append({"representation": name, "against": baseline, "condition": cond, "n": len(difference),
@@ -243,7 +257,9 @@ def _variance(sets: list[dict[str, PostureSet]]) -> dict:
     groups["all"] = np.concatenate(list(groups.values()))
     for name, data in groups.items():
         linear = LinearManifold(2).fit(data)
-        out[name] = {"two": float(linear.explained[:2].sum()), "for_90": linear.components_for(0.9), "n": len(data)}
+        explained = linear.explained
+        assert explained is not None  # fitted
+        out[name] = {"two": float(explained[:2].sum()), "for_90": linear.components_for(0.9), "n": len(data)}
     return out
 
 
@@ -259,12 +275,14 @@ def _outcomes_file(run: StudyRun, name: str, key: str, compute: Callable[[], dic
 
 
 def _fold_trials(run: StudyRun, fold: int, sets: list[dict[str, PostureSet]], trained: dict, every: int,
-                 plans: int) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], dict]:
+                 plans: int) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]],
+                                      dict[tuple[str, str], EvaluationResult]]:
     """One fold's trials (fold k's SOM and 2-d UKR, trial seed k, plans from seed k's held-out postures): outcomes
     {run: (held, valid)} and the approach controller's benchmark results with the UKR."""
     experiences = {"som": trained[("som", fold)], "ukr2": trained[("ukr2", fold)]}
     objects, tag = tuple(sets[fold]), f"_fold{fold}" if fold else ""
-    outcomes, own = {}, {}
+    outcomes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    own: dict[tuple[str, str], EvaluationResult] = {}
     for label, params in CONTROLLERS.items():
         for name, experience in experiences.items():
             results = run_benchmark(experience, split="test", objects=objects, every=every, params=params, seed=fold,
@@ -299,7 +317,8 @@ def measure_trials(run: StudyRun, sets: list[dict[str, PostureSet]], trained: di
     """The trials part (module doc): the benchmark and the planned grasps, the SOM against the 2-d UKR, once per
     fold, pooled over the folds (McNemar, Holm over the four comparisons) with each fold's difference."""
     every, folds = (6, 1) if quick else (1, len(sets))
-    per_fold, own = [], {}
+    per_fold: list[dict[str, tuple[np.ndarray, np.ndarray]]] = []
+    own: dict[tuple[str, str], EvaluationResult] = {}
     for fold in range(folds):
         outcomes, mine = _fold_trials(run, fold, sets, trained, every, plans)
         per_fold.append(outcomes)
@@ -360,11 +379,12 @@ def figures(info: dict, path: Path, ukr: UKR | None, sets: list[dict[str, Postur
         ax.set(title=f"masked as {scheme}", xlabel="joints hidden (%)", ylabel="RMS error of the hidden joints (°)",
                yscale="log")
     axes[1].legend(fontsize=8, ncol=2)
-    if ukr is not None:
+    latent = None if ukr is None else ukr.latent
+    if latent is not None:
         start = 0
         for name, postures in sets[1].items():  # fold 0 trains on seeds 1 and 2, objects in order
             count = len(postures)
-            points = ukr.latent[start:start + count]
+            points = latent[start:start + count]
             axes[2].scatter(points[:, 0], points[:, 1] if points.shape[1] > 1 else np.zeros(count), s=4, label=name)
             start += count
         axes[2].set(title="2-d UKR: latent points of seed 1's postures", xlabel="z1", ylabel="z2")

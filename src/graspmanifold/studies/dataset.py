@@ -24,6 +24,7 @@ import argparse
 import json
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
 from ..base.io import markdown_table, software_versions, write_text_atomic
 from ..base.progress import progress_bar
-from ..manifold.experience import Experience
+from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..manifold.representations import fit_representation
 from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
@@ -40,7 +41,7 @@ from ..synthesis.generator import generate_postures
 from ..trials.evaluation import evaluate
 from ..trials.experience_pays import compare
 from ..trials.grid import GRID_PRESETS, grid_preset
-from ..trials.stats import mcnemar, rate_text
+from ..trials.stats import PairedComparison, mcnemar, rate_text
 from ..trials.trial import TrialSetup
 from .runner import StudyRun, comparison_table, holm_family, run_study
 
@@ -173,11 +174,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path]) -> None:
-    rows, tests = [], []
+    rows: list[dict[str, Any]] = []
+    tests: list[tuple[str, PairedComparison]] = []
     with progress_bar(len(files), f"dataset {root.name}", "objects") as bar:
         for path, name in zip(files, object_names(files, root)):
             obj, loaded = load_object(path, name, args.scale)
-            row = {"object": name, "file": str(path.relative_to(root)), "loaded": loaded}
+            row: dict[str, Any] = {"object": name, "file": str(path.relative_to(root)), "loaded": loaded}
             if obj is not None:
                 row |= _experience(args, study, obj)
                 if args.manifold in row.get("results", {}):
@@ -193,8 +195,8 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
              "", *markdown_table(["object", "loaded", "triangles", "verified postures", *methods(args.manifold),
                                   f"{args.manifold} - none (p Holm)"], [_table_row(r, tested, args.manifold)
                                                                          for r in rows]), ""]
-    loaded = [r for r in rows if not r["loaded"].startswith("refused")]
-    lines += [f"Loaded {len(loaded)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
+    usable = [r for r in rows if not r["loaded"].startswith("refused")]
+    lines += [f"Loaded {len(usable)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
               f"{args.postures} verified postures.", ""]
     pooled = pooled_rows(rows, args.manifold)
     if pooled:
@@ -217,7 +219,7 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
 def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> dict:
     """One object's verified postures, map and controllers' trials (a row of the table, with 'comparison' the map
     against `none` when both ran)."""
-    row: dict = {"triangles": len(obj.mesh.faces), "digest": obj.mesh_digest}
+    row: dict = {"triangles": 0 if obj.mesh is None else len(obj.mesh.faces), "digest": obj.mesh_digest}
     key = result_key({"object": obj.params(), "n": args.postures, "seed": args.seed})
     try:
         postures = study.postures(f"postures/{obj.name}", key, lambda parts: generate_postures(
@@ -242,7 +244,7 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
         poses = poses[np.linspace(0, len(poses) - 1, args.poses).round().astype(int)]
     results = {}
     for method, recalled in experience.items():
-        setup = TrialSetup(object=obj, experience=recalled, method=method)
+        setup = TrialSetup(object=obj, experience=check_experience(recalled), method=method)
         results[method] = study.evaluation(f"evaluation/{obj.name}_{method}", setup.key(poses, args.seed),
                                            lambda parts: evaluate(setup, grid=poses, seed=args.seed,
                                                                   workers=study.workers, checkpoint_dir=parts,

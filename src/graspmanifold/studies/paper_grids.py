@@ -37,6 +37,7 @@ import json
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 
@@ -45,6 +46,7 @@ from ..base.io import load_npz, markdown_table, save_npz, software_versions, wri
 from ..control.controller import BLEND
 from ..judging.judge import JUDGING
 from ..manifold.experience import PostureDatabase
+from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS
 from ..sim.objects import get_object
 from ..synthesis.generator import GeneratorParams, generate_postures, verify_postures
@@ -104,7 +106,16 @@ class Study(StudyRun):
         return result
 
 
-def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
+class ExperienceSets(TypedDict):
+    """An object's experience: its verified spring grasps, the grown experience's postures (n, 22) rad, and the
+    learning curve (one point per round)."""
+
+    spring: PostureSet
+    grown: np.ndarray
+    curve: list[dict]
+
+
+def experience_sets(study: Study, obj: str) -> ExperienceSets:
     """Verified spring grasps and the grown experience, kept in OUT under the keys of what made them."""
     args = study.args
     params = GeneratorParams(verify=False)
@@ -143,7 +154,7 @@ def experience_sets(study: Study, obj: str) -> dict[str, np.ndarray]:
     return {"spring": spring, "grown": grown, "curve": curve}
 
 
-def best_constant_preshape(study: Study, obj: str, sets: dict) -> np.ndarray:
+def best_constant_preshape(study: Study, obj: str, sets: ExperienceSets) -> np.ndarray:
     """Of the experience's cluster means (per starting posture, the grown grasps, all), the one that holds most."""
     spring, grown = sets["spring"], sets["grown"]
     candidates = [spring.postures[spring.start_ids == i].mean(axis=0) for i in np.unique(spring.start_ids)]
@@ -184,7 +195,7 @@ def run(study: Study) -> dict:
                     continue
                 study.evaluate(obj, grid, method, experience, params, noise, preshape=fixed)
         near = coverage(obj, grid_preset(grids[0].removesuffix("_noisy"), obj), spring.hand_poses) if len(spring) \
-            else None  # no verified grasp: nothing to cover the grid with
+            else np.zeros((0, 1))  # no verified grasp: nothing to cover the grid with
         info["objects"][obj] = {
             "spring_candidates": int(spring.metadata["candidates"]), "spring_verified": len(spring),
             "verified_by_start": spring.metadata["verified_by_start"], "grown": int(len(grown) - len(spring)),
@@ -285,7 +296,7 @@ def report(study: Study, info: dict) -> str:
     results, args = study.results, study.args
     rows = comparison_rows(results, (*METHODS, *ABLATIONS), CONTROLS)
     verdict = judge_target(rows)
-    adjusted = holm([r["p_value"] for r in rows]) if rows else []
+    adjusted = holm([r["p_value"] for r in rows]) if rows else np.zeros(0)
     for r, p in zip(rows, adjusted):
         r["p_holm"] = float(p)
     lines = ["# Does experience pay? The first experience study, on the paper's grids", "",

@@ -232,12 +232,15 @@ class _Outcomes:
 
 def _read(path: Path) -> tuple[_Outcomes, dict]:
     arrays, meta = load_npz(path, "planned_trials", {"displacements": (None, 4), "start": (None,)})
-    outcomes = _Outcomes(level_of(arrays["displacements"]), arrays["start"].astype(int),
-                         {arm: arrays[f"held_{arm}"].astype(bool) for arm in meta["arms"]},
-                         {arm: arrays[f"faulted_{arm}"].astype(bool) for arm in meta["arms"]}, meta["faults"],
-                         *({arm: arrays[f"{kind}_{arm}"].astype(dtype) for arm in meta["arms"]}
-                           for kind, dtype in (("epsilon", float), ("seconds", float), ("touching", bool),
-                                               ("estimate", float))), arrays["places"])
+
+    def by_arm(kind: str, dtype: type) -> dict[str, np.ndarray]:
+        return {arm: arrays[f"{kind}_{arm}"].astype(dtype) for arm in meta["arms"]}
+
+    outcomes = _Outcomes(levels=level_of(arrays["displacements"]), start=arrays["start"].astype(int),
+                         held=by_arm("held", bool), faulted=by_arm("faulted", bool), faults=meta["faults"],
+                         epsilon=by_arm("epsilon", float), seconds=by_arm("seconds", float),
+                         touching=by_arm("touching", bool), estimate=by_arm("estimate", float),
+                         places=arrays["places"])
     return outcomes, meta
 
 
@@ -260,7 +263,8 @@ def run(config: PlannedStudyConfig, study: StudyRun) -> dict:
     """Run the study of the config's family (the module doc) and return what its report shows."""
     family = FAMILIES[config.family]
     n_plans, n_displaced = config.sizes
-    plans, experiences, digests = {}, {}, {}
+    plans, digests = {}, {}
+    experiences: dict[tuple[str, int], dict[str, Experience]] = {}
     for seed in config.run_seeds:
         for name in config.objects:
             obj = OBJECTS[name].object
@@ -437,7 +441,7 @@ def without_closure(outcomes: dict, arm: str) -> dict[str, int]:
     finger = ~thumb & ~palm & np.array([name not in ("forearm", "wrist") for name in SEGMENTS])
     params = arm_params(ARMS[arm])
     timeout = None if params is None else params.timeout
-    counts = Counter()
+    counts: Counter[str] = Counter()
     for o in outcomes.values():
         held = o.held[arm]
         loose = held & ~(o.epsilon[arm] > JUDGING.epsilon_threshold)

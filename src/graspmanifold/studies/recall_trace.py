@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import glob
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ class TracedController:
         self.controller = controller
         self.log: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
 
-    def __getattr__(self, name: str) -> object:
+    def __getattr__(self, name: str) -> Any:  # every other member is the controller's, as it types it
         return getattr(self.controller, name)
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
@@ -79,10 +80,10 @@ def trace_cell(som: SOM, name: str, placement: str,
     Returns:
         (markdown lines, {reading: (held, valid) per pose}).
     """
-    poses = benchmark_split()["test"][(name, placement)][:poses]
+    grid = benchmark_split()["test"][(name, placement)][:poses]
     opened, closed = BatchController(1, None).initial, BatchController(1, None).closed
     span = np.where(closed == opened, 1.0, closed - opened)
-    lines, outcomes = [f"### {name} at the {placement} ({len(poses)} test poses)", ""], {}
+    lines, outcomes = [f"### {name} at the {placement} ({len(grid)} test poses)", ""], {}
     for label, params in READINGS:
         made: list[TracedController] = []
 
@@ -91,13 +92,13 @@ def trace_cell(som: SOM, name: str, placement: str,
             made.append(TracedController(BatchController(n, som, params, hand=hand)))
             return made[-1]
 
-        trials = run_trials(TrialSetup(object=OBJECTS[name].object, controller=factory, method=label), poses,
-                            [np.random.default_rng([0, i]) for i in range(len(poses))])
+        trials = run_trials(TrialSetup(object=OBJECTS[name].object, controller=factory, method=label), grid,
+                            [np.random.default_rng([0, i]) for i in range(len(grid))])
         log = made[0].log
         times = np.array([entry[0] for entry in log])
         touched = np.array([(entry[1] > 0).any(axis=1) for entry in log])  # (cycles, worlds)
         first = np.array([times[np.argmax(touched[:, w])] if touched[:, w].any() else np.inf
-                          for w in range(len(poses))])
+                          for w in range(len(grid))])
         on_way = np.array([entry[3].any(axis=1) for entry in log])
         closure = np.array([[((entry[2][:, m] - opened[m]) / span[m]).mean(axis=1) for m in FINGER_JOINT_MASKS]
                             for entry in log])  # (cycles, fingers, worlds): how far each finger's target is closed
@@ -144,8 +145,8 @@ def main(argv: list[str] | None = None) -> None:
               "one SOM.\n")
         cells = [(o, p) for o in OBJECTS for p in PLACEMENTS] if args.all else [(args.object, args.placement)]
         runs = []
-        for cell in cells:
-            lines, outcomes = trace_cell(som, *cell, QUICK_POSES if args.quick else None)
+        for name, placement in cells:
+            lines, outcomes = trace_cell(som, name, placement, QUICK_POSES if args.quick else None)
             print("\n".join(lines), flush=True)
             runs.append(outcomes)
         pooled = {label: tuple(np.concatenate([r[label][k] for r in runs]) for k in (0, 1)) for label, _ in READINGS}

@@ -24,7 +24,7 @@ from concurrent.futures import Executor
 from contextlib import contextmanager, nullcontext, redirect_stdout
 from dataclasses import replace
 from pathlib import Path
-from typing import TextIO, TypeVar
+from typing import TYPE_CHECKING, Any, TextIO, TypeVar
 
 import numpy as np
 
@@ -44,7 +44,12 @@ from ..manifold.postureset import PostureSet
 from ..trials.evaluation import EvaluationResult
 from ..trials.stats import PairedComparison, holm, wilson_interval
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
 Result = TypeVar("Result")
+Made = TypeVar("Made")  # what `keep_each` computes (and writes); its `read` may give another type
 
 
 class StudyRun:
@@ -159,9 +164,9 @@ class StudyRun:
             self.seconds += time.perf_counter() - start
         return result
 
-    def keep_each(self, folder: str, tasks: Sequence[tuple], compute: Callable[[tuple], Result],
-                  read: Callable[[Path], tuple[Result, dict]], write: Callable[[Result, Path, dict], object],
-                  describe: Callable[[tuple, Result], str] | None = None) -> dict[tuple, Result]:
+    def keep_each(self, folder: str, tasks: Sequence[tuple], compute: Callable[[tuple], Made],
+                  read: Callable[[Path], tuple[Result, dict]], write: Callable[[Made, Path, dict], object],
+                  describe: Callable[[tuple, Made], str] | None = None) -> dict[tuple, Made | Result]:
         """`keep` of many results at once: each task's result kept in `folder` under the task's key (its file named
         after the task), those not kept yet computed in the study's pool as they come, each logged (`describe`).
 
@@ -169,7 +174,7 @@ class StudyRun:
             folder: a folder under the study's.
             tasks: picklable tuples, each what `compute` needs (and what its result is keyed on).
             compute: makes one task's result (a module-level function: it may run in a worker process).
-            read: reads a file: the result and the file's metadata.
+            read: reads a file: the result (what `compute` made, or what of it is kept) and the file's metadata.
             write: writes a result to a path with this metadata added to the file's own.
             describe: a log line for a result computed now (None: none).
 
@@ -178,7 +183,7 @@ class StudyRun:
         """
         stores = {task: PartStore(self.out / folder, result_key({"task": list(task)}), read) for task in tasks}
         files = {task: "@".join(map(str, task)).replace(" ", "_").replace("/", "-")[:120] + ".npz" for task in tasks}
-        results: dict[tuple, Result] = {}
+        results: dict[tuple, Made | Result] = {}
         for task in tasks:
             found = stores[task].load(files[task])
             if found:
@@ -187,7 +192,7 @@ class StudyRun:
         missing = [task for task in tasks if task not in results]
         start = time.perf_counter()
 
-        def kept(index: int, result: Result) -> None:
+        def kept(index: int, result: Made) -> None:
             task = missing[index]
             stores[task].save(files[task], lambda path, meta: write(result, path, meta))
             results[task] = result
@@ -325,7 +330,7 @@ def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callabl
     print(f"\n{info['verdict']}\nwrote {doc} and {study.out / 'study.json'} in {time.perf_counter() - study.started:.0f} s")
 
 
-def rate_curve(ax: object, xs: Sequence[float] | np.ndarray, counts: Sequence[Sequence[int]], **style: object) -> None:
+def rate_curve(ax: Axes, xs: Sequence[float] | np.ndarray, counts: Sequence[Sequence[int]], **style: Any) -> None:
     """Rates in percent with their 95 % Wilson intervals as error bars, on a matplotlib axis.
 
     Args:
@@ -340,7 +345,7 @@ def rate_curve(ax: object, xs: Sequence[float] | np.ndarray, counts: Sequence[Se
     ax.errorbar(np.asarray(xs, dtype=float), 100 * rates, yerr=bars, capsize=2, **style)
 
 
-def save_figure(figure: object, path: Path) -> str:
+def save_figure(figure: Figure, path: Path) -> str:
     """Write a matplotlib figure (its folder made) and close it; returns the file's name."""
     import matplotlib.pyplot as plt
 
@@ -360,7 +365,7 @@ def holm_family(family: Sequence[tuple[str, PairedComparison]], name: str = "") 
     Returns:
         Rows {family, label, n, only_a, only_b, both, p_value, p_holm, difference}.
     """
-    adjusted = holm([c.p_value for _, c in family]) if family else []
+    adjusted = holm([c.p_value for _, c in family]) if family else np.zeros(0)
     return [{"family": name, "label": label, "n": c.n, "only_a": c.only_a, "only_b": c.only_b, "both": c.both,
              "p_value": c.p_value, "p_holm": float(p), "difference": c.difference}
             for (label, c), p in zip(family, adjusted)]

@@ -82,14 +82,15 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
             per_world[world].append(time.perf_counter() - started)
         return failed
 
-    CpuWorlds.step = step
+    setattr(CpuWorlds, "step", step)
     timed(BatchController, "step", "controller")
     timed(CpuWorlds, "segment_forces", "tactile reads")
     timed(CpuWorlds, "joints", "tactile reads")
     timed(CpuWorlds, "object_positions", "judging loop reads")
     timed(judge, "reading_epsilon", "epsilon at release")
     phases = ("grasp", "hold", "margin")
-    steps, physics = defaultdict(int), defaultdict(float)
+    steps: dict[str, int] = defaultdict(int)
+    physics: dict[str, float] = defaultdict(float)
     trials, wall, judged_held = 0, 0.0, 0
     for obj, poses in cells:
         poses = poses[reachable(obj, poses)][::every]
@@ -135,7 +136,7 @@ def profile_generator(name: str, n: int) -> None:
         counts[context[0]] += steps
         return original_simulate(self, steps, on_step)
 
-    rig.simulate = simulate
+    setattr(rig, "simulate", simulate)
     for method, label in (("move_to", "walk"), ("settle", "settle")):
         original = getattr(rig, method)
 
@@ -157,7 +158,7 @@ def profile_generator(name: str, n: int) -> None:
         counts["verification"] += round(scene.time / scene.model.opt.timestep)  # the approach and the hold
         return judged
 
-    replay.judge_scene = judge_scene
+    setattr(replay, "judge_scene", judge_scene)
     started = time.perf_counter()
     generate_postures(name, n, seed=0, workers=1, progress=False)
     wall = time.perf_counter() - started
@@ -179,7 +180,7 @@ def profile_stepping(worlds: int, threads: int, periods: int = 20) -> None:
 
     scenes = []
     for k in range(worlds):  # hands closing on the cylinder, each a little further along
-        scene = supported_scene("cylinder")
+        scene = supported_scene(get_object("cylinder"))
         scene.set_hand_pose(*facing_pose("cylinder", clearance=0.01))
         scene.set_posture(open_posture())
         scene.set_target(closed_posture())

@@ -143,7 +143,7 @@ def _run(args: argparse.Namespace, run: StudyRun, parser: argparse.ArgumentParse
     lines += ["", "Headroom per object (`stats.headroom`: the per-pose oracle over the methods above against the best "
               "of them; under 15 points no choice among them can show much):", ""]
     lines += markdown_table(["object", "headroom"], [[name, room.text()] for name, room in rooms])
-    adjusted = holm([p for _, _, p in tests]) if tests else []
+    adjusted = holm([p for _, _, p in tests]) if tests else np.zeros(0)
     significant = [f"{o}/{m} (adjusted p {p:.2g})" for (o, m, _), p in zip(tests, adjusted) if p < 0.05]
     lines += ["", f"Holm's correction over the {len(tests)} comparisons against `none`: "
               f"{', '.join(significant) if significant else 'none'} significant at 0.05.",

@@ -197,35 +197,35 @@ class SpringRig:
                  hand: str = SHADOW_HAND.name):
         self.scene = Scene(obj, hand=hand)
         self.params = params
-        model, hand = self.scene.model, self.scene.hand
-        fingers = np.delete(self.scene.actuator_ids, hand.wrist_rows)  # every servo but the wrist's
+        model, hand_model = self.scene.model, self.scene.hand
+        fingers = np.delete(self.scene.actuator_ids, hand_model.wrist_rows)  # every servo but the wrist's
         model.actuator_gainprm[fingers, 0] *= params.servo_stiffness_scale
         model.actuator_biasprm[fingers, 1] *= params.servo_stiffness_scale
-        tips = [hand.fingertip_sites[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
+        tips = [hand_model.fingertip_sites[DISTAL_SEGMENTS.index(c)] for c in contacts if c in DISTAL_SEGMENTS]
         self.tip_sites = [model.site(s).id for s in tips]
         self.tip_bodies = [int(model.site_bodyid[s]) for s in self.tip_sites]
-        segment_of = segment_of_geoms(model, hand)
+        segment_of = segment_of_geoms(model, hand_model)
         self.segment_geoms = [[int(g) for g in np.flatnonzero(segment_of == i)] for i in range(len(SEGMENTS))]
         geom_of = {c: self.segment_geoms[SEGMENTS.index(c)][0] for c in contacts}  # a finger segment has one
         self.side_geoms = [geom_of[c] for c in contacts if c not in DISTAL_SEGMENTS]
         self.contact_geoms = [geom_of[c] for c in contacts]
         self.finger_dofs = self.scene.hand_dofs[2:]
-        self.limits = hand.limits()
+        self.limits = hand_model.limits()
         self._torque = np.zeros(3)
         self._fromto = np.zeros(6)
 
     def apply_springs(self) -> None:
         scene, data = self.scene, self.scene.data
         data.qfrc_applied[:] = 0.0
-        points = [data.site_xpos[self.tip_sites]]  # the object sits at the world origin, unrotated
+        pieces = [data.site_xpos[self.tip_sites]]  # the object sits at the world origin, unrotated
         bodies = list(self.tip_bodies)
         for geom in self.side_geoms:  # the segment's point nearest the object (of its nearest convex part)
             nearest = min(scene.object_geoms, key=lambda g: mujoco.mj_geomDistance(
                 scene.model, data, geom, g, 0.1, self._fromto))
             mujoco.mj_geomDistance(scene.model, data, geom, nearest, 0.1, self._fromto)
-            points.append(self._fromto[None, :3].copy())
+            pieces.append(self._fromto[None, :3].copy())
             bodies.append(int(scene.model.geom_bodyid[geom]))
-        points = np.concatenate(points)
+        points = np.concatenate(pieces)
         pull = self.params.spring_stiffness * (scene.object.closest_point(points) - points)
         norm = np.linalg.norm(pull, axis=1, keepdims=True)
         pull *= np.minimum(1.0, self.params.spring_max_force / np.maximum(norm, 1e-12))
@@ -535,11 +535,11 @@ def _allocate(n: int, capacity: list[int | None], order: list[int] | None = None
     open_starts, remaining = list(range(len(capacity))), n
     while open_starts:
         fair = remaining / len(open_starts)
-        limited = [s for s in open_starts if capacity[s] is not None and capacity[s] <= fair]
+        limited = {s: most for s in open_starts if (most := capacity[s]) is not None and most <= fair}
         if not limited:
             break
-        for s in limited:
-            allocation[s] = int(capacity[s])
+        for s, most in limited.items():
+            allocation[s] = int(most)
             remaining -= allocation[s]
             open_starts.remove(s)
     if open_starts:
@@ -650,9 +650,11 @@ def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: in
 def _starts_on(obj: GraspObject, params: GeneratorParams, model: HandModel,
                starts: Sequence[StartingPosture] | None) -> list[StartingPosture]:
     """One's own starts checked, or those of `params.designs` found; either in the hand's ranges."""
-    starts = check_starting_postures(starts, obj) if starts is not None else starting_postures(obj, params.designs)
+    family = params.designs
+    assert family is not None  # GeneratorParams names the default family
+    starts = check_starting_postures(starts, obj) if starts is not None else starting_postures(obj, family)
     if not starts:
-        tried = ", ".join(design.name for design in designs_for(obj, params.designs))
+        tried = ", ".join(design.name for design in designs_for(obj, family))
         raise GenerationError(f"no starting posture could be found for {obj.name}: {_size_text(obj, model)}; none of "
                               f"the {params.designs!r} designs ({tried}) "
                               "closes the hand on it with its contacts touching (an object too small for the "
@@ -707,9 +709,9 @@ class _Waves:
         plan = []
         for s in short:
             wanted = allocation[s] - self.held(s)
-            if params.verify and self.results[s]:  # as many as the yield so far says, and a tenth more, but at
-                # most as many again as drawn so far (a start whose first few candidates all dropped is not
-                # sent for tenfold that many at once)
+            if params.verify and budget is not None and self.results[s]:  # as many as the yield so far says,
+                # and a tenth more, but at most as many again as drawn so far (a start whose first few candidates
+                # all dropped is not sent for tenfold that many at once)
                 rate = (self.held(s) + 1) / (self.drawn(s) + 2)
                 wanted = min(int(np.ceil(1.1 * wanted / rate)), max(wanted, self.drawn(s)),
                              int(budget / len(self.starts)) - self.drawn(s))
@@ -818,7 +820,7 @@ class _Waves:
             + (", or keep every candidate (verify=False)" if params.verify else ", or max_tries_per_posture"))
 
 
-def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray, HandModel]) -> np.ndarray:
+def _verify_chunk(task: tuple[GraspObject, GeneratorParams, np.ndarray, np.ndarray, str]) -> np.ndarray:
     """(hold, epsilon, displacement) rows of the verifier for a chunk of postures (m, 22) and palm poses (m, 7) on
     a hand."""
     obj, params, postures, poses, hand = task
