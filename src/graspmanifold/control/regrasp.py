@@ -30,6 +30,7 @@ import hashlib
 import pickle
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -40,6 +41,7 @@ from ..manifold.nearest import argmin_tied, nearest_rows
 from ..manifold.postureset import PostureSet
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, HandModel
 from ..sim.scene import GRAVITY
+from ..sim.worlds import Worlds
 from ..sim.posture import SEGMENT_FINGER, pcp_masks
 
 #: the probe's gravity, unit vector in the world: the object's weight as when the hand lifts it
@@ -191,6 +193,8 @@ class Regrasp:
             return chosen
         if self.grasp_types is None:
             return current.copy()
+        if experience is None:
+            raise InvalidInput("Regrasp.grasp_types chooses among an experience's references: give an experience")
         references = np.asarray(experience.references, dtype=float)
         if len(self.grasp_types) != len(references):
             raise InvalidInput(f"Regrasp.grasp_types has {len(self.grasp_types)} types for an experience of "
@@ -246,6 +250,32 @@ def reference_grasp_types(experience: Experience, postures: np.ndarray, types: n
     return types[nearest_rows(experience.references, data)]
 
 
+class SupportRules(Protocol):
+    """What the probe reads of the trials' judging rules (`judging.stages.JudgingRules` has them)."""
+
+    @property
+    def release_seconds(self) -> float:
+        """s the support's release fades over (0: let go at once)."""
+
+    @property
+    def support_stiffness(self) -> float:
+        """N/m of the spring that holds the object while the hand closes."""
+
+    @property
+    def support_damping(self) -> float:
+        """N s/m of that spring's damper."""
+
+
+class RestartingController(Protocol):
+    """What the probe reads and drives of a controller that grasps again (`BatchController` is one)."""
+
+    done: np.ndarray  # (n,) bool
+    attempt: np.ndarray  # (n,) int, each world's attempt, 1 the first
+
+    def restart(self, worlds: np.ndarray, joints: np.ndarray, segment_forces: np.ndarray) -> None:
+        """Grasp again in `worlds` from the sensed joints (m, 22) rad and segment forces (m, segments) N."""
+
+
 class LiftProbe:
     """The regrasp's stage between a grasp the controller calls done and the judge, over N worlds (see the module
     doc): with attempts left, the grasp is lifted (the support off, the object's weight along `PROBE_DIRECTION`)
@@ -272,7 +302,8 @@ class LiftProbe:
             failed its probe (NaN rows: none failed).
     """
 
-    def __init__(self, regrasp: Regrasp, worlds: object, controller: object, rules: object | None = None):
+    def __init__(self, regrasp: Regrasp, worlds: Worlds, controller: RestartingController,
+                 rules: SupportRules | None = None):
         n = worlds.n
         self.regrasp, self.worlds, self.controller, self.rules = regrasp, worlds, controller, rules
         self._fading = np.full(n, np.nan)  # s: when each world's support began fading (NaN: none fades)
@@ -290,7 +321,7 @@ class LiftProbe:
             ((n,) bool: the worlds whose grasp goes to the judge now, the indices of those grasping again from now).
         """
         controller, worlds, regrasp = self.controller, self.worlds, self.regrasp
-        done = np.asarray(controller.done, dtype=bool)
+        done = np.asarray(controller.done, dtype=np.bool_)
         again = np.zeros(0, dtype=int)
         if regrasp.attempts == 1:
             return done, again
@@ -301,7 +332,7 @@ class LiftProbe:
         self._fading[begin] = clock
         fading = np.flatnonzero(~np.isnan(self._fading))
         left = 1.0 - (clock - self._fading[fading]) / fade if fade else np.zeros(len(fading))
-        if np.any(left > 1e-9):  # the support weakens to nothing first, the hand acting on
+        if np.any(left > 1e-9) and self.rules is not None:  # the support weakens to nothing first, the hand acting on
             soft = fading[left > 1e-9]
             worlds.soften(soft, self.rules.support_stiffness * left[left > 1e-9],
                           self.rules.support_damping * left[left > 1e-9])
@@ -330,5 +361,5 @@ class LiftProbe:
                 self.failure[first] = np.column_stack([joints, forces[failing]])[np.isin(again, first)]
                 controller.restart(again, joints, forces[failing])
                 probing[again] = np.nan
-                done = np.asarray(controller.done, dtype=bool)
+                done = np.asarray(controller.done, dtype=np.bool_)
         return done & (probed | (np.asarray(controller.attempt) >= regrasp.attempts)), again

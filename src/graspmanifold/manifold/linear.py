@@ -23,6 +23,7 @@ Santello, Flanders and Soechting, 1998).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,13 +31,23 @@ from ..base.errors import InvalidInput, NotFittedError
 from ..base.io import NpzRecord, fingerprint
 from ..base.validation import check_data, check_int
 from .embeddings import principal_axes
-from .nearest import ManifoldRecall, check_queries
+from .nearest import ManifoldMatcher, check_queries
 
 MIN_RESIDUAL = 1e-6  # rad^2: the smallest residual variance per joint (see the module doc)
 _BLOCK = 4096  # queries per stacked solve: bounds memory at BLOCK x k x k
 
 
-class LinearManifold(ManifoldRecall, NpzRecord):
+class _Subspace(NamedTuple):
+    """A fitted linear manifold: the mean (dim,) rad, the principal axes (k, dim), every axis's share of the
+    variance (dim,), the kept axes' variances (k,) rad^2."""
+
+    mean: np.ndarray
+    axes: np.ndarray
+    explained: np.ndarray
+    variances: np.ndarray
+
+
+class LinearManifold(ManifoldMatcher, NpzRecord):
     """The affine subspace of the postures' first `components` principal axes (see the module doc).
 
     Attributes (fitted): `mean` (dim,) rad, `axes` (components, dim) orthonormal rows, `variances` (components,)
@@ -67,12 +78,13 @@ class LinearManifold(ManifoldRecall, NpzRecord):
     @property
     def dim(self) -> int:
         """The posture's dimensions (22 for the hand's postures)."""
-        return self._require().shape[1]
+        return self._require().axes.shape[1]
 
-    def _require(self) -> np.ndarray:
-        if self.axes is None:
+    def _require(self) -> _Subspace:
+        """The fitted subspace, or a refusal of an unfitted manifold."""
+        if self.mean is None or self.axes is None or self.explained is None or self.variances is None:
             raise NotFittedError("this LinearManifold is not fitted yet; call fit(postures) first")
-        return self.axes
+        return _Subspace(self.mean, self.axes, self.explained, self.variances)
 
     def fit(self, postures: np.ndarray) -> LinearManifold:
         """The principal axes of the postures.
@@ -112,10 +124,10 @@ class LinearManifold(ManifoldRecall, NpzRecord):
         Returns:
             The count.
         """
-        self._require()
+        explained = self._require().explained
         if not 0 < share <= 1:
             raise InvalidInput(f"share must be in (0, 1], got {share!r}")
-        return int(np.searchsorted(np.cumsum(self.explained), share - 1e-12) + 1)
+        return int(np.searchsorted(np.cumsum(explained), share - 1e-12) + 1)
 
     def project(self, postures: np.ndarray) -> np.ndarray:
         """Postures projected onto the subspace (orthogonally: no shrinkage).
@@ -126,8 +138,9 @@ class LinearManifold(ManifoldRecall, NpzRecord):
         Returns:
             (m, dim), rad.
         """
+        mean, axes = self._require()[:2]
         data = check_data(postures, self.dim, "postures")
-        return self.mean + ((data - self.mean) @ self.axes.T) @ self.axes
+        return mean + ((data - mean) @ axes.T) @ axes
 
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
         """`complete` of every query.
@@ -139,18 +152,18 @@ class LinearManifold(ManifoldRecall, NpzRecord):
         Returns:
             Postures (m, dim), rad.
         """
-        self._require()
+        mean, axes, _, variances = self._require()
         queries, weights = check_queries(X, masks, self.dim)
         out = np.empty_like(queries)
-        prior = np.diag(self.residual / self.variances)
+        prior = np.diag(self.residual / variances)
         for start in range(0, len(queries), _BLOCK):
             block = slice(start, start + _BLOCK)
             p = weights[block]
-            offset = np.where(p > 0, queries[block] - self.mean, 0.0)
-            normal = np.einsum("kd,md,ld->mkl", self.axes, p, self.axes) + prior
-            right = np.einsum("kd,md->mk", self.axes, p * offset)
+            offset = np.where(p > 0, queries[block] - mean, 0.0)
+            normal = np.einsum("kd,md,ld->mkl", axes, p, axes) + prior
+            right = np.einsum("kd,md->mk", axes, p * offset)
             latent = np.linalg.solve(normal, right[..., None])[..., 0]
-            out[block] = self.mean + latent @ self.axes
+            out[block] = mean + latent @ axes
         return out
 
     # -- files -----------------------------------------------------------------------------------
@@ -158,8 +171,8 @@ class LinearManifold(ManifoldRecall, NpzRecord):
     NPZ_REQUIRED = {"mean": (None,), "axes": (None, None), "explained": (None,), "references": (None, None)}
 
     def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
-        self._require()
-        return ({"mean": self.mean, "axes": self.axes, "explained": self.explained, "references": self.references},
+        mean, axes, explained, _ = self._require()
+        return ({"mean": mean, "axes": axes, "explained": explained, "references": self.references},
                 {"components": self.components, "dim": self.dim, "data_fingerprint": self.data_fingerprint,
                  "total_variance": self.total_variance,
                  "units": "mean, references rad; axes orthonormal; explained variance shares"})
@@ -182,5 +195,6 @@ class LinearManifold(ManifoldRecall, NpzRecord):
         return linear
 
     def __repr__(self) -> str:
-        state = f"{self.explained[:self.components].sum():.0%} of the variance" if self.is_fitted else "unfitted"
+        explained = self.explained
+        state = "unfitted" if explained is None else f"{explained[:self.components].sum():.0%} of the variance"
         return f"LinearManifold(components={self.components}, {state})"

@@ -6,11 +6,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import DTypeLike
 
 from ..base.errors import InvalidInput
 from ..base.io import NpzRecord, Tabular
 from ..base.moved import current_name
 from ..sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
+
+#: the default of `epsilon` and `hold_displacement`: NaN for every posture (not judged)
+_NOT_JUDGED = np.full(0, np.nan)
 
 
 @dataclass(frozen=True)
@@ -27,13 +31,13 @@ class PostureSet(Tabular, NpzRecord):
     contacts: np.ndarray
     start_names: tuple[str, ...]
     metadata: dict = field(default_factory=dict)
-    epsilon: np.ndarray | None = None
-    hold_displacement: np.ndarray | None = None
+    epsilon: np.ndarray = field(default_factory=lambda: _NOT_JUDGED)
+    hold_displacement: np.ndarray = field(default_factory=lambda: _NOT_JUDGED)
 
     def __post_init__(self) -> None:
         n = len(self.postures)
         for name in ("epsilon", "hold_displacement"):
-            if getattr(self, name) is None:
+            if getattr(self, name) is None or getattr(self, name) is _NOT_JUDGED:
                 object.__setattr__(self, name, np.full(n, np.nan))
         expected = {"postures": (n, N_FINGER_JOINTS), "hand_poses": (n, 7), "start_ids": (n,), "contacts": (n, len(SEGMENTS)),
                     "epsilon": (n,), "hold_displacement": (n,)}
@@ -69,7 +73,7 @@ class PostureSet(Tabular, NpzRecord):
         """The name of the hand model the postures are of (`metadata["hand"]`; ours for a set that names none)."""
         return str(current_name("hand", self.metadata.get("hand", SHADOW_HAND.name)))
 
-    def __array__(self, dtype: object = None, copy: bool | None = None) -> np.ndarray:
+    def __array__(self, dtype: DTypeLike | None = None, copy: bool | None = None) -> np.ndarray:
         """The (n, 22) postures, so a PostureSet goes wherever postures do (`np.asarray`, `SOM.fit`)."""
         return self.postures if dtype is None else self.postures.astype(dtype)
 

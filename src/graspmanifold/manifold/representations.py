@@ -31,6 +31,8 @@ REPRESENTATIONS: dict[str, str] = {
     "ukr": "a 2-d Unsupervised Kernel Regression manifold (the paper's future work)",
     "linear": "a 5-component linear manifold (PCA hand synergies)",
 }
+#: what a representation is: the kinds `fit_representation` trains and `load_representation` reads
+Representation = SOM | UKR | LinearManifold | PostureDatabase
 _REPRESENTATION_KINDS = {"database": PostureDatabase, "som": SOM, "ukr": UKR, "linear": LinearManifold}
 _FILE_KINDS: dict[str, type[SOM] | type[UKR] | type[LinearManifold] | type[PostureDatabase]] = {
     SOM.NPZ_KIND: SOM, UKR.NPZ_KIND: UKR, LinearManifold.NPZ_KIND: LinearManifold,
@@ -38,7 +40,7 @@ _FILE_KINDS: dict[str, type[SOM] | type[UKR] | type[LinearManifold] | type[Postu
 
 
 def fit_representation(name: str, postures: np.ndarray, *, seed: int = 0, progress: bool | None = None
-                       ) -> Experience:
+                       ) -> Representation:
     """A representation of these postures, trained with the library's defaults (on fewer postures than they need,
     a UKR or linear manifold of fewer dimensions: at least 3 postures for a UKR, 2 for a linear one).
 

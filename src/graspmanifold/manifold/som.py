@@ -35,6 +35,7 @@ matter only for the presentation order.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,7 +53,7 @@ from ..base.workers import free_cores
 from ..base.compiled import compiled
 from .kernels import online_epoch
 from .experience import check_places
-from .nearest import MaskedNearest, Recall, nearest_rows
+from .nearest import MaskedNearest, ReferenceMatcher, nearest_rows
 
 ALGORITHMS = ("online", "batch")
 _NEGLIGIBLE = 1e-12
@@ -69,7 +70,9 @@ def decay_schedule(start: float, end: float, epochs: int) -> np.ndarray:
 def check_schedule(value: object, name: str, upper: float | None = None) -> tuple[float, float]:
     """A decaying (start, end) schedule: positive, below `upper`, start >= end."""
     try:
-        start, end = (float(v) for v in value)  # type: ignore[union-attr]
+        if not isinstance(value, Iterable):
+            raise TypeError(name)
+        start, end = (float(v) for v in value)
     except (TypeError, ValueError):
         raise InvalidInput(f"{name} must be a (start, end) pair of numbers, got {value!r}") from None
     for v in (start, end):
@@ -130,7 +133,7 @@ PAPER = SOMSchedule(*TRAINING_SCHEDULE)
 RESUME = SOMSchedule(*RESUME_SCHEDULE)
 
 
-class SOM(Recall, NpzRecord):
+class SOM(ReferenceMatcher, NpzRecord):
     """A rows x cols Self-Organising Map with reference vectors of length `dim`."""
 
     def __init__(self, rows: int, cols: int, dim: int | None = None, *, seed: int = 0, epochs: int = PAPER.epochs,
@@ -190,7 +193,7 @@ class SOM(Recall, NpzRecord):
     @weights.setter
     def weights(self, value: np.ndarray) -> None:
         array = np.array(value, dtype=float)
-        if array.shape != (self.rows, self.cols, self.dim):
+        if self.dim is None or array.shape != (self.rows, self.cols, self.dim):
             raise InvalidInput(f"weights must have shape {(self.rows, self.cols, self.dim)}, got {array.shape}")
         check_data(array.reshape(-1, self.dim), self.dim, "weights")
         self._weights = array
@@ -200,7 +203,7 @@ class SOM(Recall, NpzRecord):
     @property
     def references(self) -> np.ndarray:
         """The nodes' reference vectors as rows (n_nodes, dim), in the flat order of `best_match` (read-only)."""
-        return self.weights.reshape(-1, self.dim)
+        return self.weights.reshape(-1, self._known_dim())
 
     def carry_places(self, postures: np.ndarray, places: np.ndarray) -> SOM:
         """Let every node know where the object sat (issue 66): the place of its nearest posture among those the map
@@ -218,6 +221,12 @@ class SOM(Recall, NpzRecord):
         self.places = check_places(places[nearest_rows(self.references, data)], self.n_nodes)
         return self
 
+    def _known_dim(self) -> int:
+        """The postures' dimension, or a refusal of a map that has not seen any yet."""
+        if self.dim is None:
+            raise NotFittedError("this SOM has no weights yet: call fit() (or initialize()) first")
+        return self.dim
+
     def _require_weights(self) -> np.ndarray:
         if self._weights is None:
             raise NotFittedError("this SOM has no weights yet: call fit() (or initialize()) first")
@@ -230,7 +239,7 @@ class SOM(Recall, NpzRecord):
             The `MaskedNearest` over the node weights.
         """
         if self._search is None:
-            self._search = MaskedNearest(self._require_weights().reshape(-1, self.dim))
+            self._search = MaskedNearest(self._require_weights().reshape(-1, self._known_dim()))
         return self._search
 
     # -- training --------------------------------------------------------------------------------
@@ -258,8 +267,8 @@ class SOM(Recall, NpzRecord):
         if len(data) > 1:
             _, _, components = np.linalg.svd(centred, full_matrices=False)
         else:
-            components = np.zeros((0, self.dim))
-        axes = np.zeros((2, self.dim))
+            components = np.zeros((0, data.shape[1]))
+        axes = np.zeros((2, data.shape[1]))
         axes[: min(2, len(components))] = components[:2]
         for axis in axes:  # a fixed sign per axis: its largest component is positive
             if np.any(axis):
@@ -315,14 +324,14 @@ class SOM(Recall, NpzRecord):
         Returns:
             This map, trained further.
         """
-        data = check_data(X, self.dim)
+        data = check_data(X, self._known_dim())
         schedule = _schedule(epochs, learning_rate, sigma, algorithm or self.algorithm)
         if not self.is_fitted:
             raise NotFittedError("resume() continues a fitted map: call fit() first")
         return self._train(data, *schedule, progress)
 
     def _train(self, data: np.ndarray, epochs: int, learning_rate: tuple[float, float], sigma: tuple[float, float],
-               algorithm: str, progress: bool) -> SOM:
+               algorithm: str, progress: bool | None) -> SOM:
         rates = decay_schedule(*learning_rate, epochs)
         widths = decay_schedule(*sigma, epochs)
         rng = np.random.default_rng([self.seed, len(self.history)])
@@ -343,16 +352,16 @@ class SOM(Recall, NpzRecord):
     def _train_online(self, data: np.ndarray, rates: np.ndarray, widths: np.ndarray,
                       rng: np.random.Generator, report: tqdm) -> np.ndarray:
         if not compiled():
-            flat = self._require_weights().reshape(self.n_nodes, self.dim).copy()
+            flat = self._require_weights().reshape(self.n_nodes, self._known_dim()).copy()
             for rate, sigma in zip(rates, widths):
                 online_epoch_reference(flat, data, rng.permutation(len(data)), self._neighbourhood_table(rate, sigma))
                 report.update()
-            return flat.reshape(self.rows, self.cols, self.dim)
-        weights_t = np.ascontiguousarray(self._require_weights().reshape(self.n_nodes, self.dim).T)
+            return flat.reshape(self.rows, self.cols, self._known_dim())
+        weights_t = np.ascontiguousarray(self._require_weights().reshape(self.n_nodes, self._known_dim()).T)
         for rate, sigma in zip(rates, widths):
             online_epoch(weights_t, data, rng.permutation(len(data)), rate, sigma, self.rows, self.cols, _NEGLIGIBLE)
             report.update()
-        return np.ascontiguousarray(weights_t.T).reshape(self.rows, self.cols, self.dim)
+        return np.ascontiguousarray(weights_t.T).reshape(self.rows, self.cols, self._known_dim())
 
     def _neighbourhood_table(self, rate: float, sigma: float) -> np.ndarray:
         """(n_nodes, n_nodes) table: row b holds rate * exp(-|a - b|^2 / (2 sigma^2)) for every node a."""
@@ -363,7 +372,7 @@ class SOM(Recall, NpzRecord):
         return table
 
     def _train_batch(self, data: np.ndarray, widths: np.ndarray, report: tqdm) -> np.ndarray:
-        rows, cols, dim = self.rows, self.cols, self.dim
+        rows, cols, dim = self.rows, self.cols, self._known_dim()
         centre = data.mean(axis=0)
         centred = data - centre
         augmented = np.hstack([centred, np.ones((len(data), 1))]).astype(np.float32)
@@ -405,8 +414,8 @@ class SOM(Recall, NpzRecord):
         Returns:
             The mean distance, rad.
         """
-        data = check_data(X, self.dim)
-        flat = self._require_weights().reshape(-1, self.dim)
+        data = check_data(X, self._known_dim())
+        flat = self._require_weights().reshape(-1, self._known_dim())
         return float(np.mean(np.linalg.norm(data - flat[self.best_match_batch(data)], axis=1)))
 
     def topographic_error(self, X: np.ndarray) -> float:
@@ -418,8 +427,8 @@ class SOM(Recall, NpzRecord):
         Returns:
             The fraction, 0 ... 1.
         """
-        data = check_data(X, self.dim)
-        flat = self._require_weights().reshape(-1, self.dim)
+        data = check_data(X, self._known_dim())
+        flat = self._require_weights().reshape(-1, self._known_dim())
         errors = 0
         for start in range(0, len(data), 4096):
             block = data[start:start + 4096]
@@ -438,7 +447,7 @@ class SOM(Recall, NpzRecord):
         Returns:
             Counts (rows, cols).
         """
-        return np.bincount(self.best_match_batch(check_data(X, self.dim)),
+        return np.bincount(self.best_match_batch(check_data(X, self._known_dim())),
                            minlength=self.n_nodes).reshape(self.rows, self.cols)
 
     def unsupported_nodes(self, X: np.ndarray) -> np.ndarray:

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Literal, overload
 
 import numpy as np
 from scipy.optimize import minimize
@@ -48,7 +49,7 @@ from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import usable_cores
 from .embeddings import isomap, pca_embedding, squared_distances
 from .kernels import STEP_GAIN, UKR_CUT, ukr_complete_rows, ukr_loo
-from .nearest import ManifoldRecall, check_queries
+from .nearest import ManifoldMatcher, check_queries
 
 #: the embeddings a fit may start from (`embeddings.pca_embedding`, `embeddings.isomap`)
 STARTS: tuple[str, ...] = ("pca", "isomap")
@@ -74,6 +75,18 @@ def _kernel_rows(squared: np.ndarray) -> np.ndarray:
     return weights / weights.sum(axis=1, keepdims=True)
 
 
+@overload
+def loo_error(latent: np.ndarray, postures: np.ndarray, gradient: Literal[False] = False) -> float: ...
+
+
+@overload
+def loo_error(latent: np.ndarray, postures: np.ndarray, gradient: Literal[True]) -> tuple[float, np.ndarray]: ...
+
+
+@overload
+def loo_error(latent: np.ndarray, postures: np.ndarray, gradient: bool) -> float | tuple[float, np.ndarray]: ...
+
+
 def loo_error(latent: np.ndarray, postures: np.ndarray, gradient: bool = False
               ) -> float | tuple[float, np.ndarray]:
     """The leave-one-out reconstruction error of latent points, and its gradient (compiled: `kernels.ukr_loo`).
@@ -92,6 +105,20 @@ def loo_error(latent: np.ndarray, postures: np.ndarray, gradient: bool = False
     error = ukr_loo(np.ascontiguousarray(latent, dtype=float), np.ascontiguousarray(postures, dtype=float), out,
                     gradient)
     return (error, out) if gradient else error
+
+
+@overload
+def loo_error_reference(latent: np.ndarray, postures: np.ndarray, gradient: Literal[False] = False) -> float: ...
+
+
+@overload
+def loo_error_reference(latent: np.ndarray, postures: np.ndarray, gradient: Literal[True]
+                        ) -> tuple[float, np.ndarray]: ...
+
+
+@overload
+def loo_error_reference(latent: np.ndarray, postures: np.ndarray, gradient: bool
+                        ) -> float | tuple[float, np.ndarray]: ...
 
 
 def loo_error_reference(latent: np.ndarray, postures: np.ndarray, gradient: bool = False
@@ -180,7 +207,7 @@ def complete_reference(latent: np.ndarray, postures: np.ndarray, queries: np.nda
     return out_latent, out_postures
 
 
-class UKR(ManifoldRecall, NpzRecord):
+class UKR(ManifoldMatcher, NpzRecord):
     """A continuous grasp manifold fitted by Unsupervised Kernel Regression (see the module doc).
 
     Attributes (fitted): `latent` (n, q) the training postures' latent points, `postures` (n, dim) the training
@@ -223,7 +250,7 @@ class UKR(ManifoldRecall, NpzRecord):
     @property
     def dim(self) -> int:
         """The posture's dimensions (22 for the hand's postures)."""
-        return self._require().shape[1]
+        return self._require()[1].shape[1]
 
     def fit(self, postures: np.ndarray, *, progress: bool | None = None) -> UKR:
         """Fit afresh: the best spectral start, refined (see the module doc).
@@ -268,13 +295,14 @@ class UKR(ManifoldRecall, NpzRecord):
         Returns:
             Itself.
         """
+        fitted_latent, fitted_postures = self._require()
         new = check_data(postures, self.dim, "postures")
-        _check_size(len(self.postures) + len(new))
+        _check_size(len(fitted_postures) + len(new))
         iterations = check_int(iterations, "iterations", low=0, high=100_000)
         places, _ = self.complete_latent_batch(new)
-        data = np.vstack([self.postures, new])
-        before = loo_error(np.vstack([self.latent, places]), data)
-        latent, error, steps = self._refine(np.vstack([self.latent, places]), data, progress, "UKR resume",
+        data = np.vstack([fitted_postures, new])
+        before = loo_error(np.vstack([fitted_latent, places]), data)
+        latent, error, steps = self._refine(np.vstack([fitted_latent, places]), data, progress, "UKR resume",
                                             iterations)
         self._set(latent, data)
         self.history = [*self.history, {"kind": "resume", "postures": len(new), "loo_start": before, "loo": error,
@@ -311,10 +339,11 @@ class UKR(ManifoldRecall, NpzRecord):
                         np.ascontiguousarray(self.latent[order, 0]))
         self._rank = np.argsort(order)
 
-    def _require(self) -> np.ndarray:
-        if self.postures is None:
+    def _require(self) -> tuple[np.ndarray, np.ndarray]:
+        """The fitted latent points and postures, or a refusal of an unfitted UKR."""
+        if self.latent is None or self.postures is None:
             raise NotFittedError("this UKR is not fitted yet; call fit(postures) first")
-        return self.postures
+        return self.latent, self.postures
 
     # -- the manifold ----------------------------------------------------------------------------
     def manifold(self, latent: np.ndarray) -> np.ndarray:
@@ -326,21 +355,20 @@ class UKR(ManifoldRecall, NpzRecord):
         Returns:
             (m, dim) or (dim,) postures, rad.
         """
-        self._require()
+        fitted_latent, fitted_postures = self._require()
         points = np.asarray(latent, dtype=float)
         single = points.ndim == 1
         points = np.atleast_2d(points)
         if points.ndim != 2 or points.shape[1] != self.latent_dim or not np.all(np.isfinite(points)):
             raise InvalidInput(f"latent must be finite points ({self.latent_dim},) or (m, {self.latent_dim}), got "
                                f"shape {np.shape(latent)}")
-        out = np.concatenate([_kernel_rows(squared_distances(points[s:s + _BLOCK], self.latent)) @ self.postures
+        out = np.concatenate([_kernel_rows(squared_distances(points[s:s + _BLOCK], fitted_latent)) @ fitted_postures
                               for s in range(0, len(points), _BLOCK)])
         return out[0] if single else out
 
     def loo_error(self) -> float:
         """The leave-one-out reconstruction error of the fitted manifold, rad^2 (mean squared norm)."""
-        self._require()
-        return float(loo_error(self.latent, self.postures))
+        return float(loo_error(*self._require()))
 
     # -- masked completion (the Experience protocol) ----------------------------------------------
     def complete_batch(self, X: np.ndarray, masks: np.ndarray | None = None) -> np.ndarray:
@@ -365,11 +393,12 @@ class UKR(ManifoldRecall, NpzRecord):
         Returns:
             The latent points (m, q) and the postures there (m, dim), rad.
         """
-        self._require()
+        latent, postures = self._require()
         queries, weights = check_queries(X, masks, self.dim)
         starts = self.masked_search().nearest_batch(queries, weights)
         if not compiled():
-            return complete_reference(self.latent, self.postures, queries, weights, starts, self.completion_steps)
+            return complete_reference(latent, postures, queries, weights, starts, self.completion_steps)
+        assert self._sorted is not None and self._rank is not None  # kept with the latent points (`_set`)
         out_latent, out_postures = np.empty((len(queries), self.latent_dim)), np.empty_like(queries)
         parts = max(1, min(usable_cores(), len(queries) // _PER_THREAD))
         bounds = np.linspace(0, len(queries), parts + 1).astype(int)
@@ -387,8 +416,8 @@ class UKR(ManifoldRecall, NpzRecord):
     NPZ_REQUIRED = {"latent": (None, None), "postures": (None, None)}
 
     def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
-        self._require()
-        return {"latent": self.latent, "postures": self.postures}, {
+        latent, postures = self._require()
+        return {"latent": latent, "postures": postures}, {
             "latent_dim": self.latent_dim, "dim": self.dim, "starts": list(self.starts), "scales": self.scales,
             "iterations": self.iterations, "neighbours": self.neighbours, "completion_steps": self.completion_steps,
             "history": self.history, "units": "postures rad; latent points dimensionless (kernel bandwidth 1)"}
@@ -413,5 +442,5 @@ class UKR(ManifoldRecall, NpzRecord):
         return ukr
 
     def __repr__(self) -> str:
-        state = f"fitted on {len(self.postures)} postures" if self.is_fitted else "unfitted"
+        state = "unfitted" if self.postures is None else f"fitted on {len(self.postures)} postures"
         return f"UKR(latent_dim={self.latent_dim}, {state})"

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import itertools
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
@@ -85,7 +85,7 @@ _YAWS = (-0.4, 0.0, 0.4)
 _BALL_GAPS = {"palm": (0.005, 0.01, 0.015, 0.02, 0.025, 0.03), "fingertips": (0.02, 0.025, 0.03, 0.035, 0.04, 0.045)}
 
 
-def _midpoints(values: tuple[float, ...]) -> list[float]:
+def _midpoints(values: Sequence[float]) -> list[float]:
     return [(a + b) / 2 for a, b in zip(values, values[1:])]
 
 
@@ -107,12 +107,12 @@ def benchmark_grid(name: str, placement: str, split: str = "test") -> np.ndarray
     obj = OBJECTS[name].object
     ball = obj.shape == "sphere"
     gaps = _BALL_GAPS[placement] if ball else _GAPS[placement]
-    axes = [_ACROSS[placement], _ALONG[placement], gaps, (0.0,) if ball else _YAWS]
+    axes: list[Sequence[float]] = [_ACROSS[placement], _ALONG[placement], gaps, (0.0,) if ball else _YAWS]
     if split == "selection":
         axes = [_midpoints(a) if len(a) > 1 else list(a) for a in axes]
         if not ball:  # two gaps have one midpoint: take the gaps a quarter and three quarters of the way instead
             axes[2] = [gaps[0] + 0.25 * (gaps[1] - gaps[0]), gaps[0] + 0.75 * (gaps[1] - gaps[0])]
-    poses = np.array(list(itertools.product(*axes)), dtype=float)
+    poses = np.array(list(itertools.product(*axes)), dtype=np.float64)
     return poses[reachable(obj, poses)]
 
 
@@ -197,7 +197,7 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test",
         trial_setup = TrialSetup.build(OBJECTS[name].object, experience, **setup)
         key = trial_setup.key(grid, seed)
         cell = None if path is None else PartStore(path.parent, key, EvaluationResult.load_with_metadata)
-        if cell is not None:  # a result stored under this label by another configuration (or code) runs again
+        if cell is not None and path is not None:  # stored under this label by another configuration (or code): rerun
             stored = cell.load(path.name)
             if stored:
                 results[(name, placement)] = stored[path]
@@ -205,7 +205,7 @@ def run_benchmark(experience: Experience | None = None, *, split: str = "test",
         parts = None if path is None else path.with_suffix(".parts")
         result = evaluate(trial_setup, grid=grid, seed=seed, workers=workers, checkpoint_dir=parts)
         result.grid_name = f"{split}/{placement}"
-        if cell is not None:
+        if cell is not None and path is not None and parts is not None:
             cell.save(path.name, lambda target, meta: result.save(target, extra=meta))
             remove_checkpoints(parts)
         results[(name, placement)] = result

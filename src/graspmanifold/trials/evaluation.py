@@ -15,9 +15,10 @@ import json
 import math
 import os
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field
+from typing import TypedDict
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +63,27 @@ def _measured_mean(values: list[float]) -> float | None:
     """The mean of the values measured (not NaN); None when none was (NaN with no trial at all)."""
     measured = [v for v in values if not math.isnan(v)]
     return float(np.mean(measured)) if measured else (None if values else float("nan"))
+
+
+class EvaluationSummary(TypedDict):
+    """An evaluation's summary (`EvaluationResult.summary`): names, counts, rates with their 95 % Wilson
+    intervals [low, high], and means over the valid trials (`mean_margin` in N, None where not measured)."""
+
+    object: str
+    method: str
+    grid: str
+    trials: int
+    invalid_trials: int
+    hold_rate: float
+    hold_interval: list[float]
+    force_closure_rate: float
+    force_closure_interval: list[float]
+    epsilon_threshold: float
+    mean_margin: float | None
+    mean_epsilon: float
+    mean_time_to_grasp: float
+    mean_touching_segments: float
+    max_penetration: float
 
 
 def _number(value: float | None, digits: int) -> str:
@@ -120,7 +142,7 @@ class EvaluationResult(Tabular, NpzRecord):
         return self.markdown()
 
     @property
-    def summary(self) -> dict[str, float | int | str]:
+    def summary(self) -> EvaluationSummary:
         """Rates (with 95 % Wilson intervals) and means over the valid trials (`mean_margin` None where the
         margin was not measured); `trials` counts them, `invalid_trials` the trials whose physics failed (see the
         module doc)."""
@@ -250,7 +272,7 @@ class EvaluationResult(Tabular, NpzRecord):
     @classmethod
     def _from_npz(cls, a: dict[str, np.ndarray], meta: dict, path: Path) -> EvaluationResult:
         """The result of a file, trials and per-cycle winners included."""
-        winners: list[np.ndarray | None] = [None] * len(a["epsilon"])
+        winners: list[np.ndarray] | list[None] = [None] * len(a["epsilon"])
         if "winners" in a:
             ends = np.cumsum(np.asarray(a["matches"], dtype=int))
             if len(ends) and (ends[-1] != len(a["winners"]) or (np.diff(ends, prepend=0) < 0).any()):
@@ -276,7 +298,7 @@ class EvaluationResult(Tabular, NpzRecord):
                    meta.get("backend", "cpu"), meta.get("made_by", {}))
 
 
-def trial_count(summary: dict) -> str:
+def trial_count(summary: Mapping[str, object]) -> str:
     """The valid trials of a summary, and the invalid ones when there are any ("225 (+2 invalid)")."""
     invalid = summary.get("invalid_trials", 0)
     return f"{summary['trials']}" + (f" (+{invalid} invalid)" if invalid else "")
@@ -301,7 +323,7 @@ def _read_part(path: Path) -> tuple[tuple[int, list[Trial]], dict]:
 def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
              grid: str | np.ndarray = "quick", seed: int = 0, workers: int | Executor | None = None, *,
              checkpoint_dir: str | os.PathLike | None = None, progress: bool | None = None,
-             **setup: object) -> EvaluationResult:
+             **fields: object) -> EvaluationResult:
     """Run the controller with this experience on every grid pose, and judge each grasp.
 
     The object is held by a spring support with gravity off while the hand closes (or stands on a table
@@ -323,7 +345,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
             the trials elsewhere, e.g. on a Dask cluster (`workers.cluster_executor`).
         checkpoint_dir: where finished trials are kept until the end.
         progress: show a progress bar (None: as `progress.show_progress` says, on by default).
-        **setup: the `TrialSetup` fields by name: noise (`Noise`), params (`ControllerParams`), table (the object
+        **fields: the `TrialSetup` fields by name: noise (`Noise`), params (`ControllerParams`), table (the object
             on a table with gravity on; poses where the open hand would touch it are left out of presets and
             refused in a custom grid), preshape ((22,) rad), backend ('cpu': each chunk of trials one batch in
             worker processes; 'warp': `batch_size` trials at once on the GPU with MuJoCo Warp, the `gpu` extra),
@@ -340,12 +362,12 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
         ValueError: an unknown object, grid or set-up field, a pose no trial can start from
             (`why_unreachable`), a bad argument.
     """
-    setup = TrialSetup.build(obj, experience, **setup)
+    setup = TrialSetup.build(obj, experience, **fields)
     workers, executor = split_workers(workers)
-    obj, noise = setup.object, setup.noise
+    the_object, noise = setup.object, setup.noise
     seed = check_int(seed, "seed", low=0)
     batch_size, backend = setup.batch_size, setup.backend
-    grid_name, poses = check_grid(grid, obj, setup.table, setup.plan)
+    grid_name, poses = check_grid(grid, the_object, setup.table, setup.plan)
     workers = workers_for(workers, len(poses), CHECKPOINT_TRIALS)
     size = max(1, min(CHECKPOINT_TRIALS, -(-len(poses) // (8 * workers))))  # at least 8 chunks per worker
     chunks = [list(range(first, min(first + size, len(poses)))) for first in range(0, len(poses), size)]
@@ -354,13 +376,13 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
     method = setup.method
     pending = [k for k in range(len(chunks)) if k not in done]
     tasks = [(chunks[k], poses[chunks[k]], seed) for k in pending]
-    report = progress_bar(len(poses), f"evaluate {obj.name} / {method}", "trials", enabled=progress)
+    report = progress_bar(len(poses), f"evaluate {the_object.name} / {method}", "trials", enabled=progress)
 
     def keep(task: int, trials: list[Trial]) -> None:
         number = pending[task]
         done[number] = trials
         if store is not None:
-            part = EvaluationResult(obj, method, grid_name, seed, trials, noise, backend)
+            part = EvaluationResult(the_object, method, grid_name, seed, trials, noise, backend)
             store.save(f"part_{chunks[number][0]:05d}.npz", lambda path, meta: part.save(path, extra=meta),
                        first=chunks[number][0])
         report.update(len(trials))
@@ -372,7 +394,7 @@ def evaluate(obj: str | GraspObject | TrialSetup, experience: Experience | None 
         else:
             _run_on_gpu(setup, tasks, max(1, batch_size // size), keep)
     trials = [trial for k in range(len(chunks)) for trial in done[k]]
-    return EvaluationResult(obj, method, grid_name, seed, trials, noise, backend, setup.provenance(seed))
+    return EvaluationResult(the_object, method, grid_name, seed, trials, noise, backend, setup.provenance(seed))
 
 
 def _saved_chunks(store: PartStore, chunks: list[list[int]]) -> dict[int, list[Trial]]:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterable
 
 import mujoco
 import numpy as np
@@ -74,11 +75,13 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
     """
     obj = get_object(obj)
     sphere = obj.shape == "sphere"
-    yaws = {"quick": [-0.5, 0.0, 0.5], "paper": np.linspace(-0.5, 0.5, 5), "far": [-0.5, 0.0, 0.5],
-            "hard": [-0.8, -0.4, 0.0, 0.4, 0.8]}
+    yaws: dict[str, Iterable[float]] = {
+        "quick": [-0.5, 0.0, 0.5], "paper": np.linspace(-0.5, 0.5, 5), "far": [-0.5, 0.0, 0.5],
+        "hard": [-0.8, -0.4, 0.0, 0.4, 0.8]}
     if name not in GRID_PRESETS:
         raise InvalidInput(f"unknown grid preset {name!r}; expected one of {GRID_PRESETS} or an (n, 4) array")
     yaw = [0.0] if sphere else yaws[name]
+    axes: tuple[Iterable[float], ...]
     if name == "quick":
         axes = ([-0.015, 0.0, 0.015], [-0.015, 0.0, 0.015], [0.01, 0.017, 0.024, 0.031] if sphere else [0.01, 0.025], yaw)
     elif name == "paper":
@@ -89,7 +92,7 @@ def grid_preset(name: str, obj: str | GraspObject, table: bool = False) -> np.nd
                 else [0.03, 0.04, 0.05], yaw)
     else:
         axes = (np.linspace(-0.03, 0.03, 5), np.linspace(-0.03, 0.03, 5), [0.01, 0.025], yaw)
-    poses = np.array(list(itertools.product(*axes)), dtype=float)
+    poses = np.array(list(itertools.product(*axes)), dtype=np.float64)
     poses = poses[reachable(obj, poses, table)]
     if not len(poses):
         raise InvalidInput(f"no pose of the {name!r} grid is reachable for {obj.name}: at every one the object lies "
@@ -107,7 +110,8 @@ def _nearest_to_hand(scene: Scene, pose: np.ndarray) -> tuple[float, str, str]:
     mujoco.mj_kinematics(model, data)
     segments = segment_of_geoms(model)
     fromto = np.zeros(6)
-    pairs = [(scene.distance_to_object(g), SEGMENTS[segments[g]], "object") for g in np.flatnonzero(segments >= 0)]
+    pairs = [(scene.distance_to_object(g), SEGMENTS[segments[g]], "object")
+             for g in np.flatnonzero(segments >= 0).tolist()]
     if scene.table_geom is not None:
         pairs += [(mujoco.mj_geomDistance(model, data, g, scene.table_geom, 0.05, fromto), SEGMENTS[segments[g]], "table")
                   for g in np.flatnonzero(segments >= 0)]

@@ -20,6 +20,7 @@ keeps its states for pictures and animations.
 
 from __future__ import annotations
 
+import builtins
 import dataclasses
 import functools
 import hashlib
@@ -29,6 +30,7 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -38,7 +40,7 @@ from ..base.errors import InvalidInput
 from ..base.io import library_version
 from ..base.validation import check_choice, check_int
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
-from ..control.regrasp import LiftProbe, Regrasp
+from ..control.regrasp import LiftProbe, Regrasp, RestartingController
 from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol, get_protocol
 from ..judging.replay import OpenLoopGrasp
@@ -178,7 +180,7 @@ class TrialSetup:
     controller: str | ControllerFactory | None = None
     margin: bool = False
     regrasp: Regrasp = Regrasp()
-    protocol: JudgingProtocol = DEFAULT_PROTOCOL
+    protocol: JudgingProtocol = get_protocol(DEFAULT_PROTOCOL)
     batch_size: int = WARP_BATCH
     touch: str = "contacts"
     plan: OpenLoopGrasp | None = None
@@ -212,7 +214,7 @@ class TrialSetup:
         if self.touch != "contacts" and self.backend != "cpu":
             raise InvalidInput(f"touch={self.touch!r} reads MuJoCo's sensors on the cpu backend: use backend='cpu'")
 
-    def _check_controller(self, set_field: Callable[[str, object], None]) -> None:
+    def _check_controller(self, set_field: Callable[[str, builtins.object], None]) -> None:
         """The controller: ours with `params` (a registered name becomes its parameters), or a user's factory that
         brings its own experience and parameters; the noise and the method label."""
         set_field("params", self.params or ControllerParams())
@@ -237,7 +239,7 @@ class TrialSetup:
             raise InvalidInput("a custom controller brings its own experience and parameters: leave experience, "
                                "preshape and params at their defaults")
 
-    def _check_plan_and_palm(self, set_field: Callable[[str, object], None]) -> None:
+    def _check_plan_and_palm(self, set_field: Callable[[str, builtins.object], None]) -> None:
         """A plan, the palm's flange (the protocol's where none is given) and the oracle that needs both."""
         if self.plan is not None and not isinstance(self.plan, OpenLoopGrasp):
             raise InvalidInput(f"plan must be an OpenLoopGrasp (replay.open_loop_grasp makes one), got "
@@ -260,7 +262,7 @@ class TrialSetup:
 
     @classmethod
     def build(cls, obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
-              **fields: object) -> TrialSetup:
+              **fields: Any) -> TrialSetup:  # Any: the fields are checked by the set-up, each by its owner
         """The set-up a keyword convenience describes: one given whole, or one of the object, the experience and
         the fields named.
 
@@ -285,7 +287,7 @@ class TrialSetup:
         unknown = sorted(set(fields) - set(names))
         if unknown:
             raise InvalidInput(f"unknown trial set-up field(s) {unknown}; a TrialSetup has {names}")
-        return cls(object=obj, experience=experience, **fields)
+        return cls(object=get_object(obj), experience=experience, **fields)
 
     @property
     def rules(self) -> JudgingRules:
@@ -378,6 +380,7 @@ class TrialSetup:
             return BatchController(n, self.experience, self.params, preshape=self.preshape, hand=self.hand,
                                    regrasp=self.regrasp,
                                    initial_posture=None if self.plan is None else self.plan.postures[0])
+        assert not isinstance(self.controller, str)  # __post_init__ made a controller's name its parameters
         controller = self.controller(n, self.hand)
         if not isinstance(controller, Controller):
             raise InvalidInput(f"the controller {type(controller).__name__} lacks a member of the Controller protocol "
@@ -570,16 +573,19 @@ class _TrialLoop:
                                          for pose, rng in zip(poses, rngs)], period)
         self.worlds = self.episodes.worlds
         self.grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
-        self.clock, self.time_to_grasp, self.failed = 0.0, np.full(n, np.nan), {}
+        self.clock, self.time_to_grasp = 0.0, np.full(n, np.nan)
+        self.failed: dict[int, tuple[int, list[int]]] = {}  # a failed world's recalls, as they were when it failed
         self.first_contact = np.full((n, FIRST_CONTACT_FEATURES), np.nan)
         self.object_estimate = np.full((n, 3), np.nan)
         self.corrections = np.zeros((n, 6))  # the flange's set point the controller's palm moves are added to
         self.correcting = 0  # control periods of the oracle's correction still to run, before the controller starts
         if setup.oracle:
+            assert setup.plan is not None and setup.palm is not None  # the set-up refuses an oracle without both
             self.corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in poses])
             seconds = np.max(np.abs(self.corrections) / setup.palm.speeds()) + ORACLE_SETTLE_SECONDS
             self.correcting = math.ceil(seconds / period)
-        self.probe = LiftProbe(setup.regrasp, self.worlds, controller, setup.rules)
+        # a controller that regrasps has `attempt` and `restart` (`make_controller` checks it); others only finish
+        self.probe = LiftProbe(setup.regrasp, self.worlds, cast(RestartingController, controller), setup.rules)
 
     def recalls(self, world: int) -> tuple[int, list[int]]:
         """The best matches a world's controller used (none, for a controller without)."""
@@ -609,7 +615,7 @@ class _TrialLoop:
         sensed, forces = np.tile(controller.initial, (self.n, 1)), np.zeros((self.n, len(SEGMENTS)))
         sensed[live], forces[live] = self.worlds.joints(live), self.worlds.segment_forces(live)
         if setup.noise.joints:
-            for world in np.flatnonzero(grasping):
+            for world in np.flatnonzero(grasping).tolist():
                 sensed[world] += self.rngs[world].normal(0.0, setup.noise.joints, N_FINGER_JOINTS)
         touched = grasping & np.isnan(self.first_contact[:, 0]) & (forces > 0).any(axis=1)
         self.first_contact[touched] = np.column_stack([np.full(touched.sum(), self.clock), sensed[touched],
@@ -621,11 +627,12 @@ class _TrialLoop:
         bounded speed while the grasp goes on; where touch first placed the object is kept."""
         controller, setup = self.controller, self.setup
         moves_palm = getattr(controller, "moves_palm", False)
-        if moves_palm and setup.palm is None:  # at once
-            self.worlds.shift_hands(live, controller.palm_offset[live])
-        elif moves_palm or setup.oracle:  # by its flange, at its bounded speed, while the grasp goes on
+        palm_offset = getattr(controller, "palm_offset") if moves_palm else None  # (N, 3) m
+        if palm_offset is not None and setup.palm is None:  # at once
+            self.worlds.shift_hands(live, palm_offset[live])
+        elif palm_offset is not None or setup.oracle:  # by its flange, at its bounded speed, while the grasp goes on
             steered = live[self.grasping[live]]
-            offsets = controller.palm_offset[steered] if moves_palm else np.zeros((len(steered), 3))
+            offsets = palm_offset[steered] if palm_offset is not None else np.zeros((len(steered), 3))
             self.worlds.steer_flanges(steered, flange_targets(self.corrections[steered], offsets), self.period)
         estimate = getattr(controller, "object_estimate", None)
         if estimate is not None:  # where touch first placed the object, made (first) in the palm frame of the start
@@ -654,6 +661,7 @@ class _TrialLoop:
     def trial(self, world: int, judged: Judgement) -> Trial:
         """What trial `world` records, its judgement with what its controller did."""
         matches, winners = self.failed.get(world) or self.recalls(world)
+        assert judged.posture is not None and judged.touching is not None  # a trial's judge records both
         return Trial(grid_pose=self.poses[world], posture=judged.posture, touching=judged.touching,
                      epsilon=judged.epsilon, hold=judged.hold, hold_displacement=judged.displacement,
                      time_to_grasp=judged.time if judged.fault else float(self.time_to_grasp[world]), matches=matches,
@@ -731,7 +739,7 @@ class Recording:
 
 def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
                  grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
-                 **setup: object) -> Recording:
+                 **fields: object) -> Recording:
     """Run one trial as `evaluate` runs it at a grid pose (any `TrialSetup`: a protocol, a regrasp, one's own
     controller); keep the scene's state along the way.
 
@@ -743,7 +751,7 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
         grid_pose: (x, z, gap, yaw) in m and rad; refused as `evaluate` refuses it (`why_unreachable` says why).
         seed: the trial's seed (trial 0 of `evaluate` with this seed).
         every: keep the state every this many control periods.
-        **setup: the `TrialSetup` fields by name, as `evaluate` takes them; `margin` is on unless given (a
+        **fields: the `TrialSetup` fields by name, as `evaluate` takes them; `margin` is on unless given (a
             recording shows the whole judging, the pushes included) where the protocol allows it (ours).
 
     Returns:
@@ -752,17 +760,18 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
     Raises:
         ValueError: a bad pose or set-up; the 'warp' backend (a recording runs on the CPU).
     """
-    if not isinstance(obj, TrialSetup) and "margin" not in setup:
-        setup["margin"] = get_protocol(setup.get("protocol", DEFAULT_PROTOCOL)).physics is None
-    setup = TrialSetup.build(obj, experience, **setup)
+    if not isinstance(obj, TrialSetup) and "margin" not in fields:
+        protocol = fields.get("protocol", DEFAULT_PROTOCOL)
+        if isinstance(protocol, (str, JudgingProtocol)):  # anything else the set-up refuses by name
+            fields["margin"] = get_protocol(protocol).physics is None
+    setup = TrialSetup.build(obj, experience, **fields)
     if setup.backend != "cpu":
         raise InvalidInput(f"record_trial runs on the cpu backend (it keeps the scene's states), not {setup.backend!r}")
-    obj = setup.object
     check_int(every, "every (control periods)")
     grid_pose = np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
-    check_grid(grid_pose, obj, setup.table, setup.plan)  # the poses `evaluate` would refuse are refused here too
+    check_grid(grid_pose, setup.object, setup.table, setup.plan)  # refused as `evaluate` would refuse it
     states: list[np.ndarray] = []
     seen: dict[str, Scene] = {}
 
