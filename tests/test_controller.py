@@ -252,7 +252,7 @@ def test_the_first_recall_after_a_contact_restarts_the_free_fingers_closure():
     far = np.linalg.norm(targets[False][thumb] - recalled[thumb])
     near = np.linalg.norm(targets[True][thumb] - recalled[thumb])
     assert near < 0.5 * far, (near, far)
-    assert controllers[True].batch.state.recalled[0] and not controllers[False].batch.state.recalled[0]
+    assert controllers[True].batch.state.closure_restarted[0] and not controllers[False].batch.state.closure_restarted[0]
 
 
 def test_switches_turn_experience_off(experience):
@@ -559,7 +559,7 @@ def test_the_controller_recalls_what_the_experience_completes():
     for _ in range(round(controller.params.preshape_time / controller.control_period) + 1):  # into phase B
         controller.step(open_hand, np.zeros((1, len(gm.SEGMENTS))))
     assert controller.matches[0] > 0
-    assert np.allclose(controller.state.recall[0], gm.closed_posture() * 0.4)  # the blend, not a reference
+    assert np.allclose(controller.state.recalled_posture[0], gm.closed_posture() * 0.4)  # the blend, not a reference
 
 
 def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
@@ -576,7 +576,7 @@ def test_a_closing_recall_never_sends_a_joint_back_towards_the_open_hand():
         controller.state.target[0] = half
         controller.params.recall.recall(controller, np.array([0]), np.array([0]), recalled[None], half[None],
                                            np.zeros((1, len(gm.SEGMENTS)), dtype=bool), np.zeros((1, 5), dtype=bool))
-        np.testing.assert_allclose(controller.state.recall[0], expected)
+        np.testing.assert_allclose(controller.state.recalled_posture[0], expected)
     assert np.any(expected != recalled) and np.all((expected - half) * np.sign(closed - opened) >= 0)
 
 

@@ -174,6 +174,22 @@ def test_the_judging_protocol_is_not_mistaken_for_typings_and_its_old_name_answe
         protocols.NoSuchThing  # noqa: B018
 
 
+def test_recall_names_one_thing_and_the_old_names_of_the_others_answer_with_a_warning():
+    """'Recall' is what a best match does (`RecallRule`, `ControllerParams.recall`); the experience's best-match
+    base is `ReferenceMatcher`, the state's arrays `recalled_posture` and `closure_restarted`."""
+    from graspmanifold.control.controller import BatchController
+    from graspmanifold.manifold import nearest
+
+    assert issubclass(gm.SOM, nearest.ReferenceMatcher) and issubclass(gm.UKR, nearest.ManifoldMatcher)
+    with pytest.warns(DeprecationWarning, match="nearest.ReferenceMatcher"):
+        assert nearest.Recall is nearest.ReferenceMatcher
+    state = BatchController(2, None).state
+    with pytest.warns(DeprecationWarning, match="recalled_posture"):
+        assert state.recall is state.recalled_posture
+    with pytest.warns(DeprecationWarning, match="closure_restarted"):
+        assert state.recalled is state.closure_restarted
+
+
 def test_the_environments_take_a_trial_setup_and_refuse_what_an_episode_does_not_run():
     """An episode is a trial whose controller is the agent: both environments take the `TrialSetup` (or its fields
     by name), and the same set-up gives the same first observation either way."""

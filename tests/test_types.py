@@ -1,5 +1,5 @@
-"""The annotations hold: mypy over src/ at the strictness pyproject.toml states ([tool.mypy]: its defaults, the
-modules still to fix listed there)."""
+"""The annotations hold: mypy over src/ at the strictness pyproject.toml states ([tool.mypy]: its defaults, every
+module checked, Warp's kernel annotations the one stated exception)."""
 
 import tomllib
 from pathlib import Path
@@ -16,11 +16,12 @@ def test_mypy_finds_no_annotation_error_in_src():
     assert status == 0, out + err
 
 
-def test_the_modules_left_unchecked_exist_and_are_fewer_than_before():
-    """The list of modules whose errors are still to fix names modules that exist, and only shrinks (61 when mypy
-    came in, with issue 70)."""
+def test_every_module_is_checked_with_one_stated_exception():
+    """No module is taken off the check (issue 70 fixed the last of the 61 modules listed when mypy came in); the
+    one exception pyproject.toml states is Warp's kernel annotations, one error code in the module that has them."""
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["mypy"]
-    unchecked = [m for o in config["overrides"] if o.get("ignore_errors") for m in o["module"]]
-    package = ROOT / "src"
-    missing = [m for m in unchecked if not (package / (m.replace(".", "/") + ".py")).exists()]
-    assert not missing and len(unchecked) <= 26, missing
+    overrides = config.get("overrides", [])
+    assert not [o for o in overrides if o.get("ignore_errors") or o.get("ignore_missing_imports") is False], overrides
+    exceptions = {(m, code) for o in overrides for m in o["module"] for code in o.get("disable_error_code", [])}
+    assert exceptions == {("graspmanifold.sim.warp_worlds", "valid-type")}, exceptions
+    assert all(set(o) <= {"module", "disable_error_code"} for o in overrides), overrides

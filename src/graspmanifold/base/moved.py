@@ -66,6 +66,8 @@ MOVED_NAMES: dict[str, dict[str, str]] = {
     "control.controller": {name: f"control.recall:{name}" for name in ("BlendRecall", "REST_SPEED", "palm_shift")},
     "judging.protocols": {"Protocol": "judging.protocols:JudgingProtocol", "OURS": "judging.protocols:HOLD_TEST",
                           "OURS_FADED": "judging.protocols:HOLD_TEST_FADED"},
+    "manifold.nearest": {"Recall": "manifold.nearest:ReferenceMatcher",
+                         "ManifoldRecall": "manifold.nearest:ManifoldMatcher"},
 }
 
 

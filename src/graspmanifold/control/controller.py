@@ -259,7 +259,7 @@ class ControllerParams:
         return table
 
 
-BLEND = ControllerParams(recall="base", max_match_distance=0.2)
+BLEND = ControllerParams(recall=RECALL_RULES["base"](), max_match_distance=0.2)
 """Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
 within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/experience_study_paper_grids.md)."""
 
@@ -329,9 +329,12 @@ class Controller(Protocol):
     """
 
     n: int
-    control_period: float
     initial: np.ndarray
     done: np.ndarray
+
+    @property
+    def control_period(self) -> float:
+        """s between two `step` calls (an attribute or a read-only property)."""
 
     def reset(self) -> None:
         """Start a new grasp in every world."""
@@ -481,14 +484,15 @@ class BatchController:
         """
         joints, forces = self._checked_readings(joints, segment_forces)
         self.time += self.params.control_period
-        touching_segments = forces > 0.0
+        touching_segments = np.asarray(forces > 0.0)
         touching = per_finger(touching_segments, FINGER_SEGMENT_MASKS, np.any)
         elapsed = self.time - self.state.started
-        waiting = self._wait(touching_segments.any(axis=1), elapsed)
+        any_touch = np.asarray(touching_segments.any(axis=1))
+        waiting = self._wait(any_touch, elapsed)
         act = ~self.done & ~waiting
         self._regulate_grip(forces, ~waiting)
         if act.any():
-            self.phase[act] = np.where(touching_segments.any(axis=1)[act], PHASES.index("C"), PHASES.index("B"))
+            self.phase[act] = np.where(any_touch[act], PHASES.index("C"), PHASES.index("B"))
             self._match(act, joints, touching_segments, touching)
             newly_held = self._hold(act, joints, touching)
             self.params.recall.follow(self, act, newly_held, joints)
@@ -551,7 +555,7 @@ class BatchController:
             self.state.closure[free, finger] = closure
             base = np.where(self.state.lost[free, finger][:, None], self.state.lost_posture[np.ix_(free, of)],
                             self.state.base[np.ix_(free, of)])
-            goal = np.where(going[:, None], self.state.recall[np.ix_(free, of)],
+            goal = np.where(going[:, None], self.state.recalled_posture[np.ix_(free, of)],
                             base + closure[:, None] * (self.state.aim[np.ix_(free, of)] - base))
             pace = np.where(going, self.state.pace[free, finger], p.follow_speed * self.speed[finger])
             target[np.ix_(free, of)] = bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
@@ -607,18 +611,20 @@ class BatchController:
         step[approaching] = palm.approach_speed * dt
         centring = np.flatnonzero(act & any_touch & ~settled) if palm.reach > 0 else np.zeros(0, dtype=int)
         places = getattr(self.experience, "places", None) if palm.recalled_place else None
+        kinematics, experience = self.kinematics, self.experience
+        assert kinematics is not None  # made where the palm steers
         aim = self.state.palm_aim
         for world in centring:  # where the palm goes: measured at the contact, again whenever the touching set changes
             weights = forces[world] * (SEGMENT_FINGER != "")  # the fingers' segments: where the object is held
             renew = np.isnan(aim[world, 0]) or np.any(touching[world] != self.state.touching[world])
             if weights.sum() <= 0.0 or not renew:
                 continue
-            centre = weights @ self.kinematics.positions(joints[world]) / weights.sum()
-            if places is None or not self.winners[world]:  # touch alone: the object is where it is touched
+            centre = weights @ kinematics.positions(joints[world]) / weights.sum()
+            if places is None or experience is None or not self.winners[world]:  # touch alone: it is where touched
                 estimate, wanted = centre, GRASP_CENTRE_IN_PALM
             else:  # the object sits off these segments as it sat off them in the recalled grasp
                 row = self.winners[world][-1]
-                recalled = weights @ self.kinematics.positions(self.experience.references[row]) / weights.sum()
+                recalled = weights @ kinematics.positions(experience.references[row]) / weights.sum()
                 estimate, wanted = centre + places[row] - recalled, places[row]
             self.object_estimate[world] = self.palm_offset[world] + estimate
             aim[world] = np.clip(self.palm_offset[world, [0, 2]] + estimate[[0, 2]] - wanted[[0, 2]], -palm.reach,
@@ -656,7 +662,7 @@ class BatchController:
                fingers_touching: np.ndarray) -> None:
         """Phase B / C of every acting world: the best-matching experienced posture becomes the steered
         free fingers' recall ('target') or the closing heuristic's base ('base')."""
-        p, any_touch = self.params, touching_segments.any(axis=1)
+        p, any_touch = self.params, np.asarray(touching_segments.any(axis=1))
         preshaped = ~np.isnan(self.state.preshapes[:, 0])
         shaping = act & ~any_touch & preshaped
         self.params.recall.preshape(self, np.flatnonzero(shaping), self.state.preshapes[shaping])
@@ -723,7 +729,7 @@ class GraspController:
 
     def __repr__(self) -> str:
         experience = "none" if self.experience is None else type(self.experience).__name__
-        return (f"GraspController(experience {experience}, recall {self.params.recall.name}, phase {self.phase}, "
+        return (f"GraspController(experience {experience}, recall {self.batch.params.recall.name}, phase {self.phase}, "
                 f"{self.matches} matches{', done' if self.done else ''})")
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ kinematics, closed posture, ranges and speeds. `tests/test_house.py` runs one th
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -87,8 +87,13 @@ class RecallRule:
     """
 
     name = "rule"
-    moves_palm = False
     reach_speed = 0.0
+    __dataclass_fields__: ClassVar[dict[str, Any]]  # a rule is a dataclass (`fields` and `replace` read it)
+
+    @property
+    def moves_palm(self) -> bool:
+        """Whether a recall may move the palm (a rule of one's own may say so by a class attribute)."""
+        return False
 
     def preshape(self, c: ControllerView, worlds: np.ndarray, postures: np.ndarray) -> None:
         """Phase B with a constant preshape, nothing touching yet.
@@ -259,7 +264,7 @@ class TargetRecall(RecallRule):
         if self.closes_only:  # no joint sent back towards the open hand
             now = c.state.target[worlds]
             recalled = np.where((recalled - now) * np.sign(c.closed - c.initial) < 0, now, recalled)
-        c.state.recall[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recall[worlds])
+        c.state.recalled_posture[worlds] = np.where(new[:, JOINT_FINGER], recalled, c.state.recalled_posture[worlds])
         c.state.approaching[worlds] |= new
         c.state.heading[worlds] = np.where(new, keys[:, None], c.state.heading[worlds])
 
@@ -277,10 +282,10 @@ class TargetRecall(RecallRule):
         with np.errstate(invalid="ignore"):  # nothing was sensed before the first cycle: not at rest
             still = per_finger(np.abs(joints - c.state.previous) <= REST_SPEED * c.control_period,
                                 FINGER_JOINT_MASKS)
-        near = per_finger(np.abs(joints - c.state.recall) <= self.tolerance, FINGER_JOINT_MASKS)
+        near = per_finger(np.abs(joints - c.state.recalled_posture) <= self.tolerance, FINGER_JOINT_MASKS)
         arrived = (act[:, None] & c.state.approaching & ~c.state.held & (near | still)
-                   & per_finger(c.state.target == c.state.recall, FINGER_JOINT_MASKS))
-        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recall, c.state.base)
+                   & per_finger(c.state.target == c.state.recalled_posture, FINGER_JOINT_MASKS))
+        c.state.base = np.where(arrived[:, JOINT_FINGER], c.state.recalled_posture, c.state.base)
         c.state.closure[arrived] = 0.0
         c.state.lost &= ~arrived
         self._done_with(c, arrived)
@@ -326,9 +331,10 @@ class ApproachRecall(TargetRecall):
         start = c.state.target[worlds]
         super()._recall_for(c, worlds, keys, postures)
         new = setting_out & c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])
-        c.state.way[worlds] = np.where(new[:, JOINT_FINGER], c.state.recall[worlds] - c.initial, c.state.way[worlds])
+        recalled = c.state.recalled_posture[worlds]
+        c.state.way[worlds] = np.where(new[:, JOINT_FINGER], recalled - c.initial, c.state.way[worlds])
         if self.together:  # the slowest finger's time at its own speed, the others slowed to it
-            length = np.sqrt(((c.state.recall[worlds] - start) ** 2) @ FINGER_JOINT_MASKS.T)  # (m, 5) to travel
+            length = np.sqrt(((recalled - start) ** 2) @ FINGER_JOINT_MASKS.T)  # (m, 5) to travel
             moves = new & (c.speed > 0)  # a finger the heuristic would not move (start at closed) sets no time
             time = np.max(np.where(moves, length / np.where(c.speed > 0, c.speed, 1.0), 0.0), axis=1, keepdims=True)
             pace = np.where(time > 0, length / np.where(time > 0, time, 1.0), c.speed)
@@ -339,7 +345,7 @@ class ApproachRecall(TargetRecall):
         before = c.state.approaching.copy()
         super()._arrive(c, act, joints)
         arrived = (before & ~c.state.approaching & ~c.state.held)[:, JOINT_FINGER]
-        aim = np.clip(c.state.recall + self.overshoot * c.state.way, c.limits[:, 0], c.limits[:, 1])
+        aim = np.clip(c.state.recalled_posture + self.overshoot * c.state.way, c.limits[:, 0], c.limits[:, 1])
         c.state.aim = np.where(arrived, aim, c.state.aim)
 
     def pressed(self, c: ControllerView, amount: float | np.ndarray) -> np.ndarray:
@@ -396,6 +402,7 @@ class BlendRecall(RecallRule):
 
     @property
     def moves_palm(self) -> bool:
+        """Whether a recall moves the palm: with a reach."""
         return self.reach > 0
 
     def preshape(self, c: ControllerView, worlds: np.ndarray, postures: np.ndarray) -> None:
@@ -425,9 +432,9 @@ class BlendRecall(RecallRule):
         c.state.base[worlds] = np.where(c.steered_joint_mask, match, c.state.base[worlds])
         if not (self.restart_closure or self.reach > 0):
             return
-        any_touch = touching_segments.any(axis=1)  # the first trusted match after a contact restarts the closure
-        restart = worlds[any_touch[worlds] & ~c.state.recalled[worlds]]
-        c.state.recalled[restart] = True
+        any_touch = np.asarray(touching_segments.any(axis=1))  # a contact's first trusted match restarts the closure
+        restart = worlds[any_touch[worlds] & ~c.state.closure_restarted[worlds]]
+        c.state.closure_restarted[restart] = True
         touching = fingers_touching[restart]
         if self.reach > 0:
             for world, row in zip(restart, match[np.isin(worlds, restart)]):
@@ -443,6 +450,8 @@ class BlendRecall(RecallRule):
         rows = np.flatnonzero(touching & (SEGMENT_FINGER != ""))
         if not len(rows):
             return
+        if c.kinematics is None:
+            raise InvalidInput("a recall that reaches moves the palm: its controller must know the hand's kinematics")
         c.state.palm_goal[world] = palm_shift(c.kinematics, joints, match, rows, self.reach)
         c.state.reaching[world] = bool(np.any(c.state.palm_goal[world] != c.palm_offset[world]))
         c.state.held[world] = False

@@ -4,11 +4,13 @@ controller and its recall rules share (`per_finger`, `bounded_step`)."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..base.moved import REMOVED_IN
 from ..sim.grip import row_norms
 from ..sim.hand import FINGER_JOINTS, FINGERS, N_FINGER_JOINTS, finger_of
 from ..sim.posture import SEGMENT_FINGER
@@ -54,6 +56,13 @@ def bounded_step(current: np.ndarray, goal: np.ndarray, limit: float | np.ndarra
     return current + move * scale[:, None]  # move * 1.0 is move, bit for bit
 
 
+def _renamed(state: GraspState, old: str, new: str) -> np.ndarray:
+    """A state array read by its name before 0.2, with a warning."""
+    warnings.warn(f"GraspState.{old} is GraspState.{new} since 0.2; the old name goes in {REMOVED_IN}",
+                  DeprecationWarning, stacklevel=3)
+    return getattr(state, new)
+
+
 @dataclass
 class GraspState:
     """What the controller keeps of every world besides what it reports (`BatchController`'s public attributes):
@@ -72,12 +81,13 @@ class GraspState:
             set it).
         target: (N, 22) rad, the targets of the last cycle.
         touching, stable_since: (N, 5) the fingers touching, and (N,) s since when that set is unchanged.
-        recalled: (N,) the blend's first trusted match after a contact has come.
+        closure_restarted: (N,) the blend's first trusted match after a contact has come (it restarted the
+            closure).
         palm_goal, reaching: (N, 3) m, where each palm is going (`BlendRecall.reach`), and (N,) whether it is.
         touched_once: (N,) something has touched in this attempt (the palm's guarded approach is over).
         palm_aim: (N, 2) m, where the palm re-centres to in its plane (x, z; NaN: nowhere yet), `PalmSteering`.
-        approaching, heading, recall: (N, 5) the fingers on their way to a recalled posture ('target'), its key
-            (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
+        approaching, heading, recalled_posture: (N, 5) the fingers on their way to a recalled posture ('target'),
+            its key (a reference row + 1, 0 for the preshape), and (N, 22) rad where it is.
         visited: the `visit` index of every (world, finger, key) recall a finger is done with.
         previous: (N, 22) rad, the joints sensed one cycle before (NaN: none yet).
         started: (N,) s, when each world's attempt began.
@@ -101,14 +111,14 @@ class GraspState:
     target: np.ndarray
     touching: np.ndarray
     stable_since: np.ndarray
-    recalled: np.ndarray
+    closure_restarted: np.ndarray
     palm_goal: np.ndarray
     reaching: np.ndarray
     touched_once: np.ndarray
     palm_aim: np.ndarray
     approaching: np.ndarray
     heading: np.ndarray
-    recall: np.ndarray
+    recalled_posture: np.ndarray
     visited: np.ndarray
     previous: np.ndarray
     started: np.ndarray
@@ -116,6 +126,16 @@ class GraspState:
     grip: np.ndarray
     preshapes: np.ndarray
     rows: int
+
+    @property
+    def recall(self) -> np.ndarray:
+        """`recalled_posture` before 0.2 (a `DeprecationWarning`; the name goes in 0.3)."""
+        return _renamed(self, "recall", "recalled_posture")
+
+    @property
+    def recalled(self) -> np.ndarray:
+        """`closure_restarted` before 0.2 (a `DeprecationWarning`; the name goes in 0.3)."""
+        return _renamed(self, "recalled", "closure_restarted")
 
     @classmethod
     def new(cls, n: int, initial: np.ndarray, closed: np.ndarray, speed: np.ndarray, preshape: np.ndarray | None,
@@ -130,10 +150,11 @@ class GraspState:
                    base=np.tile(initial, (n, 1)), aim=np.tile(closed, (n, 1)),
                    way=np.zeros((n, N_FINGER_JOINTS)), pace=np.tile(speed, (n, 1)), target=np.tile(initial, (n, 1)),
                    touching=np.zeros((n, fingers), dtype=bool), stable_since=np.zeros(n),
-                   recalled=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)), reaching=np.zeros(n, dtype=bool),
+                   closure_restarted=np.zeros(n, dtype=bool), palm_goal=np.zeros((n, 3)),
+                   reaching=np.zeros(n, dtype=bool),
                    touched_once=np.zeros(n, dtype=bool), palm_aim=np.full((n, 2), np.nan),
                    approaching=np.zeros((n, fingers), dtype=bool), heading=np.zeros((n, fingers), dtype=np.int64),
-                   recall=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
+                   recalled_posture=np.tile(initial, (n, 1)), visited=np.zeros(0, dtype=np.int64),
                    previous=np.full((n, N_FINGER_JOINTS), np.nan), started=np.zeros(n), squeezing=np.zeros(n),
                    grip=np.zeros(n),
                    preshapes=np.full((n, N_FINGER_JOINTS), np.nan) if preshape is None else np.tile(preshape, (n, 1)),
@@ -145,11 +166,11 @@ class GraspState:
         `speed`, no way kept, the palm staying where it is
         (`palm_offset`, (N, 3) m), their recalls forgotten, started at `time` s; the preshapes stay (the regrasp
         has set them)."""
-        for array in (self.closure, self.held, self.lost, self.touching, self.recalled, self.reaching,
+        for array in (self.closure, self.held, self.lost, self.touching, self.closure_restarted, self.reaching,
                       self.touched_once, self.approaching, self.heading, self.squeezing):
             array[worlds] = 0
         self.last_touch[worlds] = -np.inf
-        self.base[worlds] = self.recall[worlds] = initial
+        self.base[worlds] = self.recalled_posture[worlds] = initial
         self.aim[worlds], self.way[worlds], self.pace[worlds] = closed, 0.0, speed
         self.palm_goal[worlds] = palm_offset[worlds]
         self.palm_aim[worlds] = self.previous[worlds] = np.nan

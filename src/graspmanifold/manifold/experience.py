@@ -24,7 +24,7 @@ from ..base.io import NpzRecord, fingerprint
 from ..base.poses import invert
 from ..base.validation import check_data, check_int
 from ..sim.hand import N_FINGER_JOINTS
-from .nearest import MaskedNearest, Recall
+from .nearest import MaskedNearest, ReferenceMatcher
 from .postureset import PostureSet
 
 
@@ -133,7 +133,7 @@ def check_places(places: object, count: int) -> np.ndarray:
     return array
 
 
-class PostureDatabase(Recall, NpzRecord):
+class PostureDatabase(ReferenceMatcher, NpzRecord):
     """All stored postures (n, dim); best matches are row indices into `postures`, and `places` where the object
     sat in each (None: not known)."""
 
@@ -162,7 +162,7 @@ class PostureDatabase(Recall, NpzRecord):
         return self.postures
 
     def masked_search(self) -> MaskedNearest:
-        """The masked nearest search over the stored postures (`Recall.masked_search`).
+        """The masked nearest search over the stored postures (`ReferenceMatcher.masked_search`).
 
         Returns:
             The `MaskedNearest` over `references`.

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..base.errors import InvalidInput
+from ..base.moved import moved_attribute
 from ..base.workers import usable_cores
 from ..base.compiled import compiled
 from .kernels import TIE, masked_argmin, masked_argmin_rows
@@ -203,7 +204,7 @@ class MaskedNearest:
         return best
 
 
-class Recall:
+class ReferenceMatcher:
     """The `experience.Experience` protocol's queries (documented there) answered by a `MaskedNearest` of the
     `references` a subclass provides with `masked_search()`: what the SOM and the posture database share."""
 
@@ -241,14 +242,18 @@ class Recall:
         return self.references[self.best_match_batch(X, masks)]
 
 
-class ManifoldRecall(Recall):
+class ManifoldMatcher(ReferenceMatcher):
     """What a fitted manifold that completes postures on itself shares of the `experience.Experience` protocol
     (`ukr.UKR`, `linear.LinearManifold`): its `references` are postures on the manifold (kept by
-    `keep_references`), `best_match` the nearest of them (`Recall`), and `complete` one query of the subclass's
-    `complete_batch`, which completes on the manifold instead of returning a reference."""
+    `keep_references`), `best_match` the nearest of them (`ReferenceMatcher`), and `complete` one query of the
+    subclass's `complete_batch`, which completes on the manifold instead of returning a reference."""
 
-    dim: int
     _search: MaskedNearest | None = None
+
+    @property
+    def dim(self) -> int:
+        """The postures' dimension (a subclass provides it)."""
+        raise NotImplementedError
 
     def _require(self) -> object:
         raise NotImplementedError
@@ -268,14 +273,14 @@ class ManifoldRecall(Recall):
         return self.masked_search().points
 
     def masked_search(self) -> MaskedNearest:
-        """The masked nearest search over the kept references (`Recall.masked_search`).
+        """The masked nearest search over the kept references (`ReferenceMatcher.masked_search`).
 
         Returns:
             The `MaskedNearest` over `references`.
         """
         self._require()
         if self._search is None:
-            raise NotImplementedError("a ManifoldRecall keeps its references (keep_references) when it is fitted")
+            raise NotImplementedError("a ManifoldMatcher keeps its references (keep_references) when it is fitted")
         return self._search
 
     def complete(self, x: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
@@ -290,3 +295,8 @@ class ManifoldRecall(Recall):
         """
         query, weights = check_query(x, mask, self.dim)
         return self.complete_batch(query[None], weights[None])[0]
+
+
+def __getattr__(name: str) -> object:
+    """`Recall` and `ManifoldRecall` are `ReferenceMatcher` and `ManifoldMatcher` since 0.2, with a warning."""
+    return moved_attribute(__name__, name)
