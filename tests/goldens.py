@@ -34,17 +34,19 @@ def blend_golden_results(perturb: float = 0.0) -> dict[str, gm.EvaluationResult]
 
 
 def assert_matches_golden(result: gm.EvaluationResult, name: str) -> None:
-    """What of a blend golden no last bit moves (see the test above): the outcomes, nine in ten winners, and the
-    measured values of the trials whose recalls all equal the golden's."""
+    """What of a blend golden no last bit moves (see the test above): the outcomes, nine in ten winners (trial by
+    trial, in order: with the libraries of a fresh install on 2026-12-07 a 1e-12 change of the poses gave one
+    database trial two more best matches than the golden, its outcome the same), and the measured values of the
+    trials whose recalls all equal the golden's."""
     golden = np.load(DATA / "blend_trials.npz")
     for field in ("touching", "hold", "time_to_grasp", "margin"):
         assert np.array_equal(np.array([getattr(t, field) for t in result.trials]), golden[f"{name}/{field}"]), \
             (name, field)
-    winners, golden_winners = np.concatenate([t.winners for t in result.trials]), golden[f"{name}/winners"]
-    assert winners.shape == golden_winners.shape and np.mean(winners == golden_winners) >= 0.9, name
-    bounds = np.cumsum([0] + [len(t.winners) for t in result.trials])
-    same = [i for i in range(len(result.trials))
-            if np.array_equal(winners[bounds[i]:bounds[i + 1]], golden_winners[bounds[i]:bounds[i + 1]])]
+    golden_winners = np.split(golden[f"{name}/winners"], np.cumsum(golden[f"{name}/matches"])[:-1])
+    pairs = [(np.asarray(t.winners), w) for t, w in zip(result.trials, golden_winners)]
+    agree = sum(int(np.sum(a[:len(b)] == b[:len(a)])) for a, b in pairs)  # a trial may match once more or less
+    assert agree >= 0.9 * sum(len(b) for _, b in pairs), name
+    same = [i for i, (a, b) in enumerate(pairs) if np.array_equal(a, b)]
     assert len(same) >= 0.75 * len(result.trials), name
     for field, atol in (("posture", 1e-4), ("epsilon", 1e-4), ("hold_displacement", 1e-3), ("penetration", 1e-5)):
         np.testing.assert_allclose(np.array([getattr(result.trials[i], field) for i in same]),

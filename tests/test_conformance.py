@@ -64,7 +64,7 @@ def test_warp_worlds_meet_the_contract():
     from graspmanifold.sim.warp_worlds import WarpWorlds
 
     try:
-        check_worlds_contract(WarpWorlds, atol=2e-3)
+        check_worlds_contract(WarpWorlds.from_scenes, atol=2e-3)
     except gm.BackendUnavailable as error:
         pytest.skip(str(error))
 
@@ -150,7 +150,7 @@ def test_warp_buffers_hold_a_closed_hand_on_every_object(name, monkeypatch):
     obj = OBJECTS[name].object
     poses = check_grid("quick", obj)[1][:2] if name in gm.PAPER_OBJECTS else np.array([[0.0, 0.0, 0.01, 0.0]])
     scenes = [trial_scene(TrialSetup(object=obj), pose, np.random.default_rng(0), gm.open_posture()) for pose in poses]
-    worlds = warp_worlds.WarpWorlds(scenes)
+    worlds = warp_worlds.WarpWorlds.from_scenes(scenes)
     everyone = np.arange(worlds.n)
     worlds.set_targets(everyone, np.tile(gm.closed_posture(), (worlds.n, 1)))  # the whole hand, squeezing
     peak_contacts, peak_rows = 0, 0

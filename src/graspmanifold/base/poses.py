@@ -45,6 +45,69 @@ def invert(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return inv_pos, inv_quat
 
 
+def quat_products(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products a * b of quaternions (w x y z), row by row (broadcast).
+
+    Args:
+        a: (..., 4) quaternions.
+        b: (..., 4) quaternions.
+
+    Returns:
+        (..., 4) the products.
+    """
+    aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=float), -1, 0)
+    bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=float), -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def rotated(vecs: np.ndarray, quats: np.ndarray) -> np.ndarray:
+    """Vectors rotated by unit quaternions (w x y z), row by row (broadcast): `rotate` over many.
+
+    Args:
+        vecs: (..., 3) vectors.
+        quats: (..., 4) unit quaternions.
+
+    Returns:
+        (..., 3) the rotated vectors.
+    """
+    q = np.asarray(quats, dtype=float)
+    w, u = q[..., :1], q[..., 1:]
+    v = np.asarray(vecs, dtype=float)
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def compose_many(pos_a: np.ndarray, quat_a: np.ndarray, pos_b: np.ndarray, quat_b: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """`compose` of many poses at once, row by row (broadcast): a * b.
+
+    Args:
+        pos_a: (..., 3) m.
+        quat_a: (..., 4) w x y z, unit.
+        pos_b: (..., 3) m.
+        quat_b: (..., 4) w x y z, unit.
+
+    Returns:
+        The positions (..., 3) m and orientations (..., 4) of the products.
+    """
+    return np.asarray(pos_a, dtype=float) + rotated(pos_b, quat_a), quat_products(quat_a, quat_b)
+
+
+def invert_many(pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`invert` of many poses at once, row by row.
+
+    Args:
+        pos: (..., 3) m.
+        quat: (..., 4) w x y z, unit.
+
+    Returns:
+        The inverse poses' positions (..., 3) m and orientations (..., 4).
+    """
+    conjugate = np.asarray(quat, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+    return rotated(-np.asarray(pos, dtype=float), conjugate), conjugate
+
+
 def rotate(vec: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """A vector rotated by a quaternion (w, x, y, z)."""
     out = np.zeros(3)

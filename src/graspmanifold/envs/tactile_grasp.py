@@ -238,7 +238,7 @@ class _GraspWorlds:
         """
         palm = len(self.palm_reach)
         actions = self.check_actions(actions)
-        acting = Episodes(self.setup, [self.scenes[w] for w in worlds], self.period)
+        acting = Episodes(self.setup, CpuWorlds([self.scenes[w] for w in worlds]), self.period)
         index = np.arange(len(worlds))
         acting.act(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]),
                    actions[:, N_FINGER_JOINTS:N_FINGER_JOINTS + palm] if palm else None)
@@ -253,7 +253,7 @@ class _GraspWorlds:
         judging = np.flatnonzero(done & ~np.isin(index, list(failed)))
         self.ended[worlds[judging]] = True
         if len(judging):
-            judged = Episodes(self.setup, [self.scenes[worlds[k]] for k in judging], self.period)
+            judged = Episodes(self.setup, CpuWorlds([self.scenes[worlds[k]] for k in judging]), self.period)
             for k, judgement in zip(judging.tolist(), judged.judge()):
                 rewards[k] = float(judgement.hold and not judgement.fault)
                 infos[k].update(self._judged(judgement))

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
-from ..base.poses import check_quat, check_vec3, compose, invert
+from ..base.poses import check_quat, check_vec3, compose, compose_many, invert
 from ..base.validation import check_choice, check_int
 from .flange import ARM_BASE, FLANGE_ACTUATORS, FLANGE_JOINTS, FlangeLimits, flanged_spec, palm_in_mount
 from .hand import SHADOW_HAND, HandModel
@@ -452,6 +452,23 @@ class Scene:
         mount = self.data.mocap_pos[self.mount_id].copy(), self.data.mocap_quat[self.mount_id].copy()
         mount_to_palm = compose(*invert(*mount), self.data.xpos[self.palm_id], self.data.xquat[self.palm_id])
         return compose(*target, *invert(*mount_to_palm))
+
+    def mount_poses_for(self, pos: np.ndarray, quat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`mount_pose_for` of many palm poses at once, for the current joint angles, in array arithmetic (equal to
+        it but for the last bits): where the hands of many trials are placed without a scene each.
+
+        Args:
+            pos: (n, 3) the palm's positions, m, object frame.
+            quat: (n, 4) its orientations, w x y z, unit.
+
+        Returns:
+            The mount's positions (n, 3), m, and orientations (n, 4).
+        """
+        mujoco.mj_kinematics(self.model, self.data)
+        mount = self.data.mocap_pos[self.mount_id].copy(), self.data.mocap_quat[self.mount_id].copy()
+        mount_to_palm = compose(*invert(*mount), self.data.xpos[self.palm_id], self.data.xquat[self.palm_id])
+        target = compose_many(*self.object_pose(), pos, quat)
+        return compose_many(*target, *invert(*mount_to_palm))
 
     def set_hand_pose(self, pos: Iterable[float], quat: Iterable[float]) -> None:
         """Move the hand so that the palm frame has this pose in the object frame.

@@ -1,8 +1,9 @@
 """Trial scenes stepped all at once on a GPU with MuJoCo Warp (the optional `gpu` extra).
 
-`WarpWorlds` copies N placed trial scenes into one batched MuJoCo Warp model and data (the model
-is the scenes' own; gravity, the object support and the push are per world) and steps them
-together, a control period per CUDA graph launch. Touch per segment, the deepest contact of each
+`WarpWorlds` makes one batched MuJoCo Warp model and data of one scene's model and what differs between the
+worlds at their start (`worlds.WorldStarts`: joint positions, controls, the hand mount's pose, as arrays: no scene
+is built per world; gravity, the object support and the push are per world too) and steps them together, a control
+period per CUDA graph launch. Touch per segment, the deepest contact of each
 world and the contacts of a world being judged come from Warp's contact arrays through two small
 kernels; epsilon is computed on the host from those contacts, as for CPU trials. Warp computes
 in single precision and orders its contacts differently, so its trials agree with the CPU's
@@ -24,20 +25,23 @@ from ..base.errors import BackendUnavailable, InvalidInput, SimulationError
 from .hand import SEGMENTS, SHADOW_HAND, segment_of_geoms
 from .scene import PENETRATION_LIMIT, Scene
 from .tactile import TactileReading
+from .worlds import WorldStarts
 
 try:
     import warp as wp
 
-    wp.config.quiet = True  # no banner
-    wp.config.log_level = wp.LOG_WARNING  # no line per loaded kernel module
+    wp.config.log_level = wp.LOG_WARNING  # no banner, no line per loaded kernel module
     import mujoco_warp as mjw
 except ImportError as error:  # pragma: no cover - depends on the installation
     raise ImportError("backend='warp' needs MuJoCo Warp: pip install 'graspmanifold[gpu]' (from a checkout: "
                       f"pip install '.[gpu]'; mujoco-warp and warp-lang; {error})") from error
 
-#: contacts and constraint rows allocated per world (a grasp has about 10 hand-object contacts)
-CONTACTS_PER_WORLD = 48
-CONSTRAINTS_PER_WORLD = 320
+#: contacts and constraint rows allocated per world: twice the most measured in a world of the benchmark objects
+#: with the hand closed hard on them (the quick grid; 19 contacts and 107 rows, on the disc: BENCHMARKS.md), so that
+#: MuJoCo Warp's per-world buffers are no larger than a grasp needs (at 8,192 worlds 48 and 320 took put_data 4x as
+#: long); a world that needs more stops the trials with `SimulationError` (the overflow check of every step)
+CONTACTS_PER_WORLD = 40
+CONSTRAINTS_PER_WORLD = 224
 
 #: what a flanged hand (the palm moved by an arm, `sim.flange`) on the GPU answers
 _FLANGE_ON_CPU = ("a hand on a flange (TrialSetup(palm=...), the lift protocol) runs on the CPU backend only: "
@@ -78,7 +82,7 @@ def _push(xfrc_applied: wp.array2d(dtype=wp.spatial_vector), body: int, forces: 
     xfrc_applied[world, body] = wp.spatial_vector(f[0], f[1], f[2], 0.0, 0.0, 0.0)
 
 
-def _device() -> wp.context.Device:
+def _device() -> wp.Device:
     wanted = os.environ.get("GRASPMANIFOLD_WARP_DEVICE")
     if wanted:
         return wp.get_device(wanted)
@@ -89,37 +93,45 @@ def _device() -> wp.context.Device:
 
 
 class WarpWorlds:
-    """The `worlds.Worlds` of N placed trial scenes, stepped together by MuJoCo Warp (see the module doc)."""
+    """The `worlds.Worlds` of N trials of one scene's model, stepped together by MuJoCo Warp (see the module doc).
 
-    def __init__(self, scenes: list[Scene]):
-        if not scenes:
-            raise InvalidInput("scenes must hold at least one Scene")
-        if any(scene.table_geom is not None for scene in scenes):
+    Args:
+        scene: the scene whose model every world runs (its hand, object, support and physics options).
+        starts: what differs between the worlds at their start (`trial.trial_starts` makes them for trials).
+    """
+
+    def __init__(self, scene: Scene, starts: WorldStarts):
+        if starts.n < 1:
+            raise InvalidInput("starts must hold at least one world")
+        if scene.table_geom is not None:
             raise InvalidInput("backend='warp' does not support table=True (the table is taken away per world)")
-        if any(scene.hand.name != SHADOW_HAND.name for scene in scenes):
-            raise InvalidInput(f"backend='warp' runs our hand model only, not {scenes[0].hand.name!r}: use backend='cpu'")
-        self.scenes, self.n = scenes, len(scenes)
-        first = scenes[0]
-        mjm = first.model
-        self._object_body, self._finger_qpos = first.object_body, first.finger_qpos
+        if scene.hand.name != SHADOW_HAND.name:
+            raise InvalidInput(f"backend='warp' runs our hand model only, not {scene.hand.name!r}: use backend='cpu'")
+        mjm = scene.model
+        if starts.qpos.shape[1:] != (mjm.nq,) or starts.ctrl.shape[1:] != (mjm.nu,):
+            raise InvalidInput(f"starts must hold (n, {mjm.nq}) joint positions and (n, {mjm.nu}) controls of the "
+                               f"scene's model, got {starts.qpos.shape} and {starts.ctrl.shape}")
+        self.scene, self.n = scene, starts.n
+        self._object_body, self._finger_qpos = scene.object_body, scene.finger_qpos
         self.device = _device()
         n = self.n
         with wp.ScopedDevice(self.device):
             self._m = mjw.put_model(mjm, batch_sizes={"jnt_stiffness": n, "dof_damping": n})
             # one gravity per world: MuJoCo Warp's kernels read a model array at worldid modulo its leading size
             self._m.opt.gravity = wp.array(np.tile(mjm.opt.gravity, (n, 1)), dtype=wp.vec3)
-            self._d = mjw.put_data(mjm, first.data, nworld=n, nconmax=CONTACTS_PER_WORLD,
+            self._d = mjw.put_data(mjm, scene.data, nworld=n, nconmax=CONTACTS_PER_WORLD,
                                    njmax=CONSTRAINTS_PER_WORLD)
-            self._d.qpos.assign(np.array([s.data.qpos for s in scenes]))
-            self._d.ctrl.assign(np.array([s.data.ctrl for s in scenes]))
-            self._d.mocap_pos.assign(np.array([s.data.mocap_pos for s in scenes]))
-            self._d.mocap_quat.assign(np.array([s.data.mocap_quat for s in scenes]))
+            self._d.qpos.assign(starts.qpos)
+            self._ctrl = np.array(starts.ctrl)  # the controls, kept here: a period's targets go one way only
+            self._d.ctrl.assign(self._ctrl)
+            self._d.mocap_pos.assign(starts.mocap_pos)
+            self._d.mocap_quat.assign(starts.mocap_quat)
             self._stiffness = np.tile(mjm.jnt_stiffness, (n, 1))
             self._damping = np.tile(mjm.dof_damping, (n, 1))
             self._gravity = np.tile(mjm.opt.gravity, (n, 1))
             self._push_forces = wp.zeros(n, dtype=wp.vec3)
-            self._segment_of_geom = wp.array(segment_of_geoms(mjm).astype(np.int32), dtype=int)
-            self._object_geom = wp.array((mjm.geom_bodyid == first.object_body).astype(np.int32), dtype=int)
+            self._segment_of_geom: wp.array = wp.array(segment_of_geoms(mjm).astype(np.int32), dtype=int)
+            self._object_geom: wp.array = wp.array((mjm.geom_bodyid == scene.object_body).astype(np.int32), dtype=int)
             self._normal_force = wp.zeros(self._d.naconmax, dtype=float)
             self._segment_forces = wp.zeros((n, len(SEGMENTS)), dtype=float)
             self._deepest = wp.zeros(n, dtype=float)
@@ -128,8 +140,24 @@ class WarpWorlds:
         self._max_penetration = np.zeros(n)
         self._observe()
 
+    @classmethod
+    def from_scenes(cls, scenes: list[Scene]) -> WarpWorlds:
+        """The worlds of scenes of one model placed one per world (`trial.trial_scene`).
+
+        Args:
+            scenes: the scenes (at least one).
+
+        Returns:
+            The worlds, the first scene's model with every scene's start.
+        """
+        if not scenes:
+            raise InvalidInput("scenes must hold at least one Scene")
+        if any(s.hand.name != scenes[0].hand.name or s.object.name != scenes[0].object.name for s in scenes):
+            raise InvalidInput("the scenes of one set of worlds must hold one hand model and one object")
+        return cls(scenes[0], WorldStarts.of_scenes(scenes))
+
     def __repr__(self) -> str:
-        return f"WarpWorlds({self.n} worlds of the {self.scenes[0].object.name} scene on {self.device})"
+        return f"WarpWorlds({self.n} worlds of the {self.scene.object.name} scene on {self.device})"
 
     # -- reading ------------------------------------------------------------------------------------
     def _observe(self) -> None:
@@ -170,7 +198,7 @@ class WarpWorlds:
                               "xipos": d.xipos.numpy()[:, self._object_body].astype(float)}
         c = self._contacts
         rows = c["world"] == world
-        reading = self.scenes[0].sensor.reading(c["geom"][rows], c["force"][rows], c["frame"][rows][:, 0, :],
+        reading = self.scene.sensor.reading(c["geom"][rows], c["force"][rows], c["frame"][rows][:, 0, :],
                                                 c["pos"][rows], c["dist"][rows])
         return reading, c["xipos"][world].copy()
 
@@ -185,19 +213,18 @@ class WarpWorlds:
 
     # -- acting ---------------------------------------------------------------------------------------
     def set_targets(self, worlds: np.ndarray, targets: np.ndarray) -> None:
-        ctrl = self._d.ctrl.numpy()
-        ctrl[worlds] = targets @ self.scenes[0].hand.ctrl_matrix.T
-        self._d.ctrl.assign(ctrl)
+        self._ctrl[worlds] = targets @ self.scene.hand.ctrl_matrix.T
+        self._d.ctrl.assign(self._ctrl)
 
     def release(self, worlds: np.ndarray) -> None:
-        joint = self.scenes[0].model.joint("object_free")
+        joint = self.scene.model.joint("object_free")
         self._stiffness[worlds, joint.id] = 0.0
         self._damping[np.ix_(worlds, np.arange(joint.dofadr[0], joint.dofadr[0] + 6))] = 0.0
         self._m.jnt_stiffness.assign(self._stiffness)
         self._m.dof_damping.assign(self._damping)
 
     def soften(self, worlds: np.ndarray, stiffness: np.ndarray, damping: np.ndarray) -> None:
-        joint = self.scenes[0].model.joint("object_free")
+        joint = self.scene.model.joint("object_free")
         self._stiffness[worlds, joint.id] = stiffness
         self._damping[np.ix_(worlds, np.arange(joint.dofadr[0], joint.dofadr[0] + 6))] = np.asarray(damping)[:, None]
         self._m.jnt_stiffness.assign(self._stiffness)
@@ -246,13 +273,15 @@ class WarpWorlds:
         faults of `worlds`."""
         with wp.ScopedDevice(self.device):
             if self.device.is_cuda:
-                if self._graph is None or self._graph_steps != nstep:
+                graph = self._graph
+                if graph is None or self._graph_steps != nstep:
                     self._warm_up()
                     with wp.ScopedCapture() as capture:
                         for _ in range(nstep):
                             mjw.step(self._m, self._d)
-                    self._graph, self._graph_steps = capture.graph, nstep
-                wp.capture_launch(self._graph)  # a control period's steps in one launch
+                    graph, self._graph_steps = capture.graph, nstep
+                    self._graph = graph
+                wp.capture_launch(graph)  # a control period's steps in one launch
             else:
                 for _ in range(nstep):
                     mjw.step(self._m, self._d)
@@ -264,16 +293,21 @@ class WarpWorlds:
                                   f"contacts or {CONSTRAINTS_PER_WORLD} constraint rows in a world")
         self._observe()
         self._max_penetration = np.maximum(self._max_penetration, self._penetration)
-        finite = np.isfinite(self._qpos).all(axis=1) & np.isfinite(self._qvel).all(axis=1)
+        return self._faults(np.asarray(worlds, dtype=int))
+
+    def _faults(self, worlds: np.ndarray) -> dict[int, str]:
+        """Why the physics of these worlds failed, for those whose did (found over all of them at once; the
+        words are made only for a failed world)."""
+        broken = ~(np.isfinite(self._qpos[worlds]).all(axis=1) & np.isfinite(self._qvel[worlds]).all(axis=1))
+        deep = self._penetration[worlds] > PENETRATION_LIMIT
         failed = {}
-        for world in worlds:
-            found = [] if finite[world] else ["non-finite joint positions or velocities"]
-            if self._penetration[world] > PENETRATION_LIMIT:
+        for world, nan, depth in zip(worlds[broken | deep].tolist(), broken[broken | deep], deep[broken | deep]):
+            found = ["non-finite joint positions or velocities"] if nan else []
+            if depth:
                 found.append(f"a contact penetrates {self._penetration[world] * 1000:.1f} mm "
                              f"(limit {PENETRATION_LIMIT * 1000:.0f} mm)")
-            if found:
-                failed[int(world)] = (f"the simulation of the {self.scenes[0].object.name} scene failed at "
-                                      f"t = {self.time(world):.3f} s: {'; '.join(found)}")
+            failed[world] = (f"the simulation of the {self.scene.object.name} scene failed at "
+                             f"t = {self.time(world):.3f} s: {'; '.join(found)}")
         return failed
 
     def overflow(self) -> np.ndarray:
@@ -282,7 +316,7 @@ class WarpWorlds:
 
     def _warm_up(self) -> None:
         """Compile every kernel of a step (a graph capture cannot) on a one-world copy of the data."""
-        scene = self.scenes[0]
+        scene = self.scene
         spare = mjw.put_data(scene.model, scene.data, nworld=1, nconmax=CONTACTS_PER_WORLD,
                              njmax=CONSTRAINTS_PER_WORLD)
         mjw.step(self._m, spare)

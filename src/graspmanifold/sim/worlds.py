@@ -6,11 +6,13 @@ joints, the tactile segment forces and the object's position of every world at o
 targets, step chosen worlds by a control period, change a world's gravity, support and push, and
 read one world's full tactile reading when its grasp is judged. `CpuWorlds` steps the scenes' own
 MuJoCo data, one after the other; `warp_worlds.WarpWorlds` steps all of
-them at once on a GPU with MuJoCo Warp.
+them at once on a GPU with MuJoCo Warp, from one scene's model and what differs between the worlds at their start
+(`WorldStarts`: arrays, not a scene per world).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 import mujoco
@@ -26,7 +28,10 @@ class Worlds(Protocol):
     """The physics of N trial scenes (see the module doc); `worlds` arguments are index arrays."""
 
     n: int
-    scenes: list[Scene]
+
+    @property
+    def scene(self) -> Scene:
+        """A scene of the worlds' model (its hand, object, sensor): the first world's on the CPU."""
 
     def joints(self, worlds: np.ndarray) -> np.ndarray: ...  # (len(worlds), 22)
 
@@ -76,6 +81,37 @@ class Worlds(Protocol):
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
+@dataclass(frozen=True)
+class WorldStarts:
+    """What differs between N worlds of one scene's model at their start, as arrays over the worlds: the joint
+    positions (N, nq), the actuators' controls (N, nu) and the mocap bodies' poses (N, nmocap, 3) m and
+    (N, nmocap, 4) w x y z (the hand's mount: where the trial placed the palm). Everything else of a world's start is
+    the scene's (its velocities at rest, its physics options)."""
+
+    qpos: np.ndarray
+    ctrl: np.ndarray
+    mocap_pos: np.ndarray
+    mocap_quat: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """The worlds."""
+        return len(self.qpos)
+
+    @classmethod
+    def of_scenes(cls, scenes: list[Scene]) -> WorldStarts:
+        """The starts of scenes of one model placed one per world (`trial.trial_scene`).
+
+        Args:
+            scenes: the scenes.
+
+        Returns:
+            Their starts.
+        """
+        return cls(*(np.array([getattr(s.data, name) for s in scenes]) for name in ("qpos", "ctrl", "mocap_pos",
+                                                                                    "mocap_quat")))
+
+
 class CpuWorlds:
     """Worlds stepped one after the other by CPU MuJoCo, in the scenes' own data."""
 
@@ -87,6 +123,11 @@ class CpuWorlds:
         self.hand = scenes[0].hand
         if any(scene.hand.name != self.hand.name for scene in scenes):
             raise InvalidInput("the scenes of one set of worlds must hold one hand model")
+
+    @property
+    def scene(self) -> Scene:
+        """The first world's scene (`Worlds.scene`)."""
+        return self.scenes[0]
 
     def joints(self, worlds: np.ndarray) -> np.ndarray:
         return self.hand.from_model(np.array([self.scenes[w].data.qpos[self.scenes[w].finger_qpos] for w in worlds]

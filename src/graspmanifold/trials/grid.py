@@ -21,7 +21,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
-from ..base.poses import compose, invert, rotate, to_quat
+from ..base.poses import compose, invert, invert_many, quat_products, rotate, to_quat
 from ..judging.replay import OpenLoopGrasp
 from ..manifold.nearest import argmin_tied
 from ..sim.hand import SEGMENTS, segment_of_geoms
@@ -234,6 +234,24 @@ def palm_pose_for(obj: GraspObject, grid_pose: np.ndarray) -> tuple[np.ndarray, 
     turn = to_quat(Rotation.from_rotvec([0.0, yaw, 0.0]))  # about the palm normal
     _, quat = compose(np.zeros(3), turn, np.zeros(3), object_in_palm[1])
     return invert(object_in_palm[0] + np.array([x, 0.0, z]), quat)
+
+
+def palm_poses_for(obj: GraspObject, grid_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`palm_pose_for` of many grid poses at once, in array arithmetic (equal to it but for the last bits).
+
+    Args:
+        obj: the object.
+        grid_poses: (n, 4) x, z, gap in m, yaw in rad.
+
+    Returns:
+        The palm's positions (n, 3), m, and orientations (n, 4), w x y z, in the object frame.
+    """
+    x, z, gap, yaw = np.asarray(grid_poses, dtype=float).reshape(-1, 4).T
+    facing = np.array([placed_facing(obj, g)[0] for g in np.unique(gap)])  # a few gaps: one pose each
+    placed = facing[np.searchsorted(np.unique(gap), gap)]
+    in_palm, in_palm_quat = invert_many(placed, placed_facing(obj, 0.0)[1])
+    turn = np.column_stack([np.cos(yaw / 2), np.zeros_like(yaw), np.sin(yaw / 2), np.zeros_like(yaw)])
+    return invert_many(in_palm + np.column_stack([x, np.zeros_like(x), z]), quat_products(turn, in_palm_quat))
 
 
 def displaced_palm_pose(palm_pose: np.ndarray, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -52,8 +52,9 @@ from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import TOUCH_SOURCES, Scene
-from ..sim.worlds import CpuWorlds, Worlds
-from .grid import START_CLEARANCE, check_grid, clearance, displaced_palm_pose, oracle_correction, palm_pose_for
+from ..sim.worlds import CpuWorlds, Worlds, WorldStarts
+from .grid import (START_CLEARANCE, check_grid, clearance, displaced_palm_pose, oracle_correction, palm_pose_for,
+                   palm_poses_for)
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
 #: noise of 1e9 rad was accepted)
@@ -455,20 +456,105 @@ def _noisy_pose(scene: Scene, grid_pose: np.ndarray, noise: Noise, rng: np.rando
     return grid_pose
 
 
-def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
-    """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
-    support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the hand in the plan's
-    pregrasp for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`)."""
+def _setup_scene(setup: TrialSetup) -> Scene:
+    """The scene of a set-up before a trial is placed in it: the object on its support (`judge.supported_scene`),
+    under the protocol's physics (the grasp is made under it too)."""
     scene = supported_scene(setup.object, setup.table, setup.hand, setup.touch, setup.rules, setup.palm)
-    setup.protocol.apply(scene)  # its physics from the start: the grasp is made under it too
+    setup.protocol.apply(scene)
+    return scene
+
+
+def _place(scene: Scene, setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator,
+           initial: np.ndarray) -> None:
+    """A trial's start in the scene: the object at the grid pose (moved by the pose noise), the open hand at rest in
+    `initial`; with a plan, the hand in the plan's pregrasp for the nominal object and the object displaced by
+    `grid_pose` (`TrialSetup.plan`)."""
     if setup.plan is not None:  # the palm where the plan puts it for the nominal pose; the object displaced
         scene.set_posture(setup.plan.postures[0])
         scene.set_hand_pose(*displaced_palm_pose(setup.plan.poses[0], np.asarray(grid_pose, dtype=float)))
-        return scene
+        return
     true_pose = _noisy_pose(scene, np.asarray(grid_pose, dtype=float), setup.noise, rng)
     scene.set_hand_pose(*palm_pose_for(setup.object, true_pose))
     scene.set_posture(initial)
+
+
+def trial_scene(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator, initial: np.ndarray) -> Scene:
+    """The scene of a trial at its start: the object at the grid pose (moved by the pose noise) on its
+    support (`judge.supported_scene`), and the open hand at rest in `initial`; with a plan, the hand in the plan's
+    pregrasp for the nominal object and the object displaced by `grid_pose` (`TrialSetup.plan`).
+
+    Args:
+        setup: what the trial is.
+        grid_pose: (4,) x, z, gap in m, yaw in rad.
+        rng: the trial's random stream (its pose noise).
+        initial: (22,) rad, the hand's posture at the start.
+
+    Returns:
+        A scene of its own, placed.
+    """
+    scene = _setup_scene(setup)
+    _place(scene, setup, grid_pose, rng, initial)
     return scene
+
+
+def trial_starts(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
+                 initial: np.ndarray) -> tuple[Scene, WorldStarts]:
+    """The starts of trials at these poses without a scene per trial: one scene, and what differs between the
+    trials worked out for all of them at once (the palms' poses and the hand mounts', in array arithmetic; the
+    posture at rest is every trial's). The pose noise is drawn from the same streams as `trial_scene` draws it
+    (a redraw's clearance is still one query of the scene per noisy pose). Equal to `trial_scene`'s but for the
+    last bits of the mounts' poses.
+
+    Args:
+        setup: what the trials are (no flange: its palm placement is a scene's).
+        poses: (n, 4) grid poses.
+        rngs: one random stream per pose.
+        initial: (22,) rad, the hand's posture at the start.
+
+    Returns:
+        The scene (its model is every world's) and the worlds' starts (`worlds.WorldStarts`).
+    """
+    if setup.palm is not None:
+        raise InvalidInput("trial_starts places hands without a flange: a flanged palm is placed per scene "
+                           "(trial_scene)")
+    scene = _setup_scene(setup)
+    poses = np.asarray(poses, dtype=float).reshape(-1, 4)
+    if setup.plan is not None:  # the plan's pregrasp for the nominal object, the object displaced
+        palm = np.array([np.concatenate(displaced_palm_pose(setup.plan.poses[0], pose)) for pose in poses])
+        scene.set_posture(setup.plan.postures[0])
+    else:
+        if setup.noise.position or setup.noise.yaw:  # a redraw's clearance is asked of a scene of its own
+            probe = _setup_scene(setup)
+            poses = np.array([_noisy_pose(probe, pose, setup.noise, rng) for pose, rng in zip(poses, rngs)])
+        palm = np.column_stack(palm_poses_for(setup.object, poses))
+    mount_pos, mount_quat = scene.mount_poses_for(palm[:, :3], palm[:, 3:])
+    if setup.plan is None:
+        scene.set_posture(initial)
+    n, data = len(poses), scene.data
+    mocap_pos, mocap_quat = np.tile(data.mocap_pos, (n, 1, 1)), np.tile(data.mocap_quat, (n, 1, 1))
+    mocap_pos[:, scene.mount_id], mocap_quat[:, scene.mount_id] = mount_pos, mount_quat
+    return scene, WorldStarts(np.tile(data.qpos, (n, 1)), np.tile(data.ctrl, (n, 1)), mocap_pos, mocap_quat)
+
+
+def start_worlds(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
+                 initial: np.ndarray) -> Worlds:
+    """The worlds of trials at these poses on the set-up's backend: a scene per trial on the CPU (`CpuWorlds`), one
+    model and the trials' starts as arrays on MuJoCo Warp (`WarpWorlds`: the set-up does not grow with the worlds).
+
+    Args:
+        setup: what the trials are.
+        poses: (n, 4) grid poses.
+        rngs: one random stream per pose.
+        initial: (22,) rad, the hand's posture at the start.
+
+    Returns:
+        The worlds, placed.
+    """
+    if setup.backend == "cpu":
+        return CpuWorlds([trial_scene(setup, pose, rng, initial) for pose, rng in zip(poses, rngs)])
+    from ..sim.warp_worlds import WarpWorlds
+
+    return WarpWorlds(*trial_starts(setup, poses, rngs, initial))
 
 
 def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
@@ -504,20 +590,14 @@ class Episodes:
 
     Args:
         setup: what the trials are.
-        scenes: their scenes (`trial_scene`), one per world.
+        worlds: their worlds, placed (`start_worlds`).
         period: s of one control period.
     """
 
-    def __init__(self, setup: TrialSetup, scenes: list[Scene], period: float):
-        self.setup, self.period = setup, period
-        if setup.backend == "cpu":
-            self.worlds: Worlds = CpuWorlds(scenes)
-        else:
-            from ..sim.warp_worlds import WarpWorlds
-
-            self.worlds = WarpWorlds(scenes)
+    def __init__(self, setup: TrialSetup, worlds: Worlds, period: float):
+        self.setup, self.period, self.worlds = setup, period, worlds
         #: physics steps of one control period
-        self.nstep = max(1, round(period / scenes[0].model.opt.timestep))
+        self.nstep = max(1, round(period / worlds.scene.model.opt.timestep))
 
     def act(self, live: np.ndarray, targets: np.ndarray, palm: np.ndarray | None = None) -> None:
         """Set these worlds' finger targets (and their flanges' set points) for the next control period.
@@ -569,8 +649,7 @@ class _TrialLoop:
         self.setup, self.poses, self.rngs, self.observer, self.n = setup, poses, rngs, observer, n
         self.controller = controller = setup.make_controller(n)
         self.period = period = controller.control_period
-        self.episodes = Episodes(setup, [trial_scene(setup, pose, rng, controller.initial)
-                                         for pose, rng in zip(poses, rngs)], period)
+        self.episodes = Episodes(setup, start_worlds(setup, poses, rngs, controller.initial), period)
         self.worlds = self.episodes.worlds
         self.grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
         self.clock, self.time_to_grasp = 0.0, np.full(n, np.nan)
@@ -776,7 +855,7 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
     seen: dict[str, Scene] = {}
 
     def observe(worlds: Worlds) -> None:
-        scene = seen["scene"] = worlds.scenes[0]  # the trial's one scene
+        scene = seen["scene"] = worlds.scene  # the trial's one scene
         if not states or round(scene.time / period) % every == 0:
             states.append(scene.state())
 
