@@ -258,7 +258,7 @@ class TargetRecall(RecallRule):
         """Each world's recalled posture (its key: the reference row + 1, 0 for the preshape) becomes the recall of
         its steered free fingers that are not on their way to it already, nor done with it."""
         visits = c.state.visit(worlds[:, None], np.arange(len(FINGERS)), keys[:, None])
-        new = (c.steered_finger_mask & ~c.state.held[worlds] & ~np.isin(visits, c.state.visited)
+        new = (c.steered_finger_mask & ~c.state.held[worlds] & ~c.state.was_visited(visits)
                & ~(c.state.approaching[worlds] & (c.state.heading[worlds] == keys[:, None])))
         recalled = np.clip(np.where(c.steered_joint_mask, postures, c.state.target[worlds]), *c.limits.T)  # any hand's
         if self.closes_only:  # no joint sent back towards the open hand
@@ -273,7 +273,7 @@ class TargetRecall(RecallRule):
         """These (world, finger) pairs are done with the recall they were on their way to."""
         fingers = fingers & c.state.approaching
         worlds, which = np.nonzero(fingers)
-        c.state.visited = np.union1d(c.state.visited, c.state.visit(worlds, which, c.state.heading[fingers]))
+        c.state.mark_visited(c.state.visit(worlds, which, c.state.heading[fingers]))
         c.state.approaching &= ~fingers
 
     def _arrive(self, c: ControllerView, act: np.ndarray, joints: np.ndarray) -> None:

@@ -180,3 +180,29 @@ class GraspState:
     def visit(self, worlds: np.ndarray, fingers: np.ndarray, keys: np.ndarray) -> np.ndarray:
         """The visit index of (world, finger, recall key), broadcast: one integer each, for `visited`."""
         return (worlds * len(FINGERS) + fingers) * self.rows + keys
+
+    def was_visited(self, visits: np.ndarray) -> np.ndarray:
+        """Whether each visit index is in `visited` (a binary search in the sorted array: `np.isin`'s answer at a
+        cost that grows with the log of the visits kept, not with their number).
+
+        Args:
+            visits: visit indices (`visit`), any shape.
+
+        Returns:
+            Booleans of that shape.
+        """
+        where = np.searchsorted(self.visited, visits)
+        return (where < len(self.visited)) & (self.visited[np.minimum(where, len(self.visited) - 1)] == visits) \
+            if len(self.visited) else np.zeros(np.shape(visits), dtype=bool)
+
+    def mark_visited(self, visits: np.ndarray) -> None:
+        """Add visit indices to `visited`, keeping it sorted and unique (`np.union1d`'s array, the new ones inserted
+        where they belong instead of sorting all again).
+
+        Args:
+            visits: visit indices (`visit`).
+        """
+        new = np.unique(np.asarray(visits, dtype=np.int64).ravel())
+        new = new[~self.was_visited(new)]
+        if len(new):
+            self.visited = np.insert(self.visited, np.searchsorted(self.visited, new), new)

@@ -307,8 +307,9 @@ def bench_scale(args: argparse.Namespace) -> None:
             start = time.perf_counter()
             WarpWorlds.from_scenes([trial_scene(setup, pose, rng, initial) for pose, rng in zip(poses, rngs)])
             before = time.perf_counter() - start
+        rngs = [np.random.default_rng([1, k]) for k in range(n)]  # the trials' streams: made by either set-up's caller
         start = time.perf_counter()
-        scene, starts = trial_starts(setup, poses, [np.random.default_rng([1, k]) for k in range(n)], initial)
+        scene, starts = trial_starts(setup, poses, rngs, initial)
         placed = time.perf_counter() - start
         worlds = WarpWorlds(scene, starts)
         after = time.perf_counter() - start
