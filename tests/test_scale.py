@@ -88,4 +88,5 @@ def test_the_device_checks_dry_run_writes_its_one_json(tmp_path):
     assert all(r["trials_per_minute"] > 0 and r["world_steps_per_s"] > 0 for r in record["speed"])
     assert [r["object"] for r in record["agreement"]] == list(gm.PAPER_OBJECTS)
     assert all(0 < r["trials"] <= 2 and 0 <= r["same_hold"] <= r["trials"] for r in record["agreement"])
+    assert sum(r["same_hold"] for r in record["agreement"]) >= 5  # 6 of 6 when it was written
     assert record["device"] == "cpu" and not record["cuda_graphs"] and record["buffers_per_world"]["contacts"] > 0
