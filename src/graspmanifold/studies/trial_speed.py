@@ -218,6 +218,10 @@ def device_check(out: Path, worlds: list[int], *, budget: float = 420.0, agree_p
                     "cuda_graphs": bool(device.is_cuda), "buffers_per_world": {
                         "contacts": CONTACTS_PER_WORLD, "constraint_rows": CONSTRAINTS_PER_WORLD},
                     "versions": {**software_versions(), "warp": wp.config.version}, "budget_s": budget,
+                    "speed_runs": {"object": obj, "grid": "paper, repeated", "noise": [0.003, 0.05], "seed": 1,
+                                   "controller": "the plain heuristic", "protocol": "hold-test"},
+                    "agreement_runs": {"grid": "quick", "poses_per_object": agree_poses, "seed": 0,
+                                       "controller": "the plain heuristic", "protocol": "hold-test"},
                     "speed": [], "skipped": [], "agreement": []}
     start = time.perf_counter()
     warp_speed(obj, 8)
