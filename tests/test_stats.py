@@ -6,7 +6,10 @@ import pytest
 from graspmanifold.base.io import markdown_row, markdown_table
 from graspmanifold.studies.runner import comparison_table, holm_family
 from graspmanifold.trials.stats import (
+    bootstrap_difference,
+    cluster_bootstrap,
     headroom,
+    headroom_share,
     holm,
     mcnemar,
     rate_text,
@@ -159,3 +162,55 @@ def test_one_table_writer_and_one_family_of_paired_comparisons():
     table = comparison_table(rows, family=True)
     assert table[0] == "| family | comparison | n | + | - | difference | p | p (Holm) |"
     assert table[2] == f"| demo | a vs b | 18 | 9 | 1 | +44.4 pts | 0.0215 | {rows[0]['p_holm']:.3g} |"
+
+
+def _clustered_draw(rng, clusters=40, trials=20):
+    """Paired outcomes of two arms on clustered trials: each cluster (a plan) has its own rates, the population's
+    difference is 0.1 (cluster effects drawn around it), trials of one cluster share their rates."""
+    base = rng.uniform(0.2, 0.6, clusters)  # with delta, rates in [0, 1]: nothing clipped
+    delta = rng.uniform(-0.2, 0.4, clusters)  # the population's mean difference: 0.1
+    u = rng.uniform(size=(clusters, trials))
+    a = u < (base + delta)[:, None]
+    b = u < base[:, None]
+    return a.ravel(), b.ravel(), np.repeat(np.arange(clusters), trials)
+
+
+def test_the_cluster_bootstrap_covers_the_true_difference_at_about_its_nominal_rate():
+    rng = np.random.default_rng(7)
+    covered = naive = 0
+    runs = 200
+    for run in range(runs):
+        a, b, clusters = _clustered_draw(rng)
+        estimate = bootstrap_difference(a, b, clusters, replicates=400, seed=run)
+        covered += estimate.low <= 0.1 <= estimate.high
+        trials = bootstrap_difference(a, b, np.arange(len(a)), replicates=400, seed=run)  # each trial its own cluster
+        naive += trials.low <= 0.1 <= trials.high
+    assert 0.88 <= covered / runs <= 0.99
+    assert naive / runs < 0.8  # ignoring the clusters undercovers: what the cluster bootstrap is for
+
+
+def test_the_cluster_bootstrap_resamples_whole_clusters_within_strata():
+    outcomes = np.array([[1, 0], [1, 0], [0, 0], [1, 1], [0, 1]], dtype=bool)
+    rates = cluster_bootstrap(outcomes, ["p", "p", "q", "r", "r"], strata=[0, 0, 0, 1, 1], replicates=50, seed=3)
+    assert rates.shape == (50, 2)
+    # stratum 1 has one cluster (r): it is drawn in every replicate, so arm 1 always has its one success of r
+    assert np.all(rates[:, 1] > 0)
+    assert np.array_equal(rates, cluster_bootstrap(outcomes, ["p", "p", "q", "r", "r"], [0, 0, 0, 1, 1], 50, 3))
+    with pytest.raises(ValueError, match="two strata"):
+        cluster_bootstrap(outcomes, ["p", "p", "q", "r", "r"], strata=[0, 1, 0, 1, 1])
+    with pytest.raises(ValueError, match="one label per trial"):
+        cluster_bootstrap(outcomes, ["p", "q"])
+    with pytest.raises(ValueError, match="successes"):
+        cluster_bootstrap(np.full((2, 2), 0.5), ["p", "q"])
+
+
+def test_the_headroom_share_is_the_arms_part_of_the_ceilings_gain_over_the_floor():
+    floor = np.array([True, False, False, False] * 5)
+    ceiling = np.array([True, True, True, False] * 5)
+    arm = np.array([True, True, False, False] * 5)
+    share = headroom_share(arm, floor, ceiling, np.repeat(np.arange(5), 4), replicates=100)
+    assert share.value == pytest.approx(0.5) and share.unit == "%"
+    assert share.low == pytest.approx(0.5) and share.high == pytest.approx(0.5)  # every cluster the same
+    assert "50.0 % [50.0, 50.0], 20 trials of 5 plans" == str(share)
+    # no headroom: undefined, not a division by zero
+    assert np.isnan(headroom_share(arm, ceiling, ceiling, np.repeat(np.arange(5), 4), replicates=10).value)

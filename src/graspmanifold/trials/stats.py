@@ -10,6 +10,11 @@ there: the per-pose oracle (a pose counts as held when any strategy holds it) ag
 single strategy, and beside it the chance oracle over as many noisy reruns of that one strategy (the part
 of the headroom that noise alone gives). `stratified_split` draws the random selection and test splits such
 a study tunes and tests on.
+
+Trials of one plan are not independent (a plan that one method cannot execute fails it at every displacement), so
+McNemar's pairs overstate what many trials of few plans show. `cluster_bootstrap` resamples whole clusters (plans,
+their trials kept together) within strata (seeds); `bootstrap_difference` and `headroom_share` read a paired
+difference and the share of a ceiling's headroom over a floor from its replicates, with percentile intervals.
 """
 
 from __future__ import annotations
@@ -326,3 +331,139 @@ def stratified_split(strata: Sequence[Hashable], selection: float, seed: int) ->
         chosen.append(rng.permutation(members)[: round(selection * len(members))])
     picked = np.sort(np.concatenate(chosen)).astype(np.int64) if chosen else np.zeros(0, dtype=np.int64)
     return picked, np.setdiff1d(np.arange(len(labels)), picked)
+
+
+#: bootstrap replicates by default (`cluster_bootstrap`)
+BOOTSTRAP_REPLICATES = 2000
+
+
+def cluster_bootstrap(outcomes: object, clusters: Sequence[Hashable], strata: Sequence[Hashable] | None = None,
+                      replicates: int = BOOTSTRAP_REPLICATES, seed: int = 0) -> np.ndarray:
+    """Bootstrap replicates of several arms' success rates on the same trials, resampling whole clusters (a plan's
+    trials together) with replacement within each stratum (a seed's plans), as many as the stratum has.
+
+    Args:
+        outcomes: (n, m) success per trial (bool or 0/1) of m arms, the same trials in the same order.
+        clusters: (n,) each trial's cluster (any hashable label, a plan's).
+        strata: (n,) each trial's stratum (a cluster lies in one); None: one stratum.
+        replicates: bootstrap replicates, >= 1.
+        seed: seeds the resampling; the same seed gives the same replicates.
+
+    Returns:
+        (replicates, m) the arms' rates in each replicate (trials weighted by how often their cluster was drawn).
+    """
+    table = np.asarray(outcomes)
+    if table.ndim != 2 or not len(table):
+        raise InvalidInput(f"outcomes must be an (n, m) table of successes with n >= 1, got shape {table.shape}")
+    if table.dtype != bool and not np.isin(table, (0, 1)).all():
+        raise InvalidInput("outcomes must be successes: booleans or 0/1")
+    labels = list(clusters)
+    groups = [0] * len(labels) if strata is None else list(strata)
+    if len(labels) != len(table) or len(groups) != len(table):
+        raise InvalidInput(f"clusters and strata must give one label per trial ({len(table)}), got {len(labels)} and "
+                           f"{len(groups)}")
+    replicates, seed = check_int(replicates, "replicates", low=1), check_int(seed, "seed", low=0)
+    index = {label: k for k, label in enumerate(dict.fromkeys(labels))}
+    of = np.array([index[label] for label in labels])
+    stratum_of = {}
+    for label, stratum in zip(labels, groups):
+        if stratum_of.setdefault(label, stratum) != stratum:
+            raise InvalidInput(f"cluster {label!r} lies in two strata ({stratum_of[label]!r} and {stratum!r})")
+    sums = np.zeros((len(index), table.shape[1]))
+    np.add.at(sums, of, table.astype(float))
+    sizes = np.bincount(of, minlength=len(index)).astype(float)
+    rng = np.random.default_rng(seed)
+    draws = np.zeros((replicates, len(index)))
+    for stratum in dict.fromkeys(stratum_of.values()):  # in order of first appearance: no hashing in the result
+        members = np.array([index[label] for label, s in stratum_of.items() if s == stratum])
+        draws[:, members] = rng.multinomial(len(members), np.full(len(members), 1 / len(members)), replicates)
+    return (draws @ sums) / (draws @ sizes)[:, None]
+
+
+def percentile_interval(replicates: object, confidence: float = 0.95) -> tuple[float, float]:
+    """The percentile interval of bootstrap replicates (NaN replicates, where a statistic was undefined, left out).
+
+    Args:
+        replicates: (B,) a statistic's replicates.
+        confidence: the interval's coverage, in (0, 1).
+
+    Returns:
+        (low, high); (NaN, NaN) where no replicate is defined.
+    """
+    if not 0.0 < confidence < 1.0:
+        raise InvalidInput(f"confidence must be in (0, 1), got {confidence!r}")
+    values = np.asarray(replicates, dtype=float)
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return float("nan"), float("nan")
+    low, high = np.quantile(values, [(1 - confidence) / 2, (1 + confidence) / 2])
+    return float(low), float(high)
+
+
+@dataclass(frozen=True)
+class ClusteredEstimate:
+    """A statistic of clustered trials with its cluster-bootstrap interval (`bootstrap_difference`,
+    `headroom_share`); `str()` says it in a line ('+6.7 pts [-2.9, +16.0], 630 trials of 90 plans')."""
+
+    value: float
+    low: float
+    high: float
+    trials: int
+    clusters: int
+    unit: str = "pts"  # 'pts': a difference of rates, shown x100; '%': a share, shown x100
+
+    def __str__(self) -> str:
+        sign = "+" if self.unit == "pts" else ""
+        return (f"{100 * self.value:{sign}.1f} {self.unit} [{100 * self.low:{sign}.1f}, {100 * self.high:{sign}.1f}], "
+                f"{self.trials} trials of {self.clusters} plans")
+
+    def to_dict(self) -> dict:
+        """Plain values (a study's JSON)."""
+        return {"value": self.value, "low": self.low, "high": self.high, "trials": self.trials,
+                "clusters": self.clusters, "unit": self.unit}
+
+
+def bootstrap_difference(outcomes_a: object, outcomes_b: object, clusters: Sequence[Hashable],
+                         strata: Sequence[Hashable] | None = None, replicates: int = BOOTSTRAP_REPLICATES,
+                         seed: int = 0, confidence: float = 0.95) -> ClusteredEstimate:
+    """A's rate minus B's on the same trials, with the cluster bootstrap's percentile interval (`cluster_bootstrap`).
+
+    Args:
+        outcomes_a, outcomes_b: (n,) success per trial of the two arms (bool).
+        clusters, strata, replicates, seed: as `cluster_bootstrap`'s.
+        confidence: the interval's coverage.
+
+    Returns:
+        The `ClusteredEstimate` of the difference (rates, not points: 0.1 is ten points).
+    """
+    table = np.column_stack([np.asarray(outcomes_a), np.asarray(outcomes_b)])
+    rates = cluster_bootstrap(table, clusters, strata, replicates, seed)
+    low, high = percentile_interval(rates[:, 0] - rates[:, 1], confidence)
+    value = float(table[:, 0].mean() - table[:, 1].mean())
+    return ClusteredEstimate(value, low, high, len(table), len(set(clusters)))
+
+
+def headroom_share(arm: object, floor: object, ceiling: object, clusters: Sequence[Hashable],
+                   strata: Sequence[Hashable] | None = None, replicates: int = BOOTSTRAP_REPLICATES, seed: int = 0,
+                   confidence: float = 0.95) -> ClusteredEstimate:
+    """The share of a ceiling's headroom over a floor that an arm takes, (arm - floor) / (ceiling - floor) in rates
+    on the same trials (the open loop the floor, an oracle the ceiling), with the cluster bootstrap's interval
+    (replicates where the ceiling does not rise above the floor are left out).
+
+    Args:
+        arm, floor, ceiling: (n,) success per trial (bool).
+        clusters, strata, replicates, seed, confidence: as `bootstrap_difference`'s.
+
+    Returns:
+        The `ClusteredEstimate` of the share (NaN where the ceiling is no higher than the floor).
+    """
+    table = np.column_stack([np.asarray(arm), np.asarray(floor), np.asarray(ceiling)])
+    rates = cluster_bootstrap(table, clusters, strata, replicates, seed)
+
+    def share(r: np.ndarray) -> np.ndarray:
+        room = r[..., 2] - r[..., 1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(room > 0, (r[..., 0] - r[..., 1]) / np.where(room > 0, room, 1.0), np.nan)
+
+    low, high = percentile_interval(share(rates), confidence)
+    return ClusteredEstimate(float(share(table.mean(axis=0))), low, high, len(table), len(set(clusters)), "%")
