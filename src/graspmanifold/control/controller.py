@@ -423,6 +423,12 @@ class BatchController:
         return self.params.control_period
 
     @property
+    def squeeze(self) -> float:
+        """rad, how far the holding fingers press when nothing regulates the press (`params.squeeze`): a recalled
+        squeeze is pressed in full at this amount (`recall.ApproachRecall.pressed`)."""
+        return self.params.squeeze
+
+    @property
     def moves_palm(self) -> bool:
         """Whether the trials must carry each palm to `palm_offset` (its recall rule moves palms: `reach` > 0; or its
         palm follows touch: `ControllerParams.palm`)."""

@@ -15,9 +15,9 @@ import numpy as np
 
 from ..base.errors import InvalidInput
 from ..base.validation import Bounds, check_choice, check_number
-from ..manifold.experience import Experience
+from ..manifold.experience import Experience, carried_values
 from ..sim.grip import pressed_towards
-from ..sim.hand import FINGERS, SegmentKinematics
+from ..sim.hand import FINGERS, N_FINGER_JOINTS, SegmentKinematics
 from ..sim.posture import SEGMENT_FINGER
 from .state import FINGER_JOINT_MASKS, JOINT_FINGER, GraspState, per_finger
 
@@ -35,6 +35,7 @@ class ControllerView(Protocol):
         initial, closed, limits: the open and closed postures (22,) and the ranges (22, 2), rad.
         speed: (5,) each finger's joint speed, rad/s.
         control_period: s between two cycles.
+        squeeze: rad, the press of the holding fingers when nothing regulates it (`ControllerParams.squeeze`).
         palm_offset: (N, 3) m, how far each palm has moved.
         experience: the experience base recalled from (None: the plain heuristic).
         time: s since the grasp started.
@@ -55,6 +56,11 @@ class ControllerView(Protocol):
     @property
     def control_period(self) -> float:
         """s between two cycles."""
+        ...
+
+    @property
+    def squeeze(self) -> float:
+        """rad, the press of the holding fingers when nothing regulates it."""
         ...
 
 
@@ -300,7 +306,8 @@ class ApproachRecall(TargetRecall):
     without a contact closes on *along that way*, up to `overshoot` times its length further (the paper's reading
     closes it on towards the closed fist, which sweeps a fingertip past a small object); a finger that touches
     presses on along its way by `ControllerParams.squeeze` (rad, the finger's joints together) instead of flexing
-    towards the fist. A grasp's pregrasp lies back from it along the contacts' normals, so from there the way is
+    towards the fist; where the experience carries each grasp's verified squeeze (its `squeezes`), it presses by the
+    recalled grasp's own squeeze instead (`pressed`). A grasp's pregrasp lies back from it along the contacts' normals, so from there the way is
     the normals' way, and the press is what a verified grasp's squeeze does (`sim/normal_offsets`) without knowing the
     normals. A finger with no way (never recalled) closes and presses as the paper's reading does.
 
@@ -349,8 +356,10 @@ class ApproachRecall(TargetRecall):
         c.state.aim = np.where(arrived, aim, c.state.aim)
 
     def pressed(self, c: ControllerView, amount: float | np.ndarray) -> np.ndarray:
-        """A holding finger with a way presses on along it, `amount` rad (its joints' norm); one without, as the
-        paper's reading does.
+        """A holding finger whose recalled grasp carries its verified squeeze (the experience's `squeezes`, issue 84)
+        presses by that squeeze from where it touched, scaled by `amount` / `c.squeeze` (in full unless a grip
+        regulation or a settling ramp eases it); one with a way and no squeeze presses on along its way, `amount`
+        rad (its joints' norm); one without either, as the paper's reading does.
 
         Args:
             c: the controller.
@@ -362,7 +371,15 @@ class ApproachRecall(TargetRecall):
         length = np.sqrt((c.state.way ** 2) @ FINGER_JOINT_MASKS.T)[:, JOINT_FINGER]  # (N, 22): each finger's
         along = c.state.held_posture + amount * c.state.way / np.where(length > 0, length, 1.0)
         along = np.clip(along, c.limits[:, 0], c.limits[:, 1])
-        return np.where(length > 0, along, super().pressed(c, amount))
+        pressed = np.where(length > 0, along, super().pressed(c, amount))
+        squeezes = carried_values(c.experience).get("squeezes")
+        if squeezes is None:
+            return pressed
+        keys = c.state.heading[:, JOINT_FINGER]  # (N, 22): the recall each joint's finger went to (row + 1; 0 none)
+        offsets = squeezes[np.maximum(keys - 1, 0), np.arange(N_FINGER_JOINTS)]
+        share = np.divide(amount, c.squeeze) if c.squeeze > 0 else 0.0
+        recalled = np.clip(c.state.held_posture + share * offsets, c.limits[:, 0], c.limits[:, 1])
+        return np.where(keys > 0, recalled, pressed)
 
 
 @dataclass(frozen=True)

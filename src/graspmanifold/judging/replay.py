@@ -120,6 +120,12 @@ class OpenLoopGrasp:
             raise InvalidInput(f"OpenLoopGrasp.poses: each orientation must be a unit quaternion (w x y z), got lengths "
                                f"{np.round(length, 6).tolist()}")
 
+    @property
+    def squeeze_offset(self) -> np.ndarray:
+        """(22,) rad, the squeeze's posture less the grasp's: how hard the grasp presses, joint by joint (what an
+        experience carries as a grasp's `squeezes`, `manifold.experience`)."""
+        return self.postures[2] - self.postures[1]
+
 
 @dataclass(frozen=True)
 class ForceTest:

@@ -10,6 +10,13 @@ Beyond the paper (issue 66), an experience may also know where the object sat in
 `places`, (k, 3) m aligned with `references` (None where it does not know). They are never matched, only recalled with
 the posture of the same row: a database keeps each posture's (`object_places` of a `PostureSet`), a SOM node the place
 of its nearest training posture (`SOM.carry_places`). An experience of one's own without them still runs.
+
+Likewise (issue 84) an experience may know how hard each grasp pressed when it was verified: its `squeezes`, (k, 22)
+rad aligned with `references`, each the verified squeeze's posture less the grasp's (the press that held, joint by
+joint: `replay.OpenLoopGrasp.squeeze_offset`). The approach execution presses a holding finger by the squeeze of the
+grasp it recalled (`recall.ApproachRecall.pressed`) where the experience has them, by a fixed press where it has
+none. A database keeps each posture's, a SOM node its nearest training posture's (`SOM.carry_squeezes`).
+`carried_values` names what an experience carries; it belongs to a trial's identity (`TrialSetup.key`).
 """
 
 from __future__ import annotations
@@ -110,6 +117,33 @@ def object_places(postures: PostureSet) -> np.ndarray:
     return np.array([invert(pose[:3], pose[3:])[0] for pose in postures.hand_poses]).reshape(-1, 3)
 
 
+#: m, the farthest an object may sit from the palm in a place (`check_places`): a hand's reach, with room
+MAX_PLACE = 1.0
+#: rad, the largest joint change a squeeze may make (`check_squeezes`): any joint's whole range, with room
+MAX_SQUEEZE = float(np.pi)
+
+
+def _check_rows(values: object, count: int, width: int, name: str, what: str, bound: float) -> np.ndarray:
+    """Values carried per reference row checked: (count, width) real, finite, within +-bound; a read-only copy."""
+    try:
+        array = np.asarray(values)
+        if np.iscomplexobj(array):
+            raise TypeError("complex")
+        array = np.array(array, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} must be ({count}, {width}) {what}, one per posture: got values that are not real "
+                           "numbers") from None
+    if array.shape != (count, width):
+        raise InvalidInput(f"{name} must be ({count}, {width}) {what}, one per posture, got shape {array.shape}")
+    bad = ~(np.isfinite(array) & (np.abs(np.nan_to_num(array)) <= bound)).all(axis=1)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise InvalidInput(f"{name} must be finite {what}, got {array[row].tolist()} in row {row} (each within "
+                           f"+-{bound:g})")
+    array.flags.writeable = False
+    return array
+
+
 def check_places(places: object, count: int) -> np.ndarray:
     """Places (`object_places`) checked against the rows they belong to.
 
@@ -121,28 +155,58 @@ def check_places(places: object, count: int) -> np.ndarray:
         A read-only copy, (count, 3) m.
 
     Raises:
-        InvalidInput: another shape or a value that is not finite.
+        InvalidInput: another shape, a value that is not a finite real number, or one farther than `MAX_PLACE`.
     """
-    array = np.array(places, dtype=float)
-    if array.shape != (count, 3):
-        raise InvalidInput(f"places must be ({count}, 3) positions in m, one per posture, got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
-        row = int(np.flatnonzero(~np.isfinite(array).all(axis=1))[0])
-        raise InvalidInput(f"places must be finite positions in m, got {array[row].tolist()} in row {row}")
-    array.flags.writeable = False
-    return array
+    return _check_rows(places, count, 3, "places", "positions in m", MAX_PLACE)
+
+
+def check_squeezes(squeezes: object, count: int) -> np.ndarray:
+    """Squeezes (each a verified squeeze's posture less its grasp's, `replay.OpenLoopGrasp.squeeze_offset`) checked
+    against the rows they belong to.
+
+    Args:
+        squeezes: (count, 22) rad, one per row.
+        count: how many rows they belong to.
+
+    Returns:
+        A read-only copy, (count, 22) rad.
+
+    Raises:
+        InvalidInput: another shape, a value that is not a finite real number, or one beyond `MAX_SQUEEZE`.
+    """
+    return _check_rows(squeezes, count, N_FINGER_JOINTS, "squeezes", "joint changes in rad", MAX_SQUEEZE)
+
+
+def carried_values(experience: object) -> dict[str, np.ndarray]:
+    """What an experience carries besides its reference postures, recalled with them: its `places` and `squeezes`
+    where it has them (an experience of one's own may have neither).
+
+    Args:
+        experience: an `Experience` (or None).
+
+    Returns:
+        {"places": (k, 3) m, "squeezes": (k, 22) rad}, those it has.
+    """
+    out = {}
+    for name in ("places", "squeezes"):
+        value = getattr(experience, name, None)
+        if value is not None:
+            out[name] = np.asarray(value, dtype=float)
+    return out
 
 
 class PostureDatabase(ReferenceMatcher, NpzRecord):
-    """All stored postures (n, dim); best matches are row indices into `postures`, and `places` where the object
-    sat in each (None: not known)."""
+    """All stored postures (n, dim); best matches are row indices into `postures`, `places` where the object
+    sat in each and `squeezes` how hard each pressed (None: not known)."""
 
-    def __init__(self, postures: np.ndarray, places: np.ndarray | None = None):
+    def __init__(self, postures: np.ndarray, places: np.ndarray | None = None, squeezes: np.ndarray | None = None):
         """The database of these postures.
 
         Args:
             postures: (n, dim) finite postures, rad; stored read-only.
             places: (n, 3) m, where the object sat in the palm's frame in each (`object_places`), or None.
+            squeezes: (n, 22) rad, each grasp's verified squeeze less its posture
+                (`replay.OpenLoopGrasp.squeeze_offset`), or None.
         """
         data = np.asarray(postures, dtype=float)
         if data.ndim != 2:
@@ -150,6 +214,7 @@ class PostureDatabase(ReferenceMatcher, NpzRecord):
         self.postures = check_data(data, data.shape[1], "postures")
         self.postures.flags.writeable = False
         self.places = None if places is None else check_places(places, len(self.postures))
+        self.squeezes = None if squeezes is None else check_squeezes(squeezes, len(self.postures))
         self.dim = self.postures.shape[1]
         self._search = MaskedNearest(self.postures)
 
@@ -173,17 +238,17 @@ class PostureDatabase(ReferenceMatcher, NpzRecord):
     NPZ_REQUIRED = {"postures": (None, None)}
 
     def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
-        arrays = {"postures": self.postures, **({"places": self.places} if self.places is not None else {})}
+        arrays = {"postures": self.postures, **carried_values(self)}
         return arrays, {"dim": self.dim, "count": len(self), "data_fingerprint": fingerprint(self.postures),
-                        "units": "postures rad; places m, the object in the palm's frame"}
+                        "units": "postures rad; places m, the object in the palm's frame; squeezes rad"}
 
     @classmethod
     def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> PostureDatabase:
-        return cls(arrays["postures"], arrays.get("places"))
+        return cls(arrays["postures"], arrays.get("places"), arrays.get("squeezes"))
 
     def __repr__(self) -> str:
-        places = ", with places" if self.places is not None else ""
-        return f"PostureDatabase({len(self)} postures, dim={self.dim}{places})"
+        carried = "".join(f", with {name}" for name in carried_values(self))
+        return f"PostureDatabase({len(self)} postures, dim={self.dim}{carried})"
 
 
 _PROTOCOL_MEMBERS = tuple(dict.fromkeys([*Experience.__annotations__,

@@ -52,7 +52,7 @@ from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import free_cores
 from ..base.compiled import compiled
 from .kernels import online_epoch
-from .experience import check_places
+from .experience import carried_values, check_places, check_squeezes
 from .nearest import MaskedNearest, ReferenceMatcher, nearest_rows
 
 ALGORITHMS = ("online", "batch")
@@ -169,6 +169,8 @@ class SOM(ReferenceMatcher, NpzRecord):
         self.history: list[dict] = []
         #: (n_nodes, 3) m, where the object sat in the palm's frame for each node's posture (`carry_places`), or None
         self.places: np.ndarray | None = None
+        #: (n_nodes, 22) rad, how hard each node's posture pressed when verified (`carry_squeezes`), or None
+        self.squeezes: np.ndarray | None = None
         self._weights: np.ndarray | None = None
         self._search: MaskedNearest | None = None
         # lattice coordinates of every node, flat order row * cols + col
@@ -198,7 +200,7 @@ class SOM(ReferenceMatcher, NpzRecord):
         check_data(array.reshape(-1, self.dim), self.dim, "weights")
         self._weights = array
         self._search = None
-        self.places = None  # they belonged to the old weights
+        self.places = self.squeezes = None  # they belonged to the old weights
 
     @property
     def references(self) -> np.ndarray:
@@ -219,6 +221,23 @@ class SOM(ReferenceMatcher, NpzRecord):
         data = self._data(postures)
         places = check_places(places, len(data))
         self.places = check_places(places[nearest_rows(self.references, data)], self.n_nodes)
+        return self
+
+    def carry_squeezes(self, postures: np.ndarray, squeezes: np.ndarray) -> SOM:
+        """Let every node know how hard its grasp pressed (issue 84): the verified squeeze of its nearest posture
+        among those the map stands for (as `carry_places`), pressed by the approach execution when it recalls the
+        node. New weights (training on) forget them.
+
+        Args:
+            postures: (m, dim) rad, the postures the map was trained on (or any it stands for).
+            squeezes: (m, 22) rad, each one's verified squeeze less its posture (`replay.OpenLoopGrasp.squeeze_offset`).
+
+        Returns:
+            This map, its `squeezes` set.
+        """
+        data = self._data(postures)
+        squeezes = check_squeezes(squeezes, len(data))
+        self.squeezes = check_squeezes(squeezes[nearest_rows(self.references, data)], self.n_nodes)
         return self
 
     def _known_dim(self) -> int:
@@ -495,7 +514,7 @@ class SOM(ReferenceMatcher, NpzRecord):
                 "schedule": {"epochs": self.epochs, "learning_rate": list(self.learning_rate),
                              "sigma": list(self.sigma), "algorithm": self.algorithm},
                 "units": "as the training data (radians for postures)"}
-        return {"weights": self._require_weights(), **({"places": self.places} if self.places is not None else {})}, meta
+        return {"weights": self._require_weights(), **carried_values(self)}, meta
 
     @classmethod
     def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> SOM:
@@ -506,6 +525,7 @@ class SOM(ReferenceMatcher, NpzRecord):
             raise InvalidInput(f"{path} lacks SOM metadata {missing}") from None
         som.weights = arrays["weights"]
         som.places = None if "places" not in arrays else check_places(arrays["places"], som.n_nodes)
+        som.squeezes = None if "squeezes" not in arrays else check_squeezes(arrays["squeezes"], som.n_nodes)
         som.history = list(meta.get("history", []))
         return som
 

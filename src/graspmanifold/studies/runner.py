@@ -371,18 +371,22 @@ def holm_family(family: Sequence[tuple[str, PairedComparison]], name: str = "") 
             for (label, c), p in zip(family, adjusted)]
 
 
-def comparison_table(rows: Sequence[dict], family: bool = False) -> list[str]:
+def comparison_table(rows: Sequence[dict], family: bool = False, bootstrap: bool = False) -> list[str]:
     """The markdown table of `holm_family`: `+` / `-` are the pairs where only the first / only the second
     held.
 
     Args:
         rows: the rows.
         family: whether to show each row's family in a first column.
+        bootstrap: whether to show each row's cluster-bootstrap interval over plans (its "bootstrap",
+            `ClusteredEstimate.to_dict`) and its plans.
 
     Returns:
         The table's lines.
     """
-    header = (["family"] if family else []) + ["comparison", "n", "+", "-", "difference", "p", "p (Holm)"]
+    header = (["family"] if family else []) + ["comparison", "n", "+", "-", "difference", "p", "p (Holm)"] + (
+        ["95 % CI over plans", "plans"] if bootstrap else [])
     return markdown_table(header, [([r["family"]] if family else []) + [
         r["label"], r["n"], r["only_a"], r["only_b"], f"{100 * r['difference']:+.1f} pts", f"{r['p_value']:.3g}",
-        f"{r['p_holm']:.3g}"] for r in rows])
+        f"{r['p_holm']:.3g}"] + ([f"[{100 * r['bootstrap']['low']:+.1f}, {100 * r['bootstrap']['high']:+.1f}]",
+                                  r["bootstrap"]["clusters"]] if bootstrap else []) for r in rows])

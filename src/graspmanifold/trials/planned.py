@@ -20,9 +20,11 @@ is a failure of its arm and is reported by arm:
 - `blend-recall`: the blend with a perfect recall (its experience is the plan's own posture);
 - `blend`: the blend with the object's experience;
 - `approach-recall`, `approach`, `approach-scrambled`: the paper's reading executed as a verified grasp is
-  (`controller.APPROACH`: to the recall, on along the way there, pressing along it) with a perfect recall, the
-  object's experience, or the null experience (the object's postures with each joint column permuted:
-  `manifold.experience.scrambled`);
+  (`controller.APPROACH`: to the recall, on along the way there, pressing by the recalled grasp's verified squeeze)
+  with a perfect recall (the plan's posture and squeeze), the object's experience, or the null experience (the
+  object's postures with each joint column permuted: `manifold.experience.scrambled`);
+- `approach-recall-fixed`: the perfect recall without the plan's squeeze, pressing a fixed 0.3 rad along the way
+  (the approach execution before issue 84);
 - `approach-bounded-recall`, `approach-bounded`: the approach with its total grip force bounded from the segment
   forces (`controller.BOUNDED_APPROACH`), with a perfect recall or the object's experience;
 - the palm family (`PALM_ARMS`, issue 66), the hand on an arm's flange in every one of them: `flange-open-loop`,
@@ -76,7 +78,8 @@ class Arm:
         name: its name in results and reports.
         controller: 'open-loop', or one of ours by name (`controller.CONTROLLERS`), or 'heuristic' (ours without
             experience).
-        experience: what it recalls from: 'none', 'plan' (the plan's own posture: a perfect recall), 'object' (the
+        experience: what it recalls from: 'none', 'plan' (the plan's own posture and squeeze: a perfect recall),
+            'plan-posture' (the plan's posture alone: the press is the controller's fixed one), 'object' (the
             object's experience) or 'scrambled' (the null experience).
         params: the controller's parameters where they are not the named controller's (None: those).
         palm: the hand hangs on an arm's flange (`TrialSetup.palm`, the default `FlangeLimits`); False: the palm
@@ -109,6 +112,7 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("blend-recall", "blend", "plan"),
     Arm("blend", "blend", "object"),
     Arm("approach-recall", "approach", "plan"),
+    Arm("approach-recall-fixed", "approach", "plan-posture"),
     Arm("approach", "approach", "object"),
     Arm("approach-scrambled", "approach", "scrambled"),
     Arm("approach-bounded-recall", "approach-bounded", "plan"),
@@ -131,7 +135,7 @@ EXECUTION_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if no
 #: (`PALM_EXPERIENCE`); the last three again with two attempts (`regrasp.Regrasp(attempts=2)`: the first attempt's
 #: way again after a failed lift probe, the palm staying where it went)
 PALM_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if arm.palm)
-#: the kinds of experience an arm names besides 'none' and 'plan'
+#: the kinds of experience an arm names besides 'none', 'plan' and 'plan-posture'
 EXPERIENCES = ("object", "scrambled")
 
 
@@ -207,7 +211,9 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
         return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label, protocol=PLANNED_PROTOCOL,
                           palm=palm, oracle=arm.oracle)
     if arm.experience == "plan":
-        experience: Experience | None = PostureDatabase(plan.postures[1][None])
+        experience: Experience | None = PostureDatabase(plan.postures[1][None], squeezes=plan.squeeze_offset[None])
+    elif arm.experience == "plan-posture":
+        experience = PostureDatabase(plan.postures[1][None])
     elif arm.experience == "none":
         experience = None
     elif arm.experience in experiences and experiences[arm.experience] is not None:
@@ -311,6 +317,29 @@ def run_plan(plan: OpenLoopGrasp, obj: GraspObject, arms: Sequence[str], experie
         x, z, gap = moved[rows, 0], moved[rows, 1], moved[rows, 2]  # `grid.displaced_palm_pose`
         places[rows] = invert(variant.poses[0, :3], variant.poses[0, 3:])[0] + np.column_stack([x, -gap, z])
     return PlanTrials(moved, start, trials, places)
+
+
+def verify_plans(obj: str | GraspObject, plans: Sequence[OpenLoopGrasp], arm: str = "open-loop", seed: int = 0,
+                 workers: int = 1, executor: Executor | None = None) -> np.ndarray:
+    """The plans verified under the benchmark's own protocol and physics: each executed open loop at its own palm
+    pose (0 cm) from the trial's start, on the spring support, released as `PLANNED_PROTOCOL` releases it and judged
+    by its hold test (`run_plan` with an open-loop arm): one meaning of verified, so that the open loop at 0 cm
+    holds every plan this passes (the generator verifies on the free, weightless object).
+
+    Args:
+        obj: the object, or its name.
+        plans: its plans.
+        arm: the open-loop arm whose physics verifies ('open-loop', or 'flange-open-loop' for the palm's family).
+        seed: the trials' seed (`run_plan`).
+        workers: worker processes (a plan a task); `executor`: run them there instead.
+
+    Returns:
+        (len(plans),) bool: held at 0 cm.
+    """
+    if arm not in ARMS or ARMS[arm].controller != "open-loop" or ARMS[arm].oracle:
+        raise InvalidInput(f"verify_plans verifies with an open-loop arm without the oracle, got {arm!r}")
+    held = run_planned(obj, plans, (arm,), {}, (0.0,), seed=seed, workers=workers, executor=executor)
+    return np.array([bool(result.held(arm)[0]) for result in held], dtype=bool)
 
 
 def _plan_task(task: tuple[int, OpenLoopGrasp, np.ndarray], obj: GraspObject, arms: tuple[str, ...],

@@ -365,7 +365,7 @@ def cluster_bootstrap(outcomes: object, clusters: Sequence[Hashable], strata: Se
     replicates, seed = check_int(replicates, "replicates", low=1), check_int(seed, "seed", low=0)
     index = {label: k for k, label in enumerate(dict.fromkeys(labels))}
     of = np.array([index[label] for label in labels])
-    stratum_of = {}
+    stratum_of: dict[Hashable, Hashable] = {}
     for label, stratum in zip(labels, groups):
         if stratum_of.setdefault(label, stratum) != stratum:
             raise InvalidInput(f"cluster {label!r} lies in two strata ({stratum_of[label]!r} and {stratum!r})")

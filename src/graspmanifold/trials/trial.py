@@ -45,7 +45,7 @@ from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol, get_protocol
 from ..judging.replay import OpenLoopGrasp
 from ..judging.stages import JudgingRules
-from ..manifold.experience import Experience, check_experience
+from ..manifold.experience import Experience, carried_values, check_experience
 from ..manifold.postureset import PostureSet
 from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
@@ -298,7 +298,8 @@ class TrialSetup:
 
     def key(self, poses: np.ndarray, seed: int) -> str:
         """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
-        controller reads of it (its kind and its reference postures), never a pickle; of the hand, its content
+        controller reads of it (its kind, its reference postures and what it carries: places, squeezes), never a
+        pickle; of the hand, its content
         (`HandModel.digest`); not the label.
 
         Args:
@@ -321,6 +322,8 @@ class TrialSetup:
                               if self.plan is not None else {}),
                            **({"palm": asdict(self.palm)} if self.palm is not None else {}),
                            **({"oracle": True} if self.oracle else {}),
+                           **({"carried": {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in
+                                           carried_values(experience).items()}} if carried_values(experience) else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -337,7 +340,8 @@ class TrialSetup:
             {"library_version", "object" (its parameters; a mesh by its digest), "hand" (name, digest), "protocol"
             (name, whether registered, its judging in a sentence, a digest of its whole value), "touch",
             "controller" (ours by its registered name or 'custom parameters', with every parameter; a user's own by
-            its qualified name), "experience" (kind, reference postures, their digest), "seed", "noise", "table",
+            its qualified name), "experience" (kind, reference postures, their digest, and the digest of each value it
+            carries: `places_digest`, `squeezes_digest`), "seed", "noise", "table",
             "backend", "margin", "method", "regrasp", "preshape", "plan" (a digest), "palm", "oracle"}.
         """
         experience, custom, protocol = self.experience, self.controller, self.protocol
@@ -353,7 +357,9 @@ class TrialSetup:
                 {"name": _named(custom)},
                 "experience": {"kind": "none", "references": 0, "digest": ""} if references is None else
                 {"kind": type(experience).__name__, "references": len(references),
-                 "digest": _digest(references.tobytes())},
+                 "digest": _digest(references.tobytes()),
+                 **{f"{name}_digest": _digest(np.ascontiguousarray(value).tobytes())
+                    for name, value in carried_values(experience).items()}},
                 "seed": int(seed), "noise": asdict(self.noise), "table": self.table, "backend": self.backend,
                 "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
                 "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
