@@ -143,3 +143,46 @@ def test_what_an_experience_carries_is_part_of_the_trials_key(box_plans):
     assert len(keys) == 4
     assert pressed.provenance(0)["experience"]["squeezes_digest"] != ""
     assert "squeezes_digest" not in plain.provenance(0)["experience"]
+
+
+def test_the_open_loop_given_two_attempts_executes_the_plan_again_from_its_pregrasp(box_plans):
+    from graspmanifold.judging.replay import OpenLoopController
+
+    _, plans = box_plans
+    controller = OpenLoopController(3, plans[0])
+    first = [controller.step(None, None) for _ in range(400)][-1]
+    assert controller.done.all() and np.allclose(first, plans[0].postures[2])  # at the squeeze
+    controller.restart(np.array([1]), np.zeros((1, N_FINGER_JOINTS)), np.zeros((1, 1)))
+    assert controller.attempt.tolist() == [1, 2, 1] and controller.done.tolist() == [True, False, True]
+    again = controller.step(None, None)
+    t = 1 / controller.targets  # the first interpolated target from the pregrasp, as the first attempt's was
+    assert np.allclose(again[1], (1 - t) * plans[0].postures[0] + t * plans[0].postures[1])
+    assert np.allclose(again[[0, 2]], plans[0].postures[2])  # the others keep their squeeze
+    result = run_plan(plans[0], planned.get_object("box"), ("flange-open-loop-x2",), {},
+                      np.array([[0.0, 0.0, 0.0, 0.0], [0.05, 0.0, 0.0, 0.0]]))
+    trials = result.trials["flange-open-loop-x2"]
+    assert all(not t.fault and t.attempts in (1, 2) for t in trials) and trials[0].hold
+
+
+def test_the_translation_only_oracle_moves_the_palm_without_turning_it(box_plans):
+    from graspmanifold.base.poses import compose, invert
+    from graspmanifold.sim.flange import FlangeLimits
+    from graspmanifold.trials.grid import displaced_palm_pose
+
+    _, plans = box_plans
+    plan = plans[0]
+    moves = np.array([[0.02, 0.0, 0.0, 0.2], [0.0, -0.01, 0.0, 0.0]])
+    setup = TrialSetup(object="box", plan=plan, controller=planned.OpenLoop(plan), method="oracle translation",
+                       palm=FlangeLimits(), oracle="translation")
+    seen = []
+    run_trials(setup, moves, [np.random.default_rng(i) for i in range(len(moves))], observer=lambda worlds: seen.append(
+        [compose(*invert(*scene.object_pose()), *scene.hand_pose()) for scene in worlds.scenes]))
+    for (position, quat), move in zip(seen[30], moves):  # once the correction has arrived, before the grasp
+        start = displaced_palm_pose(plan.poses[0], move)
+        assert abs(np.dot(quat, start[1])) > np.cos(0.01 / 2)  # not turned: as the displaced start was
+    assert np.linalg.norm(seen[30][1][0] - plan.poses[0, :3]) < 0.003  # no yaw: moved back to the plan's palm
+    with pytest.raises(InvalidInput, match="oracle must be"):
+        TrialSetup(object="box", plan=plan, palm=FlangeLimits(), oracle="rotation", method="oracle")
+    keys = {TrialSetup(object="box", plan=plan, palm=FlangeLimits(), oracle=o, method="oracle").key(moves, 0)
+            for o in (True, "translation")}
+    assert len(keys) == 2

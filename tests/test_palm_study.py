@@ -55,12 +55,13 @@ def test_on_the_flange_a_controller_is_told_nothing_of_the_displacement_and_only
     assert joints.shape == (len(MOVES), N_FINGER_JOINTS) and forces.shape == (len(MOVES), len(SEGMENTS))
     assert np.array_equal(joints[0], joints[1])  # the same hand wherever the box is
     oracles = [name for name, arm in ARMS.items() if arm.oracle]
-    assert oracles == ["oracle-correction"]  # the one arm that reads the displacement, and its name says so
+    # the arms that read the displacement, and their names say so
+    assert oracles == ["oracle-correction", "oracle-translation", "oracle-fingers"]
     for name in PALM_ARMS:
         made = arm_setup(ARMS[name], planned.get_object("box"), plans[0], {"object": PostureDatabase(
             np.zeros((1, N_FINGER_JOINTS)))})
-        assert made.oracle == (name in oracles) and made.palm is not None  # one physics: every palm arm on a flange
-        assert ("oracle" in made.method) == made.oracle
+        assert bool(made.oracle) == (name in oracles) and made.palm is not None  # one physics: every arm on a flange
+        assert ("oracle" in made.method) == bool(made.oracle)
     with pytest.raises(InvalidInput, match="says 'oracle'"):
         TrialSetup(object="box", plan=plans[0], palm=FlangeLimits(), oracle=True, method="correction")
     with pytest.raises(InvalidInput, match="a palm"):
@@ -142,7 +143,8 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
     from graspmanifold.trials.trial import Trial
 
     rng = np.random.default_rng(0)
-    rates = {"flange-open-loop": 0.3, "oracle-correction": 0.9, "fingers-only": 0.3, "palm-touch": 0.4,
+    rates = {"flange-open-loop": 0.3, "flange-open-loop-x2": 0.35, "oracle-correction": 0.9,
+             "oracle-translation": 0.7, "oracle-fingers": 0.8, "fingers-only": 0.3, "palm-touch": 0.4,
              "palm-experience": 0.5, "fingers-only-x2": 0.35, "palm-touch-x2": 0.45, "palm-experience-x2": 0.55}
     outcomes = {}
     for seed in (2, 3, 4):
@@ -164,6 +166,9 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
     assert set(info["place_errors"]) == {"palm-touch", "palm-experience", "palm-touch-x2", "palm-experience-x2"}
     assert all(np.isclose(row["median"], 0.01) for row in info["place_errors"]["palm-touch"])
     assert "target +15 pts and 80 %" in info["verdict"]
+    share = info["headroom"]["palm-experience"]  # (0.5 - 0.3) / (about 0.98 - 0.3): the ceiling a trial's best
+    assert 0.15 < share["value"] < 0.45 and share["low"] < share["value"] < share["high"] and share["clusters"] == 36
+    assert set(info["by_start"]["oracle-correction"]) == {"pregrasp", "open"}
     held = {arm: {("box", seed): rng.random(40) < rate for seed in (2, 3, 4)}
             for arm, rate in zip(palm.GRID_ARMS, (0.4, 0.5, 0.6))}
     info["grid"] = palm.grid_summary(held, (2, 3, 4))

@@ -461,12 +461,15 @@ class OpenLoopController:
     in the replay's `approach_targets` interpolated targets of `APPROACH_TARGET_SECONDS` each (`replay_grasp`'s
     approach), the palm carried by the arm where the stages put it; then it is done and keeps the squeeze. It is the
     open-loop arm of a planned trial (`TrialSetup(controller=OpenLoop(grasp), plan=grasp)`): every arm then starts
-    from the same state and faces the same support, release and judge.
+    from the same state and faces the same support, release and judge. Given more attempts
+    (`TrialSetup(regrasp=Regrasp(attempts=2))`), a world whose grasp fails the lift probe executes the plan again
+    from its pregrasp (`restart`): the open loop with as many attempts as the arm it is compared with.
 
     Attributes:
         n: worlds; control_period: s; initial: (22,) rad, the pregrasp's posture; done: (N,) bool.
         offsets: (3, 3) m, the palm at each stage relative to the pregrasp's palm pose, in its frame.
         moves_palm: whether the stages move the palm; palm_offset: (N, 3) m, where the arm has carried each palm.
+        cycle: (N,) control periods each world's attempt has run; attempt: (N,) each world's attempt, 1 the first.
     """
 
     def __init__(self, n: int, grasp: OpenLoopGrasp, control_period: float = CONTROL_PERIOD,
@@ -503,9 +506,23 @@ class OpenLoopController:
 
     def reset(self) -> None:
         """Start the grasp again in every world."""
-        self.cycle = 0
+        self.cycle = np.zeros(self.n, dtype=int)
+        self.attempt = np.ones(self.n, dtype=int)
         self.done = np.zeros(self.n, dtype=bool)
         self.palm_offset = np.zeros((self.n, 3))
+
+    def restart(self, worlds: np.ndarray, joints: np.ndarray, segment_forces: np.ndarray) -> None:
+        """The next attempt in these worlds, whose grasp failed the lift probe: the plan executed again from its
+        pregrasp (nothing sensed is read: it is the open loop).
+
+        Args:
+            worlds: the worlds' indices (m,).
+            joints: (m, 22) rad (not read).
+            segment_forces: (m, segments) N (not read).
+        """
+        worlds = np.asarray(worlds, dtype=int)
+        self.cycle[worlds], self.done[worlds] = 0, False
+        self.attempt[worlds] += 1
 
     def step(self, joints: np.ndarray, segment_forces: np.ndarray) -> np.ndarray:
         """One control period: the approach's target for it (what is sensed is not read).
@@ -518,14 +535,14 @@ class OpenLoopController:
             (N, 22) rad, the targets.
         """
         moves = len(self.grasp.postures) - 1
-        target = min(self.cycle // self.periods_per_target, moves * self.targets - 1)  # 0-based, over every move
-        move, k = divmod(target, self.targets)
-        t = (k + 1) / self.targets
+        target = np.minimum(self.cycle // self.periods_per_target, moves * self.targets - 1)  # 0-based, every move
+        move, k = np.divmod(target, self.targets)
+        t = ((k + 1) / self.targets)[:, None]
         posture = (1 - t) * self.grasp.postures[move] + t * self.grasp.postures[move + 1]
         self.palm_offset[:] = (1 - t) * self.offsets[move] + t * self.offsets[move + 1]
         self.cycle += 1
         self.done[:] = self.cycle >= moves * self.targets * self.periods_per_target
-        return np.tile(posture, (self.n, 1))
+        return posture
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,23 +1,29 @@
 """The planned-grasp study: a grasp the controller knows, executed where the object is not quite where it was
 planned, by every arm of `trials.planned`.
 
-    python scripts/study_planned_grasps.py [--quick] [--workers 2] [--seeds 2 3 4] [--plans 30] [--displaced 3]
-                                           [--out study-planned-grasps] [--doc docs/planned_grasps.md]
+    python scripts/study_planned_grasps.py [--quick] [--workers 2] [--seeds 2 3 4] [--plans 34] [--displaced 3]
+                                           [--draw 0] [--out study-planned-grasps] [--doc docs/planned_grasps.md]
 
-For each of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`) and each seed, `--plans` verified
-grasps (`generate_postures(obj, n, seed, params=GeneratorParams(designs="grasp_types"))`, verified under the default
-protocol) are the plans. The object's experience is a 10 x 10 SOM trained on them, the null experience the same SOM
-trained on them scrambled (`manifold.experience.scrambled`). Every plan is run by every arm at 0 cm (the ceiling: at
-the plan's own palm pose); the first `--displaced` plans of each object also at 1, 2, 3 and 5 cm in 8 directions
-(`trials.planned.displacements`). Every arm is judged by `trials.planned.PLANNED_PROTOCOL` (the support fading before
-the release). The approach execution (`controller.APPROACH`) was chosen on a probe of generator seed 0 (12 plans of
-each object), after traces of seed 1's first 10 plans of the marble, pen and disc; the fading release and the bounded
-grip force (`controller.BOUNDED_APPROACH`) on seed 0. The study runs seeds 2, 3 and 4, so all are scored on plans
-they were neither chosen nor traced on.
+For each of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`) and each seed, `--plans` grasps
+verified by the generator (`generate_postures(obj, n, seed, params=GeneratorParams(designs="grasp_types"))`, on the
+free, weightless object) are the object's experience: a 10 x 10 SOM trained on them carrying where each grasp had the
+object and how hard it pressed (`SOM.carry_places`, `carry_squeezes`), the null experience the same SOM trained on
+them scrambled (`manifold.experience.scrambled`). The plans are those the study verifies again under its own
+protocol and physics (`trials.planned.verify_plans`: the family's open loop at the plan's own palm pose, on the
+spring support, the release fading): one meaning of verified. Every plan is run by every arm at 0 cm (the ceiling);
+`--displaced` plans of each object and seed, drawn at random among them (`drawn_plans`, seeded by `--draw`, the seed
+and the object, and recorded), also at 1, 2, 3 and 5 cm in 8 directions (`trials.planned.displacements`). Every arm
+is judged by `trials.planned.PLANNED_PROTOCOL` (the support fading before the release). The approach execution
+(`controller.APPROACH`) was chosen on a probe of generator seed 0 (12 plans of each object), after traces of seed 1's
+first 10 plans of the marble, pen and disc; the fading release and the bounded grip force
+(`controller.BOUNDED_APPROACH`) on seed 0. The study runs seeds 2, 3 and 4, so all are scored on plans they were
+neither chosen nor traced on.
 
-Reported: the hold rate of every arm by level (a fault is a failure, and faults are counted by arm), pooled and per
-object, with Wilson intervals; McNemar on the same trials, Holm over the family of the issue's questions. Writes
-`--out/study.json`, the report `--doc` and its figure beside it.
+Reported: the hold rate of every arm by level (a fault is a failure, and faults are counted by arm), pooled, per
+object and per design, with Wilson intervals; McNemar on the same trials with Holm over the family, and beside it
+each difference's 95 % interval from a cluster bootstrap over plans (`trials.stats.bootstrap_difference`: trials of
+one plan are not independent); the family's first question is its primary comparison. Writes `--out/study.json`,
+the report `--doc` and its figure beside it.
 """
 
 from __future__ import annotations
@@ -116,7 +122,7 @@ class Family:
         script: the script that runs it.
         floor: the open-loop arm that verifies the plans under the study's own protocol and physics
             (`trials.planned.verify_plans`) and is the headroom's floor.
-        ceiling: the arm whose holds are the headroom's ceiling ('' : none; `headroom_share`).
+        ceiling: the arms whose per-trial best is the headroom's ceiling (none: no headroom; `headroom_shares`).
         zero_only: arms run at 0 cm only (not on the displaced plans' 1-5 cm trials).
     """
 
@@ -131,7 +137,7 @@ class Family:
     default_doc: str
     script: str
     floor: str = "open-loop"
-    ceiling: str = ""
+    ceiling: tuple[str, ...] = ()
     zero_only: tuple[str, ...] = ()
 
 
@@ -532,6 +538,7 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, selection: dict | None
         row["bootstrap"] = spread
     if family.ceiling:
         info["headroom"] = headroom_shares(outcomes, arms, family.floor, family.ceiling)
+        info["by_start"] = by_start(outcomes, arms)
     if selection is not None:
         info["selection"] = selection
         info["by_design"] = by_design(outcomes, arms, selection["designs"])
@@ -541,16 +548,17 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, selection: dict | None
     return info
 
 
-def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: str,
+def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: Sequence[str],
                     levels: tuple[float, ...] = (0.02, 0.03, 0.05)) -> dict[str, dict]:
     """Each arm's share of the ceiling's headroom over the floor, (arm - floor) / (ceiling - floor), on the displaced
-    plans' trials at these levels, with the cluster bootstrap over plans (`trials.stats.headroom_share`).
+    plans' trials at these levels, with the cluster bootstrap over plans (`trials.stats.headroom_share`); the ceiling
+    holds a trial where any of its arms does (the per-trial best of the oracles).
 
     Args:
         outcomes: {task: _Outcomes} of the study.
-        arms: the arms (the floor and the ceiling left out).
+        arms: the arms (the floor left out).
         floor: the open loop.
-        ceiling: the arm whose holds are the ceiling (the oracle).
+        ceiling: the arms whose per-trial best is the ceiling (the oracles).
         levels: m.
 
     Returns:
@@ -558,13 +566,41 @@ def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: st
     """
     out = {}
     for arm in arms:
-        if arm in (floor, ceiling):
+        if arm == floor:
             continue
-        table = _trials(outcomes, (arm, floor, ceiling), levels, displaced_only=True)
+        table = _trials(outcomes, (arm, floor, *ceiling), levels, displaced_only=True)
         if len(table["held"]):
             held = table["held"]
-            out[arm] = headroom_share(held[:, 0], held[:, 1], held[:, 2], table["plan"].tolist(),
+            out[arm] = headroom_share(held[:, 0], held[:, 1], held[:, 2:].any(axis=1), table["plan"].tolist(),
                                       table["seed"].tolist()).to_dict()
+    return out
+
+
+def by_start(outcomes: dict, arms: Sequence[str]) -> dict[str, dict[str, list[list[int]]]]:
+    """Hold counts of the displaced plans' trials by how they started (`trials.planned.STARTS`: from the pregrasp,
+    or from the open hand where the pregrasp would start inside the object) and level.
+
+    Args:
+        outcomes: {task: _Outcomes} of the study.
+        arms: the arms.
+
+    Returns:
+        {arm: {start: [[held, n] per level of `LEVELS`]}}.
+    """
+    drawn = _drawn(outcomes)
+    out: dict[str, dict[str, list[list[int]]]] = {}
+    for arm in arms:
+        out[arm] = {}
+        for kind, start in enumerate(STARTS[1:], start=1):
+            counts = []
+            for level in LEVELS:
+                held = n = 0
+                for (name, seed, plan, _, _), o in outcomes.items():
+                    if (name, seed, plan) in drawn and arm in o.held:
+                        at = (o.start == kind) & (o.levels == level)
+                        held, n = held + int(o.held[arm][at].sum()), n + int(at.sum())
+                counts.append([held, n])
+            out[arm][start] = counts
     return out
 
 
@@ -702,6 +738,7 @@ def report(info: dict) -> str:
             iter(info["place_errors"].values()))],
             [[arm] + [f"{100 * r['median']:.1f} cm ({100 * r['within_1cm']:.0f} %), {r['n']}" for r in rows]
              for arm, rows in info["place_errors"].items()])
+    lines += _start_lines(info)
     lines += _design_lines(info)
     lines += ["", "## Faults by arm (each counted as a failure above)", ""]
     lines += markdown_table(["arm", "faults", "object: reason (count)"],
@@ -723,8 +760,9 @@ def _comparison_lines(info: dict) -> list[str]:
     lines += comparison_table(info["comparisons"], bootstrap="bootstrap" in info["comparisons"][0])
     if info.get("headroom"):
         floor, ceiling = FAMILIES[info["config"]["family"]].floor, FAMILIES[info["config"]["family"]].ceiling
-        lines += ["", f"The share of the headroom each arm takes at 2-5 cm: (arm - {floor}) / ({ceiling} - {floor}) "
-                  "on the same trials, with its cluster-bootstrap interval over plans:", ""]
+        lines += ["", f"The share of the headroom each arm takes at 2-5 cm: (arm - {floor}) / (ceiling - {floor}) "
+                  f"on the same trials, the ceiling a trial's best of {' and '.join(ceiling)}, with the "
+                  "cluster-bootstrap interval over plans:", ""]
         lines += markdown_table(["arm", "headroom share [95 % CI over plans]", "trials", "plans"],
                                 [[arm, f"{100 * h['value']:.0f} % [{100 * h['low']:.0f}, {100 * h['high']:.0f}]",
                                   h["trials"], h["clusters"]] for arm, h in info["headroom"].items()])
@@ -734,6 +772,23 @@ def _comparison_lines(info: dict) -> list[str]:
         info["comparisons"][0]["by_seed"])]] + ["same sign"],
         [[r["label"]] + [f"{100 * d:+.1f} pts" for d in r["by_seed"]] + ["yes" if r["same_sign"] else "no"]
          for r in info["comparisons"]])
+    return lines
+
+
+def _start_lines(info: dict) -> list[str]:
+    """The report's rates by how the displaced trials started, for the floor, the ceilings and fingers only."""
+    if not info.get("by_start"):
+        return []
+    family = FAMILIES[info["config"]["family"]]
+    shown = [arm for arm in (family.floor, *family.ceiling, "oracle-translation", "fingers-only") if arm in info["arms"]]
+    levels = info["levels"]
+    lines = ["", "## By start", "",
+             "The displaced plans' trials by how they started: from the plan's pregrasp, or from the open hand at the "
+             "grasp's palm pose where the pregrasp would start inside the displaced object (an oracle that moves the "
+             "palm by the displacement fixes the palm's place, not the start the trial was given):", ""]
+    lines += markdown_table(["arm", "start"] + [f"{100 * v:.0f} cm" for v in levels],
+                            [[arm, start] + [f"{h}/{n}" if n else "–" for h, n in counts]
+                             for arm in dict.fromkeys(shown) for start, counts in info["by_start"][arm].items()])
     return lines
 
 

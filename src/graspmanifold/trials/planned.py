@@ -27,12 +27,13 @@ is a failure of its arm and is reported by arm:
   (the approach execution before issue 84);
 - `approach-bounded-recall`, `approach-bounded`: the approach with its total grip force bounded from the segment
   forces (`controller.BOUNDED_APPROACH`), with a perfect recall or the object's experience;
-- the palm family (`PALM_ARMS`, issue 66), the hand on an arm's flange in every one of them: `flange-open-loop`,
-  `oracle-correction` (the palm moved by the true displacement first, then the open loop), `fingers-only`,
-  `palm-touch`, `palm-experience` and the last three with two attempts (`-x2`).
+- the palm family (`PALM_ARMS`, issue 66), the hand on an arm's flange in every one of them: `flange-open-loop`
+  (and `-x2`, two attempts), `oracle-correction` (the palm moved by the true displacement first, then the open loop),
+  `oracle-translation` (by its translation alone), `oracle-fingers` (the correction, then the approach execution),
+  `fingers-only`, `palm-touch`, `palm-experience` and the last three with two attempts (`-x2`).
 
 No controller reads the displacement: it senses joints and touch only (the open loop senses nothing); the oracle
-correction, a ceiling, is the one arm whose trials read it, and says so in its name.
+arms, ceilings, are the only ones whose trials read it, and say so in their names.
 """
 
 from __future__ import annotations
@@ -84,7 +85,8 @@ class Arm:
         params: the controller's parameters where they are not the named controller's (None: those).
         palm: the hand hangs on an arm's flange (`TrialSetup.palm`, the default `FlangeLimits`); False: the palm
             stays where the trial put it unless the controller shifts it.
-        oracle: the flange first moves the palm by the true displacement (`TrialSetup.oracle`: a ceiling).
+        oracle: the flange first moves the palm by the true displacement (`TrialSetup.oracle`: a ceiling; True the
+            full correction, 'translation' without the yaw).
         attempts: grasp attempts (`regrasp.Regrasp`; 2: the first attempt's way again after a failed lift probe).
     """
 
@@ -93,7 +95,7 @@ class Arm:
     experience: str
     params: ControllerParams | None = None
     palm: bool = False
-    oracle: bool = False
+    oracle: bool | str = False
     attempts: int = 1
 
 
@@ -118,7 +120,10 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
     Arm("approach-bounded-recall", "approach-bounded", "plan"),
     Arm("approach-bounded", "approach-bounded", "object"),
     Arm("flange-open-loop", "open-loop", "none", palm=True),
+    Arm("flange-open-loop-x2", "open-loop", "none", palm=True, attempts=2),
     Arm("oracle-correction", "open-loop", "none", palm=True, oracle=True),
+    Arm("oracle-translation", "open-loop", "none", palm=True, oracle="translation"),
+    Arm("oracle-fingers", "approach", "object", palm=True, oracle=True),
     Arm("fingers-only", "approach", "object", palm=True),
     Arm("palm-touch", "approach", "object", replace(APPROACH, palm=PALM_TOUCH), palm=True),
     Arm("palm-experience", "approach", "object", replace(APPROACH, palm=PALM_EXPERIENCE), palm=True),
@@ -129,11 +134,14 @@ ARMS: dict[str, Arm] = {arm.name: arm for arm in (
 #: the arms of issue 65's study (`studies.planned_grasps`): the execution of a plan, the palm where the trial put it
 EXECUTION_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if not arm.palm)
 #: the arms of issue 66's study (`studies.palm`), every one on the arm's flange (one physics for all): the plan
-#: open loop; the oracle correction (the palm moved by the true displacement before the open loop: a ceiling, the
-#: only arm that reads it, `TrialSetup.oracle`); the approach execution with the object's experience, its palm still
-#: (fingers only), re-centred from touch alone (`PALM_TOUCH`) or steered by the recalled object place
-#: (`PALM_EXPERIENCE`); the last three again with two attempts (`regrasp.Regrasp(attempts=2)`: the first attempt's
-#: way again after a failed lift probe, the palm staying where it went)
+#: open loop, once and with two attempts (the plan again from its pregrasp after a failed lift probe: what the
+#: two-attempt arms are compared with); the oracles, ceilings and the only arms that read the displacement
+#: (`TrialSetup.oracle`): the palm moved by the true displacement before the open loop (`oracle-correction`), by its
+#: translation alone (`oracle-translation`), or before the approach execution with the object's experience
+#: (`oracle-fingers`; the ceiling is each trial's best of the first and the last); the approach execution with the
+#: object's experience, its palm still (fingers only), re-centred from touch alone (`PALM_TOUCH`) or steered by the
+#: recalled object place (`PALM_EXPERIENCE`); the last three again with two attempts (`regrasp.Regrasp(attempts=2)`:
+#: the first attempt's way again after a failed lift probe, the palm staying where it went)
 PALM_ARMS: tuple[str, ...] = tuple(name for name, arm in ARMS.items() if arm.palm)
 #: the kinds of experience an arm names besides 'none', 'plan' and 'plan-posture'
 EXPERIENCES = ("object", "scrambled")
@@ -209,7 +217,7 @@ def arm_setup(arm: Arm, obj: GraspObject, plan: OpenLoopGrasp, experiences: Mapp
     palm = FlangeLimits() if arm.palm else None
     if arm.controller == "open-loop":
         return TrialSetup(object=obj, plan=plan, controller=OpenLoop(plan), method=label, protocol=PLANNED_PROTOCOL,
-                          palm=palm, oracle=arm.oracle)
+                          palm=palm, oracle=arm.oracle, regrasp=Regrasp(attempts=arm.attempts))
     if arm.experience == "plan":
         experience: Experience | None = PostureDatabase(plan.postures[1][None], squeezes=plan.squeeze_offset[None])
     elif arm.experience == "plan-posture":
@@ -336,8 +344,9 @@ def verify_plans(obj: str | GraspObject, plans: Sequence[OpenLoopGrasp], arm: st
     Returns:
         (len(plans),) bool: held at 0 cm.
     """
-    if arm not in ARMS or ARMS[arm].controller != "open-loop" or ARMS[arm].oracle:
-        raise InvalidInput(f"verify_plans verifies with an open-loop arm without the oracle, got {arm!r}")
+    if arm not in ARMS or ARMS[arm].controller != "open-loop" or ARMS[arm].oracle or ARMS[arm].attempts != 1:
+        raise InvalidInput(f"verify_plans verifies with an open-loop arm of one attempt without the oracle, got "
+                           f"{arm!r}")
     held = run_planned(obj, plans, (arm,), {}, (0.0,), seed=seed, workers=workers, executor=executor)
     return np.array([bool(result.held(arm)[0]) for result in held], dtype=bool)
 

@@ -82,6 +82,9 @@ FAILURE_FEATURES = N_FINGER_JOINTS + len(SEGMENTS)
 
 #: s of simulated time after which a world whose controller never reports its grasp done is judged as it is
 MAX_GRASP_SECONDS = 600.0
+#: the oracle corrections besides the full one (`TrialSetup.oracle=True`): 'translation', the palm moved by the
+#: displacement's translation and not turned by its yaw
+ORACLES: tuple[str, ...] = ("translation",)
 #: s the oracle's correction waits, after its flange's set point has arrived, for the servos to bring the palm there
 ORACLE_SETTLE_SECONDS = 0.2
 
@@ -163,7 +166,8 @@ class TrialSetup:
             flange first carries the palm by the object's true displacement (the trial's pose, `grid.
             oracle_correction`) to where the plan puts it for the displaced object, the fingers held in their
             starting posture, and only then does the controller start (the palm then moves from there). The only
-            trials that read the displacement: their `method` must say 'oracle'.
+            trials that read the displacement: their `method` must say 'oracle'. 'translation': the palm moved by the
+            displacement's translation alone, not turned by its yaw (`ORACLES`).
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -186,7 +190,7 @@ class TrialSetup:
     touch: str = "contacts"
     plan: OpenLoopGrasp | None = None
     palm: FlangeLimits | None = None
-    oracle: bool = False
+    oracle: bool | str = False
 
     def __post_init__(self) -> None:
         set_field = functools.partial(object.__setattr__, self)
@@ -253,8 +257,8 @@ class TrialSetup:
         if self.palm is not None and (not isinstance(self.palm, FlangeLimits) or self.backend != "cpu"):
             raise InvalidInput(f"palm must be a FlangeLimits (the hand on an arm's flange) with the cpu backend, got "
                                f"{self.palm!r} with backend={self.backend!r}")
-        if not isinstance(self.oracle, bool):
-            raise InvalidInput(f"oracle must be True or False, got {self.oracle!r}")
+        if not (isinstance(self.oracle, bool) or self.oracle in ORACLES):
+            raise InvalidInput(f"oracle must be True, False or one of {ORACLES}, got {self.oracle!r}")
         if self.oracle and (self.plan is None or self.palm is None or "oracle" not in self.method):
             raise InvalidInput("oracle=True moves the palm by the true displacement of a planned trial: it needs a "
                                "plan, a palm (the flange that carries it) and a method that says 'oracle', got "
@@ -321,7 +325,7 @@ class TrialSetup:
                            **({"plan": {"poses": self.plan.poses.tolist(), "postures": self.plan.postures.tolist()}}
                               if self.plan is not None else {}),
                            **({"palm": asdict(self.palm)} if self.palm is not None else {}),
-                           **({"oracle": True} if self.oracle else {}),
+                           **({"oracle": self.oracle} if self.oracle else {}),
                            **({"carried": {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in
                                            carried_values(experience).items()}} if carried_values(experience) else {}),
                            **self._protocol_key()},
@@ -666,7 +670,10 @@ class _TrialLoop:
         self.correcting = 0  # control periods of the oracle's correction still to run, before the controller starts
         if setup.oracle:
             assert setup.plan is not None and setup.palm is not None  # the set-up refuses an oracle without both
-            self.corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in poses])
+            moved = np.array(poses, dtype=float)
+            if setup.oracle == "translation":  # the palm moved, not turned
+                moved[:, 3] = 0.0
+            self.corrections = np.array([oracle_correction(setup.plan.poses[0], pose) for pose in moved])
             seconds = np.max(np.abs(self.corrections) / setup.palm.speeds()) + ORACLE_SETTLE_SECONDS
             self.correcting = math.ceil(seconds / period)
         # a controller that regrasps has `attempt` and `restart` (`make_controller` checks it); others only finish
