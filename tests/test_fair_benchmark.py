@@ -70,7 +70,10 @@ def test_a_small_study_records_its_verification_and_its_draw(box_plans, tmp_path
     assert info["by_level"]["approach"][1][1] > 0  # the displaced plan's 2 cm trials
     assert info["config"]["draw"] == 5 and {"low", "high", "clusters"} <= set(info["comparisons"][0]["bootstrap"])
     assert sum(cell["plans"] for cell in info["by_design"].values()) == verified
-    assert "## The plans" in planned_grasps.report(info)
+    assert info["noise_floor"]["trials"] == info["by_level"]["open-loop"][1][1]  # the rerun paired trial by trial
+    assert -1.0 <= info["noise_floor"]["low"] <= info["noise_floor"]["high"] <= 1.0
+    text = planned_grasps.report(info)
+    assert "## The plans" in text and "The noise floor" in text
 
 
 def test_the_squeeze_survives_saving_and_loading_a_database_and_a_map(tmp_path):

@@ -205,11 +205,15 @@ class PlannedStudyConfig:
         return (6, 2) if self.quick else (self.plans, min(self.displaced, self.plans))
 
 
+#: added to a seed for the noise floor's second draw of the displacements' yaws
+NOISE_FLOOR_SEED = 1000
+
+
 def _plan_task(task: tuple, plans: dict[tuple[str, int], list[OpenLoopGrasp]],
                experiences: dict[tuple[str, int], dict[str, Experience]], arms: tuple[str, ...],
-               zero_only: tuple[str, ...] = ()) -> PlanTrials:
+               zero_only: tuple[str, ...] = (), redraw: int = 0) -> PlanTrials:
     name, seed, index, levels, _ = task
-    moved = displacements(tuple(float(v) for v in levels.split(",")), seed=seed, plan=index)
+    moved = displacements(tuple(float(v) for v in levels.split(",")), seed=seed + redraw, plan=index)
     if levels != "0.0":  # the displaced levels: the arms of 0 cm only stay out
         arms = tuple(arm for arm in arms if arm not in zero_only)
     return run_plan(plans[name, seed][index], OBJECTS[name].object, arms, experiences[name, seed], moved, seed)
@@ -346,11 +350,46 @@ def run(config: PlannedStudyConfig, study: StudyRun) -> dict:
                            lambda task, r: f"{task[0]} seed {task[1]} plan {task[2]}: " + ", ".join(
                                f"{a} {int(r.held(a).sum())}" for a in family.arms[:3] if a in r.trials))
     outcomes = {task: outcomes_of(result) for task, result in kept.items()}
+    noise = study.keep_each("noise-floor", [task for task in tasks if task[3] == displaced],
+                            functools.partial(_plan_task, plans=plans, experiences=experiences, arms=(family.floor,),
+                                              redraw=NOISE_FLOOR_SEED), _read, _write)
     selection = {"generated": {f"{name} seed {seed}": len(ok) for (name, seed), ok in verified.items()},
                  "verified": {f"{name} seed {seed}": int(ok.sum()) for (name, seed), ok in verified.items()},
                  "drawn": {f"{name} seed {seed}": chosen.tolist() for (name, seed), chosen in drawn.items()},
                  "designs": {f"{name} seed {seed}": names for (name, seed), names in designs.items()}}
-    return summarise(config, outcomes, selection)
+    info = summarise(config, outcomes, selection)
+    info["noise_floor"] = noise_floor(outcomes, {task: outcomes_of(result) for task, result in noise.items()},
+                                      family.floor)
+    return info
+
+
+def noise_floor(outcomes: dict, rerun: dict, floor: str) -> dict:
+    """What chance moves: the floor arm on the displaced plans against itself rerun with the displacements' yaws
+    drawn again (`NOISE_FLOOR_SEED`; the same plans, levels and directions, the trials paired in order), the
+    difference with its cluster bootstrap over plans. Planned trials have no other noise (the physics is
+    deterministic), so this is the part of a difference that one draw of the yaws alone can give.
+
+    Args:
+        outcomes: {task: _Outcomes} of the study.
+        rerun: {task: _Outcomes} of the floor's rerun, the same tasks above 0 cm.
+        floor: the floor arm.
+
+    Returns:
+        `ClusteredEstimate.to_dict()` of the first draw's rate less the rerun's (NaN where nothing ran), and "n".
+    """
+    first, again, plans, seeds = [], [], [], []
+    for task, o in rerun.items():
+        if task not in outcomes:
+            continue
+        both = outcomes[task].started & o.started
+        first.append(outcomes[task].held[floor][both])
+        again.append(o.held[floor][both])
+        plans += [f"{task[0]}/{task[1]}/{task[2]}"] * int(both.sum())
+        seeds += [task[1]] * int(both.sum())
+    if not plans:
+        return {"value": float("nan"), "low": float("nan"), "high": float("nan"), "trials": 0, "clusters": 0,
+                "unit": "pts"}
+    return bootstrap_difference(np.concatenate(first), np.concatenate(again), plans, seeds).to_dict()
 
 
 def _verify(config: PlannedStudyConfig, study: StudyRun, plans: dict[tuple[str, int], list[OpenLoopGrasp]],
@@ -766,6 +805,14 @@ def _comparison_lines(info: dict) -> list[str]:
         lines += markdown_table(["arm", "headroom share [95 % CI over plans]", "trials", "plans"],
                                 [[arm, f"{100 * h['value']:.0f} % [{100 * h['low']:.0f}, {100 * h['high']:.0f}]",
                                   h["trials"], h["clusters"]] for arm, h in info["headroom"].items()])
+    if info.get("noise_floor", {}).get("trials"):
+        floor = info["noise_floor"]
+        arm = FAMILIES[info["config"]["family"]].floor
+        lines += ["", f"The noise floor: the `{arm}` arm on the displaced plans against itself with the displacements' "
+                  f"yaws drawn again (the same plans, levels and directions): {100 * floor['value']:+.1f} pts "
+                  f"[{100 * floor['low']:+.1f}, {100 * floor['high']:+.1f}] over {floor['trials']} paired trials of "
+                  f"{floor['clusters']} plans. The physics is deterministic; this is what one draw of the yaws "
+                  "moves."]
     lines += ["", "The same differences seed by seed (a difference is claimed only where its sign holds on every seed):",
               ""]
     lines += markdown_table(["comparison"] + [f"seed {s}" for s in info["config"]["seeds"][:len(
