@@ -595,7 +595,7 @@ def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: Se
 
     Args:
         outcomes: {task: _Outcomes} of the study.
-        arms: the arms (the floor left out).
+        arms: the arms (the floor and the ceiling's own left out).
         floor: the open loop.
         ceiling: the arms whose per-trial best is the ceiling (the oracles).
         levels: m.
@@ -605,7 +605,7 @@ def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: Se
     """
     out = {}
     for arm in arms:
-        if arm == floor:
+        if arm == floor or arm in ceiling:
             continue
         table = _trials(outcomes, (arm, floor, *ceiling), levels, displaced_only=True)
         if len(table["held"]):
