@@ -189,3 +189,46 @@ def test_the_translation_only_oracle_moves_the_palm_without_turning_it(box_plans
     keys = {TrialSetup(object="box", plan=plan, palm=FlangeLimits(), oracle=o, method="oracle").key(moves, 0)
             for o in (True, "translation")}
     assert len(keys) == 2
+
+
+RULE = '''
+from dataclasses import dataclass
+from graspmanifold.control.recall import ApproachRecall
+
+
+@dataclass(frozen=True)
+class MyRule(ApproachRecall):
+    def pressed(self, c, amount):
+        return super().pressed(c, {amount})
+'''
+
+
+def test_ones_own_recall_rule_is_keyed_by_its_code_not_its_name(tmp_path, monkeypatch):
+    """Round seven's bad case 2: after an edit to one's own rule, a rerun must not resume the old code's trials."""
+    import importlib
+    import sys
+
+    from graspmanifold.base.checkpoints import code_identity
+
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "my_rule.py").write_text(RULE.format(amount="amount"))
+    module = importlib.import_module("my_rule")
+    poses = np.zeros((1, 4))
+    first = TrialSetup(object="box", params=replace(APPROACH, recall=module.MyRule()))
+    key, made_by = first.key(poses, 0), first.provenance(0)  # the first run's
+    (tmp_path / "my_rule.py").write_text(RULE.format(amount="0.5 * amount"))
+    sys.modules.pop("my_rule")
+    edited = TrialSetup(object="box", params=replace(APPROACH, recall=importlib.import_module("my_rule").MyRule()))
+    assert key != edited.key(poses, 0) and made_by["code"]["recall"] != edited.provenance(0)["code"]["recall"]
+    assert made_by["code"]["recall"].startswith("source:")
+    assert TrialSetup(object="box", params=APPROACH).code() == {}  # the library's own: its fingerprint covers them
+
+    class Stated(ApproachRecall):
+        version = "2"
+
+    assert code_identity(Stated()) == "version:2"
+    namespace: dict = {"__name__": "a_notebook_cell"}
+    exec("class Unreadable:\n    pass", namespace)  # no source to read: never resumed, and said so
+    with pytest.warns(UserWarning, match="will not be resumed"):
+        unknown = code_identity(namespace["Unreadable"]())
+    assert unknown.startswith("unknown:") and code_identity(namespace["Unreadable"]) == unknown

@@ -12,9 +12,13 @@ named as its parts are: names are matched whole, never globbed).
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
+import linecache
 import os
 import re
+import secrets
+import types
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -54,6 +58,46 @@ def result_key(*parts: object) -> str:
         else:
             digest.update(json.dumps(part, sort_keys=True, default=str).encode())
     return digest.hexdigest()[:20]
+
+
+#: the identity of each class whose source could not be read, in this process (`code_identity`)
+_UNREADABLE: dict[object, str] = {}
+#: a stated version of one's own code: a class attribute of a recall rule or a controller (`code_identity`)
+CODE_VERSION = "version"
+
+
+def code_identity(thing: object) -> str | None:
+    """What identifies the code of one's own class (a recall rule, a controller) in a result's key: the version it
+    states (a `version` class attribute), else a digest of its source; None for the library's own classes (the
+    library's code fingerprint covers them) and for plain values.
+
+    A class whose source cannot be read (made in a notebook cell or by `exec`) and that states no version gets a key
+    that is new every run, with a warning: trials of it are never resumed, since an edit could not be told apart.
+
+    Args:
+        thing: an instance, a class or a function (a controller's factory).
+
+    Returns:
+        "version:<stated>", "source:<digest>", "unknown:<random>" or None.
+    """
+    cls = thing if isinstance(thing, (type, types.FunctionType)) else type(thing)
+    module = getattr(cls, "__module__", "") or ""
+    if module == "builtins" or module.split(".")[0] in ("graspmanifold", "numpy", "functools"):
+        return None
+    stated = getattr(cls, CODE_VERSION, None)
+    if isinstance(stated, (str, int)) and not isinstance(stated, bool):
+        return f"version:{stated}"
+    try:
+        linecache.checkcache(inspect.getsourcefile(cls))  # an edited and reloaded module: its source as it is now
+        source = inspect.getsource(cls)
+    except (OSError, TypeError):
+        if cls not in _UNREADABLE:  # one identity per class and process: a run keys its own parts alike
+            warnings.warn(f"the source of {cls.__qualname__} cannot be read and it states no `{CODE_VERSION}`: its "
+                          "trials will not be resumed by a later run (state one, e.g. `version = \"2\"`, to resume "
+                          "them)", stacklevel=3)
+            _UNREADABLE[cls] = f"unknown:{secrets.token_hex(8)}"
+        return _UNREADABLE[cls]
+    return "source:" + hashlib.sha256(source.encode()).hexdigest()[:16]
 
 
 class PartStore(Generic[Part]):

@@ -35,7 +35,7 @@ from typing import Any, cast
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..base.checkpoints import result_key
+from ..base.checkpoints import code_identity, result_key
 from ..base.errors import InvalidInput
 from ..base.io import library_version
 from ..base.validation import check_choice, check_int
@@ -328,6 +328,7 @@ class TrialSetup:
                            **({"oracle": self.oracle} if self.oracle else {}),
                            **({"carried": {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in
                                            carried_values(experience).items()}} if carried_values(experience) else {}),
+                           **({"code": code} if (code := self.code()) else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
                           np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
@@ -346,7 +347,8 @@ class TrialSetup:
             "controller" (ours by its registered name or 'custom parameters', with every parameter; a user's own by
             its qualified name), "experience" (kind, reference postures, their digest, and the digest of each value it
             carries: `places_digest`, `squeezes_digest`), "seed", "noise", "table",
-            "backend", "margin", "method", "regrasp", "preshape", "plan" (a digest), "palm", "oracle"}.
+            "backend", "margin", "method", "regrasp", "preshape", "plan" (a digest), "palm", "oracle", and "code" (one's
+            own rule's or controller's, `code`) where there is one}.
         """
         experience, custom, protocol = self.experience, self.controller, self.protocol
         ours = next((name for name, params in CONTROLLERS.items() if params == self.params), "custom parameters")
@@ -368,7 +370,19 @@ class TrialSetup:
                 "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
                 "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
                 "plan": None if self.plan is None else _digest(self.plan.poses.tobytes() + self.plan.postures.tobytes()),
-                "palm": None if self.palm is None else asdict(self.palm), "oracle": self.oracle}
+                "palm": None if self.palm is None else asdict(self.palm), "oracle": self.oracle,
+                **({"code": code} if (code := self.code()) else {})}
+
+    def code(self) -> dict[str, str]:
+        """The identity of one's own code these trials run (a recall rule, a controller of one's own): its stated
+        version or its source's digest (`checkpoints.code_identity`); none for the library's own.
+
+        Returns:
+            {"recall" and / or "controller": identity}.
+        """
+        found = {"recall": code_identity(self.params.recall),
+                 "controller": None if self.controller is None else code_identity(self.controller)}
+        return {name: identity for name, identity in found.items() if identity is not None}
 
     def _protocol_key(self) -> dict:
         """The protocol's part of `key`: nothing for the default (keys made before protocols stay valid), the
