@@ -11,7 +11,8 @@ PAGES = ("recipes.md", "structure.md", "experience_study.md", "experience_study_
          "generator_defaults.md", "generator_defaults_held_out.md", "hands.md", "hands_menagerie_without_meshes.md",
          "unseen_objects_paper.md", "unseen_objects_quick.md", "data_character.md", "spring_holds_by_design.md",
          "uncertainty_study.md", "uncertainty_study.png", "learning_curve.md", "learning_curve.png",
-         "literal_controller.md", "completion_study.md", "completion_study_errors.png", "completion_study_ukr.png")
+         "literal_controller.md", "completion_study.md", "completion_study_errors.png", "completion_study_ukr.png",
+         "planned_grasps.md", "planned_grasps.png", "palm_follows_touch.md", "palm_follows_touch.png")
 
 
 def on_files(files, config):

@@ -55,7 +55,7 @@ def test_each_kind_a_dataset_ships_loads_gets_verified_grasps_and_runs_a_trial(t
 
 def test_a_package_folder_lists_its_object_files_not_the_meshes_they_name(tmp_path):
     write_kinds(tmp_path)
-    names = [p.relative_to(tmp_path).as_posix() for p in object_files(tmp_path)]
+    names = [p.relative_to(tmp_path).as_posix() for p in object_files(tmp_path).objects]
     assert names == ["decomposition.obj", "overlapping.stl", "package/halves.urdf", "scan.obj"]
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="holds no object file"):

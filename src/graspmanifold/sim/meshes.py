@@ -31,6 +31,7 @@ from scipy.spatial.transform import Rotation
 from ..base.errors import InvalidInput
 from ..base.validation import check_input_file
 from .mesh_queries import MeshQueries
+from .object_files import object_file_references
 
 if TYPE_CHECKING:
     import mujoco
@@ -70,18 +71,22 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
     """The geometry an object file of a robot data package names, as one mesh: a URDF or an MJCF file compiled by
     MuJoCo (its mesh files found as MuJoCo finds them), every geom of it (meshes and primitives) where it lies at
     the model's reference pose, its pieces kept apart (`make_solid` joins them, or keeps a convex decomposition).
+    Every file it names is checked, and what it would build counted, before MuJoCo opens anything
+    (`object_files.object_file_references`).
 
     Args:
-        path: the .urdf or .xml file.
+        path: the .urdf or .xml file (the files it names may lie anywhere: a dataset folder's are checked to lie
+            in it by `studies.dataset`).
 
     Returns:
         The pieces, in the file's units and frame.
 
     Raises:
-        InvalidInput: a file MuJoCo cannot compile, or one with no geometry.
+        InvalidInput: a file MuJoCo cannot compile, one with no geometry, or one `object_file_references` refuses.
     """
     import mujoco
 
+    object_file_references(path)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
         # only the geometry is read: the file's masses and inertias (often placeholders) are not

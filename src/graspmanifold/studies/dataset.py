@@ -4,7 +4,9 @@
                                  [--workers 2] [--out dataset]
 
 The objects are the files under FOLDER (`object_files`): its object files (.urdf, MJCF .xml: a robot data package's,
-which name their mesh pieces) and the mesh files no object file names, each loaded as it comes
+which name their mesh pieces) and the mesh files no object file names (parsed, not searched as text), each loaded as
+it comes; nothing outside FOLDER is read (an object file that names a file outside it, through ../, an absolute path,
+an include or a link, is refused) unless `--outside` says so
 (`make_object`: overlapping pieces joined, holes filled, a convex decomposition kept as its pieces; what was
 repaired is said). On each object that loads: `--postures` verified postures with the generator's defaults (the
 start search first, for an object that ships none), a 25 x 25 map trained on them (`--manifold`: or a UKR or linear
@@ -23,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +39,7 @@ from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..manifold.representations import fit_representation
 from ..sim.meshes import MESH_FORMATS, MODEL_FORMATS
+from ..sim.object_files import object_file_references
 from ..sim.objects import GraspObject, make_object
 from ..synthesis.generator import generate_postures
 from ..trials.evaluation import evaluate
@@ -63,17 +67,34 @@ def methods(manifold: str = "som") -> tuple[str, ...]:
     return (*METHODS[:2], manifold)
 
 
-def object_files(folder: str | Path) -> list[Path]:
-    """The object files of a dataset folder and the folders under it, in sorted order: its object files
-    (`meshes.MODEL_FORMATS`), and its mesh files (`meshes.MESH_FORMATS`) but those an object file names (a robot
-    data package keeps an object's meshes beside or below the file that names and scales them: they are that
-    object's pieces, not objects of their own).
+@dataclass(frozen=True)
+class DatasetFiles:
+    """What a dataset folder holds, every file with what becomes of it.
+
+    Attributes:
+        objects: the object files, in sorted order: the object files (`meshes.MODEL_FORMATS`) and the mesh files
+            (`meshes.MESH_FORMATS`) no object file names.
+        fates: {path under the folder: what becomes of it}: 'object', 'part of <object file>', or 'not an object
+            file' (another format).
+    """
+
+    objects: list[Path]
+    fates: dict[str, str]
+
+
+def object_files(folder: str | Path, outside: bool = False) -> DatasetFiles:
+    """The object files of a dataset folder and the folders under it: its object files, and its mesh files but
+    those an object file names (a robot data package keeps an object's meshes beside or below the file that names
+    and scales them: they are that object's pieces, not objects of their own). What an object file names is read by
+    parsing it (`object_files.object_file_references`), never by searching its text.
 
     Args:
         folder: the dataset's folder.
+        outside: an object file may name files outside the folder (otherwise such an object is refused when it
+            loads; the names are read here either way).
 
     Returns:
-        The files.
+        The `DatasetFiles`.
 
     Raises:
         InvalidInput: the folder does not exist or holds no object.
@@ -81,18 +102,37 @@ def object_files(folder: str | Path) -> list[Path]:
     root = Path(folder)
     if not root.is_dir():
         raise InvalidInput(f"dataset folder {str(folder)!r} is not a folder")
-    files = sorted(p for p in root.rglob("*") if p.is_file())
+    files = sorted(p for p in root.rglob("*") if p.is_file() or p.is_fifo())
     models = [p for p in files if p.suffix.lower().lstrip(".") in MODEL_FORMATS]
-    named = " ".join(p.read_text(errors="replace") for p in models)
-    meshes = [p for p in files if p.suffix.lower().lstrip(".") in MESH_FORMATS and p.name not in named]
-    if not models + meshes:
+    parts: dict[Path, Path] = {}
+    for model in models:
+        try:
+            named = object_file_references(model, None if outside else root).files
+        except InvalidInput:  # refused when it loads, with the reason; its parts are unknown
+            continue
+        for part in named:
+            parts.setdefault(part, model)
+    fates: dict[str, str] = {}
+    objects = []
+    for path in files:
+        where = str(path.relative_to(root))
+        kind = path.suffix.lower().lstrip(".")
+        if path.resolve() in parts and kind not in MODEL_FORMATS:
+            fates[where] = f"part of {parts[path.resolve()].relative_to(root)}"
+        elif kind in MODEL_FORMATS + MESH_FORMATS:
+            fates[where] = "object"
+            objects.append(path)
+        else:
+            fates[where] = "not an object file"
+    if not objects:
         raise InvalidInput(f"dataset folder {str(folder)!r} holds no object file ("
                            f"{', '.join('.' + f for f in MODEL_FORMATS + MESH_FORMATS)})")
-    return sorted(models + meshes)
+    return DatasetFiles(objects, fates)
 
 
 def object_names(files: list[Path], root: Path) -> list[str]:
-    """A name for each file: its stem, or its path under the root (folders joined by '_') where stems repeat.
+    """A name for each file, unique by construction: its stem, or its path under the root (folders joined by '_')
+    where stems repeat, and where even those repeat (`a/b/c.obj`, `a_b/c.obj`) a digest of the path after it.
 
     Args:
         files: the object files.
@@ -102,11 +142,13 @@ def object_names(files: list[Path], root: Path) -> list[str]:
         The names, in order.
     """
     stems = [p.stem for p in files]
-    return [p.stem if stems.count(p.stem) == 1 else "_".join(p.relative_to(root).with_suffix("").parts)
-            for p in files]
+    names = [p.stem if stems.count(p.stem) == 1 else "_".join(p.relative_to(root).with_suffix("").parts)
+             for p in files]
+    return [name if names.count(name) == 1 else f"{name}-{result_key(str(p.relative_to(root)))[:6]}"
+            for name, p in zip(names, files)]
 
 
-def load_object(path: Path, name: str, scale: float) -> tuple[GraspObject | None, str]:
+def load_object(path: Path, name: str, scale: float, within: Path | None = None) -> tuple[GraspObject | None, str]:
     """An object file loaded as it ships, and how: 'as shipped', what was repaired (`make_object`'s warning), or
     'refused: ' and the reason.
 
@@ -114,6 +156,7 @@ def load_object(path: Path, name: str, scale: float) -> tuple[GraspObject | None
         path: the file.
         name: the object's name.
         scale: metres per unit of a mesh file.
+        within: the folder the file and every file it names must lie in (None: anywhere).
 
     Returns:
         The object (None when refused) and how it loaded.
@@ -121,6 +164,11 @@ def load_object(path: Path, name: str, scale: float) -> tuple[GraspObject | None
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         try:
+            if within is not None and path.suffix.lower().lstrip(".") in MODEL_FORMATS:
+                object_file_references(path, within)
+            elif within is not None and not path.resolve().is_relative_to(within.resolve()):
+                raise InvalidInput(f"{str(path)!r}: a link to {str(path.resolve())!r}, outside the folder: nothing "
+                                   "outside it is read unless asked for (--outside)")
             obj = make_object("mesh", mesh=path, scale=scale, name=name)
         except InvalidInput as error:  # the row names the object: the reason without the file's path (a long path
             # filled the cell and cut the reason off)
@@ -149,6 +197,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--manifold", choices=MANIFOLDS, default="som", help="the grasp manifold trained on each "
                         "object's postures: the paper's 25 x 25 SOM, a 2-d UKR or a 5-component linear one (PCA)")
     parser.add_argument("--workers", type=int, default=2, help="parallel worker processes")
+    parser.add_argument("--outside", action="store_true", help="let object files name files outside the folder "
+                        "(through ../, absolute paths, includes or links); without it such an object is refused")
     parser.add_argument("--out", default="dataset", help="output directory")
 
 
@@ -166,19 +216,20 @@ def run(args: argparse.Namespace) -> int:
             raise SystemExit(f"error: --{option} must be at least 1, got {getattr(args, option)}")
     root = Path(args.folder)
     try:
-        files = object_files(root)
+        found = object_files(root, args.outside)
     except InvalidInput as error:
         raise SystemExit(f"error: {error}") from None
-    run_study(args.out, args.workers, lambda study: _run(args, study, root, files), pool=False)
+    run_study(args.out, args.workers, lambda study: _run(args, study, root, found), pool=False)
     return 0
 
 
-def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path]) -> None:
+def _run(args: argparse.Namespace, study: StudyRun, root: Path, found: DatasetFiles) -> None:
     rows: list[dict[str, Any]] = []
     tests: list[tuple[str, PairedComparison]] = []
+    files = found.objects
     with progress_bar(len(files), f"dataset {root.name}", "objects") as bar:
         for path, name in zip(files, object_names(files, root)):
-            obj, loaded = load_object(path, name, args.scale)
+            obj, loaded = load_object(path, name, args.scale, None if args.outside else root)
             row: dict[str, Any] = {"object": name, "file": str(path.relative_to(root)), "loaded": loaded}
             if obj is not None:
                 row |= _experience(args, study, obj)
@@ -205,12 +256,16 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, files: list[Path
                   "", "Per object:", "", *comparison_table(list(tested.values()))]
     else:  # two tables without a row said nothing
         lines += ["No object got trials: nothing to compare."]
+    others = {where: fate for where, fate in found.fates.items() if fate != "object"}
+    if others:
+        lines += ["", "The folder's other files, and what became of them:", "",
+                  *markdown_table(["file", "what it is"], [[where, fate] for where, fate in others.items()])]
     for row in rows:
         row.pop("outcomes", None)
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
     write_text_atomic(study.out / "dataset.json", json.dumps(
         {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"},
-         "trials": _setup_record(), "objects": rows,
+         "trials": _setup_record(), "objects": rows, "files": found.fates,
          "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
     print("\n".join(lines))
     print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")

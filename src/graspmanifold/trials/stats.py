@@ -429,8 +429,12 @@ def bootstrap_difference(outcomes_a: object, outcomes_b: object, clusters: Seque
     """A's rate minus B's on the same trials, with the cluster bootstrap's percentile interval (`cluster_bootstrap`).
 
     Args:
-        outcomes_a, outcomes_b: (n,) success per trial of the two arms (bool).
-        clusters, strata, replicates, seed: as `cluster_bootstrap`'s.
+        outcomes_a: (n,) success per trial of the first arm (bool).
+        outcomes_b: of the second, on the same trials.
+        clusters: (n,) each trial's cluster (`cluster_bootstrap`).
+        strata: (n,) each trial's stratum, or None.
+        replicates: bootstrap replicates.
+        seed: seeds the resampling.
         confidence: the interval's coverage.
 
     Returns:
@@ -451,8 +455,14 @@ def headroom_share(arm: object, floor: object, ceiling: object, clusters: Sequen
     (replicates where the ceiling does not rise above the floor are left out).
 
     Args:
-        arm, floor, ceiling: (n,) success per trial (bool).
-        clusters, strata, replicates, seed, confidence: as `bootstrap_difference`'s.
+        arm: (n,) success per trial of the arm (bool).
+        floor: of the floor (the open loop), on the same trials.
+        ceiling: of the ceiling (an oracle), on the same trials.
+        clusters: (n,) each trial's cluster (`cluster_bootstrap`).
+        strata: (n,) each trial's stratum, or None.
+        replicates: bootstrap replicates.
+        seed: seeds the resampling.
+        confidence: the interval's coverage.
 
     Returns:
         The `ClusteredEstimate` of the share (NaN where the ceiling is no higher than the floor).

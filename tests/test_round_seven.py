@@ -1,0 +1,107 @@
+"""Hardening, round seven (issue 88): a dataset folder is read as itself and no object file can hang or flood the
+machine. Each bad case of RELIABILITY.md's round-seven table has its test here, failing before its fix (bad cases 1
+and 2, places and one's own rule in a trial's key, are in tests/test_fair_benchmark.py)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+import trimesh
+
+import graspmanifold as gm
+from graspmanifold.sim.object_files import MAX_GEOMS, object_file_references
+from graspmanifold.studies.dataset import load_object, object_files, object_names
+
+MJCF = ('<mujoco><asset><mesh name="m" file="{file}"/></asset><worldbody><body><geom type="mesh" mesh="m"/></body>'
+        '</worldbody></mujoco>')
+URDF = ('<robot name="r"><link name="base_link"><collision><geometry><mesh filename="{file}"/></geometry></collision>'
+        '</link></robot>')
+
+
+def _box(path, size=(0.05, 0.04, 0.1)):
+    trimesh.creation.box(extents=size).export(path)
+
+
+@pytest.fixture
+def alarm():
+    """A test that would hang fails instead, after 60 s."""
+    def stop(*_):
+        raise TimeoutError("hung: the object file's FIFO was opened")
+
+    previous = signal.signal(signal.SIGALRM, stop)
+    signal.alarm(60)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+def test_an_object_file_that_names_a_fifo_is_refused_before_mujoco_opens_it(tmp_path, alarm):
+    """Bad case 3: MuJoCo opened the FIFO before the library's check and waited for ever."""
+    os.mkfifo(tmp_path / "pipe.stl")
+    (tmp_path / "object.xml").write_text(MJCF.format(file="pipe.stl"))
+    with pytest.raises(gm.InvalidInput, match=r"object.xml.*pipe.stl is a FIFO \(named pipe\), not a file"):
+        gm.make_object("mesh", mesh=tmp_path / "object.xml")
+    (tmp_path / "includes.xml").write_text('<mujoco><include file="pipe.stl"/></mujoco>')
+    with pytest.raises(gm.InvalidInput, match="FIFO"):
+        gm.make_object("mesh", mesh=tmp_path / "includes.xml")
+    _, how = load_object(tmp_path / "object.xml", "object", 1.0, tmp_path)  # the dataset's row says why
+    assert how.startswith("refused:") and "FIFO" in how
+
+
+def test_a_replicated_flood_is_refused_before_anything_is_built(tmp_path):
+    """Bad case 4: 300 bytes of nested <replicate> (64,000 geoms) ran past 90 s at 2 GB."""
+    (tmp_path / "flood.xml").write_text(
+        '<mujoco><worldbody><replicate count="40" offset="0.01 0 0"><replicate count="40" offset="0 0.01 0">'
+        '<replicate count="40" offset="0 0 0.01"><geom size="0.001"/></replicate></replicate></replicate>'
+        '</worldbody></mujoco>')
+    start = time.perf_counter()
+    with pytest.raises(gm.InvalidInput, match=rf"more than 200 bodies or {MAX_GEOMS} geoms"):
+        gm.make_object("mesh", mesh=tmp_path / "flood.xml")
+    assert time.perf_counter() - start < 30  # refused at once (a generous bound: nothing was built)
+    (tmp_path / "entity.xml").write_text('<!DOCTYPE m [<!ENTITY a "aaaa">]><mujoco>&a;</mujoco>')
+    with pytest.raises(gm.InvalidInput, match="declares an XML entity"):
+        object_file_references(tmp_path / "entity.xml")
+
+
+def test_a_mesh_file_is_an_objects_part_only_where_an_object_file_really_names_it(tmp_path):
+    """Bad case 5: `x.stl` vanished because a URDF's text named `box.stl` (the name was searched as text)."""
+    _box(tmp_path / "box.stl")
+    _box(tmp_path / "x.stl")
+    (tmp_path / "thing.urdf").write_text(URDF.format(file="box.stl") + "<!-- not x.stl -->")
+    found = object_files(tmp_path)
+    assert [p.name for p in found.objects] == ["thing.urdf", "x.stl"]
+    assert found.fates == {"box.stl": "part of thing.urdf", "thing.urdf": "object", "x.stl": "object"}
+    (tmp_path / "notes.txt").write_text("box.stl")
+    assert object_files(tmp_path).fates["notes.txt"] == "not an object file"
+
+
+def test_two_objects_never_get_one_name(tmp_path):
+    """Bad case 6: `a/b/c.obj` and `a_b/c.obj` were both `a_b_c`; the second's files overwrote the first's."""
+    for folder in ("a/b", "a_b"):
+        (tmp_path / folder).mkdir(parents=True)
+        _box(tmp_path / folder / "c.obj")
+    found = object_files(tmp_path).objects
+    names = object_names(found, tmp_path)
+    assert len(set(names)) == 2 and all(name.startswith("a_b_c") for name in names)
+    assert names == object_names(found, tmp_path)  # the same names every run
+
+
+def test_a_dataset_folder_is_read_as_itself(tmp_path):
+    """Bad case 7: files outside the folder were read through ../, absolute paths, includes and links."""
+    folder = tmp_path / "dataset"
+    folder.mkdir()
+    _box(tmp_path / "outside.stl")
+    (folder / "parent.urdf").write_text(URDF.format(file="../outside.stl"))
+    (folder / "absolute.xml").write_text(MJCF.format(file=tmp_path / "outside.stl"))
+    (tmp_path / "outside.xml").write_text(MJCF.format(file="outside.stl"))
+    (folder / "includes.xml").write_text(f'<mujoco><include file="{tmp_path / "outside.xml"}"/></mujoco>')
+    (folder / "link.stl").symlink_to(tmp_path / "outside.stl")
+    found = object_files(folder)
+    for path in found.objects:
+        obj, how = load_object(path, path.stem, 1.0, folder)
+        assert obj is None and "outside the folder" in how, (path.name, how)
+    obj, how = load_object(folder / "parent.urdf", "parent", 1.0, None)  # --outside: the user said so
+    assert obj is not None, how
