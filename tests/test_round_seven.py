@@ -105,3 +105,16 @@ def test_a_dataset_folder_is_read_as_itself(tmp_path):
         assert obj is None and "outside the folder" in how, (path.name, how)
     obj, how = load_object(folder / "parent.urdf", "parent", 1.0, None)  # --outside: the user said so
     assert obj is not None, how
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: __import__("graspmanifold.sim.flange", fromlist=["FlangeLimits"]).FlangeLimits(speed=10 ** 400),
+     r"FlangeLimits\.speed must be a finite number"),
+    (lambda: gm.make_object("mesh", mesh="a\x00b.stl"), "NUL byte"),
+    (lambda: __import__("graspmanifold.sim.meshes", fromlist=["make_solid"]).make_solid(None),
+     "make_solid takes a trimesh.Trimesh, got NoneType"),
+])
+def test_validation_gaps_are_refused_by_name(call, message):
+    """Poor cases: an OverflowError without the field, a raw 'embedded null byte', an AttributeError."""
+    with pytest.raises(gm.InvalidInput, match=message):
+        call()

@@ -79,7 +79,11 @@ class Bounds:
             return False
         if self.infinite and value == math.inf:
             return True
-        if not math.isfinite(value) or value < self.low or (self.above_low and value == self.low) or value > self.high:
+        try:
+            finite = math.isfinite(value)
+        except OverflowError:  # an int beyond any float (10 ** 400)
+            return False
+        if not finite or value < self.low or (self.above_low and value == self.low) or value > self.high:
             return False
         return True
 
@@ -216,6 +220,8 @@ def check_input_file(path: object, name: str) -> Path:
     """
     if not isinstance(path, (str, os.PathLike)) or not str(path):
         raise InvalidInput(f"{name} must be the path of a file, got {path!r}")
+    if "\x00" in str(path):
+        raise InvalidInput(f"{name} must be the path of a file, got one with a NUL byte: {str(path)!r}")
     try:
         resolved = Path(path).expanduser().resolve()
         mode = resolved.stat().st_mode

@@ -257,6 +257,8 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
     Returns:
         (the mesh, or a repaired copy; what was done, '' when nothing).
     """
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise InvalidInput(f"make_solid takes a trimesh.Trimesh, got {type(mesh).__name__}")
     if mesh.is_watertight and int(mesh.body_count) == 1:
         return mesh, ""
     pieces = mesh.split(only_watertight=False) if int(mesh.body_count) > 1 else [mesh.copy()]
