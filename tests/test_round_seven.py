@@ -118,3 +118,12 @@ def test_validation_gaps_are_refused_by_name(call, message):
     """Poor cases: an OverflowError without the field, a raw 'embedded null byte', an AttributeError."""
     with pytest.raises(gm.InvalidInput, match=message):
         call()
+
+
+def test_an_explicit_still_palm_is_not_overridden_by_the_lift():
+    """Poor case: `TactileGraspEnv(protocol="lift", palm=False)` put the palm on a flange without a word."""
+    from graspmanifold.envs.tactile_grasp import episode_setup
+
+    with pytest.raises(gm.InvalidInput, match="palm=False, but the 'lift' protocol moves the palm"):
+        episode_setup("box", protocol="lift", palm=False)
+    assert episode_setup("box", protocol="lift").palm is not None  # left out: the lift brings its flange

@@ -118,11 +118,15 @@ def episode_setup(setup: str | GraspObject | TrialSetup = "cylinder", **fields: 
     palm = fields.get("palm", False)
     if not isinstance(palm, (bool, FlangeLimits)):
         raise InvalidInput(f"palm must be True, False or a FlangeLimits, got {palm!r}")
+    palm_off = "palm" in fields and palm is False  # said so: a protocol that brings a flange contradicts it
     if "palm" in fields:
         fields["palm"] = FlangeLimits() if palm is True else palm or None
     if not isinstance(fields.get("table", False), (bool, np.bool_)):  # table="no" ran with the table
         raise InvalidInput(f"table must be True or False, got {fields['table']!r}")
     built = TrialSetup.build(setup, None, **fields)  # an agent's episode recalls no experience
+    if palm_off and built.palm is not None:
+        raise InvalidInput(f"palm=False, but the {built.protocol.name!r} protocol moves the palm on an arm's flange: "
+                           "leave palm out (or give palm=True, or a FlangeLimits) to run it")
     agent_only = {"experience": built.experience is None, "controller": built.controller is None,
                   "preshape": built.preshape is None, "regrasp": built.regrasp.attempts == 1,
                   "plan": built.plan is None, "oracle": not built.oracle, "backend": built.backend == "cpu"}
