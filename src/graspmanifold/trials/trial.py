@@ -117,6 +117,11 @@ def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
 
 
+def _carried_digests(experience: Experience | None) -> dict[str, str]:
+    """A digest of each value an experience carries besides its postures (`carried_values`: places, squeezes)."""
+    return {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in carried_values(experience).items()}
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class TrialSetup:
     """Everything a trial depends on besides its grid pose and its random stream, in one frozen value:
@@ -326,8 +331,7 @@ class TrialSetup:
                               if self.plan is not None else {}),
                            **({"palm": asdict(self.palm)} if self.palm is not None else {}),
                            **({"oracle": self.oracle} if self.oracle else {}),
-                           **({"carried": {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in
-                                           carried_values(experience).items()}} if carried_values(experience) else {}),
+                           **({"carried": carried} if (carried := _carried_digests(experience)) else {}),
                            **({"code": code} if (code := self.code()) else {}),
                            **self._protocol_key()},
                           np.asarray(poses, dtype=float),
@@ -364,8 +368,7 @@ class TrialSetup:
                 "experience": {"kind": "none", "references": 0, "digest": ""} if references is None else
                 {"kind": type(experience).__name__, "references": len(references),
                  "digest": _digest(references.tobytes()),
-                 **{f"{name}_digest": _digest(np.ascontiguousarray(value).tobytes())
-                    for name, value in carried_values(experience).items()}},
+                 **{f"{name}_digest": digest for name, digest in _carried_digests(experience).items()}},
                 "seed": int(seed), "noise": asdict(self.noise), "table": self.table, "backend": self.backend,
                 "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
                 "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
