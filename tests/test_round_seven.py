@@ -4,6 +4,7 @@ and 2, places and one's own rule in a trial's key, are in tests/test_fair_benchm
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import time
@@ -127,3 +128,27 @@ def test_an_explicit_still_palm_is_not_overridden_by_the_lift():
     with pytest.raises(gm.InvalidInput, match="palm=False, but the 'lift' protocol moves the palm"):
         episode_setup("box", protocol="lift", palm=False)
     assert episode_setup("box", protocol="lift").palm is not None  # left out: the lift brings its flange
+
+
+def test_result_files_are_standard_json_and_read_back_unbounded_numbers(tmp_path):
+    """Poor case: summary.json and dataset.json held `Infinity`, which JSON.parse refuses and jq turns into 1.8e308."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from graspmanifold.base.io import json_text, read_json
+    from graspmanifold.trials.evaluation import summary_json
+
+    def strict(text):
+        return json.loads(text, parse_constant=lambda name: pytest.fail(f"non-standard JSON: {name}"))
+
+    result = SimpleNamespace(summary={"max_match_distance": float("inf"), "epsilon": [np.float64("nan"), 0.5]},
+                             made_by={"seed": 0})
+    strict(summary_json([result]))
+    path = tmp_path / "study.json"
+    path.write_text(json_text({"bound": -np.inf, "rows": [{"p": float("nan")}], "name": "Infinity stone"}))
+    data = read_json(path, "study.json")
+    assert data["bound"] == -np.inf and np.isnan(data["rows"][0]["p"]) and data["name"] == "Infinity stone"
+    path.write_text("{not json")
+    with pytest.raises(gm.InvalidInput, match="study.json .* is not JSON"):
+        read_json(path, "study.json")

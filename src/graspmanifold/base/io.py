@@ -240,6 +240,69 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
     return Path(path)
 
 
+#: how a number JSON cannot hold is written (standard JSON has no Infinity or NaN), and read back
+UNBOUNDED = {"Infinity": float("inf"), "-Infinity": float("-inf"), "NaN": float("nan")}
+
+
+def _standard(value: object) -> object:
+    """`value` with every float JSON cannot hold replaced by its name in `UNBOUNDED`."""
+    if isinstance(value, dict):
+        return {key: _standard(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_standard(item) for item in value]
+    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        return "NaN" if np.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+    if isinstance(value, np.generic):
+        return _standard(value.item())
+    return value
+
+
+def json_text(value: object, indent: int | None = 1) -> str:
+    """Standard JSON for result files, which `JSON.parse` and jq read too.
+
+    Args:
+        value: dictionaries, lists, strings, numbers (NumPy scalars included), None.
+        indent: as `json.dumps`.
+
+    Returns:
+        The text; an infinite or NaN float is written as the string "Infinity", "-Infinity" or "NaN"
+        (`read_json` reads it back as the float).
+    """
+    return json.dumps(_standard(value), indent=indent, allow_nan=False, default=float)
+
+
+def _restored(value: object) -> object:
+    if isinstance(value, dict):
+        return {key: _restored(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_restored(item) for item in value]
+    if isinstance(value, str) and value in UNBOUNDED:
+        return UNBOUNDED[value]
+    return value
+
+
+def read_json(path: str | os.PathLike, name: str) -> dict:
+    """Read a result file `json_text` wrote (or an older one with bare Infinity), unbounded numbers as floats.
+
+    Args:
+        path: the file.
+        name: what the file is, for the message of a missing or corrupt file.
+
+    Returns:
+        Its data.
+    """
+    text = check_input_file(path, name).read_text()
+    try:
+        data = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise InvalidInput(f"{name} ({path}) is not JSON: {error}") from None
+    if not isinstance(data, dict):
+        raise InvalidInput(f"{name} ({path}) must hold a JSON object, got {type(data).__name__}")
+    restored = _restored(data)
+    assert isinstance(restored, dict)
+    return restored
+
+
 def save_npz(path: str | os.PathLike, kind: str, arrays: dict[str, np.ndarray], metadata: dict,
              *, overwrite: bool = True) -> Path:
     """Write arrays and metadata to `path` atomically; refuse an existing file unless `overwrite`."""

@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 
 from ..base.config_files import apply_table
 from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.io import atomic_write, markdown_table, write_text_atomic
+from ..base.io import atomic_write, json_text, markdown_table, read_json, write_text_atomic
 from ..base.moved import upgrade_config
 from ..base.paper_numbers import DATASET_SIZES as PAPER_DATASET_SIZES, FIGURE_OBJECT
 from ..control.controller import BLEND, ControllerParams
@@ -84,7 +84,7 @@ class RunData:
         if not (out / "run.json").exists():
             raise InvalidInput(f"{out} is not a graspmanifold reproduce run (no run.json)")
         try:
-            config = json.loads((out / "run.json").read_text())["config"]
+            config = read_json(out / "run.json", "the run's run.json")["config"]
             if not isinstance(config, dict) or not isinstance(config.get("postures"), dict):
                 raise TypeError("its config names no objects")
             upgrade_config(config)  # the names a run before 0.2 wrote
@@ -219,7 +219,7 @@ def write_report(out: Path, run: RunData, summary: dict) -> None:
         run: what the run produced.
         summary: its summary as JSON data (`summary.summarize(...).to_json()`).
     """
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1, default=float) + "\n")
+    write_text_atomic(out / "summary.json", json_text(summary) + "\n")
     write_text_atomic(out / "report.md", _markdown(run, summary))
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.io import json_text, markdown_table, read_json, software_versions, write_text_atomic
 from ..base.validation import check_input_file
 from ..judging.protocols import get_protocol
 from ..paper.reproduce import ReproduceConfig
@@ -48,8 +48,8 @@ def published_run(folder: str | Path) -> tuple[ReproduceConfig, dict, dict]:
         The configuration, its run.json's versions, and {object: {"rate", "n"}} of method `none` on the run's grid.
     """
     folder = Path(folder)
-    record = json.loads(check_input_file(folder / "run.json", "the run's run.json").read_text())
-    summary = json.loads(check_input_file(folder / "summary.json", "the run's summary.json").read_text())
+    record = read_json(folder / "run.json", "the run's run.json")
+    summary = read_json(folder / "summary.json", "the run's summary.json")
     config = ReproduceConfig.from_json(record["config"])
     rates = {row["object"]: {"rate": row["hold_rate"], "n": row["trials"]} for row in summary["evaluation"]
              if row["method"] == "none"}
@@ -146,7 +146,7 @@ def main(argv: list[str] | None = None) -> None:
                 study.log(f"{name}: {rate_text(int(np.sum(mine['objects'][name]['hold'])), len(poses))} held")
         comparison = None if theirs is None else compared(mine, theirs)
         text = report(mine, Path(args.run), versions, rates, comparison, theirs)
-        write_text_atomic(study.out / "agreement.json", json.dumps(mine))
+        write_text_atomic(study.out / "agreement.json", json_text(mine, indent=None))
         write_text_atomic(study.out / "report.md", text)
         if args.doc:
             write_text_atomic(Path(args.doc), text)

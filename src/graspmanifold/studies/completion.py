@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import json
 import time
 from collections.abc import Callable
 from typing import Any
@@ -50,7 +49,7 @@ from scipy.stats import wilcoxon
 
 from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput, RenderingUnavailable
-from ..base.io import fingerprint, load_npz, markdown_table, save_npz
+from ..base.io import fingerprint, load_npz, markdown_table, read_json, save_npz
 from ..control.controller import APPROACH, ControllerParams
 from ..judging.replay import open_loop_grasps
 from ..manifold.analysis import latent_path
@@ -515,7 +514,7 @@ def main(argv: list[str] | None = None) -> None:
     doc = Path(args.doc or (out / "completion_study.md" if args.quick else "docs/completion_study.md"))
 
     def redraw(run: StudyRun) -> None:
-        info = json.loads((out / "study.json").read_text())
+        info = read_json(out / "study.json", "the study's study.json")
         info["computed_with"] = info.pop("computed_with", None) or info.pop("versions", {})  # the run's software
         sets = posture_sets(args.postures, tuple(info["objects"]), 2 if args.quick else 3)
         ukr = UKR.load(out / "representations" / "ukr2_fold0.npz")

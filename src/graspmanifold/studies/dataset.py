@@ -23,7 +23,6 @@ is done.
 from __future__ import annotations
 
 import argparse
-import json
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +32,7 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
-from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.io import json_text, markdown_table, software_versions, write_text_atomic
 from ..base.progress import progress_bar
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
@@ -263,10 +262,10 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, found: DatasetFi
     for row in rows:
         row.pop("outcomes", None)
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
-    write_text_atomic(study.out / "dataset.json", json.dumps(
+    write_text_atomic(study.out / "dataset.json", json_text(
         {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"},
          "trials": _setup_record(), "objects": rows, "files": found.fates,
-         "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}, indent=1, default=float))
+         "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}))
     print("\n".join(lines))
     print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")
 

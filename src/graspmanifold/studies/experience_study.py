@@ -59,7 +59,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.config_files import read_config, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, write_text_atomic
+from ..base.io import json_text, markdown_table, read_json, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, ControllerParams
 from ..control.recall import BlendRecall
@@ -225,7 +225,7 @@ class ExperienceStudy(StudyRun):
         if kept < len(ours):
             self.evaluation_seconds += time.perf_counter() - start
             made[f"{method}_{split}"] = time.perf_counter() - start
-            write_text_atomic(ledger, json.dumps(made, indent=1))
+            write_text_atomic(ledger, json_text(made))
         if f"{method}_{split}" in made:  # not for evaluations kept before the ledger was
             self.made_seconds[f"{method}_{split}"] = made[f"{method}_{split}"]
         self.results[(split, method)] = results
@@ -422,7 +422,7 @@ def main(argv: list[str] | None = None) -> None:
         stored = config.out_dir / "study.json"
         if not stored.exists():
             raise SystemExit(f"error: --render needs {stored}, written by a run of the study")
-        write_text_atomic(config.doc_path, report(config, json.loads(stored.read_text())))
+        write_text_atomic(config.doc_path, report(config, read_json(stored, "the study's JSON")))
         print(f"wrote {config.doc_path} from {stored}")
         return
     run_command(config.out_dir, lambda: ExperienceStudy(config).run())

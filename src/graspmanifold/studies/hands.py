@@ -25,7 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..base.io import markdown_table, write_text_atomic
+from ..base.io import markdown_table, read_json, write_text_atomic
 from ..paper.reproduce import PRESETS, reproduce
 from ..sim.hand import SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, joint_agreement
@@ -268,7 +268,7 @@ def _run(args: argparse.Namespace, run: StudyRun) -> None:
     table = []
     for preset in args.presets:
         for hand in args.hands:
-            summary = json.loads((runs[(hand, preset)] / "summary.json").read_text())
+            summary = read_json(runs[(hand, preset)] / "summary.json", "a run's summary.json")
             for obj in OBJECTS:
                 facts = summary["objects"][obj]
                 trained = (rate_text(facts["dataset_size"], facts["candidates"]) if preset == "verified"

@@ -28,7 +28,6 @@ is the one-seed curve of issues 51 and 65 (about an hour).
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -38,7 +37,7 @@ import numpy as np
 
 from ..base.config_files import read_config
 from ..base.errors import InvalidInput
-from ..base.io import markdown_table, write_text_atomic
+from ..base.io import markdown_table, read_json, write_text_atomic
 from ..base.validation import check_int
 from ..control.controller import APPROACH, BLEND, ControllerParams
 from ..control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
@@ -343,7 +342,7 @@ def ceiling(path: Path = PLANNED_REPORT) -> dict | None:
     """
     if not path.exists():
         return None
-    planned = json.loads(path.read_text())
+    planned = read_json(path, "the planned-grasp study's JSON")
     index = planned["levels"].index(CEILING_LEVELS[1])  # at 0 cm every plan ran (its ceiling), displaced a few
     return {"levels": list(CEILING_LEVELS), "seeds": planned["config"]["seeds"],
             **{arm: [planned["ceiling"][arm], planned["by_level"][arm][index]] for arm in CEILING_ARMS}}
@@ -462,7 +461,7 @@ def main(argv: list[str] | None = None) -> None:
         stored = config.out_dir / "study.json"
         if not stored.exists():
             raise SystemExit(f"error: --render needs {stored}, written by a run of the study")
-        info = json.loads(stored.read_text())
+        info = read_json(stored, "the study's study.json")
         info["figure"] = plot(info, config.doc_path.with_suffix(".png"))
         write_text_atomic(config.doc_path, report(config, info))
         print(f"wrote {config.doc_path} and its figure from {stored}")

@@ -33,7 +33,6 @@ Every finished evaluation is kept in --out, so an interrupted study resumes. Wri
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -42,7 +41,7 @@ from typing import TypedDict
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.io import load_npz, markdown_table, save_npz, software_versions, write_text_atomic
+from ..base.io import json_text, load_npz, markdown_table, save_npz, software_versions, write_text_atomic
 from ..control.controller import BLEND
 from ..judging.judge import JUDGING
 from ..manifold.experience import PostureDatabase
@@ -454,7 +453,7 @@ def write_study(study: Study, doc: Path) -> None:
         info = run(study)
         text = report(study, info)
         write_text_atomic(doc, text)
-        data = json.dumps({**info, "versions": software_versions()}, indent=1, default=float)  # what it ran on
+        data = json_text({**info, "versions": software_versions()})  # what it ran on
         write_text_atomic(study.out / "study.json", data)
         if not study.args.quick:
             write_text_atomic(doc.with_suffix(".json"), data)

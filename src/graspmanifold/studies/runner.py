@@ -15,7 +15,6 @@ error (a folder another study holds among them) ending in one line.
 from __future__ import annotations
 
 import io
-import json
 import os
 import sys
 import time
@@ -33,6 +32,7 @@ from ..base.errors import GraspManifoldError, InvalidInput
 from ..base.io import (
     LOCK_FILE,
     check_writable_folder,
+    json_text,
     markdown_table,
     output_lock,
     software_versions,
@@ -323,7 +323,7 @@ def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callabl
         info["figure"] = figure(info, doc.with_suffix(".png"))
     write_text_atomic(doc, report(info))
     made_by = {"command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "versions": software_versions()}
-    data = json.dumps({**info, **made_by}, indent=1, default=float)  # what made it, and what it ran on
+    data = json_text({**info, **made_by})  # what made it, and what it ran on
     write_text_atomic(study.out / "study.json", data)
     if not quick:
         write_text_atomic(doc.with_suffix(".json"), data)

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..base.checkpoints import result_key
-from ..base.io import markdown_table, software_versions, write_text_atomic
+from ..base.io import json_text, markdown_table, software_versions, write_text_atomic
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
 from ..synthesis.generator import search_starting_postures
@@ -81,7 +81,7 @@ def _read(path: Path) -> tuple[dict, dict]:
 
 
 def _write(starts: dict, path: Path, meta: dict) -> None:
-    write_text_atomic(path, json.dumps({"starts": starts, "meta": meta}))
+    write_text_atomic(path, json_text({"starts": starts, "meta": meta}, indent=None))
 
 
 def largest_difference(a: dict[str, list[float]], b: dict[str, list[float]]) -> tuple[float, float]:
@@ -176,7 +176,7 @@ def main(argv: list[str] | None = None) -> None:
                 study.log(f"{name} ({family}): {len(found['as_is'])} designs; {agreement}")
         text = report(rows, runs)
         write_text_atomic(study.out / "report.md", text)
-        write_text_atomic(study.out / "agreement.json", json.dumps(rows, indent=1))
+        write_text_atomic(study.out / "agreement.json", json_text(rows))
         if args.doc:
             write_text_atomic(Path(args.doc), text)
         study.log(f"wrote {study.out / 'report.md'}" + (f" and {args.doc}" if args.doc else ""))

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import os
 import time
 from pathlib import Path
@@ -30,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base.io import markdown_row, markdown_table, software_versions, write_text_atomic
+from ..base.io import json_text, markdown_row, markdown_table, software_versions, write_text_atomic
 from ..base.workers import parallel_map, usable_cores
 from ..control.controller import BatchController
 from ..manifold.som import SOM
@@ -241,7 +240,7 @@ def device_check(out: Path, worlds: list[int], *, budget: float = 420.0, agree_p
         record["agreement"].append(agreement(name, grid, None, usable_cores()))
         print(record["agreement"][-1], flush=True)
     record["seconds"] = time.perf_counter() - started
-    write_text_atomic(out, json.dumps(record, indent=1, default=float))
+    write_text_atomic(out, json_text(record))
     return record
 
 

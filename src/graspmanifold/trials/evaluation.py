@@ -11,7 +11,6 @@ method.
 from __future__ import annotations
 
 import functools
-import json
 import math
 import os
 import warnings
@@ -25,7 +24,7 @@ import numpy as np
 
 from ..base.checkpoints import TRIAL_PARTS, PartStore
 from ..base.errors import InvalidInput
-from ..base.io import NpzRecord, Tabular, library_version, markdown_table
+from ..base.io import NpzRecord, Tabular, json_text, library_version, markdown_table
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..base.workers import parallel_map, split_workers, workers_for
@@ -425,6 +424,6 @@ def summary_json(results: list[EvaluationResult]) -> str:
     Returns:
         The JSON text.
     """
-    return json.dumps({"library_version": library_version(),
-                       "results": [{**r.summary, "made_by": r.made_by} for r in results]}, indent=2)
+    return json_text({"library_version": library_version(),
+                      "results": [{**r.summary, "made_by": r.made_by} for r in results]}, indent=2)
 
