@@ -152,3 +152,14 @@ def test_result_files_are_standard_json_and_read_back_unbounded_numbers(tmp_path
     path.write_text("{not json")
     with pytest.raises(gm.InvalidInput, match="study.json .* is not JSON"):
         read_json(path, "study.json")
+
+
+def test_a_study_folder_that_cannot_be_written_is_named_as_such(tmp_path):
+    """Poor case: `--out` a file (or read-only) was refused up front, but the message ended "... free the space"."""
+    from graspmanifold.studies.runner import run_study
+
+    out = tmp_path / "a-file"
+    out.write_text("")
+    with pytest.raises(SystemExit, match="it is a file, not a directory") as refused:
+        run_study(out, 1, lambda run: pytest.fail("the study ran"), pool=False)
+    assert "free the space" not in str(refused.value)

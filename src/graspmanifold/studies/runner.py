@@ -14,6 +14,7 @@ error (a folder another study holds among them) ending in one line.
 
 from __future__ import annotations
 
+import errno
 import io
 import os
 import sys
@@ -63,6 +64,7 @@ class StudyRun:
     def __init__(self, out: str | Path, workers: int = 2):
         self.out = Path(out)
         self.workers = workers_for(workers, 10**6, 1)  # capped at the cores: a study's trials outnumber them
+        check_writable_folder(self.out, "--out")  # a file, or a folder that cannot be written, named as such
         self.out.mkdir(parents=True, exist_ok=True)  # after the checks: a refused study leaves no folder
         self.executor: Executor | None = None  # the pool, while `session()` is open
         self.started = time.perf_counter()
@@ -260,8 +262,9 @@ def run_command(out: str | Path, body: Callable[[], object]) -> None:
     except GraspManifoldError as error:
         raise SystemExit(f"error: {error}") from None
     except OSError as error:  # a file that could not be written (a full disk): one line, as the CLI says it
-        line = write_failure(error, f"finished work is kept in {out}; free the space and run the same command again "
-                                    "to resume")
+        remedy = "free the space" if error.errno in (errno.ENOSPC, errno.EDQUOT) else "make it writable"
+        line = write_failure(error, f"finished work is kept in {out}; {remedy} and run the same command again to "
+                                    "resume")
         if line is None:
             raise
         raise SystemExit(line) from None
