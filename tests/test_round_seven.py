@@ -13,6 +13,7 @@ import pytest
 import trimesh
 
 import graspmanifold as gm
+from graspmanifold.manifold.experience import check_places
 from graspmanifold.sim.object_files import MAX_GEOMS, object_file_references
 from graspmanifold.studies.dataset import load_object, object_files, object_names
 
@@ -163,3 +164,56 @@ def test_a_study_folder_that_cannot_be_written_is_named_as_such(tmp_path):
     with pytest.raises(SystemExit, match="it is a file, not a directory") as refused:
         run_study(out, 1, lambda run: pytest.fail("the study ran"), pool=False)
     assert "free the space" not in str(refused.value)
+
+
+def _flanged_scene():
+    from graspmanifold.sim.flange import FlangeLimits
+
+    return gm.Scene("box", flange=FlangeLimits())
+
+
+def _starts(poses, streams):
+    import numpy as np
+
+    from graspmanifold.trials.trial import TrialSetup, trial_starts
+
+    return trial_starts(TrialSetup(object="box"), poses, [np.random.default_rng(k) for k in range(streams)],
+                        gm.open_posture())
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: _flanged_scene().steer_flange([1j] * 6, 0.01), "target must be 6 finite real numbers"),
+    (lambda: _flanged_scene().steer_flange(["up"] * 6, 0.01), "target must be 6 finite real numbers"),
+    (lambda: _flanged_scene().steer_flange([0.0] * 6, "fast"), r"period must be a finite number > 0 s"),
+    (lambda: _starts([[0.0, 0.0, 0.02, float("nan")]], 1), "poses row 0 has non-finite values"),
+    (lambda: _starts([[0.0] * 3, [0.0] * 3, [0.02] * 3, [0.0] * 3], 4), r"poses must have shape \(n, 4\)"),
+    (lambda: _starts([[0.0, 0.0, 0.02, 0.0]] * 3, 2), "one random stream per pose: 3 poses, got 2 streams"),
+    (lambda: check_places([[1e300, 0.0, 0.0]], 1), r"places must be finite positions in m.*within \+-1"),
+    (lambda: check_places([[0.01j, 0.0, 0.0]], 1), "places must be .* not real numbers"),
+])
+def test_more_validation_gaps_are_refused_by_name(call, message):
+    """Poor cases: complex or text flange targets, trial starts from a NaN pose, transposed poses, or fewer random
+    streams than poses (zip truncated them)."""
+    with pytest.raises(gm.InvalidInput, match=message):
+        call()
+
+
+def test_a_float32_period_steers_the_flange():
+    """Poor case: a float32 period was refused as 'not > 0'."""
+    import numpy as np
+
+    scene = _flanged_scene()
+    scene.steer_flange([0.01, 0, 0, 0, 0, 0], np.float32(0.01))
+    assert scene.data.ctrl[scene.flange_actuators][0] > 0
+
+
+def test_a_truncated_binary_stl_whose_header_says_solid_is_named_as_such(tmp_path):
+    """Poor case: a binary STL whose 80-byte header begins with 'solid' went to the text decoder (a machine without
+    charset_normalizer answered that it needs it)."""
+    data = bytearray(trimesh.exchange.stl.export_stl(trimesh.creation.box(extents=(0.05, 0.04, 0.1))))
+    data[:80] = b"solid exported by a CAD tool".ljust(80)
+    (tmp_path / "whole.stl").write_bytes(bytes(data))
+    assert gm.make_object("mesh", mesh=tmp_path / "whole.stl").name == "whole"
+    (tmp_path / "cut.stl").write_bytes(bytes(data[:-20]))
+    with pytest.raises(gm.InvalidInput, match="a binary STL of 12 triangles has 684 bytes, this one 664"):
+        gm.make_object("mesh", mesh=tmp_path / "cut.stl")

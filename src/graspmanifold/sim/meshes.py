@@ -168,7 +168,8 @@ def check_mesh_bytes(path: Path) -> None:
             raise InvalidInput(f"mesh file {str(path)!r} is {what}, not a .{suffix} mesh")
     if suffix in _TEXT_FORMATS and b"\0" in head:
         raise InvalidInput(f"mesh file {str(path)!r} holds binary bytes; a .{suffix} mesh is text")
-    if suffix == "stl" and not head.lstrip().startswith(b"solid") and size >= 84:
+    binary = not head.lstrip().startswith(b"solid") or b"\0" in head  # a binary header may begin "solid" too
+    if suffix == "stl" and binary and size >= 84:
         declared = int.from_bytes(head[80:84], "little")
         if 84 + 50 * declared != size:
             raise InvalidInput(f"mesh file {str(path)!r}: a binary STL of {declared} triangles has {84 + 50 * declared} "

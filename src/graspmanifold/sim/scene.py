@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, compose_many, invert
-from ..base.validation import check_choice, check_int
+from ..base.validation import Bounds, check_choice, check_int, check_number
 from .flange import ARM_BASE, FLANGE_ACTUATORS, FLANGE_JOINTS, FlangeLimits, flanged_spec, palm_in_mount
 from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
@@ -545,11 +545,14 @@ class Scene:
             InvalidInput: the scene has no flange, it is locked, or not 6 finite values; a period not > 0.
         """
         self._check_flange()
-        goal = np.asarray(target, dtype=float) if np.shape(target) == (6,) else np.full(6, np.nan)
-        if not np.all(np.isfinite(goal)):
-            raise InvalidInput(f"target must be 6 finite values (m, rad from home), got {target!r}")
-        if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 < period < math.inf:
-            raise InvalidInput(f"period must be seconds > 0, got {period!r}")
+        try:
+            given = np.asarray(target)
+        except ValueError:  # a ragged list
+            given = np.full(0, np.nan)
+        if given.shape != (6,) or given.dtype.kind not in "iuf" or not np.all(np.isfinite(given)):
+            raise InvalidInput(f"target must be 6 finite real numbers (m, rad from home), got {target!r}")
+        goal = given.astype(float)
+        period = check_number(period, "period", Bounds(above_low=True, unit="s"))
         if self.flange_locked:
             raise InvalidInput("the flange is locked: unlock_flange() before steering it")
         limits, now = self.flange_limits, self.data.ctrl[self.flange_actuators]

@@ -38,7 +38,7 @@ from scipy.spatial.transform import Rotation
 from ..base.checkpoints import code_identity, result_key
 from ..base.errors import InvalidInput
 from ..base.io import library_version
-from ..base.validation import check_choice, check_int
+from ..base.validation import check_choice, check_data, check_int
 from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
 from ..control.regrasp import LiftProbe, Regrasp, RestartingController
 from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
@@ -544,8 +544,8 @@ def trial_starts(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.
     if setup.palm is not None:
         raise InvalidInput("trial_starts places hands without a flange: a flanged palm is placed per scene "
                            "(trial_scene)")
+    poses = _checked_poses(poses, rngs)
     scene = _setup_scene(setup)
-    poses = np.asarray(poses, dtype=float).reshape(-1, 4)
     if setup.plan is not None:  # the plan's pregrasp for the nominal object, the object displaced
         palm = np.array([np.concatenate(displaced_palm_pose(setup.plan.poses[0], pose)) for pose in poses])
         scene.set_posture(setup.plan.postures[0])
@@ -563,6 +563,15 @@ def trial_starts(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.
     return scene, WorldStarts(np.tile(data.qpos, (n, 1)), np.tile(data.ctrl, (n, 1)), mocap_pos, mocap_quat)
 
 
+def _checked_poses(poses: object, rngs: Sequence[np.random.Generator]) -> np.ndarray:
+    """Grid poses (n, 4) of finite real numbers, with one random stream each."""
+    given = np.asarray(poses)
+    checked = np.zeros((0, 4)) if given.shape in ((0,), (0, 4)) else check_data(given, 4, "poses")
+    if len(rngs) != len(checked):
+        raise InvalidInput(f"rngs must be one random stream per pose: {len(checked)} poses, got {len(rngs)} streams")
+    return checked
+
+
 def start_worlds(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Generator],
                  initial: np.ndarray) -> Worlds:
     """The worlds of trials at these poses on the set-up's backend: a scene per trial on the CPU (`CpuWorlds`), one
@@ -577,6 +586,7 @@ def start_worlds(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.
     Returns:
         The worlds, placed.
     """
+    poses = _checked_poses(poses, rngs)
     if setup.backend == "cpu":
         return CpuWorlds([trial_scene(setup, pose, rng, initial) for pose, rng in zip(poses, rngs)])
     from ..sim.warp_worlds import WarpWorlds
