@@ -14,6 +14,7 @@ import trimesh
 
 import graspmanifold as gm
 from graspmanifold.manifold.experience import check_places
+from graspmanifold.manifold.representations import load_representation
 from graspmanifold.sim.object_files import MAX_GEOMS, object_file_references
 from graspmanifold.studies.dataset import load_object, object_files, object_names
 
@@ -217,3 +218,53 @@ def test_a_truncated_binary_stl_whose_header_says_solid_is_named_as_such(tmp_pat
     (tmp_path / "cut.stl").write_bytes(bytes(data[:-20]))
     with pytest.raises(gm.InvalidInput, match="a binary STL of 12 triangles has 684 bytes, this one 664"):
         gm.make_object("mesh", mesh=tmp_path / "cut.stl")
+
+
+def _rewritten(path, **changes):
+    """The npz file at `path` with some members changed (as a corrupted or hand-edited file would be)."""
+    import numpy as np
+
+    with np.load(path) as stored:
+        members = {name: stored[name] for name in stored.files}
+    members.update(changes)
+    with open(path, "wb") as handle:
+        np.savez(handle, **members)
+    return path
+
+
+def _postures():
+    return gm.PostureSet.load("tests/data/v0_1/postures.npz").postures[:40]
+
+
+@pytest.mark.parametrize("make, member, value, message", [
+    (lambda: gm.LinearManifold(3).fit(_postures()), "mean", lambda a: a * 0 + float("nan"), "mean row 0 has non-finite"),
+    (lambda: gm.LinearManifold(3).fit(_postures()), "mean", lambda a: a * 0 + 1e14, "mean row 0 holds joint angles beyond"),
+    (lambda: gm.UKR(2, starts=("pca",), scales=2, iterations=2).fit(_postures()), "latent", lambda a: a * 1e200,
+     r"latent row 0 is not a finite point within \+-1e\+06"),
+    (lambda: gm.PostureDatabase(_postures()), "postures", lambda a: a + 50.0, "postures row 0 holds joint angles beyond"),
+])
+def test_experience_files_with_numbers_no_hand_has_are_refused_with_the_file_named(tmp_path, make, member, value,
+                                                                                      message):
+    """Poor case: a linear manifold with a NaN or 1e14-rad mean loaded (its trials blamed on the physics), UKR latent
+    points x1e200 took 16 s with overflow warnings, postures of 50 rad completed to 50 rad."""
+    import numpy as np
+
+    path = make().save(tmp_path / "experience.npz")
+    with np.load(path) as stored:
+        changed = value(stored[member])
+    _rewritten(path, **{member: changed})
+    with pytest.raises(gm.InvalidInput, match=message) as refused:
+        load_representation(path)
+    assert str(path) in str(refused.value)
+
+
+def test_an_experience_outside_the_hands_joint_ranges_is_refused_before_trials():
+    """Poor case: a map trained on one hand's postures ran on another hand without a word (here: references no
+    joint of our hand reaches)."""
+    from graspmanifold.trials.trial import TrialSetup
+
+    postures = _postures().copy()
+    postures[3, 5] = 2.5  # rad: beyond every finger joint's range of our hand
+    with pytest.raises(gm.InvalidInput, match=r"reference posture 3 has joint 5 at 2\.500 rad, outside the 'shadow-primitives'"):
+        TrialSetup(object="box", experience=gm.PostureDatabase(postures))
+    assert TrialSetup(object="box", experience=gm.PostureDatabase(_postures())).experience is not None

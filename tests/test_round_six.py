@@ -88,7 +88,7 @@ def test_a_corrupt_ukr_file_is_named_for_what_is_wrong(tmp_path):
     arrays["latent"] = arrays["latent"].copy()
     arrays["latent"][3] = np.nan
     save_npz(tmp_path / "nan.npz", "ukr", arrays, meta)
-    with pytest.raises(gm.InvalidInput, match=r"latent row 3 is not finite .* the file is corrupt"):
+    with pytest.raises(gm.InvalidInput, match=r"latent row 3 is not a finite point .* the file is corrupt"):
         UKR.load(tmp_path / "nan.npz")
     arrays["latent"] = arrays["latent"][:-1]
     save_npz(tmp_path / "short.npz", "ukr", arrays, meta)

@@ -165,7 +165,8 @@ def test_every_representation_is_made_by_name_and_recalled_in_a_trial(tmp_path):
     for name in REPRESENTATIONS:
         experience = fit_representation(name, postures, progress=False)
         assert isinstance(experience, gm.Experience) and experience.dim == 22
-    ukr = fit_representation("ukr", postures, progress=False)
+    grasps = gm.PostureSet.load("tests/data/v0_1/postures.npz").postures[:60]  # the sheet lies beyond the hand's ranges
+    ukr = fit_representation("ukr", grasps, progress=False)
     result = gm.evaluate("cylinder", ukr, np.array([[0.0, 0.0, 0.01, 0.0]]), workers=1, progress=False, method="ukr")
     assert result.summary["trials"] == 1 and result.method == "ukr"
 

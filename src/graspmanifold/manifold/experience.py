@@ -144,6 +144,61 @@ def _check_rows(values: object, count: int, width: int, name: str, what: str, bo
     return array
 
 
+#: rad, the largest finger joint angle a posture may hold (every joint's range of every hand lies within it)
+MAX_JOINT_ANGLE = float(np.pi)
+#: rad, how far an experience's reference posture may lie outside the hand's joint range (`check_within_hand`):
+#: simulated postures pass a limit by a little, another hand's postures by more
+JOINT_RANGE_SLACK = 0.1
+
+
+def check_file_postures(values: np.ndarray, path: Path, what: str) -> np.ndarray:
+    """Postures read from an experience file, checked before they are used: finite, and hand postures (22 wide)
+    within +-`MAX_JOINT_ANGLE` (a file of 50-rad or 1e14-rad postures completed to them).
+
+    Args:
+        values: (n, dim) values, rad where dim is 22.
+        path: the file, for the message.
+        what: what they are in it ('weights', 'mean').
+
+    Returns:
+        The values as a float array.
+
+    Raises:
+        InvalidInput: non-finite values, or hand postures beyond the bound, the file and the row named.
+    """
+    array = check_data(values, np.shape(values)[-1] if np.ndim(values) == 2 else -1, f"{path} {what}")
+    if array.shape[1] == N_FINGER_JOINTS:
+        beyond = (np.abs(array) > MAX_JOINT_ANGLE).any(axis=1)
+        if beyond.any():
+            row = int(np.flatnonzero(beyond)[0])
+            raise InvalidInput(f"{path}: {what} row {row} holds joint angles beyond +-pi rad ({array[row].tolist()}); "
+                               "no hand's joint turns that far: the file is corrupt")
+    return array
+
+
+def check_within_hand(experience: Experience, limits: np.ndarray, hand: str) -> None:
+    """Refuse an experience whose reference postures lie outside a hand's joint ranges (by more than
+    `JOINT_RANGE_SLACK`): postures of another hand, or numbers no grasp has.
+
+    Args:
+        experience: the experience (22-wide references; others are not hand postures and pass).
+        limits: (22, 2) rad, the hand's joint ranges.
+        hand: the hand's name, for the message.
+
+    Raises:
+        InvalidInput: the first reference and joint outside, with the range.
+    """
+    references = np.asarray(experience.references, dtype=float)
+    if references.ndim != 2 or references.shape[1] != N_FINGER_JOINTS:
+        return
+    outside = (references < limits[:, 0] - JOINT_RANGE_SLACK) | (references > limits[:, 1] + JOINT_RANGE_SLACK)
+    if outside.any():
+        row, joint = (int(i) for i in np.argwhere(outside)[0])
+        raise InvalidInput(f"the experience's reference posture {row} has joint {joint} at {references[row, joint]:.3f} "
+                           f"rad, outside the {hand!r} hand's range [{limits[joint, 0]:.3f}, {limits[joint, 1]:.3f}] "
+                           f"(by more than {JOINT_RANGE_SLACK} rad): is it another hand's experience?")
+
+
 def check_places(places: object, count: int) -> np.ndarray:
     """Places (`object_places`) checked against the rows they belong to.
 
@@ -244,7 +299,7 @@ class PostureDatabase(ReferenceMatcher, NpzRecord):
 
     @classmethod
     def _from_npz(cls, arrays: dict[str, np.ndarray], meta: dict, path: Path) -> PostureDatabase:
-        return cls(arrays["postures"], arrays.get("places"), arrays.get("squeezes"))
+        return cls(check_file_postures(arrays["postures"], path, "postures"), arrays.get("places"), arrays.get("squeezes"))
 
     def __repr__(self) -> str:
         carried = "".join(f", with {name}" for name in carried_values(self))

@@ -31,6 +31,7 @@ from ..base.errors import InvalidInput, NotFittedError
 from ..base.io import NpzRecord, fingerprint
 from ..base.validation import check_data, check_int
 from .embeddings import principal_axes
+from .experience import check_file_postures
 from .nearest import ManifoldMatcher, check_queries
 
 MIN_RESIDUAL = 1e-6  # rad^2: the smallest residual variance per joint (see the module doc)
@@ -186,11 +187,12 @@ class LinearManifold(ManifoldMatcher, NpzRecord):
                 or not np.allclose(axes @ axes.T, np.eye(len(axes)), atol=1e-8):
             raise InvalidInput(f"{path}: a linear manifold needs a mean ({dim},), orthonormal axes and references "
                                f"(n, {dim})")
+        mean = check_file_postures(arrays["mean"][None], path, "mean")[0]
         try:
-            linear._set(arrays["mean"], axes, arrays["explained"], float(meta["total_variance"]))
+            linear._set(mean, axes, arrays["explained"], float(meta["total_variance"]))
         except (KeyError, TypeError, ValueError):
             raise InvalidInput(f"{path} lacks the linear manifold's total_variance") from None
-        linear.keep_references(check_data(arrays["references"], dim, f"{path} references"))
+        linear.keep_references(check_file_postures(arrays["references"], path, "references"))
         linear.data_fingerprint = str(meta.get("data_fingerprint", ""))
         return linear
 

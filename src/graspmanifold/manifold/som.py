@@ -52,7 +52,7 @@ from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import free_cores
 from ..base.compiled import compiled
 from .kernels import online_epoch
-from .experience import carried_values, check_places, check_squeezes
+from .experience import carried_values, check_file_postures, check_places, check_squeezes
 from .nearest import MaskedNearest, ReferenceMatcher, nearest_rows
 
 ALGORITHMS = ("online", "batch")
@@ -523,7 +523,10 @@ class SOM(ReferenceMatcher, NpzRecord):
             som = cls(meta["rows"], meta["cols"], meta["dim"], seed=meta["seed"], **meta.get("schedule", {}))
         except KeyError as missing:
             raise InvalidInput(f"{path} lacks SOM metadata {missing}") from None
-        som.weights = arrays["weights"]
+        weights = arrays["weights"]
+        if weights.ndim == 3:  # another shape is refused by the setter, named
+            check_file_postures(weights.reshape(-1, weights.shape[-1]), path, "weights")
+        som.weights = weights
         som.places = None if "places" not in arrays else check_places(arrays["places"], som.n_nodes)
         som.squeezes = None if "squeezes" not in arrays else check_squeezes(arrays["squeezes"], som.n_nodes)
         som.history = list(meta.get("history", []))

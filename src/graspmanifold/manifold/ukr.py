@@ -48,6 +48,7 @@ from ..base.progress import progress_bar
 from ..base.validation import check_choice, check_data, check_int
 from ..base.workers import usable_cores
 from .embeddings import isomap, pca_embedding, squared_distances
+from .experience import check_file_postures
 from .kernels import STEP_GAIN, UKR_CUT, ukr_complete_rows, ukr_loo
 from .nearest import ManifoldMatcher, check_queries
 
@@ -56,6 +57,8 @@ STARTS: tuple[str, ...] = ("pca", "isomap")
 #: the most postures a UKR is fitted on: Isomap's start holds n x n geodesics (8,000 postures took 2.7 GB and 45 s;
 #: 15,000 need about 9.5 GB, 30,000 about 38 GB); fit on a subset, or resume with fewer
 MAX_POSTURES = 15_000
+#: the farthest a latent point of a file may lie (the kernel's bandwidth is 1: a fit's points lie within tens)
+MAX_LATENT = 1e6
 _BLOCK = 2048  # latent points per kernel matrix block of `manifold`: bounds its memory
 _PER_THREAD = 256  # a completion batch gets one thread per this many queries, up to the usable cores
 
@@ -434,10 +437,12 @@ class UKR(ManifoldMatcher, NpzRecord):
         if latent.shape != (len(postures), ukr.latent_dim):
             raise InvalidInput(f"{path}: latent must be ({len(postures)}, {ukr.latent_dim}), one point per posture, "
                                f"got {latent.shape}; the file is corrupt")
-        if not np.all(np.isfinite(latent)):
-            row = int(np.flatnonzero(~np.isfinite(latent).all(axis=1))[0])
-            raise InvalidInput(f"{path}: latent row {row} is not finite ({latent[row].tolist()}); the file is corrupt")
-        ukr._set(latent, check_data(postures, postures.shape[1], f"{path} postures"))
+        bad = ~(np.isfinite(latent) & (np.abs(np.nan_to_num(latent)) <= MAX_LATENT)).all(axis=1)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InvalidInput(f"{path}: latent row {row} is not a finite point within +-{MAX_LATENT:g} "
+                               f"({latent[row].tolist()}); the file is corrupt")
+        ukr._set(latent, check_file_postures(postures, path, "postures"))
         ukr.history = list(meta.get("history", []))
         return ukr
 

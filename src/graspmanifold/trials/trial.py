@@ -45,7 +45,7 @@ from ..judging.judge import JUDGING, Judgement, judge_worlds, supported_scene
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol, get_protocol
 from ..judging.replay import OpenLoopGrasp
 from ..judging.stages import JudgingRules
-from ..manifold.experience import Experience, carried_values, check_experience
+from ..manifold.experience import Experience, carried_values, check_experience, check_within_hand
 from ..manifold.postureset import PostureSet
 from ..sim.flange import FlangeLimits
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND, HandModel
@@ -207,6 +207,8 @@ class TrialSetup:
         if self.backend == "warp" and self.hand.name != SHADOW_HAND.name:
             raise InvalidInput(f"backend='warp' runs our hand model only, not {self.hand.name!r}: use backend='cpu'")
         set_field("experience", check_experience(self.experience))
+        if self.experience is not None:
+            check_within_hand(self.experience, self.hand.limits(), self.hand.name)
         self._check_controller(set_field)
         check_choice(self.backend, BACKENDS, "backend")
         set_field("regrasp", self.regrasp or Regrasp())
