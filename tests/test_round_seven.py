@@ -268,3 +268,15 @@ def test_an_experience_outside_the_hands_joint_ranges_is_refused_before_trials()
     with pytest.raises(gm.InvalidInput, match=r"reference posture 3 has joint 5 at 2\.500 rad, outside the 'shadow-primitives'"):
         TrialSetup(object="box", experience=gm.PostureDatabase(postures))
     assert TrialSetup(object="box", experience=gm.PostureDatabase(_postures())).experience is not None
+
+
+def test_the_previous_versions_hand_keyword_of_generate_postures_still_works_with_a_warning(tmp_path):
+    """Poor case: `generate_postures(..., hand=...)` of the previous version raised TypeError instead of answering
+    with a DeprecationWarning, as the other moved names do."""
+    params = gm.GeneratorParams(verify=False)
+    with pytest.warns(DeprecationWarning, match=r"generate_postures\(hand=...\) is now .*GeneratorParams\(hand=...\)"):
+        old = gm.generate_postures("sphere", 3, seed=1, workers=1, params=params, progress=False,
+                                   hand="shadow-primitives")
+    new = gm.generate_postures("sphere", 3, seed=1, workers=1, params=params, progress=False)
+    assert old.hand == new.hand == "shadow-primitives"
+    assert (old.postures == new.postures).all()

@@ -9,13 +9,15 @@ so its classes and registries are the ones the rest of the package uses), with a
 
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.abc
 import importlib.machinery
 import sys
 import warnings
 from types import ModuleType
-from typing import TypeVar, cast
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
 
 Named = TypeVar("Named")
 
@@ -142,6 +144,35 @@ def moved_warning(old: str, new: str) -> None:
     """
     warnings.warn(f"{_PACKAGE}.{old} moved to {_PACKAGE}.{new}; the old name goes in {REMOVED_IN}",
                   DeprecationWarning, stacklevel=3)
+
+
+Call = TypeVar("Call", bound=Callable[..., Any])
+
+
+def moved_keyword(old: str, new: str, move: Callable[[dict[str, Any], Any], None]) -> Callable[[Call], Call]:
+    """A keyword a function took before and that moved into one of its values: a call that still passes it works
+    for one release, with a `DeprecationWarning` that says where it went.
+
+    Args:
+        old: the keyword's old name ('hand').
+        new: where it is now, in words for the message ('params=GeneratorParams(hand=...)').
+        move: puts the old keyword's value where it belongs now, given the call's other keywords (changed in place).
+
+    Returns:
+        The decorator.
+    """
+    def decorate(function: Call) -> Call:
+        @functools.wraps(function)
+        def call(*args: Any, **kwargs: Any) -> Any:
+            if old in kwargs:
+                warnings.warn(f"{function.__name__}({old}=...) is now {function.__name__}({new}); the old keyword "
+                              f"goes in {REMOVED_IN}", DeprecationWarning, stacklevel=2)
+                move(kwargs, kwargs.pop(old))
+            return function(*args, **kwargs)
+
+        return cast(Call, call)
+
+    return decorate
 
 
 class _MovedFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):

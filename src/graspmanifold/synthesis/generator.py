@@ -51,7 +51,7 @@ from scipy.spatial.transform import Rotation
 from ..base.checkpoints import JOB_PARTS, PartStore, result_key
 from ..base.errors import GenerationError, InvalidInput, SimulationError
 from ..base.io import library_version, load_npz, save_npz
-from ..base.moved import current_name
+from ..base.moved import current_name, moved_keyword
 from ..base.paper_numbers import DATASET_SIZES
 from ..base.poses import to_quat, to_rotation
 from ..base.progress import progress_bar
@@ -585,6 +585,12 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
     return (_Job(**job) if isinstance(job, dict) and set(job) == set(_Job.__dataclass_fields__) else None, arrays), meta
 
 
+def _hand_into_params(kwargs: dict[str, Any], hand: object) -> None:
+    """`generate_postures(hand=...)` of 0.1: the hand is `GeneratorParams.hand` now."""
+    kwargs["params"] = replace(kwargs.get("params") or GeneratorParams(), hand=hand)
+
+
+@moved_keyword("hand", "params=GeneratorParams(hand=...)", _hand_into_params)
 def generate_postures(obj: str | GraspObject, n: int, seed: int = 0, workers: int | Executor | None = None, *,
                       params: GeneratorParams | None = None, checkpoint_dir: str | os.PathLike | None = None,
                       progress: bool | None = None, starts: Sequence[StartingPosture] | None = None) -> PostureSet:
