@@ -280,3 +280,13 @@ def test_the_previous_versions_hand_keyword_of_generate_postures_still_works_wit
     new = gm.generate_postures("sphere", 3, seed=1, workers=1, params=params, progress=False)
     assert old.hand == new.hand == "shadow-primitives"
     assert (old.postures == new.postures).all()
+
+
+def test_a_flanged_scene_is_built_without_mujocos_empty_prefix_warning():
+    """Poor case: MuJoCo's 'empty prefix' warning printed 50 times a run (once per flanged scene)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _flanged_scene()
+    assert not [w for w in caught if "empty prefix" in str(w.message)]

@@ -15,6 +15,8 @@ put between commands. Gravity on the hand is compensated (`gravcomp`), as an arm
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import mujoco
@@ -146,9 +148,35 @@ def flanged_spec(hand_spec: mujoco.MjSpec, mount: str, palm_pose: tuple[np.ndarr
         reach, push = (limits.travel, limits.force) if slide else (limits.turn, limits.torque)
         servo.ctrllimited, servo.ctrlrange = True, [-reach, reach]
         servo.forcelimited, servo.forcerange = True, [-push, push]
-    spec.attach(hand_spec, prefix="", frame=flange.add_frame())
+    with without_empty_prefix_warning():
+        spec.attach(hand_spec, prefix="", frame=flange.add_frame())
     for body in spec.bodies:  # the arm carries the hand's weight
         if body.name not in ("world", ARM_BASE):
             body.gravcomp = 1.0
     return spec
 
+
+
+#: what MuJoCo says when a spec attached without a prefix is compiled: a flanged scene's hand keeps its own names on
+#: purpose (every other module finds its joints and geoms by them), so the warning says nothing to a user
+_EMPTY_PREFIX = "Attaching a spec with an empty prefix"
+
+
+@contextmanager
+def without_empty_prefix_warning() -> Iterator[None]:
+    """MuJoCo's warning about the hand attached to the flange without a prefix left unsaid (printed, and raised as a
+    UserWarning, when the spec is attached and compiled: 50 times a run); any other warning is said as MuJoCo says it.
+    """
+    previous = mujoco.get_mju_user_warning()
+
+    def say(message: str) -> None:
+        if not message.startswith(_EMPTY_PREFIX):
+            previous(message) if previous is not None else print(f"WARNING: {message}\n", flush=True)
+
+    mujoco.set_mju_user_warning(say)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=_EMPTY_PREFIX)
+            yield
+    finally:
+        mujoco.set_mju_user_warning(previous)

@@ -21,7 +21,15 @@ from numpy.typing import ArrayLike
 from ..base.errors import InvalidInput, RenderingUnavailable, SimulationError
 from ..base.poses import check_quat, check_vec3, compose, compose_many, invert
 from ..base.validation import Bounds, check_choice, check_int, check_number
-from .flange import ARM_BASE, FLANGE_ACTUATORS, FLANGE_JOINTS, FlangeLimits, flanged_spec, palm_in_mount
+from .flange import (
+    ARM_BASE,
+    FLANGE_ACTUATORS,
+    FLANGE_JOINTS,
+    FlangeLimits,
+    flanged_spec,
+    palm_in_mount,
+    without_empty_prefix_warning,
+)
 from .hand import SHADOW_HAND, HandModel
 from .hand_models import hand_model
 from .objects import GraspObject, get_object
@@ -248,17 +256,18 @@ class Scene:
     def _compiled(self, touch: str) -> mujoco.MjModel:
         """The spec compiled, with the touch sensors the touch source needs added first."""
         spec = self.spec
-        model = spec.compile()
-        if touch == "sensors" and not _touch_sensors(model, self.hand):
-            _add_touch_sensors(spec, model, self.hand)
+        with without_empty_prefix_warning():
             model = spec.compile()
-        if touch == "contact-sensors":
-            for segment in self.hand.segments:
-                spec.add_sensor(name=f"contact_{segment}", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                                objtype=mujoco.mjtObj.mjOBJ_BODY, objname=segment, reftype=mujoco.mjtObj.mjOBJ_BODY,
-                                refname="object", intprm=[_CONTACT_FOUND_FORCE, _CONTACT_MAXFORCE,
-                                                          CONTACT_SENSOR_SLOTS])
-            model = spec.compile()
+            if touch == "sensors" and not _touch_sensors(model, self.hand):
+                _add_touch_sensors(spec, model, self.hand)
+                model = spec.compile()
+            if touch == "contact-sensors":
+                for segment in self.hand.segments:
+                    spec.add_sensor(name=f"contact_{segment}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                    objtype=mujoco.mjtObj.mjOBJ_BODY, objname=segment, reftype=mujoco.mjtObj.mjOBJ_BODY,
+                                    refname="object", intprm=[_CONTACT_FOUND_FORCE, _CONTACT_MAXFORCE,
+                                                              CONTACT_SENSOR_SLOTS])
+                model = spec.compile()
         return model
 
     def _find_addresses(self, table: bool) -> None:
@@ -697,9 +706,10 @@ class Scene:
 
         Returns:
             The XML text, loadable with `mujoco.MjModel.from_xml_string` (a mesh object's convex
-            parts are embedded as vertex lists).
+            parts are embedded as vertex lists; a flanged scene's test writes and loads it back).
         """
-        return self.spec.to_xml()
+        with without_empty_prefix_warning():
+            return self.spec.to_xml()
 
     def _repr_png_(self) -> bytes | None:
         """A notebook shows a scene as its picture from the hand camera (nothing without OpenGL)."""
