@@ -290,3 +290,69 @@ def test_a_flanged_scene_is_built_without_mujocos_empty_prefix_warning():
         warnings.simplefilter("always")
         _flanged_scene()
     assert not [w for w in caught if "empty prefix" in str(w.message)]
+
+
+def test_one_object_that_fails_is_its_own_row_and_an_absurd_mesh_scale_is_refused(tmp_path, monkeypatch):
+    """Poor case: a mesh `scale="1e300"` ended the whole dataset command in a SciPy traceback, every rerun the same:
+    the scale is refused by name, and whatever else one object raises is that object's row."""
+    import graspmanifold.studies.dataset as dataset
+
+    _box(tmp_path / "box.stl")
+    (tmp_path / "huge.urdf").write_text(URDF.format(file="box.stl").replace('"/>', '" scale="1e300 1e300 1e300"/>', 1))
+    obj, loaded = load_object(tmp_path / "huge.urdf", "huge", 1.0, tmp_path)
+    assert obj is None and loaded.startswith("refused: ") and "scales a mesh by [1e+300" in loaded
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a bug met by one object")
+
+    monkeypatch.setattr(dataset, "make_object", broken)
+    assert load_object(tmp_path / "box.stl", "box", 1.0, tmp_path) == (None, "failed: ZeroDivisionError: a bug met "
+                                                                             "by one object")
+
+
+def test_a_thousand_pieces_are_refused_at_once(tmp_path):
+    """Poor case: 1,000 pieces 1 mm apart took 60 s and 3.8 GB before a MemoryError."""
+    cubes = [trimesh.creation.box(extents=(0.004,) * 3).apply_translation([0.005 * (i % 10), 0.005 * (i // 10 % 10),
+                                                                            0.005 * (i // 100)]) for i in range(1000)]
+    trimesh.util.concatenate(cubes).export(tmp_path / "pieces.stl")
+    started = time.process_time()
+    with pytest.raises(gm.InvalidInput, match="1000 separate pieces, more than 256"):
+        gm.make_object("mesh", mesh=tmp_path / "pieces.stl")
+    assert time.process_time() - started < 30  # refused before any pair's gap is measured (not a timing claim: a
+    # minute's work would have been done)
+
+
+def test_a_package_url_and_an_articulated_file_are_said(tmp_path):
+    """Poor cases: a `package://` mesh URL mangled with no word that it is not resolved; an articulated URDF silently
+    made one rigid solid."""
+    _box(tmp_path / "box.stl")
+    (tmp_path / "ros.urdf").write_text(URDF.format(file="package://things/meshes/box.stl"))
+    with pytest.raises(gm.InvalidInput, match=r"names a ROS package \(package://\), which MuJoCo cannot find"):
+        gm.make_object("mesh", mesh=tmp_path / "ros.urdf")
+    (tmp_path / "hinged.urdf").write_text(
+        '<robot name="r"><link name="a"><collision><geometry><box size="0.05 0.04 0.08"/></geometry></collision></link>'
+        '<link name="b"><collision><origin xyz="0 0 0.06"/><geometry><box size="0.05 0.04 0.05"/></geometry>'
+        '</collision></link><joint name="hinge" type="revolute"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+    with pytest.warns(UserWarning, match=r"has 1 joint \(hinge\), fixed at the reference pose"):
+        gm.make_object("mesh", mesh=tmp_path / "hinged.urdf")
+    _, loaded = load_object(tmp_path / "hinged.urdf", "hinged", 1.0, tmp_path)
+    assert "1 joint (hinge), fixed at the reference pose" in loaded
+
+
+def test_a_sealed_hollow_box_is_one_solid_not_two_apart(tmp_path):
+    """Poor case: a sealed thin-walled box was described as '2 separate solids 5 mm apart'."""
+    outer, inner = trimesh.creation.box(extents=(0.06, 0.05, 0.1)), trimesh.creation.box(extents=(0.05, 0.04, 0.09))
+    inner.invert()
+    trimesh.util.concatenate([outer, inner]).export(tmp_path / "hollow.stl")
+    with pytest.warns(UserWarning, match="the sealed cavity of 1 inner shell filled"):
+        hollow = gm.make_object("mesh", mesh=tmp_path / "hollow.stl")
+    assert sorted(2 * h for h in hollow.half_sizes) == pytest.approx([0.05, 0.06, 0.1], abs=1e-6)
+
+
+def test_a_table_cell_cannot_break_its_table():
+    """Poor case: file names holding '|' or a newline broke dataset.md's rows."""
+    from graspmanifold.base.io import markdown_table
+
+    lines = markdown_table(["file", "what it is"], [["a|b.stl", "refused: two\nlines"]])
+    assert lines[2] == "| a\\|b.stl | refused: two lines |"

@@ -582,12 +582,13 @@ def markdown_row(cells: Sequence[object]) -> str:
     """One row of a markdown table (`markdown_table`), for a table printed row by row as it is measured.
 
     Args:
-        cells: the row's cells (any values, written with `str`).
+        cells: the row's cells (any values, written with `str`; a '|' is escaped and a line break becomes a space,
+            so that a file name holding one keeps the table whole).
 
     Returns:
         The row's line.
     """
-    return "| " + " | ".join(str(cell) for cell in cells) + " |"
+    return "| " + " | ".join(" ".join(str(cell).replace("|", "\\|").splitlines()) for cell in cells) + " |"
 
 
 def write_csv(path: str | os.PathLike, rows: list[dict]) -> Path:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -41,6 +42,11 @@ MAX_EXTENT = 0.30  # m: larger than this is not a one-hand grasp (and usually a 
 #: triangles a mesh may have: its queries (signed distance, closest point) slow down with them, and MuJoCo
 #: collides convex parts of at most 64 vertices
 MAX_FACES = 200_000
+#: the largest scale an object file may give a mesh: far beyond any change of units a grasp object's file needs
+MAX_MESH_SCALE = 1e3
+#: the most separate pieces a mesh may have (`make_solid`): a convex decomposition has tens; 1,000 pieces took 60 s
+#: and 3.8 GB before a MemoryError
+MAX_PIECES = 256
 #: the file formats a mesh object is read from (trimesh's meshes; not its archives)
 MESH_FORMATS = ("stl", "obj", "ply", "off", "glb", "gltf")
 #: the object files of robot data packages a mesh object is read from, by MuJoCo (`model_file_mesh`)
@@ -96,6 +102,18 @@ def model_file_mesh(path: Path) -> trimesh.Trimesh:
         model = spec.compile()
     except Exception as error:  # MuJoCo raises ValueError for a file it cannot compile, with its reason
         raise InvalidInput(f"object file {str(path)!r} could not be compiled by MuJoCo: {error}") from None
+    moving = [model.joint(j).name or f"joint {j}" for j in range(model.njnt)
+              if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE]
+    if moving:  # an articulated object (a drawer, scissors) is not one of the library's rigid objects
+        warnings.warn(f"object file {path.name!r} has {len(moving)} joint{'s' * (len(moving) > 1)} "
+                      f"({', '.join(moving[:5])}{', ...' if len(moving) > 5 else ''}), fixed at the reference pose: "
+                      "the object is one rigid solid", stacklevel=2)
+    scales = np.abs(model.mesh_scale)
+    if model.nmesh and not (np.isfinite(scales).all() and scales.min() > 0 and scales.max() <= MAX_MESH_SCALE):
+        with np.errstate(divide="ignore", invalid="ignore"):  # a scale of 0 is the farthest from 1
+            worst = model.mesh_scale[int(np.argmax(np.nan_to_num(np.abs(np.log(scales)), nan=np.inf).max(axis=1)))]
+        raise InvalidInput(f"object file {str(path)!r} scales a mesh by {worst.tolist()}: each scale must be a finite "
+                           f"number, not 0, of magnitude at most {MAX_MESH_SCALE:g}")
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     pieces = []
@@ -262,6 +280,9 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
         raise InvalidInput(f"make_solid takes a trimesh.Trimesh, got {type(mesh).__name__}")
     if mesh.is_watertight and int(mesh.body_count) == 1:
         return mesh, ""
+    if int(mesh.body_count) > MAX_PIECES:
+        raise InvalidInput(f"the mesh has {int(mesh.body_count)} separate pieces, more than {MAX_PIECES}: a grasp "
+                           "object's convex decomposition needs far fewer (joining them measures every pair's gap)")
     pieces = mesh.split(only_watertight=False) if int(mesh.body_count) > 1 else [mesh.copy()]
     done, filled = [], 0
     for piece in pieces:
@@ -272,6 +293,12 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
             filled += int(piece.is_watertight)
         done.append(piece)
     what = [f"the holes of {filled} open piece{'s' * (filled != 1)} filled"] if filled else []
+    done, cavities = _cavities_filled(done)
+    if cavities:
+        what.append(f"the sealed cavit{'ies' if cavities > 1 else 'y'} of {cavities} inner shell{'s' * (cavities > 1)} "
+                    "filled (a hollow solid's outside kept)")
+        if len(done) == 1:
+            return done[0], "; ".join(what)
     closed = [piece for piece in done if piece.is_watertight and piece.is_volume]
     if len(done) > 1 and len(closed) == len(done):  # on a 0.1 um grid first: pieces that touch (a decomposition's,
         snapped = [trimesh.Trimesh(np.round(piece.vertices, 7), piece.faces, process=False) for piece in closed]
@@ -286,6 +313,19 @@ def make_solid(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
     if len(done) == 1:
         return done[0], "; ".join(what)
     return mesh, ""
+
+
+def _cavities_filled(pieces: list[trimesh.Trimesh]) -> tuple[list[trimesh.Trimesh], int]:
+    """The pieces without the inner shells of sealed cavities (a closed piece facing inwards, within another's
+    bounds: a hollow solid's inside wall, which `check_solid` would call a separate solid), and how many went."""
+    kept = []
+    for piece in pieces:
+        inward = piece.is_watertight and float(piece.volume) < 0
+        inside = any(other is not piece and np.all(other.bounds[0] <= piece.bounds[0])
+                     and np.all(piece.bounds[1] <= other.bounds[1]) for other in pieces)
+        if not (inward and inside):
+            kept.append(piece)
+    return kept, len(pieces) - len(kept)
 
 
 def piece_gap(pieces: list[trimesh.Trimesh]) -> float:
@@ -403,7 +443,7 @@ def object_geometry(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, list[trimes
     solid.apply_transform(rotation)
     check_solid(solid)
     pieces = mesh.split(only_watertight=False) if int(mesh.body_count) > 1 else []
-    if pieces and all(piece.is_watertight and piece.is_convex for piece in pieces):  # a convex decomposition
+    if pieces and all(piece.is_watertight and piece.is_convex and piece.volume > 0 for piece in pieces):  # a decomposition
         parts = [canonical_order(piece) for piece in pieces]
         for part in parts:  # the same two steps as the solid's
             part.apply_translation(-centre)

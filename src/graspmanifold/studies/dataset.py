@@ -23,6 +23,7 @@ is done.
 from __future__ import annotations
 
 import argparse
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -148,8 +149,8 @@ def object_names(files: list[Path], root: Path) -> list[str]:
 
 
 def load_object(path: Path, name: str, scale: float, within: Path | None = None) -> tuple[GraspObject | None, str]:
-    """An object file loaded as it ships, and how: 'as shipped', what was repaired (`make_object`'s warning), or
-    'refused: ' and the reason.
+    """An object file loaded as it ships, and how: 'as shipped', what was repaired (`make_object`'s warning),
+    'refused: ' and the reason, or 'failed: ' and the error that ended its loading (one object's failure is its row).
 
     Args:
         path: the file.
@@ -173,8 +174,10 @@ def load_object(path: Path, name: str, scale: float, within: Path | None = None)
             # filled the cell and cut the reason off)
             reason = str(error).replace(f"{str(path)!r}: ", "", 1).replace(repr(str(path)), repr(path.name))
             return None, f"refused: {reason}"
-    repairs = [str(w.message).split(": ", 1)[-1] for w in said if "made one solid" in str(w.message)
-               or "kept as its collision parts" in str(w.message)]
+        except Exception as error:  # noqa: BLE001 (one object's failure, a MemoryError too, is its row, not the run's end)
+            return None, f"failed: {type(error).__name__}: {error}"
+    repairs = [re.sub(r"^mesh object '.*?' made one solid: ", "", str(w.message)) for w in said
+               if issubclass(w.category, UserWarning) and not issubclass(w.category, DeprecationWarning)]
     return obj, "; ".join(repairs) or "as shipped"
 
 
@@ -245,7 +248,7 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, found: DatasetFi
              "", *markdown_table(["object", "loaded", "triangles", "verified postures", *methods(args.manifold),
                                   f"{args.manifold} - none (p Holm)"], [_table_row(r, tested, args.manifold)
                                                                          for r in rows]), ""]
-    usable = [r for r in rows if not r["loaded"].startswith("refused")]
+    usable = [r for r in rows if not r["loaded"].startswith(("refused", "failed"))]
     lines += [f"Loaded {len(usable)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
               f"{args.postures} verified postures.", ""]
     pooled = pooled_rows(rows, args.manifold)
