@@ -356,3 +356,17 @@ def test_a_table_cell_cannot_break_its_table():
 
     lines = markdown_table(["file", "what it is"], [["a|b.stl", "refused: two\nlines"]])
     assert lines[2] == "| a\\|b.stl | refused: two lines |"
+
+
+@pytest.mark.parametrize("limits, message", [
+    (dict(travel=0.01), r"raises the palm 0\.2 m, but the arm travels FlangeLimits\.travel=0\.01 m"),
+    (dict(force=0.01), r"the arm pushes FlangeLimits\.force=0\.01 N, less than twice its weight"),
+])
+def test_a_lift_the_arm_cannot_perform_is_refused_before_any_trial(limits, message):
+    """Poor case: the lift reported 'held' with an arm that could rise 1 cm of the 0.2 m lift, or pull 0.01 N."""
+    from graspmanifold.sim.flange import FlangeLimits
+    from graspmanifold.trials.trial import TrialSetup
+
+    with pytest.raises(gm.InvalidInput, match=message):
+        TrialSetup(object="box", protocol="lift", palm=FlangeLimits(**limits))
+    assert TrialSetup(object="box", protocol="lift", palm=FlangeLimits()).palm == FlangeLimits()

@@ -27,7 +27,7 @@ from ..base.errors import InvalidInput
 from ..base.moved import current_name, moved_attribute
 from ..base.validation import Bounds, check_choice, check_directions, check_fields, check_number
 from ..sim.flange import FlangeLimits
-from ..sim.scene import Scene
+from ..sim.scene import GRAVITY, Scene
 from .judge import JUDGING
 from .stages import SIX_DIRECTIONS, JudgingRules, Lift
 
@@ -236,6 +236,29 @@ class JudgingProtocol:
         """
         if self.physics is not None:
             self.physics.apply(scene)
+
+    def check_arm(self, palm: FlangeLimits | None, object_mass: float) -> None:
+        """Refuse an arm that cannot perform this protocol's lift (an arm that rose 1 cm of a 0.2 m lift, or pulled
+        0.01 N, reported the grasp held).
+
+        Args:
+            palm: the arm's flange the trials run on (None: no arm).
+            object_mass: kg, the object's mass.
+
+        Raises:
+            InvalidInput: the lift is higher than the arm's travel, or the object's weight more than half the arm's
+                force (the hand's own weight is the arm's gravity compensation's).
+        """
+        rules = self.rules
+        if not rules.needs_flange or palm is None:
+            return
+        if palm.travel < rules.lift_height:
+            raise InvalidInput(f"protocol {self.name!r} raises the palm {rules.lift_height:g} m, but the arm travels "
+                               f"FlangeLimits.travel={palm.travel:g} m: give the arm at least the lift's travel")
+        needed = 2.0 * object_mass * GRAVITY
+        if palm.force < needed:
+            raise InvalidInput(f"protocol {self.name!r} lifts the {object_mass:g} kg object, but the arm pushes "
+                               f"FlangeLimits.force={palm.force:g} N, less than twice its weight ({needed:.3g} N)")
 
     def summary(self) -> str:
         """How it judges a trial's grasp, in a sentence (the reproduction report's)."""

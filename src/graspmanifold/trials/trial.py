@@ -261,6 +261,8 @@ class TrialSetup:
                                "noise beside a plan")
         if self.palm is None:
             set_field("palm", self.protocol.flange)
+        if isinstance(self.palm, FlangeLimits):
+            self.protocol.check_arm(self.palm, self.object.mass)
         if self.palm is not None and (not isinstance(self.palm, FlangeLimits) or self.backend != "cpu"):
             raise InvalidInput(f"palm must be a FlangeLimits (the hand on an arm's flange) with the cpu backend, got "
                                f"{self.palm!r} with backend={self.backend!r}")
