@@ -370,3 +370,15 @@ def test_a_lift_the_arm_cannot_perform_is_refused_before_any_trial(limits, messa
     with pytest.raises(gm.InvalidInput, match=message):
         TrialSetup(object="box", protocol="lift", palm=FlangeLimits(**limits))
     assert TrialSetup(object="box", protocol="lift", palm=FlangeLimits()).palm == FlangeLimits()
+
+
+def test_the_dataset_commands_trials_name_their_preset_grid():
+    """Poor case: the dataset command's summaries labelled a preset's grid 'custom' (its poses went in as an array)."""
+    from graspmanifold.studies.dataset import trial_grid
+    from graspmanifold.trials.grid import grid_preset
+
+    box = gm.get_object("box")
+    grid, poses = trial_grid("quick", None, box)
+    assert grid == "quick" and (poses == grid_preset("quick", box)).all()
+    grid, poses = trial_grid("quick", 3, box)
+    assert len(poses) == 3 and (grid == poses).all()  # a subset is the custom grid it is

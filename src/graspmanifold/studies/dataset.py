@@ -296,14 +296,12 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
             (study.out / "maps").mkdir(exist_ok=True)
             made.save(study.out / "maps" / f"{obj.name}_{args.manifold}.npz",
                       extra={"object": obj.params(), "postures_key": key})
-    poses = grid_preset(args.grid, obj)
-    if args.poses is not None and args.poses < len(poses):
-        poses = poses[np.linspace(0, len(poses) - 1, args.poses).round().astype(int)]
+    grid, poses = trial_grid(args.grid, args.poses, obj)
     results = {}
     for method, recalled in experience.items():
         setup = TrialSetup(object=obj, experience=check_experience(recalled), method=method)
         results[method] = study.evaluation(f"evaluation/{obj.name}_{method}", setup.key(poses, args.seed),
-                                           lambda parts: evaluate(setup, grid=poses, seed=args.seed,
+                                           lambda parts: evaluate(setup, grid=grid, seed=args.seed,
                                                                   workers=study.workers, checkpoint_dir=parts,
                                                                   progress=False))
     row["results"] = {m: [int(r.outcomes("hold").sum()), len(r.trials)] for m, r in results.items()}
@@ -311,6 +309,25 @@ def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> 
     if args.manifold in results:
         row["comparison"] = compare(results[args.manifold], results["none"])
     return row
+
+
+def trial_grid(preset: str, poses: int | None, obj: GraspObject) -> tuple[str | np.ndarray, np.ndarray]:
+    """The grid an object's trials run on: the preset by its name (so that results say which), or at most `poses` of
+    its poses, evenly spread over it.
+
+    Args:
+        preset: the grid preset (`GRID_PRESETS`).
+        poses: at most this many poses (None: all).
+        obj: the object.
+
+    Returns:
+        (the grid to pass to `evaluate`: the preset's name, or the chosen poses; the poses (n, 4)).
+    """
+    every = grid_preset(preset, obj)
+    if poses is None or poses >= len(every):
+        return preset, every
+    chosen = every[np.linspace(0, len(every) - 1, poses).round().astype(int)]
+    return chosen, chosen
 
 
 def pooled_rows(rows: list[dict], manifold: str = "som") -> list[list]:
