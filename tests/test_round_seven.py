@@ -382,3 +382,17 @@ def test_the_dataset_commands_trials_name_their_preset_grid():
     assert grid == "quick" and (poses == grid_preset("quick", box)).all()
     grid, poses = trial_grid("quick", 3, box)
     assert len(poses) == 3 and (grid == poses).all()  # a subset is the custom grid it is
+
+
+def test_record_trials_default_pose_fits_a_new_larger_object(tmp_path):
+    """Poor case: `record_trial(obj)`'s default pose (1 cm from the palm) was unreachable for a larger new object, so
+    the recipe's call failed."""
+    import numpy as np
+
+    from graspmanifold.trials.grid import reachable
+
+    _box(tmp_path / "big.stl", size=(0.08, 0.07, 0.12))
+    big = gm.make_object("mesh", mesh=tmp_path / "big.stl")
+    assert not reachable(big, np.array([[0.0, 0.0, 0.01, 0.0]]))[0]
+    recording = gm.record_trial(big, every=50)
+    assert reachable(big, np.asarray(recording.trial.grid_pose)[None])[0] and len(recording.states) >= 2

@@ -53,8 +53,8 @@ from ..sim.hand_models import hand_model
 from ..sim.objects import GraspObject, get_object
 from ..sim.scene import TOUCH_SOURCES, Scene
 from ..sim.worlds import CpuWorlds, Worlds, WorldStarts
-from .grid import (START_CLEARANCE, check_grid, clearance, displaced_palm_pose, oracle_correction, palm_pose_for,
-                   palm_poses_for)
+from .grid import (START_CLEARANCE, check_grid, clearance, displaced_palm_pose, grid_preset, oracle_correction,
+                   palm_pose_for, palm_poses_for, reachable)
 
 #: the largest standard deviation of each noise (m, rad, rad): beyond it a trial measures nothing (joint
 #: noise of 1e9 rad was accepted)
@@ -860,8 +860,21 @@ class Recording:
         return save_animation(self.frames(camera, width, height), path, fps=speed / self.period)
 
 
+#: (x, z, gap, yaw) m and rad: the pose `record_trial` records by default, the object centred 1 cm from the palm
+RECORDED_POSE = (0.0, 0.0, 0.01, 0.0)
+
+
+def _recorded_pose(setup: TrialSetup) -> np.ndarray:
+    """`RECORDED_POSE` where a trial can start there, else the nearest pose of the object's quick grid."""
+    pose = np.array([RECORDED_POSE])
+    if setup.plan is not None or reachable(setup.object, pose, setup.table)[0]:
+        return pose[0]
+    quick = grid_preset("quick", setup.object, setup.table)
+    return quick[int(np.argmin(np.linalg.norm((quick - pose)[:, :3], axis=1)))]
+
+
 def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
-                 grid_pose: Iterable[float] = (0.0, 0.0, 0.01, 0.0), seed: int = 0, *, every: int = 2,
+                 grid_pose: Iterable[float] | None = None, seed: int = 0, *, every: int = 2,
                  **fields: object) -> Recording:
     """Run one trial as `evaluate` runs it at a grid pose (any `TrialSetup`: a protocol, a regrasp, one's own
     controller); keep the scene's state along the way.
@@ -872,6 +885,8 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
         obj: the object, or its name; or a whole `TrialSetup`.
         experience: the experience base (None: the plain tactile controller), as `evaluate` takes it.
         grid_pose: (x, z, gap, yaw) in m and rad; refused as `evaluate` refuses it (`why_unreachable` says why).
+            None: `RECORDED_POSE` where the open hand can start there, else the nearest pose of the object's quick
+            grid (a large object does not fit 1 cm from the palm).
         seed: the trial's seed (trial 0 of `evaluate` with this seed).
         every: keep the state every this many control periods.
         **fields: the `TrialSetup` fields by name, as `evaluate` takes them; `margin` is on unless given (a
@@ -891,7 +906,7 @@ def record_trial(obj: str | GraspObject | TrialSetup, experience: Experience | N
     if setup.backend != "cpu":
         raise InvalidInput(f"record_trial runs on the cpu backend (it keeps the scene's states), not {setup.backend!r}")
     check_int(every, "every (control periods)")
-    grid_pose = np.asarray(tuple(grid_pose), dtype=float)
+    grid_pose = _recorded_pose(setup) if grid_pose is None else np.asarray(tuple(grid_pose), dtype=float)
     if grid_pose.shape != (4,) or not np.all(np.isfinite(grid_pose)):
         raise InvalidInput(f"grid_pose must be four finite numbers (x, z, gap, yaw), got {grid_pose!r}")
     check_grid(grid_pose, setup.object, setup.table, setup.plan)  # refused as `evaluate` would refuse it
