@@ -211,7 +211,7 @@ def test_an_experience_of_ones_own_without_places_steers_the_palm_from_touch_alo
     """The palm asked to follow the recalled place, given an experience that knows none: it re-centres exactly as
     touch alone does, and the trial runs on the flange."""
     from graspmanifold.control.controller import APPROACH, BatchController
-    from graspmanifold.trials.planned import PALM_EXPERIENCE, PALM_TOUCH
+    from graspmanifold.control.controller import PALM_EXPERIENCE, PALM_TOUCH
 
     postures, plans = box_plans
     params = {"own": replace(APPROACH, palm=PALM_EXPERIENCE), "touch": replace(APPROACH, palm=PALM_TOUCH)}

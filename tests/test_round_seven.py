@@ -396,3 +396,34 @@ def test_record_trials_default_pose_fits_a_new_larger_object(tmp_path):
     assert not reachable(big, np.array([[0.0, 0.0, 0.01, 0.0]]))[0]
     recording = gm.record_trial(big, every=50)
     assert reachable(big, np.asarray(recording.trial.grid_pose)[None])[0] and len(recording.states) >= 2
+
+
+def test_a_refused_objects_row_says_why_not_where(tmp_path):
+    """Poor case: a refusal's reason was cut after the file's full path in dataset.md, so the table showed the path
+    and not the reason."""
+    deep = tmp_path / ("a-long-folder-name-" * 6) / "flat.stl"
+    deep.parent.mkdir()
+    trimesh.Trimesh([[0, 0, 0], [0.05, 0, 0], [0, 0.05, 0]], [[0, 1, 2]]).export(deep)
+    _, loaded = load_object(deep, "flat", 1.0, tmp_path)
+    assert loaded.startswith("refused: ") and str(deep.parent) not in loaded and "watertight" in loaded
+
+
+def test_the_palm_steering_has_named_values_and_a_flag(tmp_path, monkeypatch):
+    """Poor case: `palm=FlangeLimits()` alone moved nothing, the docs gave no palm-steering values (found only in
+    the source) and the CLI had no flag for it."""
+    from graspmanifold.cli import main
+    from graspmanifold.control.controller import PALM_EXPERIENCE, PALM_STEERINGS, PALM_TOUCH
+
+    import graspmanifold.trials.evaluation as evaluation
+
+    assert PALM_TOUCH.active and PALM_EXPERIENCE.recalled_place and not PALM_STEERINGS["still"].active
+    asked = {}
+
+    def spy(*args, **kwargs):  # what the command asks of evaluate; its trials are the API's, tested elsewhere
+        asked.update(kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(evaluation, "evaluate", spy)
+    main(["evaluate", "--object", "box", "--experience", "none", "--palm-steering", "touch", "--out",
+          str(tmp_path / "run")])
+    assert asked["params"].palm == PALM_TOUCH and asked["palm"] is not None and "controller" not in asked

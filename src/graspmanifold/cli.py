@@ -23,7 +23,7 @@ from .base.io import LOCK_FILE, check_writable_folder, output_lock, write_failur
 from .base.moved import current_name
 from .base.version import __version__
 from .base.workers import default_workers
-from .control.controller import CONTROLLERS
+from .control.controller import CONTROLLERS, PALM_STEERINGS
 from .judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
 from .judging.replay import GRASP_STAGES, VERIFY_STAGES
 from .manifold.representations import REPRESENTATIONS
@@ -258,11 +258,13 @@ def _evaluate_into(args: argparse.Namespace, obj: GraspObject, out: Path, noise,
         remove_checkpoints(checkpoints)
     experience = _experience(args, files)
     start = time.perf_counter()
+    steering = PALM_STEERINGS[args.palm_steering]
+    ours = {"controller": args.controller} if not steering.active else {  # our controller with the palm's phases
+        "params": replace(CONTROLLERS[args.controller], palm=steering)}
     result = evaluate(obj, experience, args.grid, seed=args.seed, workers=args.cluster or args.workers, noise=noise,
                       table=args.table, checkpoint_dir=checkpoints, progress=True,
-                      backend=args.backend, hand=args.hand, controller=args.controller,
-                      margin=args.margin, protocol=args.protocol, touch=args.touch,
-                      palm=FlangeLimits() if args.palm else None)
+                      backend=args.backend, hand=args.hand, margin=args.margin, protocol=args.protocol,
+                      touch=args.touch, palm=FlangeLimits() if args.palm or steering.active else None, **ours)
     result.save(out / "trials.npz")
     write_text_atomic(out / "summary.json", summary_json([result]) + "\n")
     write_text_atomic(out / "table.md", result.markdown())
@@ -484,6 +486,11 @@ def _add_evaluate(commands: Any) -> None:
     evaluate.add_argument("--palm", action="store_true",
                           help="hang the hand on an arm's flange (sim.flange.FlangeLimits: the palm's six degrees of "
                                "freedom, servoed, bounded, lockable; the cpu backend); the lift protocol brings one")
+    evaluate.add_argument("--palm-steering", choices=tuple(PALM_STEERINGS), default="still",
+                          help="what moves the palm on the arm (it implies --palm): still, the paper's; touch, a guarded "
+                               "approach of at most 2 cm, then re-centring within 3 cm on the touching segments "
+                               "(control.controller.PALM_TOUCH); experience, re-centring on where the recalled grasp "
+                               "had the object (PALM_EXPERIENCE: an experience that knows places)")
     evaluate.add_argument("--out", required=True, help="directory for summary.json, trials.npz and table.md")
     evaluate.add_argument("--force", action="store_true", help="overwrite results in --out")
     evaluate.set_defaults(run=_evaluate)

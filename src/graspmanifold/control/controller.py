@@ -165,6 +165,14 @@ class PalmSteering:
 
 #: the palm of the fingers-only controller: it stays where the trial put it
 STILL_PALM = PalmSteering()
+#: the palm follows touch (the palm study's values): a guarded approach of at most 2 cm along the palm normal, then
+#: re-centring within 3 cm in the palm's plane at 5 cm/s; chosen on probes of generator seed 0 (the selection split,
+#: 3 plans per object at 2-5 cm, 497 trials: approach 0, 1 or 2 cm; reach 1.5, 3 or 5 cm; 5 or 10 cm/s)
+PALM_TOUCH = PalmSteering(approach=0.02, reach=0.03)
+#: the same phases steered by where the recalled grasp had the object (the experience's places)
+PALM_EXPERIENCE = replace(PALM_TOUCH, recalled_place=True)
+#: the palm steerings by name (the CLI's `--palm-steering`)
+PALM_STEERINGS: dict[str, PalmSteering] = {"still": STILL_PALM, "touch": PALM_TOUCH, "experience": PALM_EXPERIENCE}
 
 
 #: the flat settings of a controller table before the recall rule was a value, and their names in the rule's

@@ -16,7 +16,7 @@ Two parts, every arm on the same flange (`sim.flange.FlangeLimits`: one physics 
    displacement before the open loop, by its translation alone, and before the approach execution (the ceiling is
    each trial's best of the first and the last); the approach execution with fingers only, with the palm
    re-centred from touch alone, with the palm steered by the recalled object place, and the last three with two
-   attempts. The palm's phases (`trials.planned.PALM_TOUCH`) were chosen on probes of generator seed 0 (the
+   attempts. The palm's phases (`control.controller.PALM_TOUCH`) were chosen on probes of generator seed 0 (the
    selection split); the test split is seeds 2, 3, 4, run once.
 2. **The paper's grid** (`grid_preset('paper')`, the box, the cylinder and the sphere, the seed's experience of
    part 1): the paper's controller (`CONTROLLERS['paper']`) with its palm still, re-centred from touch and steered by
@@ -46,7 +46,8 @@ from ..manifold.som import SOM
 from ..sim.flange import FlangeLimits
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import grid_preset
-from ..trials.planned import PALM_ARMS, PALM_EXPERIENCE, PALM_TOUCH
+from ..control.controller import PALM_EXPERIENCE, PALM_TOUCH
+from ..trials.planned import PALM_ARMS
 from ..trials.stats import mcnemar, rate_text
 from .planned_grasps import FAMILIES, Family, PlannedStudyConfig, figure, generate, postures_key
 from .planned_grasps import report as planned_report

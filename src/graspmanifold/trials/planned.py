@@ -49,7 +49,7 @@ import numpy as np
 from ..base.errors import InvalidInput
 from ..base.poses import invert
 from ..base.workers import parallel_map
-from ..control.controller import APPROACH, CONTROLLERS, ControllerParams, PalmSteering
+from ..control.controller import APPROACH, CONTROLLERS, PALM_EXPERIENCE, PALM_TOUCH, ControllerParams
 from ..control.regrasp import Regrasp
 from ..judging.protocols import HOLD_TEST_FADED
 from ..judging.replay import OpenLoop, OpenLoopGrasp
@@ -98,13 +98,6 @@ class Arm:
     oracle: bool | str = False
     attempts: int = 1
 
-
-#: the palm's phases of the palm arms (issue 66): a guarded approach of at most 2 cm along the palm normal, then
-#: re-centring within 3 cm in the palm's plane at 5 cm/s; chosen on probes of generator seed 0 (the selection split,
-#: 3 plans per object at 2-5 cm, 497 trials: approach 0, 1 or 2 cm; reach 1.5, 3 or 5 cm; 5 or 10 cm/s)
-PALM_TOUCH = PalmSteering(approach=0.02, reach=0.03)
-#: the same phases steered by where the recalled grasp had the object (the experience's places)
-PALM_EXPERIENCE = replace(PALM_TOUCH, recalled_place=True)
 
 #: every arm by name: the issue 65 family (`EXECUTION_ARMS`) and the palm family (`PALM_ARMS`)
 ARMS: dict[str, Arm] = {arm.name: arm for arm in (

@@ -166,7 +166,8 @@ class TrialSetup:
         palm: the hand on an arm's flange with these limits (`sim.flange.FlangeLimits`: the palm's six degrees of
             freedom, servoed, lockable; the cpu backend), or None: the palm stays where the trial put it. A protocol
             whose judging moves the palm (the lift: `JudgingRules.needs_flange`) gets the default flange where none
-            is given.
+            is given. The flange alone moves nothing: the controller's `ControllerParams.palm` steers it
+            (`control.controller.PALM_TOUCH`, `PALM_EXPERIENCE`; the CLI's `--palm-steering`).
         oracle: the oracle correction, a ceiling and not a controller (issue 66): with a plan and a palm, the
             flange first carries the palm by the object's true displacement (the trial's pose, `grid.
             oracle_correction`) to where the plan puts it for the displaced object, the fingers held in their
