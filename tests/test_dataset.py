@@ -89,3 +89,6 @@ def test_a_dataset_folder_to_verified_grasps_a_map_and_controllers_in_one_comman
     rows = {row["object"]: row for row in json.loads((out / "dataset.json").read_text())["objects"]}
     assert set(rows["box"]["results"]) == {"none", "database", "linear"} and (out / "maps" / "box_linear.npz").exists()
     assert "| linear |" in capsys.readouterr().out
+    both = (out / "dataset.md").read_text()  # round seven: the second manifold's run kept the first's report
+    assert "## som" in both and "## linear" in both and "| box | as shipped |" in both.split("## linear")[0]
+    assert set(json.loads((out / "dataset.json").read_text())["manifolds"]) == {"som", "linear"}

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
-from ..base.io import json_text, markdown_table, software_versions, write_text_atomic
+from ..base.io import json_text, markdown_table, read_json, software_versions, write_text_atomic
 from ..base.progress import progress_bar
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
@@ -241,36 +241,58 @@ def _run(args: argparse.Namespace, study: StudyRun, root: Path, found: DatasetFi
             study.log(f"{name}: {loaded}; {row.get('postures', 0)} verified postures")
             bar.update(1)
     tested = {r["label"]: r for r in holm_family(tests)}
-    lines = [f"# Dataset {root.name}: experience and controllers on each object", "",
-             f"{len(files)} object files; {args.postures} verified postures each (seed {args.seed}), the {args.grid} "
-             f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `{args.manifold}` against "
-             "`none` on the same poses (McNemar, Holm over the objects).",
-             "", *markdown_table(["object", "loaded", "triangles", "verified postures", *methods(args.manifold),
-                                  f"{args.manifold} - none (p Holm)"], [_table_row(r, tested, args.manifold)
-                                                                         for r in rows]), ""]
+    section = [f"## {args.manifold}", "",
+               f"{len(files)} object files; {args.postures} verified postures each (seed {args.seed}), the {args.grid} "
+               f"grid{f' ({args.poses} of its poses)' if args.poses else ''}; hold [95 % Wilson CI]; `{args.manifold}` "
+               "against `none` on the same poses (McNemar, Holm over the objects).",
+               "", *markdown_table(["object", "loaded", "triangles", "verified postures", *methods(args.manifold),
+                                    f"{args.manifold} - none (p Holm)"], [_table_row(r, tested, args.manifold)
+                                                                           for r in rows]), ""]
     usable = [r for r in rows if not r["loaded"].startswith(("refused", "failed"))]
-    lines += [f"Loaded {len(usable)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
-              f"{args.postures} verified postures.", ""]
+    section += [f"Loaded {len(usable)} of {len(rows)}; {sum(r.get('postures', 0) >= args.postures for r in rows)} got "
+                f"{args.postures} verified postures.", ""]
     pooled = pooled_rows(rows, args.manifold)
     if pooled:
-        lines += ["Every object's trials together (paired by pose):", "",
-                  *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"], pooled),
-                  "", "Per object:", "", *comparison_table(list(tested.values()))]
+        section += ["Every object's trials together (paired by pose):", "",
+                    *markdown_table(["controller", "trials", "hold", "none's hold", "difference", "McNemar p"], pooled),
+                    "", "Per object:", "", *comparison_table(list(tested.values()))]
     else:  # two tables without a row said nothing
-        lines += ["No object got trials: nothing to compare."]
-    others = {where: fate for where, fate in found.fates.items() if fate != "object"}
-    if others:
-        lines += ["", "The folder's other files, and what became of them:", "",
-                  *markdown_table(["file", "what it is"], [[where, fate] for where, fate in others.items()])]
+        section += ["No object got trials: nothing to compare."]
     for row in rows:
         row.pop("outcomes", None)
+    options = {k: v for k, v in vars(args).items() if k != "run"}
+    run = {"options": options, "objects": rows, "pooled": pooled, "comparisons": list(tested.values()),
+           "report": section}
+    manifolds = _earlier_manifolds(study.out / "dataset.json", root) | {args.manifold: run}  # every manifold run here
+    lines = [f"# Dataset {root.name}: experience and controllers on each object", "",
+             f"The manifolds run into this folder: {', '.join(manifolds)}.", ""]
+    for earlier in manifolds.values():
+        lines += [*earlier["report"], ""]
+    others = {where: fate for where, fate in found.fates.items() if fate != "object"}
+    if others:
+        lines += ["The folder's other files, and what became of them:", "",
+                  *markdown_table(["file", "what it is"], [[where, fate] for where, fate in others.items()])]
     write_text_atomic(study.out / "dataset.md", "\n".join(lines) + "\n")
     write_text_atomic(study.out / "dataset.json", json_text(
-        {"folder": str(root), "options": {k: v for k, v in vars(args).items() if k != "run"},
-         "trials": _setup_record(), "objects": rows, "files": found.fates,
-         "pooled": pooled, "comparisons": list(tested.values()), "versions": software_versions()}))
-    print("\n".join(lines))
+        {"folder": str(root), **run, "trials": _setup_record(), "files": found.fates, "manifolds": manifolds,
+         "versions": software_versions()}))
+    print("\n".join(section))
     print(f"wrote {study.out / 'dataset.md'} and {study.out / 'dataset.json'}")
+
+
+def _earlier_manifolds(path: Path, root: Path) -> dict[str, dict]:
+    """The manifolds an earlier run of the same folder wrote into `dataset.json` (none where there is no such file,
+    or it is of another folder or unreadable: it is then written anew)."""
+    if not path.exists():
+        return {}
+    try:
+        earlier = read_json(path, "the earlier dataset.json")
+    except InvalidInput:
+        return {}
+    if earlier.get("folder") != str(root) or not isinstance(earlier.get("manifolds"), dict):
+        return {}
+    return {name: run for name, run in earlier["manifolds"].items()
+            if isinstance(run, dict) and isinstance(run.get("report"), list)}
 
 
 def _experience(args: argparse.Namespace, study: StudyRun, obj: GraspObject) -> dict:
