@@ -427,3 +427,16 @@ def test_the_palm_steering_has_named_values_and_a_flag(tmp_path, monkeypatch):
     main(["evaluate", "--object", "box", "--experience", "none", "--palm-steering", "touch", "--out",
           str(tmp_path / "run")])
     assert asked["params"].palm == PALM_TOUCH and asked["palm"] is not None and "controller" not in asked
+
+
+def test_a_map_trained_on_another_hands_postures_is_refused_by_the_command(tmp_path, capsys):
+    """Poor case: a map trained on one hand's postures ran on another hand without a word (maps a run trains now
+    record their hand, and `--map` is refused for another, as `--postures` already was)."""
+    from graspmanifold.cli import main
+    from graspmanifold.base.io import npz_metadata
+
+    path = gm.SOM(3, 3, 22, seed=0).fit(_postures(), epochs=2).save(tmp_path / "map.npz",
+                                                                       extra={"hand": "gymnasium-robotics"})
+    assert npz_metadata(path)["hand"] == "gymnasium-robotics"
+    with pytest.raises(SystemExit, match="was trained on the 'gymnasium-robotics' hand's postures, not --hand"):
+        main(["evaluate", "--object", "box", "--map", str(path), "--out", str(tmp_path / "run")])

@@ -19,7 +19,7 @@ from typing import Any  # argparse names its subparsers action privately
 
 from .base.config_files import read_config
 from .base.errors import GraspManifoldError, InvalidInput
-from .base.io import LOCK_FILE, check_writable_folder, output_lock, write_failure
+from .base.io import LOCK_FILE, check_writable_folder, npz_metadata, output_lock, write_failure
 from .base.moved import current_name
 from .base.version import __version__
 from .base.workers import default_workers
@@ -189,6 +189,10 @@ def _experience_files(args: argparse.Namespace):
             raise SystemExit("error: --map gives the controller an experience; --experience none runs without one: "
                              "drop one of them")
         experience = load_representation(args.map)
+        recorded = npz_metadata(args.map).get("hand")  # maps a run trained say their hand
+        if recorded is not None and current_name("hand", recorded) != hand_name(args.hand, "--hand"):
+            raise SystemExit(f"error: --map {args.map} was trained on the {recorded!r} hand's postures, not --hand "
+                             f"{args.hand}'s")
         kind = representation_name(experience)
         if args.experience not in (None, kind):
             raise SystemExit(f"error: --map {args.map} holds a {kind}, not a {args.experience}: pass --experience "

@@ -424,6 +424,22 @@ def npz_kind(path: str | os.PathLike) -> str:
     Raises:
         InvalidInput: no such file, or one that is not a readable file of the library's; the message names it.
     """
+    return str(npz_metadata(path)["kind"])
+
+
+def npz_metadata(path: str | os.PathLike) -> dict:
+    """The metadata a file written by `save_npz` declares (its kind, its version, what `save` was given as `extra`),
+    its data unread.
+
+    Args:
+        path: the .npz file.
+
+    Returns:
+        The metadata.
+
+    Raises:
+        InvalidInput: no such file, or one that is not a readable file of the library's; the message names it.
+    """
     path = check_input_file(path, "path")
     try:
         with zipfile.ZipFile(path) as archive:
@@ -431,7 +447,8 @@ def npz_kind(path: str | os.PathLike) -> str:
             if info.file_size > MAX_METADATA_BYTES:
                 raise _Refused(f"its metadata declares {info.file_size} bytes, more than {MAX_METADATA_BYTES}")
             meta = json.loads(str(_read_member(archive, info)))
-        return str(meta["kind"])
+        str(meta["kind"])  # a file without a kind is not one of the library's
+        return dict(meta)
     except _Refused as error:
         raise InvalidInput(f"{path}: {error}") from None
     except Exception as error:  # noqa: BLE001 - whatever a corrupt file does to the parser, the file is at fault

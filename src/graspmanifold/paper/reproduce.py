@@ -456,14 +456,15 @@ class _Pipeline:
                     raise InvalidInput(f"no training postures for the {name} map: the {config.procedure} procedure "
                                        "kept none of the candidates; ask for more (ReproduceConfig.postures) or use "
                                        "the paper procedure")
-                SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(path)
+                SOM(*config.map_size, N_FINGER_JOINTS, seed=config.seed).fit(data, **schedule, progress=True).save(
+                    path, extra={"hand": config.hand})
             self.stages.run(f"train_{name}", result_key(config.map_size, schedule, config.seed, *inputs), [path], train)
         manifold_paths = ({name: out / "manifolds" / f"{name}.npz" for name in (*self.objects, "all")}
                           if self.continuous else {})
         for name, path in manifold_paths.items():
             def fit(name=name, path=path):
                 data = sets[name].postures if name != "all" else PostureSet.concatenate(list(sets.values())).postures
-                UKR().fit(data, progress=True).save(path)
+                UKR().fit(data, progress=True).save(path, extra={"hand": config.hand})
             inputs = [sets_paths[name]] if name != "all" else list(sets_paths.values())
             self.stages.run(f"fit_ukr_{name}", result_key("ukr", *inputs), [path], fit)
         return map_paths, manifold_paths
@@ -511,7 +512,7 @@ class _Pipeline:
                 resumed = copy.deepcopy(maps[name])
                 if len(successes):
                     resumed.resume(successes, **RESUME.as_dict())
-                resumed.save(path)
+                resumed.save(path, extra={"hand": self.config.hand})
                 return {"postures": int(len(successes))}
             self.stages.run(f"resume_{name}", result_key(RESUME.as_dict(), map_paths[name], eval_paths[(name, "som")]),
                             [path], resume)
@@ -523,7 +524,7 @@ class _Pipeline:
                 resumed = copy.copy(manifolds[name])  # `resume` replaces its (read-only) arrays: the original keeps its own
                 if len(successes):
                     resumed.resume(successes, progress=True)
-                resumed.save(path)
+                resumed.save(path, extra={"hand": self.config.hand})
                 return {"postures": int(len(successes))}
             self.stages.run(f"resume_ukr_{name}", result_key("ukr", manifold_paths[name], eval_paths[(name, "ukr")]),
                             [path], resume_manifold)
