@@ -136,6 +136,7 @@ def test_the_uncertainty_study_runs_and_reports_every_method_at_every_level(tmp_
     info = UncertaintyStudy(config).run()
     stored = json.loads((tmp_path / "out" / "study.json").read_text())
     assert stored["verdict"] == info["verdict"] and (tmp_path / "out" / "uncertainty_study.png").stat().st_size > 0
+    assert stored["run"]["wall_seconds"] > 0 and stored["run"]["results_computed"] > 0  # how long it ran, recorded
     report = (tmp_path / "out" / "uncertainty_study.md").read_text()
     assert "## Verdict" in report and "uncertainty_study.png" in report
     levels = [f"{v:.0f}" for v in info["levels_cm"]]

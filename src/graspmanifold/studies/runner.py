@@ -311,8 +311,9 @@ def run_study(out: str | Path, workers: int, body: Callable[[StudyRun], object],
 def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callable[[dict], str],
             figure: Callable[[dict, Path], str] | None = None) -> None:
     """A study's results written out: its figure beside the report (`figure(info, path)` returns the file's name,
-    kept as info['figure']), the report, OUT/study.json with the command and the software versions and, for a full
-    run, that JSON beside the report; the verdict printed.
+    kept as info['figure']), the report, OUT/study.json with the command, the software versions and the run's wall
+    time (with how many results it computed and how many it took from an earlier run) and, for a full run, that JSON
+    beside the report; the verdict printed.
 
     Args:
         study: the run.
@@ -325,7 +326,9 @@ def publish(study: StudyRun, doc: Path, quick: bool, info: dict, report: Callabl
     if figure is not None:
         info["figure"] = figure(info, doc.with_suffix(".png"))
     write_text_atomic(doc, report(info))
-    made_by = {"command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "versions": software_versions()}
+    made_by = {"command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]), "versions": software_versions(),
+               "run": {"wall_seconds": round(time.perf_counter() - study.started, 1), "workers": study.workers,
+                       "results_computed": study.computed, "results_reused": study.reused}}
     data = json_text({**info, **made_by})  # what made it, and what it ran on
     write_text_atomic(study.out / "study.json", data)
     if not quick:
