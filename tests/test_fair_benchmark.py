@@ -72,8 +72,11 @@ def test_a_small_study_records_its_verification_and_its_draw(box_plans, tmp_path
     assert sum(cell["plans"] for cell in info["by_design"].values()) == verified
     assert info["noise_floor"]["trials"] == info["by_level"]["open-loop"][1][1]  # the rerun paired trial by trial
     assert -1.0 <= info["noise_floor"]["low"] <= info["noise_floor"]["high"] <= 1.0
+    share = info["headroom"]["approach-recall"]  # the recalled squeeze's share of the fixed press's headroom
+    assert share["clusters"] == verified and share["trials"] == verified
     text = planned_grasps.report(info)
     assert "## The plans" in text and "The noise floor" in text
+    assert "(arm - approach-recall-fixed) / (ceiling - approach-recall-fixed) at 0 cm (every plan)" in text
 
 
 def test_the_squeeze_survives_saving_and_loading_a_database_and_a_map(tmp_path):

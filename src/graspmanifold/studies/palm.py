@@ -49,7 +49,7 @@ from ..trials.grid import grid_preset
 from ..control.controller import PALM_EXPERIENCE, PALM_TOUCH
 from ..trials.planned import PALM_ARMS
 from ..trials.stats import mcnemar, rate_text
-from .planned_grasps import FAMILIES, Family, PlannedStudyConfig, figure, generate, postures_key
+from .planned_grasps import FAMILIES, Family, Headroom, PlannedStudyConfig, figure, generate, postures_key
 from .planned_grasps import report as planned_report
 from .planned_grasps import run as run_planned
 from .runner import StudyRun, comparison_table, holm_family, publish, run_study, study_config
@@ -130,7 +130,7 @@ def palm_verdict(info: dict) -> str:
 PALM = Family("palm", "The palm that follows touch: a wrist the controller moves, on planned grasps and the paper's "
               "grid", PALM_ARMS, QUESTIONS, False, palm_verdict, "issue 66", "study-palm",
               "docs/palm_follows_touch.md", "scripts/study_palm.py", floor="flange-open-loop",
-              ceiling=("oracle-correction", "oracle-fingers"))
+              headroom=Headroom("flange-open-loop", ("oracle-correction", "oracle-fingers"), (0.02, 0.03, 0.05)))
 FAMILIES[PALM.name] = PALM
 
 

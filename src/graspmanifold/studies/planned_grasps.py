@@ -90,6 +90,15 @@ QUESTIONS: tuple[tuple[str, str, str, tuple[float, ...]], ...] = (
 )
 
 
+def _squeeze_share(info: dict) -> str:
+    """The recalled squeeze's share of the fixed press's headroom to the open loop, in words ('' where not known)."""
+    share = info.get("headroom", {}).get("approach-recall")
+    if share is None or not np.isfinite(share["value"]):
+        return ""
+    return (f": the recalled squeeze takes {100 * share['value']:.0f} % [{100 * share['low']:.0f}, "
+            f"{100 * share['high']:.0f}] of the fixed press's headroom to the open loop")
+
+
 def _execution_verdict(info: dict) -> str:
     ceiling = info["ceiling"]
     recall, open_loop, som = ceiling["approach-recall"], ceiling["open-loop"], ceiling["approach"]
@@ -99,10 +108,35 @@ def _execution_verdict(info: dict) -> str:
             f"{recall[1]} plans at 0 cm, the open loop {rate_text(*open_loop)}: {100 * gap['value']:+.1f} pts, "
             f"{100 * gap['low']:+.1f} to {100 * gap['high']:+.1f} over plans (target >= -3 pts: "
             f"{'met' if gap['value'] >= -0.03 else 'not met'}); with the fixed press "
-            f"{rate_text(*ceiling['approach-recall-fixed'])}. The map-based approach (the object's SOM) holds "
+            f"{rate_text(*ceiling['approach-recall-fixed'])}{_squeeze_share(info)}. The map-based approach (the object's SOM) holds "
             f"{rate_text(*som)} at 0 cm (target >= 80 %: {'met' if som[0] >= 0.8 * max(som[1], 1) else 'not met'}); "
             f"the old execution {rate_text(*ceiling['blend-recall'])}; with the grip force bounded "
             f"{rate_text(*ceiling['approach-bounded-recall'])}.")
+
+
+@dataclass(frozen=True)
+class Headroom:
+    """What a family's headroom share measures: (arm - floor) / (ceiling - floor) on the same trials, with the
+    cluster bootstrap over plans (`trials.stats.headroom_share`).
+
+    Attributes:
+        floor: the arm the share starts from.
+        ceiling: the arms whose per-trial best is the ceiling.
+        levels: m, the levels whose trials count (0 cm: every plan; above it, the displaced plans').
+        arms: the arms whose share is reported (empty: every arm but the floor and the ceiling's).
+    """
+
+    floor: str
+    ceiling: tuple[str, ...]
+    levels: tuple[float, ...]
+    arms: tuple[str, ...] = ()
+
+    def describe(self) -> str:
+        """The share in words, for the report and the verdict."""
+        at = "0 cm (every plan)" if self.levels == (0.0,) else \
+            f"{100 * min(self.levels):.0f}-{100 * max(self.levels):.0f} cm (the displaced plans)"
+        ceiling = f"a trial's best of {' and '.join(self.ceiling)}" if len(self.ceiling) > 1 else self.ceiling[0]
+        return f"(arm - {self.floor}) / (ceiling - {self.floor}) at {at}, the ceiling {ceiling}"
 
 
 @dataclass(frozen=True)
@@ -121,8 +155,8 @@ class Family:
         default_doc: the report by default.
         script: the script that runs it.
         floor: the open-loop arm that verifies the plans under the study's own protocol and physics
-            (`trials.planned.verify_plans`) and is the headroom's floor.
-        ceiling: the arms whose per-trial best is the headroom's ceiling (none: no headroom; `headroom_shares`).
+            (`trials.planned.verify_plans`) and is the noise floor's arm.
+        headroom: what the family's headroom share measures (`headroom_shares`), or None.
         zero_only: arms run at 0 cm only (not on the displaced plans' 1-5 cm trials).
     """
 
@@ -137,13 +171,14 @@ class Family:
     default_doc: str
     script: str
     floor: str = "open-loop"
-    ceiling: tuple[str, ...] = ()
+    headroom: Headroom | None = None
     zero_only: tuple[str, ...] = ()
 
 
 EXECUTION = Family("execution", "Planned grasps: execution at the verified grasp's level, against a fair open loop",
                    EXECUTION_ARMS, QUESTIONS, True, _execution_verdict, "issues 65 and 84", "study-planned-grasps",
-                   "docs/planned_grasps.md", "scripts/study_planned_grasps.py", zero_only=("approach-recall-fixed",))
+                   "docs/planned_grasps.md", "scripts/study_planned_grasps.py", zero_only=("approach-recall-fixed",),
+                   headroom=Headroom("approach-recall-fixed", ("open-loop",), (0.0,), ("approach-recall",)))
 #: the families by name; `studies.palm` adds the palm's
 FAMILIES: dict[str, Family] = {EXECUTION.name: EXECUTION}
 #: the arms' colours in the figure
@@ -575,9 +610,10 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, selection: dict | None
         row["by_seed"] = per_seed
         row["same_sign"] = bool(all(d > 0 for d in per_seed) or all(d < 0 for d in per_seed))
         row["bootstrap"] = spread
-    if family.ceiling:
-        info["headroom"] = headroom_shares(outcomes, arms, family.floor, family.ceiling)
-        info["by_start"] = by_start(outcomes, arms)
+    if family.headroom is not None:
+        info["headroom"] = headroom_shares(outcomes, arms, family.headroom)
+        if family.headroom.levels != (0.0,):  # the displaced trials' starts, where the headroom is theirs
+            info["by_start"] = by_start(outcomes, arms)
     if selection is not None:
         info["selection"] = selection
         info["by_design"] = by_design(outcomes, arms, selection["designs"])
@@ -587,27 +623,25 @@ def summarise(config: PlannedStudyConfig, outcomes: dict, selection: dict | None
     return info
 
 
-def headroom_shares(outcomes: dict, arms: Sequence[str], floor: str, ceiling: Sequence[str],
-                    levels: tuple[float, ...] = (0.02, 0.03, 0.05)) -> dict[str, dict]:
-    """Each arm's share of the ceiling's headroom over the floor, (arm - floor) / (ceiling - floor), on the displaced
-    plans' trials at these levels, with the cluster bootstrap over plans (`trials.stats.headroom_share`); the ceiling
+def headroom_shares(outcomes: dict, arms: Sequence[str], headroom: Headroom) -> dict[str, dict]:
+    """Each arm's share of the ceiling's headroom over the floor, (arm - floor) / (ceiling - floor), on the trials
+    of the headroom's levels, with the cluster bootstrap over plans (`trials.stats.headroom_share`); the ceiling
     holds a trial where any of its arms does (the per-trial best of the oracles).
 
     Args:
         outcomes: {task: _Outcomes} of the study.
-        arms: the arms (the floor and the ceiling's own left out).
-        floor: the open loop.
-        ceiling: the arms whose per-trial best is the ceiling (the oracles).
-        levels: m.
+        arms: the study's arms.
+        headroom: the floor, the ceiling, the levels and the arms reported (`Headroom`).
 
     Returns:
         {arm: `ClusteredEstimate.to_dict()`}.
     """
     out = {}
-    for arm in arms:
-        if arm == floor or arm in ceiling:
+    for arm in headroom.arms or arms:
+        if arm == headroom.floor or arm in headroom.ceiling or arm not in arms:
             continue
-        table = _trials(outcomes, (arm, floor, *ceiling), levels, displaced_only=True)
+        table = _trials(outcomes, (arm, headroom.floor, *headroom.ceiling), headroom.levels,
+                        displaced_only=headroom.levels != (0.0,))
         if len(table["held"]):
             held = table["held"]
             out[arm] = headroom_share(held[:, 0], held[:, 1], held[:, 2:].any(axis=1), table["plan"].tolist(),
@@ -797,10 +831,9 @@ def _comparison_lines(info: dict) -> list[str]:
                   "difference from a cluster bootstrap over plans (plans resampled within each seed, their trials "
                   "kept together, 2,000 replicates): a difference is claimed where that interval excludes 0.", ""]
     lines += comparison_table(info["comparisons"], bootstrap="bootstrap" in info["comparisons"][0])
-    if info.get("headroom"):
-        floor, ceiling = FAMILIES[info["config"]["family"]].floor, FAMILIES[info["config"]["family"]].ceiling
-        lines += ["", f"The share of the headroom each arm takes at 2-5 cm: (arm - {floor}) / (ceiling - {floor}) "
-                  f"on the same trials, the ceiling a trial's best of {' and '.join(ceiling)}, with the "
+    headroom = FAMILIES[info["config"]["family"]].headroom
+    if info.get("headroom") and headroom is not None:
+        lines += ["", f"The share of the headroom: {headroom.describe()}, on the same trials, with the "
                   "cluster-bootstrap interval over plans:", ""]
         lines += markdown_table(["arm", "headroom share [95 % CI over plans]", "trials", "plans"],
                                 [[arm, f"{100 * h['value']:.0f} % [{100 * h['low']:.0f}, {100 * h['high']:.0f}]",
@@ -827,7 +860,8 @@ def _start_lines(info: dict) -> list[str]:
     if not info.get("by_start"):
         return []
     family = FAMILIES[info["config"]["family"]]
-    shown = [arm for arm in (family.floor, *family.ceiling, "oracle-translation", "fingers-only") if arm in info["arms"]]
+    ceiling = () if family.headroom is None else family.headroom.ceiling
+    shown = [arm for arm in (family.floor, *ceiling, "oracle-translation", "fingers-only") if arm in info["arms"]]
     levels = info["levels"]
     lines = ["", "## By start", "",
              "The displaced plans' trials by how they started: from the plan's pregrasp, or from the open hand at the "
