@@ -248,7 +248,7 @@ def _standard(value: object) -> object:
     """`value` with every float JSON cannot hold replaced by its name in `UNBOUNDED`."""
     if isinstance(value, dict):
         return {key: _standard(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
+    if isinstance(value, (list, tuple, np.ndarray)):
         return [_standard(item) for item in value]
     if isinstance(value, (float, np.floating)) and not np.isfinite(value):
         return "NaN" if np.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
@@ -261,14 +261,17 @@ def json_text(value: object, indent: int | None = 1) -> str:
     """Standard JSON for result files, which `JSON.parse` and jq read too.
 
     Args:
-        value: dictionaries, lists, strings, numbers (NumPy scalars included), None.
+        value: dictionaries, lists (NumPy arrays included), strings, numbers (NumPy scalars included), None.
         indent: as `json.dumps`.
 
     Returns:
         The text; an infinite or NaN float is written as the string "Infinity", "-Infinity" or "NaN"
         (`read_json` reads it back as the float).
     """
-    return json.dumps(_standard(value), indent=indent, allow_nan=False, default=float)
+    try:
+        return json.dumps(_standard(value), indent=indent, allow_nan=False)
+    except TypeError as error:  # a value JSON has no form for (a set, an object)
+        raise InvalidInput(f"a result file holds dictionaries, lists, strings, numbers and None: {error}") from None
 
 
 def _restored(value: object) -> object:
@@ -291,11 +294,11 @@ def read_json(path: str | os.PathLike, name: str) -> dict:
     Returns:
         Its data.
     """
-    text = check_input_file(path, name).read_text()
+    raw = check_input_file(path, name).read_bytes()
     try:
-        data = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise InvalidInput(f"{name} ({path}) is not JSON: {error}") from None
+        data = json.loads(raw.decode("utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as error:
+        raise InvalidInput(f"{name} ({path}) is not JSON: {type(error).__name__}: {str(error)[:200]}") from None
     if not isinstance(data, dict):
         raise InvalidInput(f"{name} ({path}) must hold a JSON object, got {type(data).__name__}")
     restored = _restored(data)

@@ -35,6 +35,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
 from ..base.io import json_text, markdown_table, read_json, software_versions, write_text_atomic
 from ..base.progress import progress_bar
+from ..base.validation import check_int
 from ..manifold.experience import Experience, check_experience
 from ..manifold.postureset import PostureSet
 from ..manifold.representations import fit_representation
@@ -346,6 +347,8 @@ def trial_grid(preset: str, poses: int | None, obj: GraspObject) -> tuple[str | 
         (the grid to pass to `evaluate`: the preset's name, or the chosen poses; the poses (n, 4)).
     """
     every = grid_preset(preset, obj)
+    if poses is not None:
+        check_int(poses, "poses")
     if poses is None or poses >= len(every):
         return preset, every
     chosen = every[np.linspace(0, len(every) - 1, poses).round().astype(int)]

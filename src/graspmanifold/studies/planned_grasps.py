@@ -131,6 +131,13 @@ class Headroom:
     levels: tuple[float, ...]
     arms: tuple[str, ...] = ()
 
+    def __post_init__(self) -> None:
+        for arm in (self.floor, *self.ceiling, *self.arms):
+            check_choice(arm, tuple(ARMS), "Headroom arm")
+        if not self.ceiling or not self.levels or any(level not in LEVELS for level in self.levels):
+            raise InvalidInput(f"a Headroom needs a ceiling and levels among {LEVELS} m, got ceiling {self.ceiling} "
+                               f"and levels {self.levels}")
+
     def describe(self) -> str:
         """The share in words, for the report and the verdict."""
         at = "0 cm (every plan)" if self.levels == (0.0,) else \
@@ -190,6 +197,11 @@ _STYLE = {"open-loop": "k", "heuristic": "0.6", "paper": "tab:purple", "blend-re
           "palm-experience-x2": "tab:pink"}
 
 
+#: the most plans per object and seed a study asks the generator for (the default 34 takes about 45 minutes; a
+#: thousand would take a day, and 1e9 was taken without a word)
+MAX_PLANS = 1000
+
+
 @dataclass(frozen=True)
 class PlannedStudyConfig:
     """How the study runs.
@@ -221,7 +233,7 @@ class PlannedStudyConfig:
                 isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in self.seeds):
             raise InvalidInput(f"seeds must be distinct integers >= 0, got {self.seeds!r}")
         for name in ("plans", "displaced"):
-            check_int(getattr(self, name), name, low=1)
+            check_int(getattr(self, name), name, low=1, high=MAX_PLANS)
         check_int(self.draw, "draw", low=0)
 
     @property
@@ -268,6 +280,7 @@ def drawn_plans(verified: np.ndarray, count: int, draw: int, seed: int, name: st
     Returns:
         The drawn plans' indices, increasing.
     """
+    check_int(count, "count", low=0)
     rng = np.random.default_rng([draw, seed, list(OBJECTS).index(name)])
     candidates = np.flatnonzero(verified)
     return np.sort(rng.choice(candidates, min(count, len(candidates)), replace=False)).astype(int)

@@ -62,6 +62,8 @@ class StudyRun:
     """
 
     def __init__(self, out: str | Path, workers: int = 2):
+        if not str(out):  # Path("") is the current folder: a study's files would land among one's own
+            raise InvalidInput("--out must name a folder, got an empty path")
         self.out = Path(out)
         self.workers = workers_for(workers, 10**6, 1)  # capped at the cores: a study's trials outnumber them
         check_writable_folder(self.out, "--out")  # a file, or a folder that cannot be written, named as such

@@ -587,7 +587,11 @@ def _read_job(path: Path) -> tuple[tuple[_Job | None, dict[str, np.ndarray]], di
 
 def _hand_into_params(kwargs: dict[str, Any], hand: object) -> None:
     """`generate_postures(hand=...)` of 0.1: the hand is `GeneratorParams.hand` now."""
-    kwargs["params"] = replace(kwargs.get("params") or GeneratorParams(), hand=hand)
+    params = kwargs.get("params") or GeneratorParams()
+    if params.hand not in (GeneratorParams().hand, hand):
+        raise InvalidInput(f"hand={hand!r} (the 0.1 keyword) and params.hand={params.hand!r} disagree: give the hand "
+                           "once, as GeneratorParams(hand=...)")
+    kwargs["params"] = replace(params, hand=hand)
 
 
 @moved_keyword("hand", "params=GeneratorParams(hand=...)", _hand_into_params)

@@ -423,6 +423,16 @@ class ClusteredEstimate:
                 "clusters": self.clusters, "unit": self.unit}
 
 
+def _paired(**columns: object) -> np.ndarray:
+    """Outcome columns of the same trials side by side, (n, k): each one flat and as long as the others."""
+    arrays = {name: np.asarray(column) for name, column in columns.items()}
+    lengths = {name: array.shape for name, array in arrays.items()}
+    if any(array.ndim != 1 for array in arrays.values()) or len({shape for shape in lengths.values()}) != 1:
+        raise InvalidInput(f"{', '.join(arrays)} must be outcomes of the same trials, one flat array each of one "
+                           f"length, got shapes {', '.join(f'{name} {shape}' for name, shape in lengths.items())}")
+    return np.column_stack(list(arrays.values()))
+
+
 def bootstrap_difference(outcomes_a: object, outcomes_b: object, clusters: Sequence[Hashable],
                          strata: Sequence[Hashable] | None = None, replicates: int = BOOTSTRAP_REPLICATES,
                          seed: int = 0, confidence: float = 0.95) -> ClusteredEstimate:
@@ -440,7 +450,7 @@ def bootstrap_difference(outcomes_a: object, outcomes_b: object, clusters: Seque
     Returns:
         The `ClusteredEstimate` of the difference (rates, not points: 0.1 is ten points).
     """
-    table = np.column_stack([np.asarray(outcomes_a), np.asarray(outcomes_b)])
+    table = _paired(outcomes_a=outcomes_a, outcomes_b=outcomes_b)
     rates = cluster_bootstrap(table, clusters, strata, replicates, seed)
     low, high = percentile_interval(rates[:, 0] - rates[:, 1], confidence)
     value = float(table[:, 0].mean() - table[:, 1].mean())
@@ -467,7 +477,7 @@ def headroom_share(arm: object, floor: object, ceiling: object, clusters: Sequen
     Returns:
         The `ClusteredEstimate` of the share (NaN where the ceiling is no higher than the floor).
     """
-    table = np.column_stack([np.asarray(arm), np.asarray(floor), np.asarray(ceiling)])
+    table = _paired(arm=arm, floor=floor, ceiling=ceiling)
     rates = cluster_bootstrap(table, clusters, strata, replicates, seed)
 
     def share(r: np.ndarray) -> np.ndarray:

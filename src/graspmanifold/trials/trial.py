@@ -262,6 +262,9 @@ class TrialSetup:
                                "noise beside a plan")
         if self.palm is None:
             set_field("palm", self.protocol.flange)
+        if self.palm is None and self.params.palm.active:  # steering with nothing to steer moved nothing silently
+            raise InvalidInput("ControllerParams.palm steers the palm on an arm, but these trials have none: give "
+                               "palm=FlangeLimits() (the CLI's --palm)")
         if isinstance(self.palm, FlangeLimits):
             self.protocol.check_arm(self.palm, self.object.mass)
         if self.palm is not None and (not isinstance(self.palm, FlangeLimits) or self.backend != "cpu"):

@@ -1,0 +1,99 @@
+"""Hardening, round eight (issue 88): what issues 84 and 88 added, tried as a tester would (RELIABILITY.md's round
+eight table). Each poor case fixed has its test here, failing before its fix."""
+
+from __future__ import annotations
+
+from contextlib import nullcontext
+
+import numpy as np
+import pytest
+
+import graspmanifold as gm
+
+
+def _steered_without_flange():
+    from dataclasses import replace
+
+    from graspmanifold.control.controller import CONTROLLERS, PALM_TOUCH
+    from graspmanifold.trials.trial import TrialSetup
+
+    return TrialSetup(object="box", params=replace(CONTROLLERS["paper"], palm=PALM_TOUCH))
+
+
+def _config(**fields):
+    from graspmanifold.studies.planned_grasps import PlannedStudyConfig
+
+    return PlannedStudyConfig(**fields)
+
+
+def _drawn(count):
+    from graspmanifold.studies.planned_grasps import drawn_plans
+
+    return drawn_plans(np.array([True, False, True]), count, 0, 2, "box")
+
+
+def _headroom(*args):
+    from graspmanifold.studies.planned_grasps import Headroom
+
+    return Headroom(*args)
+
+
+def _grid(poses):
+    from graspmanifold.studies.dataset import trial_grid
+
+    return trial_grid("quick", poses, gm.get_object("box"))
+
+
+def _difference():
+    from graspmanifold.trials.stats import bootstrap_difference
+
+    return bootstrap_difference([1, 0, 1], [1, 1], [0, 1, 2])
+
+
+def _json(value):
+    from graspmanifold.base.io import json_text
+
+    return json_text(value)
+
+
+def _study_into(out):
+    from graspmanifold.studies.runner import StudyRun
+
+    return StudyRun(out, 1)
+
+
+@pytest.mark.parametrize("call, message", [
+    (_difference, r"outcomes_a, outcomes_b must be outcomes of the same trials.*outcomes_a \(3,\), outcomes_b \(2,\)"),
+    (lambda: _config(plans=10 ** 9), r"plans must be a whole number in 1 \.\.\. 1000, got 1000000000"),
+    (lambda: _drawn(-1), "count must be"),
+    (lambda: _grid(0), "poses must be a positive whole number"),
+    (lambda: _json({"kept": {1, 2}}), "a result file holds dictionaries, lists, strings, numbers and None"),
+    (_steered_without_flange, r"ControllerParams.palm steers the palm on an arm, but these trials have none"),
+    (lambda: _headroom("nope", ("open-loop",), (0.0,)), "Headroom arm must be one of"),
+    (lambda: _headroom("open-loop", ("approach",), ()), "a Headroom needs a ceiling and levels"),
+    (lambda: _study_into(""), "--out must name a folder, got an empty path"),
+    (lambda: gm.generate_postures("sphere", 1, params=gm.GeneratorParams(hand="gymnasium-robotics"),
+                                  hand="shadow-primitives"), r"hand='shadow-primitives' \(the 0.1 keyword\) and "
+                                                             "params.hand='gymnasium-robotics' disagree"),
+])
+def test_round_eight_refusals_name_what_is_wrong(call, message):
+    """Poor cases: a raw numpy error for outcomes of two lengths, a billion plans per object taken without a word, a
+    negative draw or an empty grid ending in numpy's errors, a set in a result file a TypeError, palm steering with no
+    arm to steer moving nothing, a headroom of arms no study has failing at its report, an empty --out writing into
+    the current folder, the old hand keyword silently overriding the new one."""
+    with pytest.warns(DeprecationWarning) if "keyword" in message else nullcontext():
+        with pytest.raises(gm.InvalidInput, match=message):
+            call()
+
+
+def test_result_files_take_arrays_and_a_corrupt_one_is_named(tmp_path):
+    """Poor cases: `json_text` of a NumPy array raised a TypeError; `read_json` of a binary file or of a million
+    nested brackets raised UnicodeDecodeError and RecursionError."""
+    from graspmanifold.base.io import json_text, read_json
+
+    assert json_text({"held": np.array([1.0, np.inf])}, indent=None) == '{"held": [1.0, "Infinity"]}'
+    (tmp_path / "binary.json").write_bytes(b"\xff\xfe\x00garbage")
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    for name in ("binary.json", "deep.json"):
+        with pytest.raises(gm.InvalidInput, match=f"{name}.* is not JSON"):
+            read_json(tmp_path / name, name)
