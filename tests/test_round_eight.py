@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
+from graspmanifold.judging.protocols import get_protocol
 
 
 def _steered_without_flange():
@@ -72,6 +73,8 @@ def _study_into(out):
     (lambda: _headroom("nope", ("open-loop",), (0.0,)), "Headroom arm must be one of"),
     (lambda: _headroom("open-loop", ("approach",), ()), "a Headroom needs a ceiling and levels"),
     (lambda: _study_into(""), "--out must name a folder, got an empty path"),
+    (lambda: get_protocol("lift").check_arm("an arm", 0.1), "palm must be a FlangeLimits or None, got str"),
+    (lambda: get_protocol("lift").check_arm(None, float("nan")), "object_mass must be a finite number > 0"),
     (lambda: gm.generate_postures("sphere", 1, params=gm.GeneratorParams(hand="gymnasium-robotics"),
                                   hand="shadow-primitives"), r"hand='shadow-primitives' \(the 0.1 keyword\) and "
                                                              "params.hand='gymnasium-robotics' disagree"),
@@ -97,3 +100,14 @@ def test_result_files_take_arrays_and_a_corrupt_one_is_named(tmp_path):
     for name in ("binary.json", "deep.json"):
         with pytest.raises(gm.InvalidInput, match=f"{name}.* is not JSON"):
             read_json(tmp_path / name, name)
+
+
+def test_a_headroom_the_ceiling_never_opened_says_so():
+    """Poor case: a family whose ceiling held no more than its floor reported 'nan % [nan, nan]'."""
+    from graspmanifold.studies.planned_grasps import share_text
+    from graspmanifold.trials.stats import headroom_share
+
+    assert share_text(headroom_share([1, 0], [1, 1], [1, 1], [0, 1]).to_dict()) == ("no headroom: the ceiling held no "
+                                                                                   "more than the floor")
+    assert share_text(headroom_share([1, 1, 0, 0], [0, 0, 0, 0], [1, 1, 1, 1], [0, 1, 2, 3]).to_dict()).startswith(
+        "50 % [")

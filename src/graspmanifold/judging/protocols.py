@@ -250,6 +250,9 @@ class JudgingProtocol:
                 force (the hand's own weight is the arm's gravity compensation's).
         """
         rules = self.rules
+        if palm is not None and not isinstance(palm, FlangeLimits):
+            raise InvalidInput(f"palm must be a FlangeLimits or None, got {type(palm).__name__}")
+        check_number(object_mass, "object_mass", Bounds(0.0, 100.0, above_low=True, unit="kg"))
         if not rules.needs_flange or palm is None:
             return
         if palm.travel < rules.lift_height:

@@ -834,6 +834,20 @@ def report(info: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def share_text(share: dict) -> str:
+    """A headroom share as the report writes it.
+
+    Args:
+        share: `ClusteredEstimate.to_dict()` of a share.
+
+    Returns:
+        '43 % [31, 55]', or what it means that there is none (the ceiling held no more than the floor).
+    """
+    if not np.isfinite(share["value"]):
+        return "no headroom: the ceiling held no more than the floor"
+    return f"{100 * share['value']:.0f} % [{100 * share['low']:.0f}, {100 * share['high']:.0f}]"
+
+
 def _comparison_lines(info: dict) -> list[str]:
     """The report's paired comparisons: McNemar, Holm, the bootstrap over plans, seed by seed, the headroom."""
     lines = ["", "## Paired comparisons (McNemar on the same trials, Holm over the family)", ""]
@@ -849,8 +863,8 @@ def _comparison_lines(info: dict) -> list[str]:
         lines += ["", f"The share of the headroom: {headroom.describe()}, on the same trials, with the "
                   "cluster-bootstrap interval over plans:", ""]
         lines += markdown_table(["arm", "headroom share [95 % CI over plans]", "trials", "plans"],
-                                [[arm, f"{100 * h['value']:.0f} % [{100 * h['low']:.0f}, {100 * h['high']:.0f}]",
-                                  h["trials"], h["clusters"]] for arm, h in info["headroom"].items()])
+                                [[arm, share_text(h), h["trials"], h["clusters"]]
+                                 for arm, h in info["headroom"].items()])
     if info.get("noise_floor", {}).get("trials"):
         floor = info["noise_floor"]
         arm = FAMILIES[info["config"]["family"]].floor
