@@ -21,6 +21,7 @@ none. A database keeps each posture's, a SOM node its nearest training posture's
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
@@ -177,16 +178,17 @@ def check_file_postures(values: np.ndarray, path: Path, what: str) -> np.ndarray
 
 
 def check_within_hand(experience: Experience, limits: np.ndarray, hand: str) -> None:
-    """Refuse an experience whose reference postures lie outside a hand's joint ranges (by more than
-    `JOINT_RANGE_SLACK`): postures of another hand, or numbers no grasp has.
+    """Warn of an experience whose reference postures lie outside a hand's joint ranges (by more than
+    `JOINT_RANGE_SLACK`): postures of another hand, or numbers no grasp has (a synthetic experience may mean it:
+    the hand's servos stop each joint at its range).
 
     Args:
         experience: the experience (22-wide references; others are not hand postures and pass).
         limits: (22, 2) rad, the hand's joint ranges.
         hand: the hand's name, for the message.
 
-    Raises:
-        InvalidInput: the first reference and joint outside, with the range.
+    Warns:
+        UserWarning: the first reference and joint outside, with the range.
     """
     references = np.asarray(experience.references, dtype=float)
     if references.ndim != 2 or references.shape[1] != N_FINGER_JOINTS:
@@ -194,9 +196,9 @@ def check_within_hand(experience: Experience, limits: np.ndarray, hand: str) -> 
     outside = (references < limits[:, 0] - JOINT_RANGE_SLACK) | (references > limits[:, 1] + JOINT_RANGE_SLACK)
     if outside.any():
         row, joint = (int(i) for i in np.argwhere(outside)[0])
-        raise InvalidInput(f"the experience's reference posture {row} has joint {joint} at {references[row, joint]:.3f} "
-                           f"rad, outside the {hand!r} hand's range [{limits[joint, 0]:.3f}, {limits[joint, 1]:.3f}] "
-                           f"(by more than {JOINT_RANGE_SLACK} rad): is it another hand's experience?")
+        warnings.warn(f"the experience's reference posture {row} has joint {joint} at {references[row, joint]:.3f} "
+                      f"rad, outside the {hand!r} hand's range [{limits[joint, 0]:.3f}, {limits[joint, 1]:.3f}] (by "
+                      f"more than {JOINT_RANGE_SLACK} rad): is it another hand's experience?", stacklevel=3)
 
 
 def check_places(places: object, count: int) -> np.ndarray:
