@@ -28,15 +28,7 @@ import numpy as np
 from ..base.checkpoints import remove_checkpoints, result_key
 from ..base.config_files import apply_table, to_toml
 from ..base.errors import InvalidInput
-from ..base.io import (
-    LOCK_FILE,
-    TEMPORARY_SUFFIX,
-    json_text,
-    library_version,
-    output_lock,
-    software_versions,
-    write_text_atomic,
-)
+from ..base.io import LOCK_FILE, TEMPORARY_SUFFIX, library_version, output_lock, software_versions, write_text_atomic
 from ..base.moved import current_name, upgrade_config
 from ..base.paper_numbers import MAP_SIZE
 from ..base.validation import check_choice, check_input_file, check_int
@@ -303,7 +295,7 @@ class _Stages:
         info = work() or {}
         record = {"key": key, "seconds": round(time.perf_counter() - start, 2), "info": info,
                   "outputs": _file_digests(outputs, self.out)}
-        write_text_atomic(manifest, json_text(record))
+        write_text_atomic(manifest, json.dumps(record, indent=1))
         self.ran.append(name)
         self.log(f"[{name}] done in {record['seconds']:.1f} s")
         return info
@@ -363,7 +355,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     for stale in out.rglob(f".*{TEMPORARY_SUFFIX}"):  # the library's own, left by a run killed while writing
         stale.unlink()
     run_record = {"config": config.to_json(), "library_version": library_version(), "versions": software_versions()}
-    write_text_atomic(out / "run.json", json_text(run_record))
+    write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))
     # the experiment file of this run (`--config` reads it), its mesh files named from its folder
     relative = {name: mesh | {"file": os.path.relpath(mesh["file"], out.resolve())}
                 for name, mesh in config.meshes.items()}
@@ -374,7 +366,7 @@ def _run(out: Path, config: ReproduceConfig, hand: HandModel, workers: int, log:
     sets = {name: PostureSet.load(path) for name, path in sets_paths.items()}
     run_record["datasets"] = {name: {"procedure": config.procedure, "candidates": s.metadata.get("candidates", len(s)),
                                      "trained_on": len(s)} for name, s in sets.items()}
-    write_text_atomic(out / "run.json", json_text(run_record))  # what the maps learn
+    write_text_atomic(out / "run.json", json.dumps(run_record, indent=1))  # what the maps learn
     map_paths, manifold_paths = pipeline.manifolds(sets_paths, sets)  # 2. maps and manifolds
     maps = {name: SOM.load(path) for name, path in map_paths.items()}
     manifolds = {name: UKR.load(path) for name, path in manifold_paths.items()}
