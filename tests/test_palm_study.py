@@ -176,6 +176,8 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
     anyone = np.any([np.concatenate(list(cells.values())) for cells in held.values()], axis=0)
     assert info["grid"]["no_method"] == {"fingers_only": [int((~fingers).sum()), 120],
                                          "with_palm": [int((~anyone).sum()), 120]}
+    best = max(("paper-palm-touch", "paper-palm-experience"), key=lambda arm: sum(a.sum() for a in held[arm].values()))
+    assert f"the best single arm with the palm, {best}, leaves" in info["grid"]["verdict"]  # not a union of arms
     text = palm.report(info)
     for arm in PALM_ARMS + tuple(palm.GRID_ARMS):
         assert f"| {arm} |" in text
