@@ -50,8 +50,8 @@ def test_evaluate_runs_the_experience_its_flags_name(tmp_path):
 
 
 @pytest.mark.parametrize("script, arguments, message", [
-    ("study_planned_grasps.py", ["--plans", "0"], "error: plans must be a positive whole number, got 0"),
-    ("study_palm.py", ["--displaced", "-1"], "error: displaced must be a positive whole number, got -1"),
+    ("study_planned_grasps.py", ["--plans", "0"], "error: plans must be a whole number in 1 ... 1000, got 0"),
+    ("study_palm.py", ["--displaced", "-1"], "error: displaced must be a whole number in 1 ... 1000, got -1"),
     ("study_completion.py", ["--workers", "0"], "error: workers must be a positive whole number, got 0"),
 ])
 def test_a_studys_bad_argument_ends_in_one_line(tmp_path, script, arguments, message):
