@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import time
 
 import pytest
 import trimesh
@@ -60,10 +59,8 @@ def test_a_replicated_flood_is_refused_before_anything_is_built(tmp_path):
         '<mujoco><worldbody><replicate count="40" offset="0.01 0 0"><replicate count="40" offset="0 0.01 0">'
         '<replicate count="40" offset="0 0 0.01"><geom size="0.001"/></replicate></replicate></replicate>'
         '</worldbody></mujoco>')
-    start = time.perf_counter()
-    with pytest.raises(gm.InvalidInput, match=rf"more than 200 bodies or {MAX_GEOMS} geoms"):
-        gm.make_object("mesh", mesh=tmp_path / "flood.xml")
-    assert time.perf_counter() - start < 30  # refused at once (a generous bound: nothing was built)
+    with pytest.raises(gm.InvalidInput, match=rf"more than 200 bodies or {MAX_GEOMS} geoms"):  # counted in the
+        gm.make_object("mesh", mesh=tmp_path / "flood.xml")  # file before MuJoCo builds anything
     (tmp_path / "entity.xml").write_text('<!DOCTYPE m [<!ENTITY a "aaaa">]><mujoco>&a;</mujoco>')
     with pytest.raises(gm.InvalidInput, match="declares an XML entity"):
         object_file_references(tmp_path / "entity.xml")
@@ -315,11 +312,8 @@ def test_a_thousand_pieces_are_refused_at_once(tmp_path):
     cubes = [trimesh.creation.box(extents=(0.004,) * 3).apply_translation([0.005 * (i % 10), 0.005 * (i // 10 % 10),
                                                                             0.005 * (i // 100)]) for i in range(1000)]
     trimesh.util.concatenate(cubes).export(tmp_path / "pieces.stl")
-    started = time.process_time()
-    with pytest.raises(gm.InvalidInput, match="1000 separate pieces, more than 256"):
+    with pytest.raises(gm.InvalidInput, match="1000 separate pieces, more than 256"):  # before any pair's gap
         gm.make_object("mesh", mesh=tmp_path / "pieces.stl")
-    assert time.process_time() - started < 30  # refused before any pair's gap is measured (not a timing claim: a
-    # minute's work would have been done)
 
 
 def test_a_package_url_and_an_articulated_file_are_said(tmp_path):

@@ -167,7 +167,7 @@ def check_file_postures(values: np.ndarray, path: Path, what: str) -> np.ndarray
     Raises:
         InvalidInput: non-finite values, or hand postures beyond the bound, the file and the row named.
     """
-    array = check_data(values, np.shape(values)[-1] if np.ndim(values) == 2 else -1, f"{path} {what}")
+    array = check_data(values, np.shape(values)[-1] if np.ndim(values) else 0, f"{path} {what}")
     if array.shape[1] == N_FINGER_JOINTS:
         beyond = (np.abs(array) > MAX_JOINT_ANGLE).any(axis=1)
         if beyond.any():

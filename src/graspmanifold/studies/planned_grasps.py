@@ -139,7 +139,11 @@ class Headroom:
                                f"and levels {self.levels}")
 
     def describe(self) -> str:
-        """The share in words, for the report and the verdict."""
+        """The share in words, for the report.
+
+        Returns:
+            E.g. '(arm - open-loop) / (ceiling - open-loop) at 2-5 cm (the displaced plans), the ceiling ...'.
+        """
         at = "0 cm (every plan)" if self.levels == (0.0,) else \
             f"{100 * min(self.levels):.0f}-{100 * max(self.levels):.0f} cm (the displaced plans)"
         ceiling = f"a trial's best of {' and '.join(self.ceiling)}" if len(self.ceiling) > 1 else self.ceiling[0]
