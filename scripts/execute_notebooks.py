@@ -1,8 +1,8 @@
 """Execute the example notebooks and store them with their outputs, and make the tutorial page of the
 documentation from the getting-started notebook.
 
-    python scripts/execute_notebooks.py            # execute examples/*.ipynb in place, write docs/site/tutorial.md
-    python scripts/execute_notebooks.py --check    # only check that docs/site/tutorial.md is the stored notebook's
+    python scripts/execute_notebooks.py            # execute examples/*.ipynb in place, write docs/tutorial.md
+    python scripts/execute_notebooks.py --check    # only check that docs/tutorial.md is the stored notebook's
 
 Each notebook runs from a clean kernel in a scratch directory (what it writes, a GIF, stays there) and is
 stored executed, so its outputs and pictures show on a code host. The tutorial page is the stored
@@ -21,7 +21,7 @@ import nbformat
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
-PAGE = ROOT / "docs" / "site" / "tutorial.md"
+PAGE = ROOT / "docs" / "tutorial.md"
 PICTURES = PAGE.parent / "tutorial_files"
 SOURCE = EXAMPLES / "getting_started.ipynb"
 

@@ -1,10 +1,10 @@
 """Publish a finished `reproduce` run as the documentation's one source of results.
 
-    python scripts/publish_run.py RUN_DIR [--to docs/paper_run]
+    python scripts/publish_run.py RUN_DIR [--to docs/studies/paper_run]
 
 Copies the run's report.md, summary.json, run.json and its PNG figures into one folder, replacing
-what was there, so that the docs/results.md's tables and gallery (which quote and link that folder; a test
-checks every docs/results.md table row against report.md) all come from one run whose configuration and
+what was there, so that the docs/studies/results.md's tables and gallery (which quote and link that folder; a test
+checks every docs/studies/results.md table row against report.md) all come from one run whose configuration and
 library version are recorded beside them.
 """
 
@@ -19,7 +19,7 @@ from pathlib import Path
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run", help="a finished graspmanifold reproduce directory")
-    parser.add_argument("--to", default=str(Path(__file__).resolve().parents[1] / "docs" / "paper_run"))
+    parser.add_argument("--to", default=str(Path(__file__).resolve().parents[1] / "docs" / "studies" / "paper_run"))
     args = parser.parse_args()
     run, target = Path(args.run), Path(args.to)
     for name in ("report.md", "summary.json", "run.json"):

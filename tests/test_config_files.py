@@ -55,11 +55,11 @@ def test_the_study_reads_its_configuration_from_a_file_and_renders_the_published
 
     out, doc = tmp_path / "study", tmp_path / "report.md"
     out.mkdir()
-    shutil.copy(ROOT / "docs" / "experience_study.json", out / "study.json")
+    shutil.copy(ROOT / "docs" / "studies" / "experience_study.json", out / "study.json")
     config = tmp_path / "study.toml"
     config.write_text(f'out = "{out}"\ndoc = "{doc}"\n')
     main(["--config", str(config), "--render"])
-    assert doc.read_text() == (ROOT / "docs" / "experience_study.md").read_text()
+    assert doc.read_text() == (ROOT / "docs" / "studies" / "experience_study.md").read_text()
     config.write_text("postures = 12\nobjects = ['box']\n")
     with pytest.raises(SystemExit, match="unknown key objects in the configuration; ExperienceStudyConfig has quick"):
         main(["--config", str(config), "--render"])

@@ -70,11 +70,11 @@ def test_warp_worlds_meet_the_contract():
 
 
 def _example(heading: str) -> dict:
-    """Run the code block under a heading of the API reference's pages (docs/site/api/); its names."""
+    """Run the code block under a heading of the API reference's pages (docs/api/); its names."""
     import re
     from pathlib import Path
 
-    pages = sorted((Path(__file__).resolve().parents[1] / "docs" / "site" / "api").glob("*.md"))
+    pages = sorted((Path(__file__).resolve().parents[1] / "docs" / "api").glob("*.md"))
     page = "\n".join(p.read_text() for p in pages)
     code = re.search(rf"## {re.escape(heading)}\n.*?```python\n(.*?)```", page, re.S).group(1)
     names: dict = {}

@@ -71,7 +71,7 @@ def test_the_ceiling_is_the_planned_grasp_studys_perfect_recall_or_none(tmp_path
     from graspmanifold.studies.learning_curve import ceiling
 
     assert ceiling(tmp_path / "absent.json") is None
-    planned = json.loads(open("docs/planned_grasps.json").read())
+    planned = json.loads(open("docs/studies/planned_grasps.json").read())
     top = ceiling()
     assert top["levels"] == [0.0, 0.01]
     assert top["approach-recall"][0] == planned["ceiling"]["approach-recall"]  # every plan at 0 cm

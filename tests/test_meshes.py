@@ -294,7 +294,7 @@ def test_the_family_holds_every_shape_in_three_sizes_and_the_paper_objects_as_me
 
 # -- the generator's defaults ---------------------------------------------------------------------------------
 
-#: every family member not held out (the held-out ones are checked once, in docs/generator_defaults_held_out.md)
+#: every family member not held out (the held-out ones are checked once, in docs/studies/generator_defaults_held_out.md)
 TEST_FAMILY = [name for name in FAMILY if name not in HELD_OUT]
 
 

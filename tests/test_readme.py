@@ -7,17 +7,19 @@ import textwrap
 from pathlib import Path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
-GUIDE = README.parent / "docs" / "guide.md"
-RESULTS = README.parent / "docs" / "results.md"
+GUIDE = README.parent / "docs" / "guide"
+#: the guide's pages but the recipes (tests/test_recipes.py runs those)
+GUIDE_TEXT = "".join(page.read_text() for page in sorted(GUIDE.glob("*.md")) if page.name != "recipes.md")
+RESULTS = README.parent / "docs" / "studies" / "results.md"
 VERIFIED_SECTION = "## Beside it: `graspmanifold reproduce --preset verified`"
 
 
 def test_the_front_page_is_short_and_every_python_block_runs_verbatim(tmp_path):
-    """The README was 512 lines with its quick start near line 400; the long form is the guide (docs/guide.md).
+    """The README was 512 lines with its quick start near line 400; the long form is the guide (docs/guide/).
     The Python blocks of both run as written, from a directory outside the checkout."""
     assert len(README.read_text().splitlines()) < 150
     assert README.read_text().index("## Quick start") < README.read_text().index("## Status")
-    text = README.read_text() + GUIDE.read_text()
+    text = README.read_text() + GUIDE_TEXT
     blocks = [textwrap.dedent(b) for b in re.findall(r"```python\n(.*?)```", text, flags=re.S)]  # a block
     # in a list item is indented with it
     assert len(blocks) >= 3
@@ -33,14 +35,14 @@ def test_the_front_page_is_short_and_every_python_block_runs_verbatim(tmp_path):
 
 
 def test_every_results_table_row_comes_from_the_published_paper_run():
-    """One provenance: the README's result tables and gallery come from docs/paper_run/, one reproduce run
+    """One provenance: the README's result tables and gallery come from docs/studies/paper_run/, one reproduce run
     whose configuration and library version are recorded beside its report."""
     import json
 
     readme = RESULTS.read_text()
     section = readme[readme.index("## Results of `graspmanifold reproduce --preset paper`"):
                      readme.index(VERIFIED_SECTION)]
-    published = README.parent / "docs" / "paper_run"
+    published = README.parent / "docs" / "studies" / "paper_run"
     report_rows = set((published / "report.md").read_text().splitlines())
     rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith("|---")]
     assert len(rows) > 30
@@ -53,12 +55,12 @@ def test_every_results_table_row_comes_from_the_published_paper_run():
 
 
 def test_the_verified_runs_verdicts_come_from_its_published_run():
-    """The verified procedure's verdicts stand beside the paper procedure's, from docs/verified_run/."""
+    """The verified procedure's verdicts stand beside the paper procedure's, from docs/studies/verified_run/."""
     import json
 
     readme = RESULTS.read_text()
     section = readme[readme.index(VERIFIED_SECTION):]
-    published = README.parent / "docs" / "verified_run"
+    published = README.parent / "docs" / "studies" / "verified_run"
     report_rows = set((published / "report.md").read_text().splitlines())
     rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith("|---")]
     assert len(rows) >= 12 and [row for row in rows if row not in report_rows] == []
@@ -69,11 +71,11 @@ def test_the_verified_runs_verdicts_come_from_its_published_run():
 
 def test_the_headline_numbers_trace_to_the_study_they_name():
     """The README's first screen once quoted one run's numbers beside another's for the same thing; its
-    verdict's numbers now come from docs/experience_study.md, which it names."""
+    verdict's numbers now come from docs/studies/experience_study.md, which it names."""
     readme = README.read_text()
     headline = readme[readme.index("**Does experience pay?"):readme.index("## Status")]
-    study = (README.parent / "docs" / "experience_study.md").read_text()
-    assert "docs/experience_study.md" in headline
+    study = (README.parent / "docs" / "studies" / "experience_study.md").read_text()
+    assert "docs/studies/experience_study.md" in headline
     for number in ("58.6 %", "51.7 %", "+7.2 points", "623 paired", "p = 0.0022", "Holm 0.013", "4.8 points",
                    "+16.0 points", "+8.0 points", "+12.4", "36.3 %", "35.8 %", "+0.6 points", "38 % [34, 42]", "56 %",
                    "41 %", "316", "634", "153"):
@@ -89,7 +91,7 @@ def test_every_name_the_readme_shows_at_gm_is_there():
     `holm` and `lattice_figure` were only in subpackages."""
     import graspmanifold as gm
 
-    shown = set(re.findall(r"\bgm\.([A-Za-z_][A-Za-z0-9_]*)", README.read_text() + GUIDE.read_text()))
+    shown = set(re.findall(r"\bgm\.([A-Za-z_][A-Za-z0-9_]*)", README.read_text() + GUIDE_TEXT))
     assert {"compare", "wilson_interval", "mcnemar", "holm", "headroom", "lattice_figure"} <= shown
     assert [name for name in sorted(shown) if not hasattr(gm, name)] == []
 

@@ -1,4 +1,4 @@
-"""docs/recipes.md runs as written, from an empty folder (its own file: the suite's workers take it beside the
+"""docs/guide/recipes.md runs as written, from an empty folder (its own file: the suite's workers take it beside the
 README's blocks)."""
 
 import re
@@ -6,11 +6,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-RECIPES = Path(__file__).resolve().parents[1] / "docs" / "recipes.md"
+RECIPES = Path(__file__).resolve().parents[1] / "docs" / "guide" / "recipes.md"
 
 
 def test_the_recipes_run_as_written(tmp_path):
-    """docs/recipes.md: every Python block runs as written from an empty folder, and leaves what it promises."""
+    """docs/guide/recipes.md: every Python block runs as written from an empty folder, and leaves what it promises."""
     blocks = re.findall(r"```python\n(.*?)```", RECIPES.read_text(), flags=re.S)
     assert len(blocks) == 7
     for number, block in enumerate(blocks):

@@ -203,7 +203,7 @@ def test_the_agreement_check_resumes_and_keeps_its_folder_to_itself(tmp_path, ca
     from graspmanifold.base.io import LOCK_FILE, output_lock
     from graspmanifold.studies.agreement import main as check
 
-    out, run = tmp_path / "agreement", str(Path(__file__).resolve().parents[1] / "docs" / "verified_run")
+    out, run = tmp_path / "agreement", str(Path(__file__).resolve().parents[1] / "docs" / "studies" / "verified_run")
     check(["--run", run, "--sample", "2", "--workers", "1", "--out", str(out)])
     kept = {p.name: p.stat().st_mtime_ns for p in out.glob("*_none.npz")}
     report = (out / "report.md").read_text()

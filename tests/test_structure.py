@@ -1,4 +1,4 @@
-"""The layer drawing in docs/structure.md holds: every module in its subpackage, no import of a layer above,
+"""The layer drawing in docs/guide/structure.md holds: every module in its subpackage, no import of a layer above,
 no cycles, no private names across modules, no private modules of dependencies."""
 
 import ast
@@ -9,7 +9,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "src" / "graspmanifold"
-DRAWING = ROOT / "docs" / "structure.md"
+DRAWING = ROOT / "docs" / "guide" / "structure.md"
 MODULES = sorted(p for p in PACKAGE.rglob("*.py") if not (p.name == "__init__.py" and p.parent != PACKAGE))
 
 
@@ -63,6 +63,18 @@ def test_the_drawing_names_every_module_once_in_its_subpackage():
     modules = {name_of(p) for p in MODULES}
     assert set(drawn) == modules, f"not drawn: {modules - set(drawn)}; drawn but missing: {set(drawn) - modules}"
 
+
+
+def test_the_docs_count_the_subpackages_the_drawing_draws():
+    """The architecture page said eight subpackages above a drawing of ten, and the guide's opening seven."""
+    import re
+
+    words = {"seven": 7, "eight": 8, "nine": 9, "ten": 10, "eleven": 11, "twelve": 12}
+    drawn = {package for _, package in drawn_layers().values() if package != "(top)"}
+    for page in (DRAWING, ROOT / "docs" / "guide" / "concepts.md"):
+        said = re.findall(r"\b(seven|eight|nine|ten|eleven|twelve|\d+) subpackages", page.read_text())
+        assert said, f"{page.name} does not say how many subpackages there are"
+        assert {words.get(n, None) or int(n) for n in said} == {len(drawn)}, (page.name, said, sorted(drawn))
 
 @pytest.mark.parametrize("path", MODULES, ids=name_of)
 def test_no_module_imports_one_above_its_layer(path):

@@ -350,7 +350,7 @@ CONTROLLER_HELP = ("what a recalled posture does: paper, the free fingers' targe
                    "closing heuristic's base (our earlier variant); closing-recall, the paper's reading with recalls "
                    "that only close a finger; blend-settled, the blend whose fingers squeeze together once the grasp "
                    "has settled; approach, the paper's reading executed as a verified grasp is: to the recall, on "
-                   "along the way there, pressing along it (docs/planned_grasps.md); approach-bounded, that with its "
+                   "along the way there, pressing along it (docs/studies/planned_grasps.md); approach-bounded, that with its "
                    "total grip force bounded to 15 N from the segment forces")
 
 #: one default for every command that runs workers: the machine's cores, at most two

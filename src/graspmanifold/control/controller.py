@@ -269,7 +269,7 @@ class ControllerParams:
 
 BLEND = ControllerParams(recall=RECALL_RULES["base"](), max_match_distance=0.2)
 """Our earlier reading of phase C, a named variant: the recall is the closing heuristic's base; matches trusted
-within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/experience_study_paper_grids.md)."""
+within 0.2 rad RMS (of 0.1, 0.2 and none on the paper grid: docs/studies/experience_study_paper_grids.md)."""
 
 CLOSING_RECALL = ControllerParams(recall=TargetRecall(closes_only=True))
 """The paper's reading ("the resulting posture then acts as the target posture for the current control cycle") with
@@ -285,7 +285,7 @@ touched, without pressing, until the grasp has settled; then every touching fing
 the blend's 0.2 rad trust never recalled it there). Chosen on a probe (16 verified grasps each of the box, cylinder
 and pen, generator seed 0, a perfect recall from the plan's pregrasp, judged by `protocols.HOLD_TEST_FADED`): the blend's
 immediate squeeze let the first fingers push the object 6-11 mm against the support before the others arrived (the
-open loop: 2-3 mm); scored on the other seeds' plans (docs/planned_grasps.md)."""
+open loop: 2-3 mm); scored on the other seeds' plans (docs/studies/planned_grasps.md)."""
 
 APPROACH = ControllerParams(recall=ApproachRecall(), squeeze=0.3)
 """The paper's reading with the execution of a verified grasp (`ApproachRecall`): a finger goes to its recall, closes
@@ -300,7 +300,7 @@ instead: 22 of 30 held, the open loop 23). Chosen on seed 0 (12 plans of each of
 measured from where a finger was when a recall came, the whole map's recalls from the open hand left fingers ways
 too short to close on along (the experience study's selection split, box and marble, every third pose, a map of 7
 postures per object: 4 of 32 held against the paper's reading's 9; from the start, 18). Scored on seeds 2-4
-(docs/planned_grasps.md) and on the experience study's test split."""
+(docs/studies/planned_grasps.md) and on the experience study's test split."""
 
 BOUNDED_APPROACH = replace(APPROACH, grip_force=15.0, grip_press=APPROACH.squeeze)
 """The approach execution with its total grip force bounded (issue 65, "a bounded total grip force regulated from the
@@ -312,7 +312,7 @@ press allowed up to 0.45 rad 58 (15 N) and 57 (25 N), up to 0.6 rad 58 (15 N) an
 the grasp was done, up to 0.6 rad, 56 (10 N), 60 (20 N), 59 (40 N), and with the press kept at most the squeeze
 61 (no change). More press held every box plan and lost pens, discs and marbles: the summed normal force does not
 tell an object that needs a firmer grip from one a firmer grip pushes out. Scored on seeds 2-4
-(docs/planned_grasps.md)."""
+(docs/studies/planned_grasps.md)."""
 
 CONTROLLERS: dict[str, ControllerParams] = {"paper": ControllerParams(), "blend": BLEND,
                                             "closing-recall": CLOSING_RECALL, "blend-settled": SETTLED_BLEND,

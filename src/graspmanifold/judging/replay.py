@@ -292,7 +292,7 @@ class GraspStages:
 
 
 #: the stages of open-loop grasps by name: the open hand and the controller's squeeze ('open'), and those made from
-#: the contacts ('contacts', the generator's default: more of its candidates hold when replayed, docs/protocols.md)
+#: the contacts ('contacts', the generator's default: more of its candidates hold when replayed, docs/studies/protocols.md)
 GRASP_STAGES: dict[str, GraspStages] = {"open": GraspStages(),
                                         "contacts": GraspStages(pregrasp="contacts", squeeze="contacts")}
 #: the stages the generator verifies with unless told otherwise (`GeneratorParams.stages`)

@@ -241,7 +241,7 @@ PRESETS: dict[str, ReproduceConfig] = {
     **{name: ReproduceConfig(postures=dict(DATASET_PRESETS[name]), grid=name, generator=PRESET_PARAMS[name])
        for name in ("quick", "paper")},
     # recorded every 5 physics steps: with verification the closest to the paper's maps, where recording every
-    # step leaves the sphere without one grasp that holds (docs/data_character.md)
+    # step leaves the sphere without one grasp that holds (docs/studies/data_character.md)
     "verified": ReproduceConfig(postures=dict(DATASET_PRESETS["paper"]), grid="paper",
                                 generator=GeneratorParams(mode="recording", record_every=5, verify=False),
                                 procedure="verified"),

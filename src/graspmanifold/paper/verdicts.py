@@ -137,7 +137,7 @@ def _minimum_distance(run: _Run) -> Verdict | None:
         "" if not missed else "the smallest inter-node distance follows the densest clump of near-identical "
         "training postures; our closest pair of training postures is " + ", ".join(
             f"{n} {_fmt(objects[n]['nearest_neighbour_deg']['min'])}°" for n in missed)
-        + " apart (denser recording moves the minimum towards the paper's: docs/data_character.md)")
+        + " apart (denser recording moves the minimum towards the paper's: docs/studies/data_character.md)")
 
 
 def _maximum_distance(run: _Run) -> Verdict | None:
@@ -155,7 +155,7 @@ def _maximum_distance(run: _Run) -> Verdict | None:
         verdict, f"within {MAX_DISTANCE_TOLERANCE:.0%} of the paper's for every object",
         "" if not missed else "the largest distance spans the widest gap between clusters of training data, and "
         "our clusters are few and close: " + "; ".join(f"{n}: {_clusters(objects[n])}" for n in missed)
-        + " (docs/data_character.md)")
+        + " (docs/studies/data_character.md)")
 
 
 def _borders(run: _Run) -> Verdict | None:

@@ -1,8 +1,8 @@
 """How far a published run's results move on this machine: a sample of its trials run again.
 
-    python scripts/check_agreement.py [--run docs/verified_run] [--sample 30] [--seed 0]
-                                      [--compare docs/agreement.json] [--workers 2] [--out study_agreement]
-                                      [--doc docs/agreement.md]
+    python scripts/check_agreement.py [--run docs/studies/verified_run] [--sample 30] [--seed 0]
+                                      [--compare docs/studies/agreement.json] [--workers 2] [--out study_agreement]
+                                      [--doc docs/studies/agreement.md]
 
 The published run's plain tactile controller (its method `none`: no experience, so nothing but the run's
 configuration, its run.json, is needed) on a seeded sample of `--sample` poses of its grid for each object, judged
@@ -34,8 +34,8 @@ from ..trials.grid import check_grid
 from ..trials.stats import rate_text, wilson_interval
 from .runner import StudyRun, run_command
 
-#: the published run the check samples by default, in a checkout (`reproduce --preset verified`, docs/results.md)
-PUBLISHED = Path("docs") / "verified_run"
+#: the published run the check samples by default, in a checkout (`reproduce --preset verified`, docs/studies/results.md)
+PUBLISHED = Path("docs") / "studies" / "verified_run"
 
 
 def published_run(folder: str | Path) -> tuple[ReproduceConfig, dict, dict]:
@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--compare", help="the agreement.json of this check run on another machine")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study_agreement")
-    parser.add_argument("--doc", help="also write the report here (e.g. docs/agreement.md)")
+    parser.add_argument("--doc", help="also write the report here (e.g. docs/studies/agreement.md)")
     args = parser.parse_args(argv)
     if args.sample < 1:
         parser.error(f"--sample must be a positive number of poses, got {args.sample}")

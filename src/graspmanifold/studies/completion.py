@@ -2,7 +2,7 @@
 posture from the joints touch has fixed, and does the continuous manifold grasp better?
 
     python scripts/study_completion.py [--quick] [--postures study-learning] [--out study-completion]
-                                       [--doc docs/completion_study.md] [--workers 2] [--no-trials]
+                                       [--doc docs/studies/completion_study.md] [--workers 2] [--no-trials]
 
 Data: the verified postures of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`: the paper's
 box, cylinder and sphere and four small or flat ones), generated with three generator seeds by the experience or
@@ -503,7 +503,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="a smoke run: two objects, one fold, few trials")
     parser.add_argument("--postures", default="study-learning", help="the folder of the verified posture sets")
     parser.add_argument("--out", default="", help="the folder of kept results (default study-completion[-quick])")
-    parser.add_argument("--doc", default="", help="the report (default docs/completion_study.md, or OUT/... quick)")
+    parser.add_argument("--doc", default="", help="the report (default docs/studies/completion_study.md, or OUT/... quick)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--plans", type=int, default=4, help="planned grasps per object")
     parser.add_argument("--no-trials", action="store_true", help="the completion part only")
@@ -511,7 +511,7 @@ def main(argv: list[str] | None = None) -> None:
                         "and the kept 2-d UKR of fold 0 (nothing is computed)")
     args = parser.parse_args(argv)
     out = Path(args.out or ("study-completion-quick" if args.quick else "study-completion"))
-    doc = Path(args.doc or (out / "completion_study.md" if args.quick else "docs/completion_study.md"))
+    doc = Path(args.doc or (out / "completion_study.md" if args.quick else "docs/studies/completion_study.md"))
 
     def redraw(run: StudyRun) -> None:
         info = read_json(out / "study.json", "the study's study.json")

@@ -1,6 +1,6 @@
 """The experience study: does recalling experience choose better grasps than fixed preshapes, once and with a regrasp?
 
-    python scripts/study_experience.py [--quick] [--workers 2] [--out study] [--doc docs/experience_study.md]
+    python scripts/study_experience.py [--quick] [--workers 2] [--out study] [--doc docs/studies/experience_study.md]
                                        [--config study.toml]
 
 or from Python, configured (`ExperienceStudyConfig`) or extended (a subclass of `ExperienceStudy`):
@@ -121,7 +121,7 @@ class ExperienceStudyConfig:
         quick: a smoke run: two objects, a sixth of the poses, 7 postures per object (too small to be evidence).
         workers: worker processes.
         out: the folder of kept results ('' : study, or study-quick).
-        doc: the markdown report ('': docs/experience_study.md, or OUT/experience_study.md for a quick run).
+        doc: the markdown report ('': docs/studies/experience_study.md, or OUT/experience_study.md for a quick run).
         postures: verified postures per object (0: 48, or 7 for a quick run).
         seeds: seeds of the whole experience (generator, map, null map, trials): seed 0 runs the study, every
             further seed the test split's claims again (`REPLICATED`) with the choices seed 0's selection split made;
@@ -159,7 +159,7 @@ class ExperienceStudyConfig:
     @property
     def doc_path(self) -> Path:
         """The markdown report."""
-        return Path(self.doc or (self.out_dir / f"{self.REPORT}.md" if self.quick else f"docs/{self.REPORT}.md"))
+        return Path(self.doc or (self.out_dir / f"{self.REPORT}.md" if self.quick else f"docs/studies/{self.REPORT}.md"))
 
     @property
     def postures_per_object(self) -> int:
@@ -406,7 +406,7 @@ def main(argv: list[str] | None = None) -> None:
                         "the poses")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default 2)")
     parser.add_argument("--out", default=None, help="data directory (default: study or study-quick)")
-    parser.add_argument("--doc", default=None, help="markdown report (default: docs/experience_study.md; with "
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/studies/experience_study.md; with "
                         "--quick: OUT/experience_study.md)")
     parser.add_argument("--postures", type=int, default=None, help="verified postures per object (default 48; "
                         "quick: 7)")
@@ -903,7 +903,7 @@ def _report_later_studies() -> list[str]:
                                  "assumed: the tactile controllers against the open-loop replay of the nominal grasp"),
                                 ("learning_curve", "study_learning_curve.py", "hold rate against the experience's size "
                                  "and against rounds of the controller's own grasps")):
-        later = Path(f"docs/{name}.md")
+        later = Path(f"docs/studies/{name}.md")
         if later.exists():  # its verdict and its figure, quoted from its report
             verdict = later.read_text().split("## Verdict", 1)[-1].split("\n## ", 1)[0].strip()
             lines += [f"`python scripts/{command}` ([its report]({name}.md)): {what}.", "", verdict.split("\n\n")[0],
@@ -911,7 +911,7 @@ def _report_later_studies() -> list[str]:
         else:
             lines += [f"`python scripts/{command}` ({what}) has not been run here.", ""]
     lines += ["## The first study, on the paper's grids", ""]
-    old = Path("docs/experience_study_paper_grids.md")
+    old = Path("docs/studies/experience_study_paper_grids.md")
     if old.exists():  # its verdict and its headroom table, quoted from its report
         text = old.read_text()
         sections = {part.split("\n", 1)[0]: part.split("\n", 1)[1].strip() for part in text.split("\n## ")[1:]}
@@ -922,7 +922,7 @@ def _report_later_studies() -> list[str]:
             lines += ["Its headroom (added when the study was rerun for this report):", "", sections["Headroom"], ""]
     else:
         lines += ["Not run here (`python scripts/study_experience_paper_grids.py` writes "
-                  "`docs/experience_study_paper_grids.md`).", ""]
+                  "`docs/studies/experience_study_paper_grids.md`).", ""]
     return lines
 
 

@@ -1,7 +1,7 @@
 """What `generate_postures(obj, n)` gives with its defaults: the designs, their grasp types and verified shares.
 
     python scripts/study_generator_defaults.py [--objects box cylinder sphere | --test-family | --held-out]
-                                               [--n 40] [--workers 1] [--out DIR] [--doc docs/generator_defaults.md]
+                                               [--n 40] [--workers 1] [--out DIR] [--doc docs/studies/generator_defaults.md]
 
 For each object: the starting postures of the default design family (every grasp type, each start one that
 holds and so do its neighbours: `generator.search_starting_postures`), found in the shipped file or searched

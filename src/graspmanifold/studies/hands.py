@@ -10,7 +10,7 @@ noise draws. From each run: the generator's candidates and the share that hold (
 the heuristic controller (no experience), of the raw database and of the SOM, with 95 % Wilson intervals; the SOM
 is compared with the heuristic on each hand and the hands with each other under each controller by McNemar's
 exact test, with Holm's correction over the whole family. A finished run in --out is read, not recomputed
-(delete it to run it again); the table is written to docs/hands.md.
+(delete it to run it again); the table is written to docs/studies/hands.md.
 """
 
 from __future__ import annotations
@@ -228,7 +228,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="hand names or MJCF paths (the first is the one the others are compared with)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study-hands")
-    parser.add_argument("--doc", default="docs/hands.md")
+    parser.add_argument("--doc", default="docs/studies/hands.md")
     parser.add_argument("--why", action="store_true", help="also the models' physics side by side, and the other "
                         "hands with our servos, contact parameters and coupling, one after the other")
     parser.add_argument("--why-grid", default="paper", help="the grid of the --why ablation (one worker: the changed "

@@ -2,7 +2,7 @@
 
     python scripts/study_learning_curve.py [--quick] [--workers 2] [--seeds 3] [--sizes 12 36 108] [--rounds 1]
                                            [--controllers som_paper som_approach] [--out study-learning]
-                                           [--doc docs/learning_curve.md]
+                                           [--doc docs/studies/learning_curve.md]
 
 On the experience study's benchmark and split (`studies.experience`), once per seed (`--seeds`, default 3: seeds 0,
 1, 2 of the generator, the maps, the subsets and the trials): the experience of every grasp type is generated at the
@@ -54,7 +54,7 @@ from .runner import comparison_table, holm_family, rate_curve, run_command, save
 #: the target (issue 51): the largest experience holds significantly more than the smallest for some controller
 TARGET_P = 0.01
 #: the planned-grasp study's report, whose perfect recall is the curve's ceiling (`ceiling`)
-PLANNED_REPORT = Path("docs/planned_grasps.json")
+PLANNED_REPORT = Path("docs/studies/planned_grasps.json")
 #: the arms of the planned-grasp study the ceiling quotes: a perfect recall with the approach execution (the
 #: curve's som_approach told the very verified grasp), and the plan replayed open loop
 CEILING_ARMS = ("approach-recall", "open-loop")
@@ -79,7 +79,7 @@ class LearningCurveConfig(ExperienceStudyConfig):
             evidence).
         workers: worker processes.
         out: the folder of kept results ('': study-learning, or study-learning-quick).
-        doc: the markdown report ('': docs/learning_curve.md, or OUT/learning_curve.md for a quick run).
+        doc: the markdown report ('': docs/studies/learning_curve.md, or OUT/learning_curve.md for a quick run).
         postures: unused (the largest of `sizes` is generated).
         seeds: seeds of the whole curve (generator, maps, subsets, trials): the study runs once per seed 0 ... seeds-1
             (0: 3, or 2 for a quick run).
@@ -412,7 +412,7 @@ def report(config: LearningCurveConfig, info: dict) -> str:
     top = ceiling()
     if top is not None:
         lines += ["", "## The ceiling: a perfect recall", "",
-                  "What no experience can beat: the planned-grasp study (`docs/planned_grasps.md`, seeds "
+                  "What no experience can beat: the planned-grasp study (`docs/studies/planned_grasps.md`, seeds "
                   f"{', '.join(map(str, top['seeds']))}) tells som_approach's execution the very verified grasp and "
                   "puts the palm where that grasp puts it (a perfect recall), and replays the grasp open loop; at 0 cm "
                   "and with the object 1 cm off, the reach of a covered pose here. Quoted from its report when this one "
@@ -442,7 +442,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", default=None, help="a smoke run")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default 2)")
     parser.add_argument("--out", default=None, help="data directory (default: study-learning[-quick])")
-    parser.add_argument("--doc", default=None, help="markdown report (default: docs/learning_curve.md)")
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/studies/learning_curve.md)")
     parser.add_argument("--seeds", type=int, default=None, help="seeds of the whole curve (default 3)")
     parser.add_argument("--sizes", type=int, nargs="+", default=None, help="postures per object, ascending "
                         "(default 12 36 108)")

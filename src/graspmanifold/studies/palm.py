@@ -2,7 +2,7 @@
 recalled grasp had the object, hold the grasps a fixed palm loses?
 
     python scripts/study_palm.py [--quick] [--workers 2] [--seeds 2 3 4] [--plans 34] [--displaced 3] [--draw 0]
-                                 [--out study-palm] [--doc docs/palm_follows_touch.md]
+                                 [--out study-palm] [--doc docs/studies/palm_follows_touch.md]
 
 Two parts, every arm on the same flange (`sim.flange.FlangeLimits`: one physics for all):
 
@@ -129,7 +129,7 @@ def palm_verdict(info: dict) -> str:
 
 PALM = Family("palm", "The palm that follows touch: a wrist the controller moves, on planned grasps and the paper's "
               "grid", PALM_ARMS, QUESTIONS, False, palm_verdict, "issue 66", "study-palm",
-              "docs/palm_follows_touch.md", "scripts/study_palm.py", floor="flange-open-loop",
+              "docs/studies/palm_follows_touch.md", "scripts/study_palm.py", floor="flange-open-loop",
               headroom=Headroom("flange-open-loop", ("oracle-correction", "oracle-fingers"), (0.02, 0.03, 0.05)))
 FAMILIES[PALM.name] = PALM
 

@@ -2,7 +2,7 @@
 simple control?
 
     python scripts/study_experience_paper_grids.py [--quick] [--workers 2] [--out study-paper-grids]
-                                                   [--doc docs/experience_study_paper_grids.md]
+                                                   [--doc docs/studies/experience_study_paper_grids.md]
 
 The current study is `scripts/study_experience.py` (a benchmark where grasp choice matters); this one is
 kept so that its grids and its verdict stay reproducible. Its headroom table (the per-pose oracle over
@@ -433,7 +433,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default=None, help="data directory (default: study-paper-grids, with --quick "
                         "study-paper-grids-quick)")
-    parser.add_argument("--doc", default=None, help="markdown report (default: docs/experience_study_paper_grids.md; "
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/studies/experience_study_paper_grids.md; "
                         "with --quick: OUT/experience_study.md)")
     parser.add_argument("--candidates", type=int, default=None, help="spring candidates per object")
     parser.add_argument("--rounds", type=int, default=None, help="rounds of growing experience")
@@ -441,7 +441,7 @@ def main(argv: list[str] | None = None) -> None:
     args.out = args.out or ("study-paper-grids-quick" if args.quick else "study-paper-grids")
     args.candidates = args.candidates or (60 if args.quick else 600)
     args.rounds = args.rounds if args.rounds is not None else (1 if args.quick else 2)
-    doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/experience_study_paper_grids.md"))
+    doc = Path(args.doc or (Path(args.out) / "experience_study.md" if args.quick else "docs/studies/experience_study_paper_grids.md"))
     run_command(args.out, lambda: write_study(Study(args), doc))
 
 

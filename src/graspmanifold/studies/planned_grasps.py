@@ -2,7 +2,7 @@
 planned, by every arm of `trials.planned`.
 
     python scripts/study_planned_grasps.py [--quick] [--workers 2] [--seeds 2 3 4] [--plans 34] [--displaced 3]
-                                           [--draw 0] [--out study-planned-grasps] [--doc docs/planned_grasps.md]
+                                           [--draw 0] [--out study-planned-grasps] [--doc docs/studies/planned_grasps.md]
 
 For each of the experience benchmark's seven objects (`trials.benchmark.OBJECTS`) and each seed, `--plans` grasps
 verified by the generator (`generate_postures(obj, n, seed, params=GeneratorParams(designs="grasp_types"))`, on the
@@ -188,7 +188,7 @@ class Family:
 
 EXECUTION = Family("execution", "Planned grasps: execution at the verified grasp's level, against a fair open loop",
                    EXECUTION_ARMS, QUESTIONS, True, _execution_verdict, "issues 65 and 84", "study-planned-grasps",
-                   "docs/planned_grasps.md", "scripts/study_planned_grasps.py", zero_only=("approach-recall-fixed",),
+                   "docs/studies/planned_grasps.md", "scripts/study_planned_grasps.py", zero_only=("approach-recall-fixed",),
                    headroom=Headroom("approach-recall-fixed", ("open-loop",), (0.0,), ("approach-recall",)))
 #: the families by name; `studies.palm` adds the palm's
 FAMILIES: dict[str, Family] = {EXECUTION.name: EXECUTION}
@@ -985,7 +985,7 @@ def main(argv: list[str] | None = None) -> None:
                         "among the verified ones")
     parser.add_argument("--draw", type=int, default=0, help="seeds the draw of the displaced plans")
     parser.add_argument("--out", default="", help="the study's folder (default study-planned-grasps[-quick])")
-    parser.add_argument("--doc", default="", help="the report (default docs/planned_grasps.md, or OUT/ for --quick)")
+    parser.add_argument("--doc", default="", help="the report (default docs/studies/planned_grasps.md, or OUT/ for --quick)")
     args = parser.parse_args(argv)
     config = study_config(lambda: PlannedStudyConfig(args.quick, args.workers, tuple(args.seeds), args.plans,
                                                      args.displaced, draw=args.draw))

@@ -1,7 +1,7 @@
 """Our grasps judged the way the field judges them: DexGraspBench's protocol beside our hold test.
 
     python scripts/study_protocols.py [--postures 16] [--every 4] [--verify-postures 12] [--held-out]
-                                      [--workers 2] [--out protocols] [--doc docs/protocols.md]
+                                      [--workers 2] [--out protocols] [--doc docs/studies/protocols.md]
 
 On the benchmark's objects (the paper's box, cylinder and sphere, and the marble, pen, disc and cube):
 our verified grasps replayed open loop (`replay.replay`: pregrasp the open hand, grasp, squeeze), and
@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--held-out", action="store_true", help="add the family's held-out members to verification")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="protocols")
-    parser.add_argument("--doc", default="docs/protocols.md")
+    parser.add_argument("--doc", default="docs/studies/protocols.md")
     args = parser.parse_args(argv)
     study = StudyRun(args.out, args.workers)
     study.check_writable(args.doc)

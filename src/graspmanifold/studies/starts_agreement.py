@@ -2,7 +2,7 @@
 
     python scripts/check_starts.py [--objects NAME ...] [--families five_fingertip grasp_types]
                                    [--other-processor] [--workers 2] [--out study_starts]
-                                   [--doc docs/starts_agreement.md]
+                                   [--doc docs/studies/starts_agreement.md]
 
 For each object and design family that `assets/starting_postures.npz` ships (`scripts/find_starting_postures.py`'s
 list; `--objects` a subset), the generator's own search (`generator.search_starting_postures`) runs on its inputs as
@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="also search with another x86 processor's arithmetic, in a fresh interpreter")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="study_starts")
-    parser.add_argument("--doc", default=None, help="also write the report here (e.g. docs/starts_agreement.md)")
+    parser.add_argument("--doc", default=None, help="also write the report here (e.g. docs/studies/starts_agreement.md)")
     parser.add_argument("--emit", nargs=2, metavar=("OBJECT", "FAMILY"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.emit:  # one search, printed as JSON (what `search_elsewhere` runs in a fresh interpreter)

@@ -1,7 +1,7 @@
 """The uncertainty study: when the object is not where the plan assumed, does closing the grasp on touch beat
 executing the plan open loop?
 
-    python scripts/study_uncertainty.py [--quick] [--workers 2] [--out study-uncertainty] [--doc docs/uncertainty_study.md]
+    python scripts/study_uncertainty.py [--quick] [--workers 2] [--out study-uncertainty] [--doc docs/studies/uncertainty_study.md]
 
 On the experience study's benchmark and split (`studies.experience`), every nominal pose is run at every level of
 pose error (`trials.uncertainty.pose_errors`: 0, 1, 2, 3, 5 cm in the palm's plane, and up to 0, 6, 12, 18, 30
@@ -80,7 +80,7 @@ class UncertaintyStudyConfig(ExperienceStudyConfig):
         quick: a smoke run: two objects, every sixth nominal pose, 7 postures per object (too small to be evidence).
         workers: worker processes.
         out: the folder of kept results ('': study-uncertainty, or study-uncertainty-quick).
-        doc: the markdown report ('': docs/uncertainty_study.md, or OUT/uncertainty_study.md for a quick run).
+        doc: the markdown report ('': docs/studies/uncertainty_study.md, or OUT/uncertainty_study.md for a quick run).
         postures: verified postures per object (0: 48, or 7 for a quick run).
         every: run every k-th nominal pose of each split (0: every one, or every sixth for a quick run).
     """
@@ -499,7 +499,7 @@ def main(argv: list[str] | None = None) -> None:
                         "nominal pose")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default 2)")
     parser.add_argument("--out", default=None, help="data directory (default: study-uncertainty[-quick])")
-    parser.add_argument("--doc", default=None, help="markdown report (default: docs/uncertainty_study.md; with "
+    parser.add_argument("--doc", default=None, help="markdown report (default: docs/studies/uncertainty_study.md; with "
                         "--quick: OUT/uncertainty_study.md)")
     parser.add_argument("--postures", type=int, default=None, help="verified postures per object (default 48; "
                         "quick: 7)")

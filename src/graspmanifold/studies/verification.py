@@ -1,6 +1,6 @@
 """Verified means held when replayed: what the generator keeps under each protocol, at what yield and speed, and
 how its grasps fare under the other protocol; and what limits our hand under DexGraspBench's pushes. A part of
-the protocols study (`studies.protocols`, `scripts/study_protocols.py`), which writes it into docs/protocols.md.
+the protocols study (`studies.protocols`, `scripts/study_protocols.py`), which writes it into docs/studies/protocols.md.
 
 For every object of the benchmark (the paper's box, cylinder and sphere, the marble, pen, disc and cube) and of
 the test family (the family members the generator's defaults were tuned beside; `--held-out` adds the members

@@ -174,7 +174,7 @@ class GeneratorParams:
 #: on the object is kept (the paper describes no verification). The quick preset takes one settled posture
 #: per walk step (small and fast, for tests and demos); the paper preset records along the hand's motion
 #: as the paper did, at every physics step: of the modes measured, the one whose maps come closest to the
-#: paper's inter-node distances (docs/data_character.md).
+#: paper's inter-node distances (docs/studies/data_character.md).
 PRESET_PARAMS: dict[str, GeneratorParams] = {
     "quick": GeneratorParams(verify=False),
     "paper": GeneratorParams(mode="recording", record_every=1, verify=False),

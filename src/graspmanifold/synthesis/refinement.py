@@ -73,7 +73,7 @@ class Refinement:
 #: from its push); with the contacts' pushes balanced (so the thumb opposes the fingers); both; for a
 #: power grasp, the palm 1 mm off the surface (taking up what four fingers push more than the thumb); and
 #: the balance weighed more (a pinch of a tapered or curved object needs its two pushes nearly opposed).
-#: Whether one start holds turns on millimetres, so several are tried (docs/generator_defaults.md has what
+#: Whether one start holds turns on millimetres, so several are tried (docs/studies/generator_defaults.md has what
 #: each object got).
 REFINEMENTS: tuple[Refinement, ...] = (
     Refinement(), Refinement(press=1.0), Refinement(balance=0.6), Refinement(balance=0.6, press=1.0),
