@@ -20,7 +20,8 @@ import numpy as np
 
 import graspmanifold as gm
 from graspmanifold.base.io import markdown_row, markdown_table
-from graspmanifold.judging.replay import OpenLoopGrasp, external_force_test, open_loop_grasps
+from graspmanifold.judging.plans import OpenLoopGrasp, open_loop_grasps
+from graspmanifold.judging.push_test import external_force_test
 from graspmanifold.judging.protocols import PROTOCOLS
 
 

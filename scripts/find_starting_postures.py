@@ -22,7 +22,7 @@ from pathlib import Path
 
 from graspmanifold.base.io import load_npz
 from graspmanifold.base.workers import parallel_map
-from graspmanifold.synthesis.generator import search_starting_postures
+from graspmanifold.synthesis.start_cache import search_starting_postures
 from graspmanifold.synthesis.starts import (
     DESIGN_FAMILIES,
     STARTS_FILE,

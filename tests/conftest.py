@@ -35,7 +35,7 @@ def _own_cache(tmp_path_factory):
 @pytest.fixture(scope="session")
 def box_plans():
     """Two verified grasps of the box (one of every grasp type's design) and their plans: the planned trials' tests."""
-    from graspmanifold.judging.replay import open_loop_grasps
+    from graspmanifold.judging.plans import open_loop_grasps
     from graspmanifold.synthesis.generator import GeneratorParams, generate_postures
 
     postures = generate_postures("box", 2, seed=0, workers=1, progress=False,

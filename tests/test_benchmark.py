@@ -9,7 +9,7 @@ import pytest
 import graspmanifold as gm
 from graspmanifold.control.controller import BatchController
 from graspmanifold.sim.objects import GraspObject
-from graspmanifold.trials import trial
+from graspmanifold.trials import setup as trial_setup
 from graspmanifold.trials.benchmark import (OBJECTS, PLACEMENTS, benchmark_grid, cells, compare_pooled, pooled,
                                             run_benchmark)
 
@@ -54,7 +54,7 @@ def test_the_controller_is_never_told_the_object(monkeypatch):
             seen.extend([joints, segment_forces])
             return super().step(joints, segment_forces)
 
-    monkeypatch.setattr(trial, "BatchController", Spy)
+    monkeypatch.setattr(trial_setup, "BatchController", Spy)
     database = gm.PostureDatabase(np.tile(gm.closed_posture() * 0.5, (3, 1)))
     results = run_benchmark(database, objects=("marble",), every=27)
     assert sum(len(r.trials) for r in results.values()) >= 2 and seen

@@ -145,7 +145,8 @@ def test_warp_buffers_hold_a_closed_hand_on_every_object(name, monkeypatch):
     from graspmanifold.sim import warp_worlds
     from graspmanifold.trials.benchmark import OBJECTS
     from graspmanifold.trials.grid import check_grid
-    from graspmanifold.trials.trial import TrialSetup, trial_scene
+    from graspmanifold.trials.episode import trial_scene
+    from graspmanifold.trials.setup import TrialSetup
 
     obj = OBJECTS[name].object
     poses = check_grid("quick", obj)[1][:2] if name in gm.PAPER_OBJECTS else np.array([[0.0, 0.0, 0.01, 0.0]])

@@ -518,7 +518,8 @@ def test_the_papers_reading_takes_every_free_finger_to_its_recall_before_it_clos
 def test_a_recall_of_the_closed_hand_closes_as_the_plain_heuristic():
     """The paper's reading with the closed hand as its only recall: the fingers go to the closed hand at
     the heuristic's joint speed, so the trials are the plain heuristic's (real trials, three poses)."""
-    from graspmanifold.trials.trial import TrialSetup, run_trial
+    from graspmanifold.trials.episode import run_trial
+    from graspmanifold.trials.setup import TrialSetup
 
     closed = gm.PostureDatabase(gm.closed_posture()[None])
     obj = gm.get_object("cylinder")
@@ -584,7 +585,8 @@ def test_a_traced_controller_logs_every_cycle_and_changes_no_trial():
     """`recall_trace.TracedController` around ours: one log entry per control cycle, the same trials as untraced."""
     from graspmanifold.control.controller import CLOSING_RECALL, BatchController
     from graspmanifold.studies.recall_trace import TracedController
-    from graspmanifold.trials.trial import TrialSetup, run_trials
+    from graspmanifold.trials.episode import run_trials
+    from graspmanifold.trials.setup import TrialSetup
 
     obj = gm.get_object("cylinder")
     som = gm.SOM(4, 4, 22, seed=0).fit(gm.open_posture() + np.linspace(0.1, 0.9, 30)[:, None]

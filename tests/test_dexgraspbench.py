@@ -8,7 +8,9 @@ import pytest
 
 import graspmanifold as gm
 from graspmanifold.sim.grip import squeezed
-from graspmanifold.judging.replay import OpenLoopGrasp, external_force_test, q1
+from graspmanifold.judging.plans import OpenLoopGrasp
+from graspmanifold.judging.push_test import external_force_test
+from graspmanifold.judging.quality import q1
 from graspmanifold.judging.protocols import DEXGRASPBENCH, DEXGRASPBENCH_PAPER, get_protocol
 from graspmanifold.synthesis.grasp_files import read_grasp_file, read_grasp_files, write_grasp_files
 from graspmanifold.judging.quality import epsilon_l1
@@ -176,7 +178,8 @@ def test_closed_loop_trials_take_either_protocol_by_name():
 
 
 def test_open_loop_replay_is_a_method_judged_by_either_protocol(box_grasps):
-    from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasps, replay
+    from graspmanifold.judging.plans import GRASP_STAGES, open_loop_grasps
+    from graspmanifold.judging.replay import replay
 
     postures = gm.generate_postures("box", 2, seed=0, workers=1, progress=False)
     grasps = open_loop_grasps(postures)  # the stages the set was verified with: from its contacts
@@ -219,7 +222,8 @@ def test_a_grasp_files_object_folder_is_found_or_named(tmp_path, box_grasps):
 def test_the_verifier_is_the_replay(protocol_name):
     """The generator's verifier and `replay` are one procedure (`replay_grasp`): on candidates that hold and
     candidates that drop, the verifier's outcome is the replay's, grasp by grasp."""
-    from graspmanifold.judging.replay import GraspVerifier, open_loop_grasps, replay
+    from graspmanifold.judging.plans import open_loop_grasps
+    from graspmanifold.judging.replay import GraspVerifier, replay
     from graspmanifold.judging.judge import JUDGING
 
     candidates = gm.generate_postures("cylinder", 6, seed=1, workers=1, progress=False,
@@ -246,7 +250,8 @@ def test_the_verifier_is_the_replay(protocol_name):
 def test_a_verified_posture_replays_to_a_hold_under_the_protocol_it_was_verified_with(name, protocol_name, stages):
     """What the generator keeps holds when replayed open loop (`replay`, a new scene) under its verifier's
     protocol, with its stages."""
-    from graspmanifold.judging.replay import open_loop_grasps, replay
+    from graspmanifold.judging.plans import open_loop_grasps
+    from graspmanifold.judging.replay import replay
     from graspmanifold.trials.benchmark import OBJECTS
 
     obj = OBJECTS[name].object
@@ -262,7 +267,7 @@ def test_stages_made_from_the_contacts_move_the_touching_segments_along_the_norm
     (out for a pregrasp, in for a squeeze), the touching segments on average more than half of it; a finger that
     touches nothing keeps its joints."""
     from graspmanifold.sim.normal_offsets import CONTACT_REACH, offset_along_normals
-    from graspmanifold.judging.replay import GRASP_STAGES, GraspStages, open_loop_grasp
+    from graspmanifold.judging.plans import GRASP_STAGES, GraspStages, open_loop_grasp
     from graspmanifold.sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, segment_of_geoms
 
     start = next(s for s in gm.starting_postures("cylinder", "grasp_types") if s.name == "tripod")
@@ -304,7 +309,8 @@ def test_stages_made_from_the_contacts_move_the_touching_segments_along_the_norm
 def test_a_verifiers_outcome_does_not_depend_on_what_it_judged_before():
     """On a mesh (whose edges once gave a contact the normal of one face or the other by the last bit) the verifier
     judges each verified posture the same in either order, and `replay` holds every one."""
-    from graspmanifold.judging.replay import GraspVerifier, open_loop_grasps, replay
+    from graspmanifold.judging.plans import open_loop_grasps
+    from graspmanifold.judging.replay import GraspVerifier, replay
 
     obj = gm.get_object("frustum_s")
     postures = gm.generate_postures(obj, 6, seed=0, workers=1, progress=False)
@@ -321,10 +327,11 @@ def test_a_protocol_is_one_value_looked_up_by_name_and_ones_own_runs_everywhere_
     without any change to the trial loop or the replay, and that keys its results apart from ours."""
     from dataclasses import replace as changed
 
-    from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasps, replay_grasp
+    from graspmanifold.judging.plans import GRASP_STAGES, open_loop_grasps
+    from graspmanifold.judging.replay import replay_grasp
     from graspmanifold.judging.judge import JUDGING
     from graspmanifold.judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     assert PROTOCOLS[DEFAULT_PROTOCOL].rules == JUDGING and PROTOCOLS[DEFAULT_PROTOCOL].physics is None
     assert {name for name, p in PROTOCOLS.items() if p.push_test is not None} == {"dexgraspbench", "dexgraspbench-paper"}

@@ -16,7 +16,8 @@ from graspmanifold.sim.hand import N_FINGER_JOINTS
 from graspmanifold.studies.planned_grasps import drawn_plans
 from graspmanifold.trials import planned
 from graspmanifold.trials.planned import run_plan, verify_plans
-from graspmanifold.trials.trial import TrialSetup, run_trials
+from graspmanifold.trials.episode import run_trials
+from graspmanifold.trials.setup import TrialSetup
 
 
 def test_the_open_loop_at_0_cm_holds_every_plan_the_studys_verification_passed(box_plans):
@@ -152,7 +153,7 @@ def test_what_an_experience_carries_is_part_of_the_trials_key(box_plans):
 
 
 def test_the_open_loop_given_two_attempts_executes_the_plan_again_from_its_pregrasp(box_plans):
-    from graspmanifold.judging.replay import OpenLoopController
+    from graspmanifold.trials.open_loop import OpenLoopController
 
     _, plans = box_plans
     controller = OpenLoopController(3, plans[0])

@@ -139,7 +139,8 @@ def test_every_hand_model_hangs_on_the_flange_and_its_scene_writes_itself_out(ha
 
 def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
     import graspmanifold as gm
-    from graspmanifold.judging.replay import open_loop_grasps, replay
+    from graspmanifold.judging.plans import open_loop_grasps
+    from graspmanifold.judging.replay import replay
     from graspmanifold.judging.judge import judge_scene, supported_scene
     from graspmanifold.judging.protocols import PROTOCOLS
     from graspmanifold.sim.objects import get_object
@@ -164,7 +165,7 @@ def test_the_lift_protocol_raises_the_palm_and_holds_what_keeps_up_with_it():
 
 def test_a_trial_set_up_with_a_palm_runs_on_the_flange_and_keys_it():
     import graspmanifold as gm
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     assert TrialSetup(object="box", protocol="lift").palm == FlangeLimits()  # the lift brings its arm
     plain, slow = TrialSetup(object="box"), TrialSetup(object="box", palm=FlangeLimits(speed=0.05))
@@ -182,7 +183,8 @@ def test_a_recall_that_moves_the_palm_moves_it_by_the_flange_where_the_hand_has_
     the flange's set point follows the offset at its bounded speed while the grasp goes on, then stays."""
     import graspmanifold as gm
     from graspmanifold.trials.grid import check_grid
-    from graspmanifold.trials.trial import TrialSetup, run_trials
+    from graspmanifold.trials.episode import run_trials
+    from graspmanifold.trials.setup import TrialSetup
 
     obj = gm.get_object("cylinder")
     poses = check_grid("quick", obj)[1][::5]

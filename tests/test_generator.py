@@ -105,8 +105,8 @@ def test_starting_postures_are_found_for_other_sizes():
     import subprocess
     import sys
 
-    from graspmanifold.synthesis import generator as generator_module
-    from graspmanifold.synthesis.generator import cache_directory
+    from graspmanifold.synthesis import start_cache
+    from graspmanifold.synthesis.start_cache import cache_directory
     from graspmanifold.synthesis.starts import is_design_grasp
 
     obj = gm.make_object("cylinder", radius=0.025, length=0.12)
@@ -120,11 +120,11 @@ def test_starting_postures_are_found_for_other_sizes():
     again = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr
     np.testing.assert_array_equal(eval(again.stdout), np.concatenate([s.posture for s in starts]))
-    stored = [generator_module.starts_cache_path(obj, "five_fingertip")]
+    stored = [start_cache.starts_cache_path(obj, "five_fingertip")]
     assert stored[0].parent == cache_directory() / "starting_postures" and stored[0].exists()
     # a damaged stored file is named, searched again and replaced
     stored[0].write_bytes(stored[0].read_bytes()[:100])
-    generator_module._starting_postures.cache_clear()
+    start_cache._starting_postures.cache_clear()
     with pytest.warns(UserWarning, match="cannot be read"):
         searched = gm.starting_postures(obj, "five_fingertip")
     np.testing.assert_array_equal([s.posture for s in searched], [s.posture for s in starts])
@@ -171,7 +171,8 @@ def test_every_generated_posture_replays_as_a_valid_grasp(small_sets, name):
 def replay_holds(obj, posture, pose) -> bool:
     """The generator's verification by hand: the open-loop grasp made from the posture's contacts (the pregrasp
     2 cm out along the normals, the squeeze 1 cm in) replayed on the free object, gravity in six directions."""
-    from graspmanifold.judging.replay import GRASP_STAGES, open_loop_grasp, replay
+    from graspmanifold.judging.plans import GRASP_STAGES, open_loop_grasp
+    from graspmanifold.judging.replay import replay
 
     grasp = open_loop_grasp(pose, posture, GRASP_STAGES["contacts"], gm.Scene(obj))
     return bool(replay(obj, [grasp], "hold-test")[0][0])
@@ -278,7 +279,7 @@ def test_data_clusters_around_the_starting_postures():
 def test_interrupted_run_resumes_without_redoing_finished_jobs(tmp_path, monkeypatch):
     checkpoints = tmp_path / "parts"
     calls = []
-    real_run = generator._run_job
+    real_run = generator.walk
 
     def counting_run(obj, start, job, seed, params, hand):
         calls.append(job)
@@ -286,14 +287,14 @@ def test_interrupted_run_resumes_without_redoing_finished_jobs(tmp_path, monkeyp
             raise KeyboardInterrupt  # the run is killed half-way
         return real_run(obj, start, job, seed, params, hand)
 
-    monkeypatch.setattr(generator, "_run_job", counting_run)
+    monkeypatch.setattr(generator, "walk", counting_run)
     with pytest.raises(KeyboardInterrupt):
         gm.generate_postures("sphere", 24, seed=1, params=SMALL, checkpoint_dir=checkpoints)
     finished = sorted(p.name for p in checkpoints.glob("job_*.npz"))
     assert len(finished) == 3
     assert not list(checkpoints.glob("*.tmp"))  # nothing half-written
     calls.clear()
-    monkeypatch.setattr(generator, "_run_job", lambda *a: calls.append(a[2]) or real_run(*a))
+    monkeypatch.setattr(generator, "walk", lambda *a: calls.append(a[2]) or real_run(*a))
     resumed = gm.generate_postures("sphere", 24, seed=1, params=SMALL, checkpoint_dir=checkpoints)
     assert len(calls) == 1  # only the unfinished job ran
     fresh = gm.generate_postures("sphere", 24, seed=1, params=SMALL)

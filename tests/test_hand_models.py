@@ -197,7 +197,8 @@ def test_a_controller_on_another_hand_drives_that_hand_and_never_commands_a_join
     experience recalls our hand's postures beyond them (real trials on the Gymnasium-Robotics hand)."""
     import graspmanifold as gm
     from graspmanifold.control.controller import BatchController
-    from graspmanifold.trials.trial import TrialSetup, run_trials
+    from graspmanifold.trials.episode import run_trials
+    from graspmanifold.trials.setup import TrialSetup
 
     hand = available("gymnasium-robotics")
     low, high = hand.limits().T

@@ -26,7 +26,7 @@ from graspmanifold.cli import main as cli
 from graspmanifold.sim.hand import SHADOW_HAND
 from graspmanifold.sim.hand_models import hand_model
 from graspmanifold.trials.benchmark import run_benchmark
-from graspmanifold.trials.trial import TrialSetup
+from graspmanifold.trials.setup import TrialSetup
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -66,7 +66,7 @@ def test_pieces_that_touch_at_an_edge_or_lie_a_hair_apart_are_one_object_and_sta
 
 
 def test_one_mesh_under_two_names_shares_its_searched_starts():
-    from graspmanifold.synthesis.generator import starts_cache_path
+    from graspmanifold.synthesis.start_cache import starts_cache_path
 
     named = [gm.make_object("mesh", mesh=cylinder_mesh(), name=name) for name in ("can", "tin")]
     assert starts_cache_path(named[0], "grasp_types") == starts_cache_path(named[1], "grasp_types")
@@ -376,7 +376,7 @@ def test_a_reproduction_runs_from_a_config_that_names_family_objects(tmp_path):
 
 
 def test_open_loop_grasps_of_a_mesh_set_ask_for_the_mesh_it_does_not_hold():
-    from graspmanifold.judging.replay import open_loop_grasps
+    from graspmanifold.judging.plans import open_loop_grasps
     from graspmanifold.manifold.postureset import PostureSet
 
     can = gm.make_object("mesh", mesh=cylinder_mesh(), name="can")

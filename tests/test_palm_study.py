@@ -16,7 +16,8 @@ from graspmanifold.trials import planned
 from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.trials.grid import displaced_palm_pose, oracle_correction
 from graspmanifold.trials.planned import ARMS, PALM_ARMS, arm_setup, run_plan
-from graspmanifold.trials.trial import TrialSetup, flange_targets, run_trials
+from graspmanifold.trials.episode import flange_targets, run_trials
+from graspmanifold.trials.setup import TrialSetup
 
 MOVES = np.array([[0.02, 0.0, 0.0, 0.2], [-0.01, 0.015, 0.0, -0.1]])
 
@@ -140,7 +141,7 @@ def test_the_studys_report_gives_every_arm_the_targets_verdicts_and_the_paper_gr
     from graspmanifold.studies import palm
     from graspmanifold.studies.planned_grasps import PlannedStudyConfig, outcomes_of, summarise
     from graspmanifold.trials.planned import PlanTrials, displacements
-    from graspmanifold.trials.trial import Trial
+    from graspmanifold.trials.record import Trial
 
     rng = np.random.default_rng(0)
     rates = {"flange-open-loop": 0.3, "flange-open-loop-x2": 0.35, "oracle-correction": 0.9,

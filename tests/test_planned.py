@@ -10,7 +10,7 @@ import pytest
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.poses import compose, invert
 from graspmanifold.control.controller import APPROACH, BatchController, ControllerParams, SETTLED_BLEND
-from graspmanifold.judging.replay import OpenLoop, OpenLoopController
+from graspmanifold.trials.open_loop import OpenLoop, OpenLoopController
 from graspmanifold.manifold.experience import PostureDatabase, scrambled
 from graspmanifold.sim.hand import FINGER_JOINTS, N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 from graspmanifold.sim.posture import open_posture
@@ -18,7 +18,9 @@ from graspmanifold.trials import planned
 from graspmanifold.trials.evaluation import evaluate
 from graspmanifold.trials.grid import displaced_palm_pose
 from graspmanifold.trials.planned import ARMS, LEVELS, PlanTrials, arm_setup, displacements, run_plan
-from graspmanifold.trials.trial import Noise, Trial, TrialSetup, run_trials, trial_scene
+from graspmanifold.trials.episode import run_trials, trial_scene
+from graspmanifold.trials.record import Trial
+from graspmanifold.trials.setup import Noise, TrialSetup
 
 BOX_MOVES = np.array([[0.0, 0.0, 0.0, 0.0], [0.02, 0.0, 0.0, 0.2], [0.0, -0.01, 0.0, -0.1]])
 

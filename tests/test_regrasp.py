@@ -8,9 +8,11 @@ import graspmanifold as gm
 from graspmanifold.control.controller import BatchController
 from graspmanifold.control.regrasp import Regrasp, grasp_types_of, reference_grasp_types
 from graspmanifold.sim.worlds import CpuWorlds
-from graspmanifold.trials import trial
+from graspmanifold.trials import episode
 from graspmanifold.trials.benchmark import OBJECTS
-from graspmanifold.trials.trial import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, TrialSetup, run_trial
+from graspmanifold.trials.episode import run_trial
+from graspmanifold.trials.record import FAILURE_FEATURES, FIRST_CONTACT_FEATURES
+from graspmanifold.trials.setup import TrialSetup
 
 MARBLE = OBJECTS["marble"].object
 #: a marble near the palm: the plain heuristic's first grasp of it fails the lift probe
@@ -42,7 +44,7 @@ class SpyWorlds(CpuWorlds):
 @pytest.fixture
 def spy(monkeypatch):
     SpyWorlds.calls, SpyWorlds.supports = [], []
-    monkeypatch.setattr(trial, "CpuWorlds", SpyWorlds)
+    monkeypatch.setattr(episode, "CpuWorlds", SpyWorlds)
     return SpyWorlds
 
 

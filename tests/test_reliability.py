@@ -8,7 +8,8 @@ import graspmanifold as gm
 from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
 from graspmanifold.trials.evaluation import EvaluationResult
 from graspmanifold.trials.experience_pays import compare
-from graspmanifold.trials.trial import TrialSetup, run_trial
+from graspmanifold.trials.episode import run_trial
+from graspmanifold.trials.setup import TrialSetup
 
 # -- simulation faults -----------------------------------------------------------------------------
 

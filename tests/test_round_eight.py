@@ -16,7 +16,7 @@ def _steered_without_flange():
     from dataclasses import replace
 
     from graspmanifold.control.controller import CONTROLLERS, PALM_TOUCH
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     return TrialSetup(object="box", params=replace(CONTROLLERS["paper"], palm=PALM_TOUCH))
 

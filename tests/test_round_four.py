@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import graspmanifold as gm
-from graspmanifold.judging.replay import MAX_REACH, OpenLoopGrasp
+from graspmanifold.judging.plans import MAX_REACH, OpenLoopGrasp
 from graspmanifold.synthesis.grasp_files import grasp_object, read_grasp_file, read_grasp_files, write_grasp_files
 
 

@@ -173,7 +173,8 @@ def _flanged_scene():
 def _starts(poses, streams):
     import numpy as np
 
-    from graspmanifold.trials.trial import TrialSetup, trial_starts
+    from graspmanifold.trials.episode import trial_starts
+    from graspmanifold.trials.setup import TrialSetup
 
     return trial_starts(TrialSetup(object="box"), poses, [np.random.default_rng(k) for k in range(streams)],
                         gm.open_posture())
@@ -258,7 +259,7 @@ def test_experience_files_with_numbers_no_hand_has_are_refused_with_the_file_nam
 def test_an_experience_outside_the_hands_joint_ranges_is_refused_before_trials():
     """Poor case: a map trained on one hand's postures ran on another hand without a word (here: references no
     joint of our hand reaches: a warning, since a synthetic experience may mean it)."""
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     postures = _postures().copy()
     postures[3, 5] = 2.5  # rad: beyond every finger joint's range of our hand
@@ -359,7 +360,7 @@ def test_a_table_cell_cannot_break_its_table():
 def test_a_lift_the_arm_cannot_perform_is_refused_before_any_trial(limits, message):
     """Poor case: the lift reported 'held' with an arm that could rise 1 cm of the 0.2 m lift, or pull 0.01 N."""
     from graspmanifold.sim.flange import FlangeLimits
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     with pytest.raises(gm.InvalidInput, match=message):
         TrialSetup(object="box", protocol="lift", palm=FlangeLimits(**limits))

@@ -124,7 +124,7 @@ def test_a_ukr_too_large_for_memory_is_refused_before_any_work():
 def test_an_open_loop_of_no_grasp_and_places_that_are_not_finite_are_named():
     """`OpenLoop("plan")` was taken and refused only when the trials made their controllers; NaN places were refused
     as "got shape (40, 3)", the shape they had."""
-    from graspmanifold.judging.replay import OpenLoop
+    from graspmanifold.trials.open_loop import OpenLoop
 
     with pytest.raises(gm.InvalidInput, match=r"OpenLoop\.grasp must be an OpenLoopGrasp .* got str"):
         OpenLoop("plan")

@@ -9,7 +9,8 @@ import pytest
 import graspmanifold as gm
 from graspmanifold.sim.worlds import WorldStarts
 from graspmanifold.trials.grid import check_grid
-from graspmanifold.trials.trial import Noise, TrialSetup, trial_scene, trial_starts
+from graspmanifold.trials.episode import trial_scene, trial_starts
+from graspmanifold.trials.setup import Noise, TrialSetup
 
 FIELDS = ("qpos", "ctrl", "mocap_pos", "mocap_quat")
 
@@ -37,7 +38,7 @@ def test_one_scene_gives_every_world_the_start_a_scene_of_its_own_gives(name, no
 def test_a_planned_grasp_starts_the_same_way_batched_or_a_scene_each():
     """With a plan (its pregrasp placed for the nominal object, the object displaced by the grid pose) the batched
     start is the per-world scene's too."""
-    from graspmanifold.judging.replay import open_loop_grasp
+    from graspmanifold.judging.plans import open_loop_grasp
     from graspmanifold.trials.grid import palm_pose_for
 
     obj = gm.get_object("cylinder")

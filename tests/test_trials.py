@@ -49,7 +49,8 @@ TRIAL_FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "
                                                ("som", gm.Noise(), gm.ControllerParams(recall=gm.BlendRecall(reach=0.03)))])
 def test_worlds_run_together_give_the_trials_each_gives_alone(experience, kind, noise, params):
     """One trial loop over N worlds: a pose's trial does not depend on the other poses run beside it."""
-    from graspmanifold.trials.trial import TrialSetup, run_trial, run_trials
+    from graspmanifold.trials.episode import run_trial, run_trials
+    from graspmanifold.trials.setup import TrialSetup
 
     obj = gm.get_object("cylinder")
     _, poses = check_grid("quick", obj)
@@ -227,7 +228,7 @@ def test_a_judging_stage_of_ones_own_runs_without_a_change_to_the_loop():
     from graspmanifold.judging.judge import JUDGING
     from graspmanifold.judging.protocols import JudgingProtocol
     from graspmanifold.judging.stages import HoldTest, MarginRamp
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     settled = JudgingProtocol("settled", replace(JUDGING, stages=(Settle, HoldTest, MarginRamp)))
     poses = check_grid("quick", gm.get_object("box"))[1][:3]
@@ -244,7 +245,7 @@ def test_a_controller_is_named_as_the_command_line_names_it_or_given_as_a_factor
     """`controller=` means one thing in the API and on the command line: a controller. Ours by its registered name
     (its parameters, keyed as if given as `params`), one's own as a factory; a name beside parameters is refused."""
     from graspmanifold.control.controller import CONTROLLERS
-    from graspmanifold.trials.trial import TrialSetup
+    from graspmanifold.trials.setup import TrialSetup
 
     poses = np.zeros((1, 4))
     for name, params in CONTROLLERS.items():

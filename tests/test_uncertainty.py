@@ -9,7 +9,7 @@ import pytest
 
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.control.controller import BatchController
-from graspmanifold.judging.replay import PREGRASP_BACK_OFF, open_loop_grasp
+from graspmanifold.judging.plans import PREGRASP_BACK_OFF, open_loop_grasp
 from graspmanifold.sim.hand import N_FINGER_JOINTS, SEGMENTS, SHADOW_HAND
 from graspmanifold.trials import pose_errors as uncertainty
 from graspmanifold.trials.benchmark import OBJECTS, benchmark_split

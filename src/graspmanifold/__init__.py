@@ -21,7 +21,8 @@ from .control.recall import ApproachRecall, BlendRecall, TargetRecall
 from .control.regrasp import Regrasp
 from .trials.evaluation import EvaluationResult, evaluate
 from .manifold.experience import Experience, PostureDatabase
-from .synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, starting_postures, verify_postures
+from .synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
+from .synthesis.start_cache import starting_postures
 from .trials.grid import grid_preset, reachable, why_unreachable
 from .sim.hand import (
     ACTUATORS,
@@ -60,7 +61,8 @@ from .manifold.ukr import UKR
 from .manifold.linear import LinearManifold
 from .synthesis.refinement import StartingPosture
 from .sim.tactile import TactileReading, TactileSensor
-from .trials.trial import Noise, Recording, TrialSetup, record_trial
+from .trials.recording import Recording, record_trial
+from .trials.setup import Noise, TrialSetup
 from .trials.stats import headroom, holm, mcnemar, wilson_interval
 from .trials.experience_pays import compare
 from .base.progress import show_progress

@@ -25,7 +25,7 @@ from .base.version import __version__
 from .base.workers import default_workers
 from .control.controller import CONTROLLERS, PALM_STEERINGS
 from .judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
-from .judging.replay import GRASP_STAGES, VERIFY_STAGES
+from .judging.plans import GRASP_STAGES, VERIFY_STAGES
 from .manifold.representations import REPRESENTATIONS
 from .paper.report import FIGURES
 from .sim.family import FAMILY
@@ -36,7 +36,8 @@ from .sim.objects import GraspObject, named_object, named_objects
 from .sim.posture import closed_posture, open_posture
 from .sim.scene import TOUCH_SOURCES, Scene, facing_pose
 from .studies.dataset import add_arguments as dataset_arguments, run as run_dataset
-from .synthesis.generator import DATASET_PRESETS, MODES, PRESET_PARAMS
+from .synthesis.generator import DATASET_PRESETS
+from .synthesis.springs import MODES, PRESET_PARAMS
 from .synthesis.starts import DESIGN_FAMILIES
 from .trials.grid import GRID_PRESETS
 
@@ -230,7 +231,7 @@ def _experience(args: argparse.Namespace, files):
 
 def _evaluate(args: argparse.Namespace) -> int:
     from .trials.grid import check_grid
-    from .trials.trial import Noise
+    from .trials.setup import Noise
 
     obj = _object(args)
     out = Path(args.out)

@@ -70,6 +70,22 @@ MOVED_NAMES: dict[str, dict[str, str]] = {
                           "OURS_FADED": "judging.protocols:HOLD_TEST_FADED"},
     "manifold.nearest": {"Recall": "manifold.nearest:ReferenceMatcher",
                          "ManifoldRecall": "manifold.nearest:ManifoldMatcher"},
+    # 0.3: judging/replay.py held six ideas; the plan value, the push test and Q1 have rooms of their own, and the
+    # open-loop controller, a trial's controller, lives with the trials
+    "judging.replay": {
+        **{name: f"judging.quality:{name}" for name in ("q1", "Q1_CONTACT_DISTANCE")},
+        **{name: f"judging.plans:{name}" for name in ("STAGE_NAMES", "MAX_REACH", "PREGRASP_BACK_OFF",
+                                                       "open_loop_grasps")},
+        **{name: f"judging.push_test:{name}" for name in ("ForceTest",)},
+        **{name: f"trials.open_loop:{name}" for name in ("APPROACH_TARGET_SECONDS", "OpenLoopController", "OpenLoop")},
+    },
+    # 0.3: the spring rig and its walk, and the start cache, left the generator for rooms of their own
+    "synthesis.generator": {
+        **{name: f"synthesis.springs:{name}" for name in ("SpringRig", "verifier_of", "holds_with_neighbours",
+                                                           "NEIGHBOURS", "MODES", "PRESET_PARAMS")},
+        **{name: f"synthesis.start_cache:{name}" for name in ("search_starting_postures", "cache_directory",
+                                                               "starts_cache_path")},
+    },
 }
 
 

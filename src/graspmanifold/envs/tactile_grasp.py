@@ -51,7 +51,8 @@ from ..sim.render import THUMB_SIDE
 from ..sim.scene import CAMERAS, Scene
 from ..sim.worlds import CpuWorlds
 from ..trials.grid import check_grid
-from ..trials.trial import Episodes, TrialSetup, trial_scene
+from ..trials.episode import Episodes, trial_scene
+from ..trials.setup import TrialSetup
 
 #: s of a grasp after which it is judged as it is, done or not
 MAX_SECONDS = 10.0

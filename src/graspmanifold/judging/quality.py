@@ -144,3 +144,41 @@ def _hull(wrenches: np.ndarray) -> ConvexHull:
     except QhullError as error:
         raise QualityError(f"Qhull failed on {len(wrenches)} wrenches even with joggled input: "
                            f"{str(error).splitlines()[0]}") from None
+
+
+#: m: contacts farther from the object than this do not count for `q1`
+Q1_CONTACT_DISTANCE = 0.005
+
+
+def q1(points: np.ndarray, normals: np.ndarray, links: np.ndarray, distances: np.ndarray | None = None,
+       friction: float = 0.6) -> float:
+    """DexGraspBench's Q1 (Ferrari-Canny) of a grasp's contacts, in its convention: contacts within 5 mm of the
+    object (the caller keeps the fingertip links' only), every link's contacts averaged into one point and
+    normal, an 8-edge friction pyramid at half the friction, torques about the contacts' centroid divided by
+    their mean distance from it. DexGraspBench reports 2 - q1 (2 without contacts); this returns q1.
+
+    Args:
+        points: (k, 3) m, contact points.
+        normals: (k, 3) contact normals into the object (need not be unit).
+        links: (k,) the link (body) each contact is on.
+        distances: (k,) m, each contact's distance to the object (negative: penetrating); None: all count.
+        friction: the sliding friction of the simulation (DexGraspBench: 0.6); the metric takes half.
+
+    Returns:
+        q1 (0: not force closure, or fewer than two links touch).
+    """
+    points, normals = np.asarray(points, dtype=float), np.asarray(normals, dtype=float)
+    links = np.asarray(links)
+    if points.ndim != 2 or points.shape[1:] != (3,) or normals.shape != points.shape or links.shape != (len(points),):
+        raise InvalidInput(f"points and normals must be (k, 3) and links (k,), got {points.shape}, {normals.shape} "
+                           f"and {links.shape}")
+    near = np.ones(len(points), dtype=bool) if distances is None else np.asarray(distances) <= Q1_CONTACT_DISTANCE
+    points, normals, links = points[near], normals[near], links[near]
+    unit = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    merged = [(points[links == link].mean(axis=0), unit[links == link].mean(axis=0)) for link in np.unique(links)]
+    if len(merged) < 2:
+        return 0.0
+    where, towards = (np.array(x) for x in zip(*merged))
+    centroid = where.mean(axis=0)
+    radius = float(np.linalg.norm(where - centroid, axis=1).mean())
+    return epsilon_l1(where, towards, centroid, mu=friction / 2, num_edges=8, torque_scale=radius or None)

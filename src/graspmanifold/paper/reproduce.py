@@ -45,11 +45,11 @@ from ..sim.objects import GraspObject, get_object, make_object
 from ..synthesis.generator import (
     DATASET_PRESETS,
     MAX_POSTURES,
-    PRESET_PARAMS,
     GeneratorParams,
     generate_postures,
     verify_postures,
 )
+from ..synthesis.springs import PRESET_PARAMS
 from ..trials.evaluation import EvaluationResult, evaluate
 from ..trials.grid import check_grid
 from .report import RunData, run_methods, write_figures, write_report

@@ -51,7 +51,7 @@ from ..base.checkpoints import result_key
 from ..base.errors import InvalidInput, RenderingUnavailable
 from ..base.io import fingerprint, load_npz, markdown_table, read_json, save_npz
 from ..control.controller import APPROACH, ControllerParams
-from ..judging.replay import open_loop_grasps
+from ..judging.plans import open_loop_grasps
 from ..manifold.analysis import latent_path
 from ..manifold.experience import Experience, PostureDatabase
 from ..manifold.linear import LinearManifold

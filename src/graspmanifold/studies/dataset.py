@@ -47,7 +47,7 @@ from ..trials.evaluation import evaluate
 from ..trials.experience_pays import compare
 from ..trials.grid import GRID_PRESETS, grid_preset
 from ..trials.stats import PairedComparison, mcnemar, rate_text
-from ..trials.trial import TrialSetup
+from ..trials.setup import TrialSetup
 from .runner import StudyRun, comparison_table, holm_family, run_study
 
 #: the controllers compared on each object, by the experience they recall

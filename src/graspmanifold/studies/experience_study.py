@@ -74,7 +74,7 @@ from ..trials.experience_pays import train_experience_map
 from ..trials.grid import COVERED_ANGLE, COVERED_WITHIN, covered
 from ..trials.stats import MIN_HEADROOM_BEYOND_CHANCE, headroom, rate_text
 from ..trials.strategy_selector import StrategySelector, choose_cross_validated
-from ..trials.trial import Noise
+from ..trials.setup import Noise
 from .runner import StudyRun, comparison_table, holm_family, publish, run_command, study_config
 
 #: the target (issue 38), pooled over the test split: two attempts each, regrasp with experience against the best

@@ -4,7 +4,7 @@
                                                [--n 40] [--workers 1] [--out DIR] [--doc docs/studies/generator_defaults.md]
 
 For each object: the starting postures of the default design family (every grasp type, each start one that
-holds and so do its neighbours: `generator.search_starting_postures`), found in the shipped file or searched
+holds and so do its neighbours: `start_cache.search_starting_postures`), found in the shipped file or searched
 as for a new object (the time it took), then n verified postures with seed 0 (the time, and verified postures
 per second), and per design the candidates drawn, the share that held (Wilson 95 %) and the postures kept.
 `--test-family` takes the paper's objects and every family member not held out; `--held-out` the object

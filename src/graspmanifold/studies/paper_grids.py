@@ -61,7 +61,7 @@ from ..trials.experience_pays import (
 )
 from ..trials.grid import GRID_COLUMNS, coverage, grid_preset
 from ..trials.stats import MIN_HEADROOM, headroom, holm, rate_text
-from ..trials.trial import Noise, TrialSetup
+from ..trials.setup import Noise, TrialSetup
 from .runner import StudyRun, run_command
 
 OBJECTS = ("box", "cylinder", "sphere")

@@ -45,7 +45,7 @@ from ..base.io import load_npz, markdown_table, save_npz
 from ..base.validation import check_choice, check_int
 from ..control.controller import ControllerParams
 from ..judging.judge import JUDGING
-from ..judging.replay import OpenLoopGrasp, open_loop_grasps
+from ..judging.plans import OpenLoopGrasp, open_loop_grasps
 from ..manifold.experience import Experience, object_places, scrambled
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
@@ -65,7 +65,7 @@ from ..trials.planned import (
     run_plan,
 )
 from ..trials.stats import bootstrap_difference, headroom_share, mcnemar, rate_text
-from ..trials.trial import Trial
+from ..trials.record import Trial
 from .runner import StudyRun, comparison_table, holm_family, publish, rate_curve, run_study, save_figure, study_config
 
 #: the questions of issues 65 and 84, each a pair of arms (first against second) at some levels (m); the first is

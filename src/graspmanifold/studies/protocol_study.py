@@ -26,7 +26,8 @@ import numpy as np
 from ..base.io import markdown_table, write_text_atomic
 from ..base.progress import show_progress
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOL_NAMES
-from ..judging.replay import open_loop_grasps, replay
+from ..judging.plans import open_loop_grasps
+from ..judging.replay import replay
 from ..synthesis.generator import generate_postures
 from ..trials.benchmark import OBJECTS, PLACEMENTS, compare_pooled, pooled, run_benchmark
 from ..trials.experience_pays import train_experience_map

@@ -34,7 +34,8 @@ from ..sim.hand import HandModel
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_split
 from ..trials.experience_pays import train_experience_map
 from ..trials.stats import mcnemar, rate_text
-from ..trials.trial import TrialSetup, run_trials
+from ..trials.episode import run_trials
+from ..trials.setup import TrialSetup
 from .runner import comparison_table, holm_family, run_study
 
 #: the readings of the recall traced side by side

@@ -5,7 +5,7 @@
 
 The generator keeps a spring candidate only when it holds the free object when replayed open loop
 (`GeneratorParams.verify`). This script generates `--n` unverified candidates per object (seed 0) and runs each
-through the generator's own verifier (`generator.verifier_of`: its pregrasp, grasp and squeeze, then our hold
+through the generator's own verifier (`springs.verifier_of`: its pregrasp, grasp and squeeze, then our hold
 test), recording what the verifier does not keep: at the squeeze's end, the contacts (how many segments, where
 along the object's long axis z, how much of each contact normal points along z, whether the contacts close
 the grasp (epsilon), whether all five fingertips and the thumb still touch), and in which gravity direction the
@@ -30,7 +30,8 @@ from ..judging.replay import GraspVerifier
 from ..sim.hand import DISTAL_SEGMENTS
 from ..sim.objects import GraspObject, named_objects
 from ..sim.scene import Scene
-from ..synthesis.generator import GeneratorParams, generate_postures, verifier_of
+from ..synthesis.generator import GeneratorParams, generate_postures
+from ..synthesis.springs import verifier_of
 from ..trials.stats import rate_text
 from .runner import StudyRun, run_study
 

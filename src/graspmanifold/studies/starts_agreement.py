@@ -5,7 +5,7 @@
                                    [--doc docs/studies/starts_agreement.md]
 
 For each object and design family that `assets/starting_postures.npz` ships (`scripts/find_starting_postures.py`'s
-list; `--objects` a subset), the generator's own search (`generator.search_starting_postures`) runs on its inputs as
+list; `--objects` a subset), the generator's own search (`start_cache.search_starting_postures`) runs on its inputs as
 they are, and again with every design's palm position changed by 1e-12 (relatively); with `--other-processor` also
 in a fresh interpreter with another x86 processor's arithmetic (`OTHER_PROCESSOR`: OpenBLAS's Haswell kernels,
 numba compiling for Haswell, NumPy without AVX-512). The report gives per object and family the designs each run
@@ -30,7 +30,7 @@ from ..base.checkpoints import result_key
 from ..base.io import json_text, markdown_table, software_versions, write_text_atomic
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object
-from ..synthesis.generator import search_starting_postures
+from ..synthesis.start_cache import search_starting_postures
 from ..synthesis.starts import DESIGN_FAMILIES, shipped_starting_postures
 from ..trials.benchmark import OBJECTS as BENCHMARK_OBJECTS
 from .runner import StudyRun, run_command

@@ -36,11 +36,12 @@ from ..sim.objects import PAPER_SHAPES, get_object
 from ..sim.posture import closed_posture, open_posture
 from ..sim.scene import facing_pose
 from ..sim.worlds import CpuWorlds
-from ..synthesis import generator
+from ..synthesis import springs
 from ..synthesis.generator import generate_postures
 from ..trials.benchmark import OBJECTS, PLACEMENTS, benchmark_grid
 from ..trials.grid import check_grid, reachable
-from ..trials.trial import TrialSetup, run_trials
+from ..trials.episode import run_trials
+from ..trials.setup import TrialSetup
 from .runner import run_study
 
 SECONDS: dict[str, float] = defaultdict(float)
@@ -127,7 +128,7 @@ def profile_trials(grid: str, every: int, margin: bool) -> None:
 
 
 def profile_generator(name: str, n: int) -> None:
-    rig, verifier = generator.SpringRig, replay.GraspVerifier
+    rig, verifier = springs.SpringRig, replay.GraspVerifier
     counts: dict[str, int] = defaultdict(int)
     context = ["walk"]
     original_simulate = rig.simulate

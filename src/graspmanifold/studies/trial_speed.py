@@ -39,7 +39,8 @@ from .runner import run_study
 from ..trials.evaluation import evaluate
 from ..trials.grid import check_grid
 from ..trials.stats import mcnemar, rate_text
-from ..trials.trial import Noise, TrialSetup, run_trial, run_trials, trial_scene, trial_starts
+from ..trials.episode import run_trial, run_trials, trial_scene, trial_starts
+from ..trials.setup import Noise, TrialSetup
 
 FIELDS = ("posture", "touching", "epsilon", "hold", "hold_displacement", "time_to_grasp", "matches", "margin",
           "penetration", "fault")

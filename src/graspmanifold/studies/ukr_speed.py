@@ -27,7 +27,8 @@ from ..manifold.experience import PostureDatabase
 from ..manifold.postureset import PostureSet
 from ..manifold.som import SOM
 from ..manifold.ukr import UKR
-from ..synthesis.generator import PRESET_PARAMS, generate_postures
+from ..synthesis.generator import generate_postures
+from ..synthesis.springs import PRESET_PARAMS
 from .runner import run_study
 from .som_speed import pcp_queries
 

@@ -42,7 +42,7 @@ from ..synthesis.starts import nearest_primitive
 from ..trials.evaluation import evaluate
 from ..trials.experience_pays import compare, train_experience_map
 from ..trials.stats import headroom, holm, rate_text
-from ..trials.trial import Noise
+from ..trials.setup import Noise
 from .runner import StudyRun, run_study
 
 

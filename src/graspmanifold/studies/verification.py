@@ -32,7 +32,9 @@ import numpy as np
 from ..base.errors import GenerationError
 from ..base.io import load_npz, markdown_table, save_npz
 from ..judging.protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, pushed
-from ..judging.replay import GRASP_STAGES, Q1_CONTACT_DISTANCE, open_loop_grasps, q1, replay, replay_grasp
+from ..judging.plans import GRASP_STAGES, open_loop_grasps
+from ..judging.quality import Q1_CONTACT_DISTANCE, q1
+from ..judging.replay import replay, replay_grasp
 from ..sim.family import FAMILY, HELD_OUT
 from ..sim.hand import DISTAL_SEGMENTS, segment_of_geoms
 from ..sim.objects import PAPER_OBJECTS, GraspObject, get_object

@@ -32,7 +32,7 @@ from ..base.errors import InvalidInput
 from ..base.io import atomic_write
 from ..base.poses import compose, invert
 from ..base.validation import check_name, file_in
-from ..judging.replay import STAGE_NAMES, OpenLoopGrasp
+from ..judging.plans import STAGE_NAMES, OpenLoopGrasp
 from ..manifold.postureset import PostureSet
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model

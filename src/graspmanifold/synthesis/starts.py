@@ -22,7 +22,7 @@ The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their startin
 families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object family
 its five-fingertip ones and the grasp-types ones of every member not held out (`family.HELD_OUT`); the
 rest is searched on first use (`generator.starting_postures`: seconds to half a minute per object) and
-kept in `generator.cache_directory()`, so that the next process reads it (a user can also give their own:
+kept in `start_cache.cache_directory()`, so that the next process reads it (a user can also give their own:
 `generate_postures(..., starts=...)`, each a `StartingPosture`, e.g. a rough grasp brought onto the surface
 by `refinement.refine`). A mesh object
 is searched with the designs of the primitive it is closest to in proportion (`designs_for`): the
@@ -350,7 +350,7 @@ def find_starting_postures(obj: str | GraspObject, family: str = "five_fingertip
     (`is_design_grasp`). `grasp_types`: each design refined in the ways of `REFINEMENTS` in turn and kept in
     the first that is a valid grasp and passes `check` (by default `verified`: it holds the object when the
     generator's verifier replays it, the controller's squeeze and then the hold test; the generator's own
-    search, `generator.search_starting_postures`, also asks its neighbours to hold), so that every start of
+    search, `start_cache.search_starting_postures`, also asks its neighbours to hold), so that every start of
     the family is a grasp that holds; a design none of whose refinements passes is left out. A bar counts the
     designs searched (a second or a few each; `progress` as `progress.progress_bar` takes it); the designs are
     searched in parallel.

@@ -42,7 +42,7 @@ from ..manifold.experience import Experience
 from ..sim.objects import GraspObject, get_object, make_object
 from .evaluation import EvaluationResult, evaluate
 from .grid import reachable
-from .trial import TrialSetup
+from .setup import TrialSetup
 from .stats import PairedComparison, mcnemar, stratified_split
 
 #: where the objects are placed, and which grid: the test lattice or the selection grid between its points

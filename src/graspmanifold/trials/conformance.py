@@ -21,7 +21,8 @@ from ..sim.posture import closed_posture, open_posture
 from ..sim.scene import GRAVITY, Scene
 from ..sim.tactile import TactileReading
 from ..sim.worlds import Worlds
-from .trial import TrialSetup, trial_scene
+from .episode import trial_scene
+from .setup import TrialSetup
 
 
 def _masked_nearest(references: np.ndarray, x: np.ndarray, mask: np.ndarray | None) -> np.ndarray:

@@ -34,7 +34,9 @@ from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.objects import GraspObject, object_from_params
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
-from .trial import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, Noise, Trial, TrialSetup, run_trials
+from .episode import run_trials
+from .record import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, Trial
+from .setup import Noise, TrialSetup
 
 #: what each array of an evaluation file holds (stored in its metadata as "fields"), one row per trial
 FIELDS = {

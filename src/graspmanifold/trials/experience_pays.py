@@ -22,7 +22,7 @@ from ..sim.hand import N_FINGER_JOINTS
 from ..sim.objects import GraspObject
 from .evaluation import EvaluationResult, evaluate
 from .stats import PairedComparison, mcnemar, rate_text
-from .trial import Noise
+from .setup import Noise
 
 #: Where the controller gathers its own experience: grid poses perturbed by this much, so the poses
 #: it learns from are never the poses it is tested on.

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.poses import compose, invert, invert_many, quat_products, rotate, to_quat
-from ..judging.replay import OpenLoopGrasp
+from ..judging.plans import OpenLoopGrasp
 from ..manifold.nearest import argmin_tied
 from ..sim.hand import SEGMENTS, segment_of_geoms
 from ..sim.objects import GraspObject, get_object

@@ -52,13 +52,16 @@ from ..base.workers import parallel_map
 from ..control.controller import APPROACH, CONTROLLERS, PALM_EXPERIENCE, PALM_TOUCH, ControllerParams
 from ..control.regrasp import Regrasp
 from ..judging.protocols import HOLD_TEST_FADED
-from ..judging.replay import OpenLoop, OpenLoopGrasp
+from ..judging.plans import OpenLoopGrasp
+from .open_loop import OpenLoop
 from ..manifold.experience import Experience, PostureDatabase
 from ..sim.flange import FlangeLimits
 from ..sim.objects import GraspObject, get_object
 from ..sim.posture import open_posture
 from .grid import planned_start_clear
-from .trial import Trial, TrialSetup, run_trials
+from .episode import run_trials
+from .record import Trial
+from .setup import TrialSetup
 
 #: m, the levels of displacement in the palm's plane
 LEVELS: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.05)

@@ -30,7 +30,8 @@ from ..base.errors import InvalidInput
 from ..base.poses import compose, invert
 from ..base.workers import parallel_map
 from ..judging.protocols import DEFAULT_PROTOCOL
-from ..judging.replay import OpenLoopGrasp, open_loop_grasp, replay
+from ..judging.plans import OpenLoopGrasp, open_loop_grasp
+from ..judging.replay import replay
 from ..sim.hand import N_FINGER_JOINTS, SHADOW_HAND
 from ..sim.objects import GraspObject, get_object
 from .grid import palm_pose_for, reachable
