@@ -81,7 +81,7 @@ MOVED_NAMES: dict[str, dict[str, str]] = {
     },
     # 0.3: the spring rig and its walk, and the start cache, left the generator for rooms of their own
     "synthesis.generator": {
-        **{name: f"synthesis.springs:{name}" for name in ("SpringRig", "verifier_of", "holds_with_neighbours",
+        **{name: f"synthesis.springs:{name}" for name in ("SpringRig", "holds_with_neighbours",
                                                            "NEIGHBOURS", "MODES", "PRESET_PARAMS")},
         **{name: f"synthesis.start_cache:{name}" for name in ("search_starting_postures", "cache_directory",
                                                                "starts_cache_path")},

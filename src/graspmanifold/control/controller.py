@@ -325,9 +325,9 @@ as a verified grasp is (`APPROACH`), and that with its total grip force bounded 
 @runtime_checkable
 class Controller(Protocol):
     """What a trial drives, N worlds at once: `BatchController`, or a user's own (for `evaluate(controller=...)`,
-    the benchmark and the study; the API reference shows one in 20 lines). The trials also read `matches`
-    ((N,) best-match queries), `winners` (per world, the rows recalled) and `moves_palm` with `palm_offset`
-    ((N, 3), m: where the arm carries each palm) where a controller has them.
+    the benchmark and the study; the API reference shows one in 20 lines). Beyond the control step the trials read
+    only what a controller declares in an attribute `readouts` (names of `READOUTS`; none without it), checked
+    once when it is made (`declared_readouts`).
 
     Attributes:
         n: worlds.
@@ -352,6 +352,49 @@ class Controller(Protocol):
 
 
 ControllerFactory = Callable[[int, HandModel], Controller]  # `factory(n, hand)`: what `evaluate(controller=...)` takes
+
+#: what the trial loop may read from a controller beyond its control step, by name: the member and what it is. A
+#: controller declares those it has in an attribute `readouts`; the trials record a default for the others
+READOUTS: dict[str, str] = {
+    "matches": "(N,) int: the experience queries each world's controller has made (default 0)",
+    "winners": "N lists of int: per world, the row of the experience each query recalled, in order (default none)",
+    "attempt": "(N,) int: each world's grasp attempt, 1 the first (default 1; needed for more than one attempt)",
+    "palm_offset": "(N, 3) m, with `moves_palm` (bool): where the arm carries each palm while `moves_palm` is true",
+    "object_estimate": "(N, 3) m: where touch first placed the object, NaN where it has not (default NaN)",
+}
+
+
+def declared_readouts(controller: Controller) -> frozenset[str]:
+    """The read-outs a controller declares (`READOUTS`), checked: each a member of the documented shape.
+
+    Args:
+        controller: a controller just made (its n worlds).
+
+    Returns:
+        The names it declares (none for a controller without `readouts`).
+
+    Raises:
+        InvalidInput: an unknown name, or a declared member that is missing or of another shape.
+    """
+    declared = getattr(controller, "readouts", ())  # the one read of an optional member: the declaration
+    if isinstance(declared, str) or not all(isinstance(name, str) for name in declared):
+        raise InvalidInput(f"{type(controller).__name__}.readouts must be a tuple of names of READOUTS, got {declared!r}")
+    unknown = sorted(set(declared) - set(READOUTS))
+    if unknown:
+        raise InvalidInput(f"{type(controller).__name__}.readouts names {unknown}, which the trials do not read; "
+                           f"they read {sorted(READOUTS)}")
+    n = controller.n
+    shapes = {"matches": (n,), "attempt": (n,), "palm_offset": (n, 3), "object_estimate": (n, 3)}
+    for name in declared:
+        if not hasattr(controller, name):
+            raise InvalidInput(f"{type(controller).__name__} declares the read-out {name!r} but has no such member")
+        value = getattr(controller, name)
+        if name == "winners" and len(value) != n or name in shapes and np.shape(value) != shapes[name]:
+            raise InvalidInput(f"{type(controller).__name__}.{name} must be {READOUTS[name].split(':')[0]} for its "
+                               f"{n} worlds, got shape {np.shape(value) if name in shapes else len(value)}")
+    if "palm_offset" in declared and not isinstance(getattr(controller, "moves_palm", None), bool):
+        raise InvalidInput(f"{type(controller).__name__} declares palm_offset: it needs a bool `moves_palm` beside it")
+    return frozenset(declared)
 
 
 def _rms(differences: np.ndarray, masks: np.ndarray) -> np.ndarray:
@@ -383,6 +426,9 @@ class BatchController:
             the object when the palm re-centred (`PalmSteering`), in the palm frame the grasp started with (NaN:
             nowhere yet).
     """
+
+    #: what the trials read of it beyond the control step (`READOUTS`)
+    readouts = ("matches", "winners", "attempt", "palm_offset", "object_estimate")
 
     def __init__(self, n: int, experience: Experience | None = None, params: ControllerParams | None = None,
                  initial_posture: np.ndarray | None = None, preshape: np.ndarray | None = None,

@@ -33,6 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
 from ..base.validation import check_data
+from ..control.controller import BatchController, declared_readouts
 from ..control.regrasp import LiftProbe, RestartingController
 from ..judging.judge import Judgement, judge_worlds, supported_scene
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
@@ -264,6 +265,7 @@ class _TrialLoop:
         n = len(poses)
         self.setup, self.poses, self.rngs, self.observer, self.n = setup, poses, rngs, observer, n
         self.controller = controller = setup.make_controller(n)
+        self.readouts = declared_readouts(controller)  # what the loop reads of it beyond the control step
         self.period = period = controller.control_period
         self.episodes = Episodes(setup, start_worlds(setup, poses, rngs, controller.initial), period)
         self.worlds = self.episodes.worlds
@@ -287,8 +289,9 @@ class _TrialLoop:
 
     def recalls(self, world: int) -> tuple[int, list[int]]:
         """The best matches a world's controller used (none, for a controller without)."""
-        return (int(getattr(self.controller, "matches", np.zeros(self.n, dtype=int))[world]),
-                list(getattr(self.controller, "winners", [[]] * self.n)[world]))
+        controller, readouts = cast(BatchController, self.controller), self.readouts  # what it declares
+        return (int(controller.matches[world]) if "matches" in readouts else 0,
+                list(controller.winners[world]) if "winners" in readouts else [])
 
     def advance(self, live: np.ndarray) -> dict[int, str]:
         """One control period: the controller, then the physics. Worlds not given are not read (a failed
@@ -323,17 +326,16 @@ class _TrialLoop:
     def _move_palms(self, live: np.ndarray) -> None:
         """The arm carries each palm where its grasp wants it: at once without a flange, else by the flange at its
         bounded speed while the grasp goes on; where touch first placed the object is kept."""
-        controller, setup = self.controller, self.setup
-        moves_palm = getattr(controller, "moves_palm", False)
-        palm_offset = getattr(controller, "palm_offset") if moves_palm else None  # (N, 3) m
+        controller, setup = cast(BatchController, self.controller), self.setup  # what it declares is read
+        palm_offset = controller.palm_offset if "palm_offset" in self.readouts and controller.moves_palm else None
         if palm_offset is not None and setup.palm is None:  # at once
             self.worlds.shift_hands(live, palm_offset[live])
         elif palm_offset is not None or setup.oracle:  # by its flange, at its bounded speed, while the grasp goes on
             steered = live[self.grasping[live]]
             offsets = palm_offset[steered] if palm_offset is not None else np.zeros((len(steered), 3))
             self.worlds.steer_flanges(steered, flange_targets(self.corrections[steered], offsets), self.period)
-        estimate = getattr(controller, "object_estimate", None)
-        if estimate is not None:  # where touch first placed the object, made (first) in the palm frame of the start
+        if "object_estimate" in self.readouts:
+            estimate = controller.object_estimate  # where touch first placed it, (first) in the start palm frame
             first = np.isnan(self.object_estimate[:, 0]) & ~np.isnan(estimate[:, 0])
             self.object_estimate[first] = flange_targets(self.corrections[first], estimate[first])[:, :3]
 
@@ -365,7 +367,8 @@ class _TrialLoop:
                      time_to_grasp=judged.time if judged.fault else float(self.time_to_grasp[world]), matches=matches,
                      margin=judged.margin, penetration=judged.penetration, fault=judged.fault,
                      winners=np.array(winners, dtype=int), hold_time=judged.hold_time,
-                     attempts=int(getattr(self.controller, "attempt", np.ones(self.n, dtype=int))[world]),
+                     attempts=int(cast(BatchController, self.controller).attempt[world])
+                     if "attempt" in self.readouts else 1,
                      first_contact=self.first_contact[world], failure=self.probe.failure[world],
                      object_estimate=self.object_estimate[world])
 

@@ -38,6 +38,9 @@ class OpenLoopController:
         cycle: (N,) control periods each world's attempt has run; attempt: (N,) each world's attempt, 1 the first.
     """
 
+    #: what the trials read of it beyond the control step (`control.controller.READOUTS`)
+    readouts = ("attempt", "palm_offset")
+
     def __init__(self, n: int, grasp: OpenLoopGrasp, control_period: float = CONTROL_PERIOD,
                  approach_targets: int = DEXGRASPBENCH.approach_targets):
         """An open-loop controller ready for its grasp in every world.

@@ -21,7 +21,8 @@ from ..base.checkpoints import code_identity, result_key
 from ..base.errors import InvalidInput
 from ..base.io import library_version
 from ..base.validation import check_choice, check_int
-from ..control.controller import CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams
+from ..control.controller import (CONTROLLERS, BatchController, Controller, ControllerFactory, ControllerParams,
+                                  declared_readouts)
 from ..control.regrasp import Regrasp
 from ..judging.plans import OpenLoopGrasp
 from ..judging.protocols import DEFAULT_PROTOCOL, PROTOCOLS, JudgingProtocol, get_protocol
@@ -392,7 +393,8 @@ class TrialSetup:
         if not isinstance(controller, Controller):
             raise InvalidInput(f"the controller {type(controller).__name__} lacks a member of the Controller protocol "
                                "(n, control_period, initial, done, reset, step: graspmanifold.control.controller)")
-        if self.regrasp.attempts > 1 and not (hasattr(controller, "restart") and hasattr(controller, "attempt")):
-            raise InvalidInput(f"the controller {type(controller).__name__} has no `attempt` and `restart` "
-                               f"(BatchController's), so it cannot make {self.regrasp.attempts} attempts")
+        if self.regrasp.attempts > 1 and not (hasattr(controller, "restart") and
+                                              "attempt" in declared_readouts(controller)):
+            raise InvalidInput(f"the controller {type(controller).__name__} has no `restart` and no declared `attempt` "
+                               f"read-out (BatchController's), so it cannot make {self.regrasp.attempts} attempts")
         return controller

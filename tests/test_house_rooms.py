@@ -1,0 +1,112 @@
+"""Issue 85, the house: the three hubs cut into rooms (their old names answer with a warning), the controller's
+read-outs declared and checked once, not read by `getattr` along the loop."""
+
+import ast
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from graspmanifold.base.errors import InvalidInput
+from graspmanifold.base.moved import MOVED_NAMES
+from graspmanifold.control.controller import READOUTS, BatchController, declared_readouts
+from graspmanifold.sim.posture import open_posture
+from graspmanifold.trials.episode import run_trials
+from graspmanifold.trials.open_loop import OpenLoopController
+from graspmanifold.trials.setup import TrialSetup
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "graspmanifold"
+
+
+@pytest.mark.parametrize("module", ["judging.replay", "synthesis.generator"])
+def test_every_name_that_left_a_hub_answers_there_with_a_warning_as_the_same_object(module):
+    import importlib
+
+    old = importlib.import_module(f"graspmanifold.{module}")
+    for name, where in MOVED_NAMES[module].items():
+        new_module, new_name = where.split(":")
+        with pytest.warns(DeprecationWarning, match=f"{module}.{name} is now graspmanifold.{new_module}.{new_name}"):
+            found = getattr(old, name)
+        assert found is getattr(importlib.import_module(f"graspmanifold.{new_module}"), new_name)
+
+
+def test_the_trial_face_gives_the_rooms_objects_without_a_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        from graspmanifold.trials import episode, record, recording, setup, trial
+    assert trial.TrialSetup is setup.TrialSetup and trial.Trial is record.Trial
+    assert trial.run_trials is episode.run_trials and trial.record_trial is recording.record_trial
+
+
+def test_the_trial_loop_reads_no_member_of_a_controller_by_getattr():
+    """The loop read six members (`matches`, `winners`, `attempt`, `moves_palm`, `palm_offset`,
+    `object_estimate`) by `getattr` with silent defaults: a second, undeclared contract."""
+    tree = ast.parse((SRC / "trials" / "episode.py").read_text())
+    calls = [node for node in ast.walk(tree) if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+             and node.func.id in ("getattr", "hasattr")]
+    assert calls == [], [ast.unparse(call) for call in calls]
+
+
+class Mine:
+    """A user's controller that closes nothing and declares the queries it made."""
+
+    readouts = ("matches",)
+
+    def __init__(self, n, hand):
+        self.n, self.control_period, self.initial = n, 0.02, open_posture(hand)
+        self.done = np.zeros(n, dtype=bool)
+        self.matches = np.full(n, 7)
+        self.steps = 0
+
+    def reset(self):
+        self.done[:] = False
+
+    def step(self, joints, segment_forces):
+        self.steps += 1
+        self.done[:] = self.steps >= 2
+        return np.tile(self.initial, (self.n, 1))
+
+
+class Unknown(Mine):
+    readouts = ("matches", "confidence")
+
+
+class Misshapen(Mine):
+    readouts = ("matches", "attempt")
+
+    def __init__(self, n, hand):
+        super().__init__(n, hand)
+        self.attempt = np.ones(n + 1, dtype=int)
+
+
+class Undeclared(Mine):
+    readouts = ()
+
+
+def test_a_controllers_declared_readouts_are_recorded_and_the_undeclared_get_their_defaults():
+    poses = np.array([[0.0, 0.0, 0.01, 0.0]])
+    declared = run_trials(TrialSetup(object="box", controller=Mine, method="mine"), poses, [np.random.default_rng(0)])
+    assert declared[0].matches == 7 and declared[0].attempts == 1
+    silent = run_trials(TrialSetup(object="box", controller=Undeclared, method="undeclared"), poses,
+                        [np.random.default_rng(0)])
+    assert silent[0].matches == 0  # it has `matches`, but did not declare it
+
+
+def test_a_bad_declaration_is_refused_when_the_controller_is_made():
+    from graspmanifold.sim.hand import SHADOW_HAND
+
+    with pytest.raises(InvalidInput, match=r"Unknown.readouts names \['confidence'\].*they read"):
+        declared_readouts(Unknown(2, SHADOW_HAND))
+    with pytest.raises(InvalidInput, match=r"Misshapen.attempt must be \(N,\) int for its 2 worlds, got shape \(3,\)"):
+        declared_readouts(Misshapen(2, SHADOW_HAND))
+    with pytest.raises(InvalidInput, match="Misshapen.attempt"):
+        run_trials(TrialSetup(object="box", controller=Misshapen, method="misshapen"), np.zeros((0, 4)), [])
+    assert declared_readouts(BatchController(3)) == frozenset(READOUTS)
+
+
+def test_ours_declare_what_they_have():
+    from graspmanifold.judging.plans import open_loop_grasp
+
+    plan = open_loop_grasp(np.r_[0.0, -0.08, 0.0, 1.0, 0.0, 0.0, 0.0], open_posture())
+    assert declared_readouts(OpenLoopController(2, plan)) == {"attempt", "palm_offset"}
