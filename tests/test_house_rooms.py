@@ -11,6 +11,7 @@ import pytest
 from graspmanifold.base.errors import InvalidInput
 from graspmanifold.base.moved import MOVED_NAMES
 from graspmanifold.control.controller import READOUTS, BatchController, declared_readouts
+from graspmanifold.sim.objects import get_object
 from graspmanifold.sim.posture import open_posture
 from graspmanifold.trials.episode import run_trials
 from graspmanifold.trials.open_loop import OpenLoopController
@@ -110,3 +111,32 @@ def test_ours_declare_what_they_have():
 
     plan = open_loop_grasp(np.r_[0.0, -0.08, 0.0, 1.0, 0.0, 0.0, 0.0], open_posture())
     assert declared_readouts(OpenLoopController(2, plan)) == {"attempt", "palm_offset"}
+
+
+def test_every_field_of_a_trial_is_a_column_of_its_file_from_one_spec(tmp_path):
+    """`Trial` was saved column by column by hand in `evaluation.py` and read back the same way: a new field cost an
+    edit in three places. Each field is now one `Column` (its file name, width, kind, what it is, and the value of
+    a file written before it was kept)."""
+    import dataclasses
+
+    from graspmanifold.trials.evaluation import FIELDS, EvaluationResult
+    from graspmanifold.trials.record import TRIAL_COLUMNS, Trial
+
+    assert {f.name for f in dataclasses.fields(Trial)} == set(TRIAL_COLUMNS) | {"winners"}
+    assert set(FIELDS) == {column.file for column in TRIAL_COLUMNS.values()} | {"winners"}
+    poses = np.array([[0.0, 0.0, 0.01, 0.0], [0.01, 0.0, 0.01, 0.0]])
+    trials = run_trials(TrialSetup(object="box", controller=Undeclared, method="mine"), poses,
+                        [np.random.default_rng(i) for i in range(2)])
+    result = EvaluationResult(get_object("box"), "mine", "custom", 0, trials)
+    path = result.save(tmp_path / "trials.npz")
+    again = EvaluationResult.load(path)
+    for before, after in zip(trials, again.trials):
+        for name in TRIAL_COLUMNS:
+            assert np.array_equal(np.asarray(getattr(before, name)), np.asarray(getattr(after, name)), equal_nan=True) \
+                if np.asarray(getattr(before, name)).dtype.kind == "f" else \
+                np.array_equal(np.asarray(getattr(before, name)), np.asarray(getattr(after, name))), name
+    arrays = dict(np.load(path, allow_pickle=False))
+    older = {key: value for key, value in arrays.items() if key not in ("hold_time", "attempts", "first_contact")}
+    np.savez(tmp_path / "older.npz", **older)  # its metadata member kept: a file written before the three columns
+    read = EvaluationResult.load(tmp_path / "older.npz").trials[0]
+    assert np.isnan(read.hold_time) and read.attempts == 1 and np.isnan(read.first_contact).all()

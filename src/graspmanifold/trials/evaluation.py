@@ -35,29 +35,12 @@ from ..sim.objects import GraspObject, object_from_params
 from .grid import check_grid
 from .stats import rate_text, wilson_interval
 from .episode import run_trials
-from .record import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, Trial
+from .record import TRIAL_COLUMNS, Trial
 from .setup import Noise, TrialSetup
 
 #: what each array of an evaluation file holds (stored in its metadata as "fields"), one row per trial
-FIELDS = {
-    "grid": "(n, 4) grid pose: x, z, gap (m), yaw (rad)",
-    "postures": "(n, 22) rad, the posture at release",
-    "touching": "(n, len(segments)) bool, the segments touching at release",
-    "epsilon": "Ferrari-Canny epsilon at release, per unit total normal force",
-    "hold": "bool, the object stayed within the hold limit in all six gravity directions",
-    "hold_displacement": "m, the largest displacement in the hold test; for a grasp that did not hold, where the "
-                         "object was in the period it first left the bound (beyond the limit: the test stops "
-                         "there); inf when the physics failed",
-    "hold_time": "s of the hold test run (six hold_seconds when held, fewer when dropped, 0 on a fault)",
-    "time_to_grasp": "s until the controller reported the grasp done",
-    "matches": "experience queries the controller used",
-    "margin": "N of extra disturbance held (margin_force when never dropped, 0 when not held); NaN: not measured",
-    "penetration": "m, the deepest contact at the end of any control period",
-    "fault": "why the physics failed; empty when it did not",
-    "winners": "the best matches of every trial's queries, one trial after the other (matches of each)",
-    "object_estimate": "(n, 3) m, where the controller's touch first placed the object, in the palm frame the trial "
-                       "put the hand in (NaN: nowhere)",
-}
+FIELDS = {**{column.file: column.about for column in TRIAL_COLUMNS.values()},
+          "winners": "the best matches of every trial's queries, one trial after the other (matches of each)"}
 
 
 def _measured_mean(values: list[float]) -> float | None:
@@ -249,19 +232,7 @@ class EvaluationResult(Tabular, NpzRecord):
     def _to_npz(self) -> tuple[dict[str, np.ndarray], dict]:
         """The trials, their winners and the summary."""
         t = self.trials
-        arrays = {"grid": np.array([x.grid_pose for x in t]).reshape(-1, 4),
-                  "postures": np.array([x.posture for x in t]).reshape(-1, N_FINGER_JOINTS),
-                  "touching": np.array([x.touching for x in t]).reshape(-1, len(SEGMENTS)),
-                  "epsilon": np.array([x.epsilon for x in t]), "hold": np.array([x.hold for x in t]),
-                  "hold_displacement": np.array([x.hold_displacement for x in t]),
-                  "time_to_grasp": np.array([x.time_to_grasp for x in t]),
-                  "matches": np.array([x.matches for x in t]), "margin": np.array([x.margin for x in t]),
-                  "penetration": np.array([x.penetration for x in t]),
-                  "fault": np.array([x.fault for x in t], dtype=str),
-                  "hold_time": np.array([x.hold_time for x in t]), "attempts": np.array([x.attempts for x in t], dtype=int),
-                  "first_contact": np.array([x.first_contact for x in t]).reshape(-1, FIRST_CONTACT_FEATURES),
-                  "failure": np.array([x.failure for x in t]).reshape(-1, FAILURE_FEATURES),
-                  "object_estimate": np.array([x.object_estimate for x in t]).reshape(-1, 3)}
+        arrays = {column.file: column.array([getattr(x, name) for x in t]) for name, column in TRIAL_COLUMNS.items()}
         if all(x.winners is not None for x in t):  # every trial's `matches` winners, one after the other
             arrays["winners"] = np.concatenate([np.zeros(0, dtype=int), *(x.winners for x in t)]).astype(int)
         meta = {"object": self.object.params(), "method": self.method, "grid_name": self.grid_name, "seed": self.seed,
@@ -280,21 +251,16 @@ class EvaluationResult(Tabular, NpzRecord):
                 raise InvalidInput(f"{path}: its {len(a['winners'])} best-match winners do not add up to its trials' "
                                  f"{int(ends[-1])} matches; the file is corrupt")
             winners = np.split(np.asarray(a["winners"], dtype=int), ends[:-1]) if len(ends) else []
-        for name, width in (("first_contact", FIRST_CONTACT_FEATURES), ("failure", FAILURE_FEATURES),
-                            ("object_estimate", 3)):
-            if name in a and np.shape(a[name]) != (len(a["epsilon"]), width):
-                raise InvalidInput(f"{path}: {name} must be ({len(a['epsilon'])}, {width}), got {np.shape(a[name])}; "
-                                   "the file is corrupt")
-        recorded = [name for name in ("first_contact", "failure", "object_estimate") if name in a]  # later files
-        trials = [Trial(grid_pose=a["grid"][i], posture=a["postures"][i], touching=a["touching"][i],
-                        epsilon=float(a["epsilon"][i]), hold=bool(a["hold"][i]),
-                        hold_displacement=float(a["hold_displacement"][i]), time_to_grasp=float(a["time_to_grasp"][i]),
-                        matches=int(a["matches"][i]), margin=float(a["margin"][i]),
-                        penetration=float(a["penetration"][i]), fault=str(a["fault"][i]), winners=winners[i],
-                        hold_time=float(a["hold_time"][i]) if "hold_time" in a else float("nan"),
-                        attempts=int(a["attempts"][i]) if "attempts" in a else 1,
-                        **{name: a[name][i] for name in recorded})
-                  for i in range(len(a["epsilon"]))]
+        n = len(a["epsilon"])
+        absent = [column.file for column in TRIAL_COLUMNS.values() if column.older is None and column.file not in a]
+        if absent:
+            raise InvalidInput(f"{path}: it lacks the trials' {absent}; the file is corrupt")
+        for column in TRIAL_COLUMNS.values():
+            if column.width and column.file in a and np.shape(a[column.file]) != (n, column.width):
+                raise InvalidInput(f"{path}: {column.file} must be ({n}, {column.width}), got "
+                                   f"{np.shape(a[column.file])}; the file is corrupt")
+        trials = [Trial(**{name: column.value(a[column.file], i) if column.file in a else column.missing()
+                           for name, column in TRIAL_COLUMNS.items()}, winners=winners[i]) for i in range(n)]
         return cls(meta["object"], meta["method"], meta["grid_name"], meta["seed"], trials, Noise(**meta["noise"]),
                    meta.get("backend", "cpu"), meta.get("made_by", {}))
 

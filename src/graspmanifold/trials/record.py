@@ -1,11 +1,13 @@
 """The record of one trial (`Trial`): its judgement, what its controller did, and the features it sensed
-(`FIRST_CONTACT_FEATURES`, `FAILURE_FEATURES`).
+(`FIRST_CONTACT_FEATURES`, `FAILURE_FEATURES`); how each field is a column of a file (`TRIAL_COLUMNS`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -67,3 +69,91 @@ class Trial:
     @property
     def force_closure(self) -> bool:
         return self.valid and self.epsilon > JUDGING.epsilon_threshold
+
+
+#: the kinds of value a column of trials holds
+COLUMN_KINDS: dict[str, type] = {"float": float, "bool": bool, "int": int, "str": str}
+
+
+@dataclass(frozen=True)
+class Column:
+    """How one field of `Trial` is a column of a file of trials (`evaluation.EvaluationResult.save`).
+
+    Attributes:
+        file: its name in the file.
+        width: values per trial (None: one).
+        kind: 'float', 'bool', 'int' or 'str'.
+        about: what it is, in the file's metadata ("fields").
+        older: the value a trial of a file written before the column was kept gets (None: every file has it).
+    """
+
+    file: str
+    width: int | None
+    kind: str
+    about: str
+    older: object = None
+
+    def array(self, values: Sequence[object]) -> np.ndarray:
+        """The column of these trials' values.
+
+        Args:
+            values: one per trial.
+
+        Returns:
+            (n,) or (n, width) of the column's kind.
+        """
+        column: np.ndarray = np.array(values, dtype=COLUMN_KINDS[self.kind])
+        return column.reshape(-1, self.width) if self.width else column
+
+    def value(self, column: np.ndarray, row: int) -> Any:  # Any: the kind the column says
+        """One trial's value of a column read from a file.
+
+        Args:
+            column: the column as the file holds it.
+            row: the trial.
+
+        Returns:
+            The value as `Trial` holds it (a row array, or a Python number, bool or string).
+        """
+        if self.width:
+            return column[row]
+        return COLUMN_KINDS[self.kind](column[row])
+
+    def missing(self) -> Any:  # Any: the kind the column says
+        """The value of a trial whose file was written before the column was kept (a fresh copy of an array).
+
+        Returns:
+            `older`.
+        """
+        return np.array(self.older) if isinstance(self.older, np.ndarray) else self.older
+
+
+#: every field of `Trial` but its best-match winners (a file keeps those one trial after the other), as a column
+TRIAL_COLUMNS: dict[str, Column] = {
+    "grid_pose": Column("grid", 4, "float", "(n, 4) grid pose: x, z, gap (m), yaw (rad)"),
+    "posture": Column("postures", N_FINGER_JOINTS, "float", "(n, 22) rad, the posture at release"),
+    "touching": Column("touching", len(SEGMENTS), "bool", "(n, len(segments)) bool, the segments touching at release"),
+    "epsilon": Column("epsilon", None, "float", "Ferrari-Canny epsilon at release, per unit total normal force"),
+    "hold": Column("hold", None, "bool", "bool, the object stayed within the hold limit in all six gravity directions"),
+    "hold_displacement": Column("hold_displacement", None, "float", "m, the largest displacement in the hold test; "
+                                "for a grasp that did not hold, where the object was in the period it first left the "
+                                "bound (beyond the limit: the test stops there); inf when the physics failed"),
+    "time_to_grasp": Column("time_to_grasp", None, "float", "s until the controller reported the grasp done"),
+    "matches": Column("matches", None, "int", "experience queries the controller used"),
+    "margin": Column("margin", None, "float", "N of extra disturbance held (margin_force when never dropped, 0 when "
+                     "not held); NaN: not measured"),
+    "penetration": Column("penetration", None, "float", "m, the deepest contact at the end of any control period"),
+    "fault": Column("fault", None, "str", "why the physics failed; empty when it did not"),
+    "hold_time": Column("hold_time", None, "float", "s of the hold test run (six hold_seconds when held, fewer when "
+                        "dropped, 0 on a fault)", older=float("nan")),
+    "attempts": Column("attempts", None, "int", "grasp attempts the controller made", older=1),
+    "first_contact": Column("first_contact", FIRST_CONTACT_FEATURES, "float", "(n, 1 + 22 + len(segments)) what the "
+                            "controller sensed at its first contact: s, joints (rad), segment forces (N); NaN: none",
+                            older=np.full(FIRST_CONTACT_FEATURES, np.nan)),
+    "failure": Column("failure", FAILURE_FEATURES, "float", "(n, 22 + len(segments)) what it sensed when its first "
+                      "attempt failed the lift probe: joints (rad), segment forces (N); NaN: no probe failed",
+                      older=np.full(FAILURE_FEATURES, np.nan)),
+    "object_estimate": Column("object_estimate", 3, "float", "(n, 3) m, where the controller's touch first placed "
+                              "the object, in the palm frame the trial put the hand in (NaN: nowhere)",
+                              older=np.full(3, np.nan)),
+}
