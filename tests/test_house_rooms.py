@@ -140,3 +140,28 @@ def test_every_field_of_a_trial_is_a_column_of_its_file_from_one_spec(tmp_path):
     np.savez(tmp_path / "older.npz", **older)  # its metadata member kept: a file written before the three columns
     read = EvaluationResult.load(tmp_path / "older.npz").trials[0]
     assert np.isnan(read.hold_time) and read.attempts == 1 and np.isnan(read.first_contact).all()
+
+
+def test_a_set_up_is_described_once_and_every_field_has_its_entry():
+    """`TrialSetup.key` and `TrialSetup.provenance` were parallel dicts that every new field had to enter in step.
+    Both are made from `DESCRIPTION` now: every field has one entry, and what changes an outcome changes the key."""
+    import dataclasses
+
+    from graspmanifold.trials.setup import DESCRIPTION
+
+    described = [name for entry in DESCRIPTION for name in entry.fields]
+    assert sorted(described) == sorted(f.name for f in dataclasses.fields(TrialSetup)), "a field without its entry"
+    assert len(described) == len(set(described))
+    base = TrialSetup(object="box")
+    poses = np.zeros((1, 4))
+    same = [dataclasses.replace(base, method="another label"), dataclasses.replace(base, batch_size=8)]
+    assert all(setup.key(poses, 0) == base.key(poses, 0) for setup in same)
+    from graspmanifold import Noise, Regrasp
+
+    changed = [dataclasses.replace(base, noise=Noise(joints=0.01)), dataclasses.replace(base, touch="sensors"),
+               dataclasses.replace(base, regrasp=Regrasp(attempts=2)), dataclasses.replace(base, margin=True),
+               dataclasses.replace(base, preshape=open_posture())]
+    keys = {setup.key(poses, 0) for setup in changed} | {base.key(poses, 0), base.key(poses, 1)}
+    assert len(keys) == len(changed) + 2
+    made = base.provenance(0)
+    assert list(made)[:3] == ["library_version", "object", "hand"] and made["method"] == "none"

@@ -94,6 +94,22 @@ def _carried_digests(experience: Experience | None) -> dict[str, str]:
     return {name: _digest(np.ascontiguousarray(value).tobytes()) for name, value in carried_values(experience).items()}
 
 
+@dataclass(frozen=True)
+class Described:
+    """What some fields of a set-up (or the seed) add to its trials' key and to their provenance (`DESCRIPTION`).
+
+    Attributes:
+        fields: the `TrialSetup` fields this entry describes (none: the seed, or what two fields make together).
+        key: (set-up, seed) -> its part of the key (`TrialSetup.key`; arrays are hashed by content), or None: no part
+            (a label, a batch size: they change no outcome).
+        provenance: (set-up, seed) -> its part of the provenance (`TrialSetup.provenance`), or None.
+    """
+
+    fields: tuple[str, ...]
+    key: Callable[[TrialSetup, int], dict[str, Any]] | None
+    provenance: Callable[[TrialSetup, int], dict[str, Any]] | None
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class TrialSetup:
     """Everything a trial depends on besides its grid pose and its random stream, in one frozen value:
@@ -286,10 +302,9 @@ class TrialSetup:
         return replace(self.protocol.rules, margin=self.margin)
 
     def key(self, poses: np.ndarray, seed: int) -> str:
-        """The `checkpoints.result_key` of this set-up's trials at these poses: of the experience, what a
-        controller reads of it (its kind, its reference postures and what it carries: places, squeezes), never a
-        pickle; of the hand, its content
-        (`HandModel.digest`); not the label.
+        """The `checkpoints.result_key` of this set-up's trials at these poses, from its description (`DESCRIPTION`):
+        of the experience, what a controller reads of it (its kind, its reference postures and what it carries:
+        places, squeezes), never a pickle; of the hand, its content (`HandModel.digest`); not the label.
 
         Args:
             poses: grid poses (n, 4), m and rad.
@@ -298,29 +313,18 @@ class TrialSetup:
         Returns:
             A 20-character hexadecimal key.
         """
-        experience, custom = self.experience, self.controller
-        return result_key({"object": self.object.params(), "seed": int(seed), "noise": asdict(self.noise),
-                           "params": self.params.to_table(), "table": self.table, "backend": self.backend,
-                           "margin": self.margin,
-                           "experience": None if experience is None else type(experience).__name__,
-                           "hand": self.hand.digest, "controller": None if custom is None else
-                           f"{getattr(custom, '__module__', '')}.{getattr(custom, '__qualname__', repr(custom))}",
-                           **({"regrasp": self.regrasp.description()} if self.regrasp.attempts > 1 else {}),
-                           **({"touch": self.touch} if self.touch != "contacts" else {}),
-                           **({"plan": {"poses": self.plan.poses.tolist(), "postures": self.plan.postures.tolist()}}
-                              if self.plan is not None else {}),
-                           **({"palm": asdict(self.palm)} if self.palm is not None else {}),
-                           **({"oracle": self.oracle} if self.oracle else {}),
-                           **({"carried": carried} if (carried := _carried_digests(experience)) else {}),
-                           **({"code": code} if (code := self.code()) else {}),
-                           **self._protocol_key()},
-                          np.asarray(poses, dtype=float),
-                          np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
-                          np.empty(0) if self.preshape is None else np.asarray(self.preshape, dtype=float))
+        described: dict[str, Any] = {}
+        for entry in DESCRIPTION:
+            if entry.key is not None:
+                described.update(entry.key(self, int(seed)))
+        arrays = [value for value in described.values() if isinstance(value, np.ndarray)]
+        return result_key({name: value for name, value in described.items() if not isinstance(value, np.ndarray)},
+                          np.asarray(poses, dtype=float), *arrays)
 
     def provenance(self, seed: int) -> dict:
         """What made these trials, as plain values a result file records (`EvaluationResult.made_by`, `evaluate`'s
-        trials.npz and summary.json): a reader tells two configurations apart without the command line.
+        trials.npz and summary.json), from its description (`DESCRIPTION`): a reader tells two configurations apart
+        without the command line.
 
         Args:
             seed: the trials' seed.
@@ -334,27 +338,11 @@ class TrialSetup:
             "backend", "margin", "method", "regrasp", "preshape", "plan" (a digest), "palm", "oracle", and "code" (one's
             own rule's or controller's, `code`) where there is one}.
         """
-        experience, custom, protocol = self.experience, self.controller, self.protocol
-        ours = next((name for name, params in CONTROLLERS.items() if params == self.params), "custom parameters")
-        references = None if experience is None else np.ascontiguousarray(experience.references, dtype=float)
-        whole_protocol = json.dumps(asdict(protocol), sort_keys=True, default=_named).encode()
-        return {"library_version": library_version(), "object": self.object.params(),
-                "hand": {"name": self.hand.name, "digest": self.hand.digest},
-                "protocol": {"name": protocol.name, "registered": PROTOCOLS.get(protocol.name) == protocol,
-                             "judging": protocol.summary(), "digest": _digest(whole_protocol)},
-                "touch": self.touch,
-                "controller": {"name": ours, "params": self.params.to_table()} if custom is None else
-                {"name": _named(custom)},
-                "experience": {"kind": "none", "references": 0, "digest": ""} if references is None else
-                {"kind": type(experience).__name__, "references": len(references),
-                 "digest": _digest(references.tobytes()),
-                 **{f"{name}_digest": digest for name, digest in _carried_digests(experience).items()}},
-                "seed": int(seed), "noise": asdict(self.noise), "table": self.table, "backend": self.backend,
-                "margin": self.margin, "method": self.method, "regrasp": self.regrasp.description(),
-                "preshape": None if self.preshape is None else np.asarray(self.preshape, dtype=float).tolist(),
-                "plan": None if self.plan is None else _digest(self.plan.poses.tobytes() + self.plan.postures.tobytes()),
-                "palm": None if self.palm is None else asdict(self.palm), "oracle": self.oracle,
-                **({"code": code} if (code := self.code()) else {})}
+        made: dict = {"library_version": library_version()}
+        for entry in DESCRIPTION:
+            if entry.provenance is not None:
+                made.update(entry.provenance(self, int(seed)))
+        return made
 
     def code(self) -> dict[str, str]:
         """The identity of one's own code these trials run (a recall rule, a controller of one's own): its stated
@@ -366,14 +354,6 @@ class TrialSetup:
         found = {"recall": code_identity(self.params.recall),
                  "controller": None if self.controller is None else code_identity(self.controller)}
         return {name: identity for name, identity in found.items() if identity is not None}
-
-    def _protocol_key(self) -> dict:
-        """The protocol's part of `key`: nothing for the default (keys made before protocols stay valid), the
-        name of a registered one, the whole value of one's own."""
-        protocol = self.protocol
-        if PROTOCOLS.get(protocol.name) == protocol:
-            return {} if protocol.name == DEFAULT_PROTOCOL else {"protocol": protocol.name}
-        return {"protocol": asdict(protocol)}
 
     def make_controller(self, n: int) -> Controller:
         """A fresh controller of this set-up.
@@ -398,3 +378,100 @@ class TrialSetup:
             raise InvalidInput(f"the controller {type(controller).__name__} has no `restart` and no declared `attempt` "
                                f"read-out (BatchController's), so it cannot make {self.regrasp.attempts} attempts")
         return controller
+
+
+def _protocol_key(setup: TrialSetup) -> dict:
+    """The protocol's part of the key: nothing for the default (keys made before protocols stay valid), the name of a
+    registered one, the whole value of one's own."""
+    protocol = setup.protocol
+    if PROTOCOLS.get(protocol.name) == protocol:
+        return {} if protocol.name == DEFAULT_PROTOCOL else {"protocol": protocol.name}
+    return {"protocol": asdict(protocol)}
+
+
+def _protocol_provenance(setup: TrialSetup) -> dict:
+    """The protocol as a result file records it: its name, whether registered, its judging, a digest of its value."""
+    protocol = setup.protocol
+    whole = json.dumps(asdict(protocol), sort_keys=True, default=_named).encode()
+    return {"protocol": {"name": protocol.name, "registered": PROTOCOLS.get(protocol.name) == protocol,
+                         "judging": protocol.summary(), "digest": _digest(whole)}}
+
+
+def _controller_provenance(setup: TrialSetup) -> dict:
+    """Ours by its registered name (or 'custom parameters') with every parameter; a user's own by its name."""
+    if setup.controller is not None:
+        return {"controller": {"name": _named(setup.controller)}}
+    ours = next((name for name, params in CONTROLLERS.items() if params == setup.params), "custom parameters")
+    return {"controller": {"name": ours, "params": setup.params.to_table()}}
+
+
+def _experience_key(setup: TrialSetup) -> dict:
+    """What a controller reads of the experience: its kind, its reference postures (an array) and what it carries."""
+    experience = setup.experience
+    return {"experience": None if experience is None else type(experience).__name__,
+            "references": np.empty(0) if experience is None else np.asarray(experience.references, dtype=float),
+            **({"carried": carried} if (carried := _carried_digests(experience)) else {})}
+
+
+def _experience_provenance(setup: TrialSetup) -> dict:
+    """The experience's kind, its reference postures' count and digest, the digest of each value it carries."""
+    experience = setup.experience
+    if experience is None:
+        return {"experience": {"kind": "none", "references": 0, "digest": ""}}
+    references = np.ascontiguousarray(experience.references, dtype=float)
+    return {"experience": {"kind": type(experience).__name__, "references": len(references),
+                           "digest": _digest(references.tobytes()),
+                           **{f"{name}_digest": digest for name, digest in _carried_digests(experience).items()}}}
+
+
+def _plain(value: object) -> object:
+    """A field's value as JSON writes it: a dataclass value as its dict."""
+    return asdict(value) if dataclasses.is_dataclass(value) and not isinstance(value, type) else value
+
+
+def _same(name: str) -> Callable[[TrialSetup, int], dict[str, Any]]:
+    """A field that enters key and provenance as it is."""
+    return lambda setup, seed: {name: _plain(getattr(setup, name))}
+
+
+def _unless(name: str, default: object) -> Callable[[TrialSetup, int], dict[str, Any]]:
+    """A field that enters the key only where it is not its default (a key made before the field existed is the key
+    of its default)."""
+    return lambda setup, seed: {} if getattr(setup, name) in (default,) else {name: _plain(getattr(setup, name))}
+
+
+#: the set-up described once, in the order a result file records it: for each field, what it adds to the trials' key
+#: (what decides an outcome) and to their provenance (what a reader needs to tell two runs apart). A new field is one
+#: entry here; a test holds every field of `TrialSetup` to an entry
+DESCRIPTION: tuple[Described, ...] = (
+    Described(("object",), lambda s, seed: {"object": s.object.params()}, lambda s, seed: {"object": s.object.params()}),
+    Described(("hand",), lambda s, seed: {"hand": s.hand.digest},
+              lambda s, seed: {"hand": {"name": s.hand.name, "digest": s.hand.digest}}),
+    Described(("protocol",), lambda s, seed: _protocol_key(s), lambda s, seed: _protocol_provenance(s)),
+    Described(("touch",), _unless("touch", "contacts"), _same("touch")),
+    Described(("params", "controller"), lambda s, seed: {"params": s.params.to_table(), "controller": None
+                                                          if s.controller is None else _named(s.controller)},
+              lambda s, seed: _controller_provenance(s)),
+    Described(("experience",), lambda s, seed: _experience_key(s), lambda s, seed: _experience_provenance(s)),
+    Described((), lambda s, seed: {"seed": seed}, lambda s, seed: {"seed": seed}),
+    Described(("noise",), _same("noise"), _same("noise")),
+    Described(("table",), _same("table"), _same("table")),
+    Described(("backend",), _same("backend"), _same("backend")),
+    Described(("margin",), _same("margin"), _same("margin")),
+    Described(("method",), None, _same("method")),
+    Described(("regrasp",), lambda s, seed: {"regrasp": s.regrasp.description()} if s.regrasp.attempts > 1 else {},
+              lambda s, seed: {"regrasp": s.regrasp.description()}),
+    Described(("preshape",), lambda s, seed: {"preshape": np.empty(0) if s.preshape is None else
+                                              np.asarray(s.preshape, dtype=float)},
+              lambda s, seed: {"preshape": None if s.preshape is None else
+                               np.asarray(s.preshape, dtype=float).tolist()}),
+    Described(("plan",), lambda s, seed: {} if s.plan is None else
+              {"plan": {"poses": s.plan.poses.tolist(), "postures": s.plan.postures.tolist()}},
+              lambda s, seed: {"plan": None if s.plan is None else
+                               _digest(s.plan.poses.tobytes() + s.plan.postures.tobytes())}),
+    Described(("palm",), _unless("palm", None), lambda s, seed: {"palm": None if s.palm is None else asdict(s.palm)}),
+    Described(("oracle",), _unless("oracle", False), _same("oracle")),
+    Described((), lambda s, seed: {"code": code} if (code := s.code()) else {},
+              lambda s, seed: {"code": code} if (code := s.code()) else {}),
+    Described(("batch_size",), None, None),  # changes no outcome: trials at once on the GPU
+)
