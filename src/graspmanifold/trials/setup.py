@@ -160,8 +160,8 @@ class TrialSetup:
             flange first carries the palm by the object's true displacement (the trial's pose, `grid.
             oracle_correction`) to where the plan puts it for the displaced object, the fingers held in their
             starting posture, and only then does the controller start (the palm then moves from there). The only
-            trials that read the displacement: their `method` must say 'oracle'. 'translation': the palm moved by the
-            displacement's translation alone, not turned by its yaw (`ORACLES`).
+            trials that read the displacement: their provenance says so (`oracle`), whatever their label.
+            'translation': the palm moved by the displacement's translation alone, not turned by its yaw (`ORACLES`).
 
     Fields are given by name: `TrialSetup(object="box", experience=som, protocol="dexgraspbench")`; `build` is
     what the keyword conveniences (`evaluate`, `record_trial`, `run_benchmark`) make theirs with.
@@ -260,11 +260,10 @@ class TrialSetup:
                                f"{self.palm!r} with backend={self.backend!r}")
         if not (isinstance(self.oracle, bool) or self.oracle in ORACLES):
             raise InvalidInput(f"oracle must be True, False or one of {ORACLES}, got {self.oracle!r}")
-        if self.oracle and (self.plan is None or self.palm is None or "oracle" not in self.method):
+        if self.oracle and (self.plan is None or self.palm is None):  # a rule on values, not on the label
             raise InvalidInput("oracle=True moves the palm by the true displacement of a planned trial: it needs a "
-                               "plan, a palm (the flange that carries it) and a method that says 'oracle', got "
-                               f"plan={'given' if self.plan is not None else None}, palm={self.palm!r}, "
-                               f"method={self.method!r}")
+                               "plan and a palm (the flange that carries it), got "
+                               f"plan={'given' if self.plan is not None else None}, palm={self.palm!r}")
 
     @classmethod
     def build(cls, obj: str | GraspObject | TrialSetup, experience: Experience | None = None,
