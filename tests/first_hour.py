@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 import graspmanifold as gm
-from graspmanifold.trials.experience_pays import compare
+from graspmanifold.trials.stats import compare
 
 gm.show_progress(False)  # a script's log, not bars
 

@@ -13,7 +13,7 @@ def postures():
 
 
 def test_submodules_are_reachable_from_the_package():
-    assert callable(gm.plots.plot_lattice) and callable(gm.stats.wilson_interval) and callable(gm.study.compare)
+    assert callable(gm.plots.plot_lattice) and callable(gm.stats.wilson_interval) and callable(gm.stats.compare)
     with pytest.raises(AttributeError, match="no attribute 'teapot'"):
         gm.teapot  # noqa: B018
 

@@ -116,7 +116,7 @@ def test_a_users_own_controller_runs_through_evaluate_on_our_poses_and_is_compar
     check_controller_contract(names["CloseUntilTouch"])
     assert mine.method == "close_until_touch" and len(mine.trials) == len(ours.trials) == 8
     assert np.array_equal([t.grid_pose for t in mine.trials], [t.grid_pose for t in ours.trials])
-    paired = gm.study.compare(mine, ours)
+    paired = gm.compare(mine, ours)
     assert paired.n == 8 and paired.both + paired.only_a + paired.only_b + paired.neither == 8
     assert all(t.matches == 0 and t.valid for t in mine.trials)
     with pytest.raises(ValueError, match="method label"):

@@ -20,7 +20,7 @@ from graspmanifold.trials.setup import TrialSetup
 SRC = Path(__file__).resolve().parents[1] / "src" / "graspmanifold"
 
 
-@pytest.mark.parametrize("module", ["judging.replay", "synthesis.generator"])
+@pytest.mark.parametrize("module", ["judging.replay", "synthesis.generator", "trials.experience_pays"])
 def test_every_name_that_left_a_hub_answers_there_with_a_warning_as_the_same_object(module):
     import importlib
 

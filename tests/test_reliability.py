@@ -7,7 +7,7 @@ import pytest
 import graspmanifold as gm
 from graspmanifold.sim.scene import PENETRATION_LIMIT, SimulationError
 from graspmanifold.trials.evaluation import EvaluationResult
-from graspmanifold.trials.experience_pays import compare
+from graspmanifold.trials.stats import compare
 from graspmanifold.trials.episode import run_trial
 from graspmanifold.trials.setup import TrialSetup
 

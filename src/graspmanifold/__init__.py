@@ -64,7 +64,7 @@ from .sim.tactile import TactileReading, TactileSensor
 from .trials.recording import Recording, record_trial
 from .trials.setup import Noise, TrialSetup
 from .trials.stats import headroom, holm, mcnemar, wilson_interval
-from .trials.experience_pays import compare
+from .trials.stats import compare
 from .base.progress import show_progress
 from .base.version import __version__
 

@@ -79,6 +79,7 @@ MOVED_NAMES: dict[str, dict[str, str]] = {
         **{name: f"judging.push_test:{name}" for name in ("ForceTest",)},
         **{name: f"trials.open_loop:{name}" for name in ("APPROACH_TARGET_SECONDS", "OpenLoopController", "OpenLoop")},
     },
+    "trials.experience_pays": {"compare": "trials.stats:compare"},  # 0.3: with the statistics
     # 0.3: the spring rig and its walk, and the start cache, left the generator for rooms of their own
     "synthesis.generator": {
         **{name: f"synthesis.springs:{name}" for name in ("SpringRig", "holds_with_neighbours",

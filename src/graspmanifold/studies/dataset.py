@@ -44,7 +44,7 @@ from ..sim.object_files import object_file_references
 from ..sim.objects import GraspObject, make_object
 from ..synthesis.generator import generate_postures
 from ..trials.evaluation import evaluate
-from ..trials.experience_pays import compare
+from ..trials.stats import compare
 from ..trials.grid import GRID_PRESETS, grid_preset
 from ..trials.stats import PairedComparison, mcnemar, rate_text
 from ..trials.setup import TrialSetup

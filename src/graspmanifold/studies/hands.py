@@ -30,7 +30,7 @@ from ..paper.reproduce import PRESETS, reproduce
 from ..sim.hand import SHADOW_HAND, HandModel
 from ..sim.hand_models import hand_model, joint_agreement
 from ..trials.evaluation import EvaluationResult, evaluate
-from ..trials.experience_pays import compare
+from ..trials.stats import compare
 from ..trials.grid import grid_preset
 from ..trials.stats import holm, rate_text
 from .runner import StudyRun, run_study

@@ -53,13 +53,13 @@ from ..trials.evaluation import EvaluationResult, evaluate, trial_count
 from ..trials.experience_pays import (
     TRAINING_NOISE,
     closing_rate_params,
-    compare,
     comparison_rows,
     grow_experience,
     judge_target,
     train_experience_map,
 )
 from ..trials.grid import GRID_COLUMNS, coverage, grid_preset
+from ..trials.stats import compare
 from ..trials.stats import MIN_HEADROOM, headroom, holm, rate_text
 from ..trials.setup import Noise, TrialSetup
 from .runner import StudyRun, run_command

@@ -40,7 +40,8 @@ from ..sim.objects import GraspObject, get_object, make_object
 from ..synthesis.generator import DATASET_PRESETS, GeneratorParams, generate_postures, verify_postures
 from ..synthesis.starts import nearest_primitive
 from ..trials.evaluation import evaluate
-from ..trials.experience_pays import compare, train_experience_map
+from ..trials.experience_pays import train_experience_map
+from ..trials.stats import compare
 from ..trials.stats import headroom, holm, rate_text
 from ..trials.setup import Noise
 from .runner import StudyRun, run_study

@@ -14,14 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..base.errors import InvalidInput
+from ..base.moved import moved_attribute
 from ..base.paper_numbers import MAP_SIZE
 from ..control.controller import ControllerParams
 from ..manifold.som import SOM
 from ..sim.hand import N_FINGER_JOINTS
 from ..sim.objects import GraspObject
 from .evaluation import EvaluationResult, evaluate
-from .stats import PairedComparison, mcnemar, rate_text
+from .stats import compare as paired_comparison
+from .stats import rate_text
 from .setup import Noise
 
 #: Where the controller gathers its own experience: grid poses perturbed by this much, so the poses
@@ -29,25 +30,6 @@ from .setup import Noise
 TRAINING_NOISE = Noise(position=0.01, yaw=0.2)
 #: The bar of the target: experience must win where the strongest control holds fewer than this.
 HARD_FOR_CONTROL = 0.8
-
-
-def compare(a: EvaluationResult, b: EvaluationResult, measure: str = "hold") -> PairedComparison:
-    """McNemar's test of method a against method b; both must have run on the same poses. Poses
-    where either trial's physics failed (`Trial.valid`) are left out of the pairs.
-
-    Args:
-        a: the first method's result.
-        b: the second's, on the same grid poses.
-        measure: 'hold' or 'force_closure'.
-
-    Returns:
-        The paired comparison (`stats.PairedComparison`: counts, p-value, verdict).
-    """
-    grid_a = np.array([t.grid_pose for t in a.trials])
-    grid_b = np.array([t.grid_pose for t in b.trials])
-    if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
-        raise InvalidInput(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
-    return mcnemar(a.outcomes(measure), b.outcomes(measure), valid=a.valid & b.valid)
 
 
 def train_experience_map(postures: np.ndarray, seed: int = 0, shape: tuple[int, int] = MAP_SIZE) -> SOM:
@@ -134,7 +116,7 @@ def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], metho
             if (obj, grid, method) not in results:
                 continue
             mine = results[(obj, grid, method)]
-            paired = compare(mine, results[(obj, grid, strongest)], measure)
+            paired = paired_comparison(mine, results[(obj, grid, strongest)], measure)
             k, k_control = paired.only_a + paired.both, paired.only_b + paired.both
             rows.append({"object": obj, "grid": grid, "method": method, "control": strongest, "n": paired.n,
                          "rate": k / paired.n, "rate_text": rate_text(k, paired.n),
@@ -147,3 +129,8 @@ def comparison_rows(results: dict[tuple[str, str, str], EvaluationResult], metho
 def closing_rate_params(factor: float) -> ControllerParams:
     """The plain heuristic closing `factor` times as fast (the speed-matched control)."""
     return ControllerParams(closing_rate=ControllerParams.closing_rate * factor)
+
+
+def __getattr__(name: str) -> object:
+    """`compare`, which moved to the statistics room (`stats.compare`) in 0.3, with a warning."""
+    return moved_attribute(__name__, name)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy.stats import binomtest, norm
@@ -487,3 +488,37 @@ def headroom_share(arm: object, floor: object, ceiling: object, clusters: Sequen
 
     low, high = percentile_interval(share(rates), confidence)
     return ClusteredEstimate(float(share(table.mean(axis=0))), low, high, len(table), len(set(clusters)), "%")
+
+
+class PairedTrials(Protocol):
+    """What `compare` reads of a method's trials (`evaluation.EvaluationResult` has it): its label, its trials (their
+    grid poses), which are valid, and an outcome per trial."""
+
+    method: str
+    trials: list
+
+    @property
+    def valid(self) -> np.ndarray:
+        """(n,) bool: the trials whose physics worked."""
+
+    def outcomes(self, measure: str = "hold") -> np.ndarray:
+        """(n,) bool: each trial's outcome by the measure."""
+
+
+def compare(a: PairedTrials, b: PairedTrials, measure: str = "hold") -> PairedComparison:
+    """McNemar's test of method a against method b; both must have run on the same poses. Poses
+    where either trial's physics failed (`Trial.valid`) are left out of the pairs.
+
+    Args:
+        a: the first method's result (an `EvaluationResult`).
+        b: the second's, on the same grid poses.
+        measure: 'hold' or 'force_closure'.
+
+    Returns:
+        The paired comparison (`PairedComparison`: counts, p-value, verdict).
+    """
+    grid_a = np.array([t.grid_pose for t in a.trials])
+    grid_b = np.array([t.grid_pose for t in b.trials])
+    if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
+        raise InvalidInput(f"{a.method} and {b.method} ran on different poses; a paired comparison needs the same grid")
+    return mcnemar(a.outcomes(measure), b.outcomes(measure), valid=a.valid & b.valid)
