@@ -4,8 +4,8 @@ DexGraspBench (with BODex, ICRA 2025) judges *open-loop* grasps, each a pregrasp
 (a hand root pose and joint angles): once per direction of +x, -x, +y, -y, +z and -z it resets the scene
 to the pregrasp (a hand that starts more than `max_penetration` inside the object fails outright), moves
 pregrasp -> grasp and grasp -> squeeze in `approach_targets` interpolated targets of `steps_per_target`
-physics steps each (the root by its mocap body, the joints by their servos: `start_at_pregrasp`, `approach`, which
-the replay runs too), pushes the object with an external force of `force_per_kg` x the direction x its mass
+physics steps each (the root by its mocap body, the joints by their servos: `start_at_pregrasp`,
+`move_through_stages`, which the replay runs too), pushes the object with an external force of `force_per_kg` x the direction x its mass
 (gravity off), and simulates `hold_chunks` x `steps_per_chunk` steps, stopping early once the object has moved more
 than `translation_limit` or turned more than `angle_limit` from where it began. A grasp succeeds when it stays within
 both in every direction. Its versions and its physics profile are protocols of `protocols` (`DexGraspBenchProtocol`,
@@ -90,7 +90,8 @@ def start_at_pregrasp(scene: Scene, grasp: OpenLoopGrasp) -> list[tuple[np.ndarr
     return mounts
 
 
-def approach(scene: Scene, grasp: OpenLoopGrasp, mounts: list, protocol: DexGraspBenchProtocol) -> int:
+def move_through_stages(scene: Scene, grasp: OpenLoopGrasp, mounts: list,
+                        protocol: DexGraspBenchProtocol) -> int:
     """Pregrasp -> grasp -> squeeze in the protocol's interpolated targets (after `start_at_pregrasp`).
 
     Args:
@@ -143,7 +144,7 @@ def external_force_test(scene: Scene, grasp: OpenLoopGrasp, protocol: DexGraspBe
         return ForceTest(False, translation, rotation, depth, 0, f"the pregrasp starts {depth * 1000:.1f} mm "
                          f"inside the object (the protocol allows {protocol.max_penetration * 1000:.0f} mm)")
     start_position, start_quat = scene.object_pose()
-    steps = approach(scene, grasp, mounts, protocol)
+    steps = move_through_stages(scene, grasp, mounts, protocol)
     if observe is not None:
         observe(scene)
     epsilon = reading_epsilon(scene.tactile(), scene.data.xipos[scene.object_body],

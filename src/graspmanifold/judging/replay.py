@@ -20,7 +20,7 @@ from ..sim.scene import Scene
 from .judge import VERIFY_HOLD_SECONDS, Judgement, judge_scene
 from .plans import GRASP_STAGES, VERIFY_STAGES, GraspStages, OpenLoopGrasp, open_loop_grasp
 from .protocols import DEFAULT_PROTOCOL, DEXGRASPBENCH, JudgingProtocol, get_protocol
-from .push_test import approach, external_force_test, start_at_pregrasp
+from .push_test import external_force_test, move_through_stages, start_at_pregrasp
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def replay_grasp(scene: Scene, grasp: OpenLoopGrasp, protocol: str | JudgingProt
     if depth > DEXGRASPBENCH.max_penetration:  # its rule for a pregrasp, whatever judges the grasp
         return Replay(Judgement(0.0, False, np.inf, np.nan, penetration=depth),
                       f"the pregrasp starts {depth * 1000:.1f} mm inside the object")
-    approach(scene, grasp, mounts, timed)  # its targets and their seconds, the scene's physics
+    move_through_stages(scene, grasp, mounts, timed)  # its targets and their seconds, the scene's physics
     if observe is not None:
         observe(scene)
     rules = protocol.rules if hold_seconds is None else replace(protocol.rules, hold_seconds=hold_seconds)
