@@ -5,8 +5,8 @@ DexGraspBench (with BODex, ICRA 2025) judges *open-loop* grasps, each a pregrasp
 to the pregrasp (a hand that starts more than `max_penetration` inside the object fails outright), moves
 pregrasp -> grasp and grasp -> squeeze in `approach_targets` interpolated targets of `steps_per_target`
 physics steps each (the root by its mocap body, the joints by their servos: `start_at_pregrasp`,
-`move_through_stages`, which the replay runs too), pushes the object with an external force of `force_per_kg` x the direction x its mass
-(gravity off), and simulates `hold_chunks` x `steps_per_chunk` steps, stopping early once the object has moved more
+`move_through_stages`, which the replay runs too), pushes the object with an external force of `force_per_kg` x
+the direction x its mass (gravity off), and simulates `hold_chunks` x `steps_per_chunk` steps, stopping early once the object has moved more
 than `translation_limit` or turned more than `angle_limit` from where it began. A grasp succeeds when it stays within
 both in every direction. Its versions and its physics profile are protocols of `protocols` (`DexGraspBenchProtocol`,
 `PROTOCOLS`); its Q1 metric is `quality.q1`.
