@@ -383,7 +383,7 @@ def _command(commands: Any, name: str, help: str) -> argparse.ArgumentParser:
 def _object_options(sub: argparse.ArgumentParser) -> None:
     sub.add_argument("--object", default="cylinder", help="a paper object (box, cylinder, sphere), a family "
                      "member (capsule_m, ring_l, bottle_s, ...: graspmanifold.sim.family.FAMILY) or a mesh file "
-                     "(.stl, .obj, .ply, ...: a watertight solid)")
+                     "(.stl, .obj, .ply, ...: a closed solid, or one whose holes can be filled)")
     sub.add_argument("--scale", type=float, default=1.0, help="metres per unit of a mesh file (0.001 for mm)")
     sub.add_argument("--hand", default=SHADOW_HAND.name, help=HAND_HELP)
 
@@ -403,7 +403,7 @@ def _add_reproduce(commands: Any) -> None:
                            "procedure and dataset sizes) or verified (the paper's candidates, trained on those that hold)")
     reproduce.add_argument("--objects", "--object", nargs="+", metavar="NAME_OR_FILE",
                            help="objects to run instead of the paper's: paper or family names (e.g. cylinder ring_m "
-                           "bottle_m) or mesh files of one's own (.stl, .obj, .ply: watertight solids, times --scale); "
+                           "bottle_m) or mesh files of one's own (.stl, .obj, .ply: closed solids or ones whose holes can be filled, times --scale); "
                            "an object outside the paper gets the cylinder's preset size")
     reproduce.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (0.001 for mm)")
     reproduce.add_argument("--hand", default=SHADOW_HAND.name, help=f"{HAND_HELP}: the postures are generated and the trials "

@@ -69,7 +69,7 @@ class ReproduceConfig:
     """Everything a run depends on. `postures` names the objects (paper objects, family members,
     `graspmanifold.sim.family.FAMILY`, or objects of one's own mesh files named in `meshes`) and the candidates to
     generate for each; `meshes` gives an object of one's own its file and scale (`{"mug": {"file": "mug.stl",
-    "scale": 0.001}}`: a watertight solid, metres per unit; a relative path is read from the working directory, or in
+    "scale": 0.001}}`: a closed solid, or one whose holes can be filled, metres per unit; a relative path is read from the working directory, or in
     a configuration file from the file's folder; the file's content keys every stage that uses it, so an
     edited file gives new results); `procedure` says which of
     them the maps are trained on (`PROCEDURES`: every one, as the paper did, or those that hold); `hand` is
