@@ -111,3 +111,63 @@ def test_a_headroom_the_ceiling_never_opened_says_so():
                                                                                    "more than the floor")
     assert share_text(headroom_share([1, 1, 0, 0], [0, 0, 0, 0], [1, 1, 1, 1], [0, 1, 2, 3]).to_dict()).startswith(
         "50 % [")
+
+
+# Round eight, second part: what issue 85 added (the rooms, declared read-outs, one description of a set-up, the
+# trials' columns from one spec)
+
+
+def test_compare_of_what_is_not_a_result_names_the_argument():
+    """Poor: `gm.compare([1, 2], [1, 2])` ended in "'list' object has no attribute 'trials'"."""
+    with pytest.raises(gm.InvalidInput, match="a must be one method's trials .* got list"):
+        gm.compare([1, 2], [1, 2])
+
+
+def test_a_set_up_subclass_with_a_field_the_key_does_not_describe_is_refused():
+    """Poor: a subclass of `TrialSetup` with a field of its own got the key of its parent: two set-ups that differ
+    in it shared a key, so a resumed run returned the other's trials."""
+    import dataclasses
+
+    from graspmanifold.trials.setup import TrialSetup
+
+    @dataclasses.dataclass(frozen=True, eq=False, kw_only=True)
+    class Stiffer(TrialSetup):
+        stiffness: float = 1.0
+
+    with pytest.raises(gm.InvalidInput, match=r"Stiffer has fields the trials' key does not describe: \['stiffness'\]"):
+        Stiffer(object="box", stiffness=2.0).key(np.zeros((1, 4)), 0)
+
+
+@pytest.mark.parametrize("damage", ["narrow", "text"])
+def test_a_trials_file_with_a_column_of_another_width_or_kind_is_named_corrupt(tmp_path, damage):
+    """Poor: a trials file whose `touching` column had 3 segments instead of 19 loaded as if whole; one whose
+    epsilon was text ended in "could not convert string to float", the file unnamed."""
+    from graspmanifold.trials.evaluation import EvaluationResult
+    from graspmanifold.trials.record import Trial
+
+    trial = Trial(grid_pose=np.zeros(4), posture=np.zeros(22), touching=np.zeros(19, dtype=bool), epsilon=0.1,
+                  hold=True, hold_displacement=0.0, time_to_grasp=1.0, matches=0)
+    path = EvaluationResult(gm.get_object("box"), "none", "custom", 0, [trial]).save(tmp_path / "trials.npz")
+    arrays = dict(np.load(path, allow_pickle=False))
+    if damage == "narrow":
+        arrays["touching"] = arrays["touching"][:, :3]
+    else:
+        arrays["epsilon"] = np.array(["a"])
+    np.savez(tmp_path / "damaged.npz", **arrays)
+    with pytest.raises(gm.InvalidInput, match=r"damaged.npz: (touching must be \(1, 19\)|epsilon must hold float)"):
+        EvaluationResult.load(tmp_path / "damaged.npz")
+
+
+@pytest.mark.parametrize("readouts, message", [
+    ("matches", "must be a tuple of names"), ((1, 2), "must be a tuple of names"),
+    (("palm_offset",), "needs a bool `moves_palm`"), (("object_estimate",), "has no such member")])
+def test_a_controllers_declaration_is_checked_by_name(readouts, message):
+    """Good: each bad declaration of read-outs is refused when the controller is made, the member named."""
+    from graspmanifold.control.controller import declared_readouts
+
+    class Declaring:
+        def __init__(self):
+            self.n, self.readouts, self.palm_offset = 2, readouts, np.zeros((2, 3))
+
+    with pytest.raises(gm.InvalidInput, match=message):
+        declared_readouts(Declaring())

@@ -256,6 +256,9 @@ class EvaluationResult(Tabular, NpzRecord):
         if absent:
             raise InvalidInput(f"{path}: it lacks the trials' {absent}; the file is corrupt")
         for column in TRIAL_COLUMNS.values():
+            if column.file in a and np.asarray(a[column.file]).dtype.kind not in column.dtype_kinds:
+                raise InvalidInput(f"{path}: {column.file} must hold {column.kind} values, got "
+                                   f"{np.asarray(a[column.file]).dtype}; the file is corrupt")
             if column.width and column.file in a and np.shape(a[column.file]) != (n, column.width):
                 raise InvalidInput(f"{path}: {column.file} must be ({n}, {column.width}), got "
                                    f"{np.shape(a[column.file])}; the file is corrupt")

@@ -119,6 +119,11 @@ class Column:
             return column[row]
         return COLUMN_KINDS[self.kind](column[row])
 
+    @property
+    def dtype_kinds(self) -> str:
+        """The NumPy dtype kinds a file's column of this kind may have (a bool or int column read as numbers too)."""
+        return {"float": "biuf", "bool": "bi", "int": "biu", "str": "U"}[self.kind]
+
     def missing(self) -> Any:  # Any: the kind the column says
         """The value of a trial whose file was written before the column was kept (a fresh copy of an array).
 

@@ -312,6 +312,11 @@ class TrialSetup:
         Returns:
             A 20-character hexadecimal key.
         """
+        undescribed = sorted({f.name for f in dataclasses.fields(self)} - DESCRIBED_FIELDS)
+        if undescribed:  # a subclass's own field would leave the key: two set-ups that differ would share trials
+            raise InvalidInput(f"{type(self).__name__} has fields the trials' key does not describe: {undescribed}; "
+                               "a subclass that adds fields overrides key and provenance to include them (or keeps its settings in its "
+                               "controller, whose code is keyed)")
         described: dict[str, Any] = {}
         for entry in DESCRIPTION:
             if entry.key is not None:
@@ -474,3 +479,5 @@ DESCRIPTION: tuple[Described, ...] = (
               lambda s, seed: {"code": code} if (code := s.code()) else {}),
     Described(("batch_size",), None, None),  # changes no outcome: trials at once on the GPU
 )
+#: the fields `DESCRIPTION` describes
+DESCRIBED_FIELDS = frozenset(name for entry in DESCRIPTION for name in entry.fields)

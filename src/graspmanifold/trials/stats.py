@@ -517,6 +517,10 @@ def compare(a: PairedTrials, b: PairedTrials, measure: str = "hold") -> PairedCo
     Returns:
         The paired comparison (`PairedComparison`: counts, p-value, verdict).
     """
+    for name, result in (("a", a), ("b", b)):
+        if not all(hasattr(result, member) for member in ("method", "trials", "valid", "outcomes")):
+            raise InvalidInput(f"{name} must be one method's trials (an EvaluationResult: evaluate's), got "
+                               f"{type(result).__name__}")
     grid_a = np.array([t.grid_pose for t in a.trials])
     grid_b = np.array([t.grid_pose for t in b.trials])
     if grid_a.shape != grid_b.shape or not np.array_equal(grid_a, grid_b):
