@@ -13,7 +13,7 @@ of its nearest training posture (`SOM.carry_places`). An experience of one's own
 
 Likewise (issue 84) an experience may know how hard each grasp pressed when it was verified: its `squeezes`, (k, 22)
 rad aligned with `references`, each the verified squeeze's posture less the grasp's (the press that held, joint by
-joint: `replay.OpenLoopGrasp.squeeze_offset`). The approach execution presses a holding finger by the squeeze of the
+joint: `plans.OpenLoopGrasp.squeeze_offset`). The approach execution presses a holding finger by the squeeze of the
 grasp it recalled (`recall.ApproachRecall.pressed`) where the experience has them, by a fixed press where it has
 none. A database keeps each posture's, a SOM node its nearest training posture's (`SOM.carry_squeezes`).
 `carried_values` names what an experience carries; it belongs to a trial's identity (`TrialSetup.key`).
@@ -218,7 +218,7 @@ def check_places(places: object, count: int) -> np.ndarray:
 
 
 def check_squeezes(squeezes: object, count: int) -> np.ndarray:
-    """Squeezes (each a verified squeeze's posture less its grasp's, `replay.OpenLoopGrasp.squeeze_offset`) checked
+    """Squeezes (each a verified squeeze's posture less its grasp's, `plans.OpenLoopGrasp.squeeze_offset`) checked
     against the rows they belong to.
 
     Args:
@@ -263,7 +263,7 @@ class PostureDatabase(ReferenceMatcher, NpzRecord):
             postures: (n, dim) finite postures, rad; stored read-only.
             places: (n, 3) m, where the object sat in the palm's frame in each (`object_places`), or None.
             squeezes: (n, 22) rad, each grasp's verified squeeze less its posture
-                (`replay.OpenLoopGrasp.squeeze_offset`), or None.
+                (`plans.OpenLoopGrasp.squeeze_offset`), or None.
         """
         data = np.asarray(postures, dtype=float)
         if data.ndim != 2:

@@ -230,7 +230,7 @@ class SOM(ReferenceMatcher, NpzRecord):
 
         Args:
             postures: (m, dim) rad, the postures the map was trained on (or any it stands for).
-            squeezes: (m, 22) rad, each one's verified squeeze less its posture (`replay.OpenLoopGrasp.squeeze_offset`).
+            squeezes: (m, 22) rad, each one's verified squeeze less its posture (`plans.OpenLoopGrasp.squeeze_offset`).
 
         Returns:
             This map, its `squeezes` set.

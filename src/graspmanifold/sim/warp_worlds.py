@@ -97,7 +97,7 @@ class WarpWorlds:
 
     Args:
         scene: the scene whose model every world runs (its hand, object, support and physics options).
-        starts: what differs between the worlds at their start (`trial.trial_starts` makes them for trials).
+        starts: what differs between the worlds at their start (`episode.trial_starts` makes them for trials).
     """
 
     def __init__(self, scene: Scene, starts: WorldStarts):
@@ -142,7 +142,7 @@ class WarpWorlds:
 
     @classmethod
     def from_scenes(cls, scenes: list[Scene]) -> WarpWorlds:
-        """The worlds of scenes of one model placed one per world (`trial.trial_scene`).
+        """The worlds of scenes of one model placed one per world (`episode.trial_scene`).
 
         Args:
             scenes: the scenes (at least one).

@@ -1,4 +1,4 @@
-"""Many grasp scenes stepped together: the physics behind the trials (`trial.run_trials`).
+"""Many grasp scenes stepped together: the physics behind the trials (`episode.run_trials`).
 
 A `Worlds` object holds N copies of one object's scene, each already placed and posed by the
 trial setup (`Scene` on the host), and offers what a batched trial needs of the physics: read the
@@ -100,7 +100,7 @@ class WorldStarts:
 
     @classmethod
     def of_scenes(cls, scenes: list[Scene]) -> WorldStarts:
-        """The starts of scenes of one model placed one per world (`trial.trial_scene`).
+        """The starts of scenes of one model placed one per world (`episode.trial_scene`).
 
         Args:
             scenes: the scenes.

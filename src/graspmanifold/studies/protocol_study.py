@@ -100,7 +100,7 @@ def report(args: argparse.Namespace, verification: Verification, open_loop: dict
               *comparison_table(holm_family(verification_tests)), "",
               "## Open loop: our verified grasps replayed as DexGraspBench replays grasps", "",
               f"{args.postures} verified postures per object (`generate_postures`, the defaults: verified under ours), "
-              "each replayed (`replay.open_loop_grasps`, `replay`): the pregrasp, the posture at its palm pose, "
+              "each replayed (`plans.open_loop_grasps`, `replay`): the pregrasp, the posture at its palm pose, "
               "its squeeze (the stages it was verified with), in 10 targets of 10 steps each (under ours, the same "
               "seconds at our step), the object free and unsupported, gravity off; the same grasps under each "
               "protocol (McNemar against ours, pooled).", ""]

@@ -62,7 +62,7 @@ def named(name: str) -> GraspObject:
 
 
 def grasp_measures(obj: GraspObject, hand_pose: np.ndarray, posture: np.ndarray, scene: Scene) -> tuple[float, float]:
-    """DexGraspBench's Q1 of a grasp's fingertip contacts (within 5 mm: `replay.q1`) and the hand's deepest
+    """DexGraspBench's Q1 of a grasp's fingertip contacts (within 5 mm: `quality.q1`) and the hand's deepest
     penetration into the object (m), both at the grasp, by kinematics."""
     scene.set_posture(posture)
     scene.set_hand_pose(hand_pose[:3], hand_pose[3:])

@@ -64,7 +64,7 @@ class GeneratorParams:
     #: the verifier's judging protocol, by name (`protocols.PROTOCOLS`): ours (`protocols.DEFAULT_PROTOCOL`, the
     #: hold test of `verify_hold_seconds`), or DexGraspBench's (its physics profile and external-force test)
     verify_protocol: str = DEFAULT_PROTOCOL
-    #: how the replay's pregrasp and squeeze are made (`replay.GRASP_STAGES`): "contacts" (the touching
+    #: how the replay's pregrasp and squeeze are made (`plans.GRASP_STAGES`): "contacts" (the touching
     #: segments 2 cm out along the object's normals, then 1 cm in) or "open" (the open hand 2 cm back, the
     #: flexion joints squeezed by `squeeze` rad)
     stages: str = VERIFY_STAGES

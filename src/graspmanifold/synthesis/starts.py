@@ -21,7 +21,7 @@ contacts' pushes to cancel.
 The paper's objects and the benchmark's (`benchmark.OBJECTS`) ship their starting postures of both
 families in `assets/starting_postures.npz` (made by `scripts/find_starting_postures.py`), the object family
 its five-fingertip ones and the grasp-types ones of every member not held out (`family.HELD_OUT`); the
-rest is searched on first use (`generator.starting_postures`: seconds to half a minute per object) and
+rest is searched on first use (`start_cache.starting_postures`: seconds to half a minute per object) and
 kept in `start_cache.cache_directory()`, so that the next process reads it (a user can also give their own:
 `generate_postures(..., starts=...)`, each a `StartingPosture`, e.g. a rough grasp brought onto the surface
 by `refinement.refine`). A mesh object

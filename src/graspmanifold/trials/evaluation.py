@@ -1,6 +1,6 @@
 """Evaluating a grasp controller over a grid of object poses (paper Section 5), with its result type.
 
-`evaluate` runs one trial (`trial.run_trials`) at every pose of a grid (`grid.py`), in parallel
+`evaluate` runs one trial (`episode.run_trials`) at every pose of a grid (`grid.py`), in parallel
 worker processes and resumably (checkpoint parts), and returns an `EvaluationResult`: the trials
 with their summary (rates with Wilson intervals), saved to and loaded from .npz. A trial whose
 physics failed counts as neither a success nor a failure: summaries report rates over the valid
@@ -98,7 +98,7 @@ class EvaluationResult(Tabular, NpzRecord):
         seed: the trials' seed.
         trials: one `Trial` per grid pose, in grid order.
         noise: the trial noise.
-        backend: the physics engine the trials ran on (`trial.BACKENDS`).
+        backend: the physics engine the trials ran on (`setup.BACKENDS`).
         made_by: what made the trials (`TrialSetup.provenance`: object and mesh digest, hand, protocol, touch,
             controller and its parameters, experience kind and digest, seed, library version); {} for a result
             written before it was recorded.
@@ -110,7 +110,7 @@ class EvaluationResult(Tabular, NpzRecord):
     seed: int
     trials: list[Trial]
     noise: Noise = field(default_factory=Noise)
-    backend: str = "cpu"  # the physics engine the trials ran on (trial.BACKENDS)
+    backend: str = "cpu"  # the physics engine the trials ran on (setup.BACKENDS)
     made_by: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:

@@ -13,7 +13,7 @@ support fades before the release (`PLANNED_PROTOCOL`).
 The arms (`ARMS`), all on the same start state, the same spring support and release, the same hold test; a fault
 is a failure of its arm and is reported by arm:
 
-- `open-loop`: the plan executed open loop (`replay.OpenLoop`: from the pregrasp to the grasp and the squeeze
+- `open-loop`: the plan executed open loop (`open_loop.OpenLoop`: from the pregrasp to the grasp and the squeeze
   it was verified with, in the replay's targets);
 - `heuristic`: the plain closing heuristic (no experience);
 - `paper`: the paper's controller with the object's experience;
@@ -360,7 +360,7 @@ def run_planned(obj: str | GraspObject, plans: Sequence[OpenLoopGrasp], arms: Se
 
     Args:
         obj: the object, or its name.
-        plans: its plans (`replay.open_loop_grasps` of verified postures).
+        plans: its plans (`plans.open_loop_grasps` of verified postures).
         arms: names in `ARMS`.
         experiences: {'object': ..., 'scrambled': ...} for the arms that name them.
         levels: m, the displacements' levels.
@@ -375,7 +375,7 @@ def run_planned(obj: str | GraspObject, plans: Sequence[OpenLoopGrasp], arms: Se
     if unknown:
         raise InvalidInput(f"unknown arm(s) {unknown}; expected some of {tuple(ARMS)}")
     if not plans or not all(isinstance(p, OpenLoopGrasp) for p in plans):
-        raise InvalidInput("plans must be a non-empty sequence of OpenLoopGrasp (replay.open_loop_grasps)")
+        raise InvalidInput("plans must be a non-empty sequence of OpenLoopGrasp (plans.open_loop_grasps)")
     experiences = dict(experiences or {})
     for name in arms:  # refused before any trial
         arm_setup(ARMS[name], obj, plans[0], experiences)

@@ -13,7 +13,7 @@ nominal pose or the error (`tests/test_uncertainty.py` spies on what it is given
 The open-loop baseline is what a planner without touch does. `plan` picks, for each nominal pose, the first of its
 candidate postures (in order of preference) whose open-loop replay at that pose holds: a grasp verified for the
 pose it was planned for. `open_loop` executes it where the arm sent the hand for the nominal pose while the object
-lies at the true pose: the pregrasp, grasp and squeeze of `replay.open_loop_grasp` at the nominal pose,
+lies at the true pose: the pregrasp, grasp and squeeze of `plans.open_loop_grasp` at the nominal pose,
 carried into the true object's frame (`carried`), replayed by `replay.replay` and judged by our hold test.
 """
 

@@ -145,12 +145,12 @@ class TrialSetup:
             hand-object contacts' normal forces summed per segment, ours), 'sensors' (MuJoCo's touch sensors, a site
             over each segment) or 'contact-sensors' (MuJoCo's contact sensors between each segment and the object);
             the sensors on the cpu backend.
-        plan: a planned grasp (`replay.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
+        plan: a planned grasp (`plans.OpenLoopGrasp`, palm poses in the object's frame) or None. With a
             plan, a trial's pose (x, z, gap, yaw) is the object's displacement from where the plan assumed it (palm
             frame, `grid.displaced_palm_pose`): the hand starts in the plan's pregrasp, its palm where the plan puts
             it for the nominal pose, and the object lies displaced; the controller is not told the displacement (ours
             starts from the pregrasp's posture). The plan's open-loop execution is the controller
-            `replay.OpenLoop(plan)`.
+            `open_loop.OpenLoop(plan)`.
         palm: the hand on an arm's flange with these limits (`sim.flange.FlangeLimits`: the palm's six degrees of
             freedom, servoed, lockable; the cpu backend), or None: the palm stays where the trial put it. A protocol
             whose judging moves the palm (the lift: `JudgingRules.needs_flange`) gets the default flange where none
@@ -243,7 +243,7 @@ class TrialSetup:
     def _check_plan_and_palm(self, set_field: Callable[[str, builtins.object], None]) -> None:
         """A plan, the palm's flange (the protocol's where none is given) and the oracle that needs both."""
         if self.plan is not None and not isinstance(self.plan, OpenLoopGrasp):
-            raise InvalidInput(f"plan must be an OpenLoopGrasp (replay.open_loop_grasp makes one), got "
+            raise InvalidInput(f"plan must be an OpenLoopGrasp (plans.open_loop_grasp makes one), got "
                                f"{type(self.plan).__name__}")
         if self.plan is not None and (self.noise.position or self.noise.yaw):
             raise InvalidInput("a planned trial's pose is the object's displacement itself: give no position or yaw "
