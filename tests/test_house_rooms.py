@@ -165,3 +165,29 @@ def test_a_set_up_is_described_once_and_every_field_has_its_entry():
     assert len(keys) == len(changed) + 2
     made = base.provenance(0)
     assert list(made)[:3] == ["library_version", "object", "hand"] and made["method"] == "none"
+
+
+def test_one_flag_names_what_the_controller_recalls_from_and_the_old_ones_answer(capsys, tmp_path):
+    """What the controller recalls from was `--experience` (evaluate), `--manifold` (reproduce, dataset) and
+    `--map`/`--som` (a trained file): now `--experience` on every command, a kind or a trained file; the old flags
+    set the same value and say on stderr that they are old."""
+    import argparse
+
+    from graspmanifold.cli import build_parser, main
+    from graspmanifold.studies.dataset import add_arguments
+
+    parser = build_parser()
+    assert parser.parse_args(["reproduce", "--experience", "ukr"]).manifold == "ukr"
+    assert parser.parse_args(["reproduce", "--manifold", "ukr"]).manifold == "ukr"
+    assert "--manifold is now --experience" in capsys.readouterr().err
+    assert parser.parse_args(["reproduce"]).manifold == "som"
+    dataset = argparse.ArgumentParser()
+    add_arguments(dataset)
+    assert dataset.parse_args(["folder", "--manifold", "linear"]).manifold == "linear"
+    assert dataset.parse_args(["folder", "--experience", "ukr"]).manifold == "ukr"
+    assert parser.parse_args(["evaluate", "--som", "map.npz", "--out", "run"]).map == "map.npz"
+    assert "--som is now --experience FILE.npz" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="--experience must be none, one of .*som.*or a trained file"):
+        main(["evaluate", "--object", "box", "--experience", "bogus", "--out", str(tmp_path / "run")])
+    with pytest.raises(SystemExit, match="both name a trained file"):
+        main(["evaluate", "--object", "box", "--experience", "a.npz", "--map", "b.npz", "--out", str(tmp_path / "r")])

@@ -20,7 +20,7 @@ from typing import Any  # argparse names its subparsers action privately
 from .base.config_files import read_config
 from .base.errors import GraspManifoldError, InvalidInput
 from .base.io import LOCK_FILE, check_writable_folder, npz_metadata, output_lock, write_failure
-from .base.moved import current_name
+from .base.moved import OldFlag, current_name
 from .base.version import __version__
 from .base.workers import default_workers
 from .control.controller import CONTROLLERS, PALM_STEERINGS
@@ -180,11 +180,19 @@ def _generate_into(args: argparse.Namespace, obj: GraspObject, n: int, out: Path
 
 def _experience_files(args: argparse.Namespace):
     """The files of the experience base the evaluate command asks for, read and checked: None, a trained
-    representation (--map), or the posture sets (of --hand's postures) for a database or a representation to train."""
+    representation (--experience FILE.npz), or the posture sets (of --hand's postures) for a database or a representation to train."""
     from .manifold.postureset import PostureSet
     from .manifold.representations import load_representation, representation_name
     from .sim.hand_models import hand_name
 
+    if args.experience not in (None, "none", *REPRESENTATIONS):  # a trained file (--map before 0.3)
+        if Path(args.experience).suffix == "" and not Path(args.experience).exists():
+            raise SystemExit(f"error: --experience must be none, one of {', '.join(REPRESENTATIONS)}, or a trained "
+                             f"file (FILE.npz), got {args.experience!r}")
+        if args.map:
+            raise SystemExit(f"error: --experience {args.experience} and --map {args.map} both name a trained file: "
+                             "give one, as --experience FILE.npz")
+        args.map, args.experience = args.experience, None
     if args.map:  # the file says its kind; a kind named beside it must be that one
         if args.experience == "none":
             raise SystemExit("error: --map gives the controller an experience; --experience none runs without one: "
@@ -207,7 +215,7 @@ def _experience_files(args: argparse.Namespace):
                              "drop one of them")
         return None
     if not args.postures:
-        raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or --map FILE.npz)")
+        raise SystemExit(f"error: --experience {args.experience} needs --postures FILE.npz (or give a trained file: --experience FILE.npz)")
     sets = [PostureSet.load(p) for p in args.postures]
     hand = hand_name(args.hand, "--hand")
     foreign = [f"{p} ({s.hand})" for p, s in zip(args.postures, sets) if s.hand != hand]
@@ -410,14 +418,17 @@ def _add_reproduce(commands: Any) -> None:
                            "run on it")
     reproduce.add_argument("--controller", choices=tuple(CONTROLLERS), default="paper", help=CONTROLLER_HELP)
     reproduce.add_argument("--protocol", type=_protocol_name, choices=PROTOCOL_NAMES, default=DEFAULT_PROTOCOL, help=PROTOCOL_HELP)
-    reproduce.add_argument("--manifold", choices=("som", "ukr"), default="som",
-                           help="the grasp manifold: som (the paper's), or ukr: a continuous UKR manifold trained beside "
-                           "the SOM on the same postures, run by the same controller (methods ukr, ukr_all), resumed "
-                           "with its own grasps; the report gives its figures beside the SOM's")
+    reproduce.add_argument("--experience", dest="manifold", choices=("som", "ukr"), default="som",
+                           help="what the controller recalls from: som (the paper's grasp manifold), or ukr: a "
+                           "continuous UKR manifold trained beside the SOM on the same postures, run by the same "
+                           "controller (methods ukr, ukr_all), resumed with its own grasps; the report gives its "
+                           "figures beside the SOM's")
+    reproduce.add_argument("--manifold", dest="manifold", choices=("som", "ukr"), default=argparse.SUPPRESS,
+                           action=OldFlag, new="--experience", help=argparse.SUPPRESS)
     reproduce.add_argument("--config", metavar="FILE.toml",
                            help="an experiment file: the preset's configuration changed by its keys (ReproduceConfig's "
                            "fields; [generator] and [controller] tables); a run writes the one it used to "
-                           "OUT/config.toml. --hand, --controller, --protocol and --manifold change it again where given")
+                           "OUT/config.toml. --hand, --controller, --protocol and --experience change it again where given")
     reproduce.add_argument("--out", default="reproduction", help="output directory")
     _workers(reproduce)
     reproduce.add_argument("--force", action="store_true", help="replace another run's files in --out")
@@ -462,12 +473,14 @@ def _add_evaluate(commands: Any) -> None:
     """`evaluate`."""
     evaluate = _command(commands, "evaluate", "run the grasp controller over a grid of object poses and judge every grasp")
     _object_options(evaluate)
-    evaluate.add_argument("--experience", choices=("none", *REPRESENTATIONS), default=None,
-                          help="none (plain tactile heuristic) or what the controller recalls from (default: som, or "
-                               "the kind the --map file holds): " + "; ".join(f"{k}: {v}" for k, v in REPRESENTATIONS.items()))
+    evaluate.add_argument("--experience", default=None, metavar="KIND_OR_FILE",
+                          help="what the controller recalls from: none (the plain tactile heuristic), a kind trained "
+                               "on --postures (default som): " + "; ".join(f"{k}: {v}" for k, v in
+                                                                          REPRESENTATIONS.items())
+                               + "; or a trained SOM, UKR or linear manifold file (FILE.npz), its kind read from it")
     evaluate.add_argument("--postures", nargs="*", help="posture set file(s) the experience is made of")
-    evaluate.add_argument("--map", "--som", dest="map", help="a trained SOM, UKR or linear manifold file (instead "
-                          "of training one on --postures); --som is its old name")
+    evaluate.add_argument("--map", "--som", dest="map", default=None, action=OldFlag, new="--experience FILE.npz",
+                          help=argparse.SUPPRESS)
     evaluate.add_argument("--grid", choices=GRID_PRESETS, default="quick")
     evaluate.add_argument("--table", action="store_true",
                           help="the object stands on a table (gravity on) instead of a spring support")

@@ -9,6 +9,7 @@ so its classes and registries are the ones the rest of the package uses), with a
 
 from __future__ import annotations
 
+import argparse
 import functools
 import importlib
 import importlib.abc
@@ -16,7 +17,7 @@ import importlib.machinery
 import sys
 import warnings
 from types import ModuleType
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar, cast
 
 Named = TypeVar("Named")
@@ -213,3 +214,25 @@ def install() -> None:
     """Let the old module names import (once per process; the package's `__init__` calls it)."""
     if not any(isinstance(finder, _MovedFinder) for finder in sys.meta_path):
         sys.meta_path.append(_MovedFinder())
+
+
+class OldFlag(argparse.Action):
+    """A command-line option's old name, for one release: it sets the new option's value and says on stderr that it
+    is the old name (`parser.add_argument("--manifold", dest=..., action=OldFlag, new="--experience")`; 0.3: what
+    the controller recalls from is `--experience` on every command).
+
+    Args:
+        option_strings: the old option's names.
+        dest: the new option's destination.
+        new: the new option, as the message names it.
+        **kwargs: argparse's (choices, default, help).
+    """
+
+    def __init__(self, option_strings: Sequence[str], dest: str, new: str = "", **kwargs: Any):
+        self.new = new
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        print(f"warning: {option_string} is now {self.new}; the old name goes in {REMOVED_IN}", file=sys.stderr)
+        setattr(namespace, self.dest, values)

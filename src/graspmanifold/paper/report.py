@@ -42,7 +42,7 @@ RUN_METHODS = ("none", "database", "som", "som_all")
 BLEND_METHODS = ("database_blend", "som_blend")  # the database and the SOM under `BLEND`, beside another controller
 
 
-UKR_METHODS = ("ukr", "ukr_all")  # the UKR manifolds of a run with `--manifold ukr`, beside the SOMs
+UKR_METHODS = ("ukr", "ukr_all")  # the UKR manifolds of a run with `--experience ukr`, beside the SOMs
 
 
 def run_methods(controller: ControllerParams, manifold: str = "som") -> tuple[str, ...]:
@@ -74,7 +74,7 @@ class RunData:
     maps: dict[str, SOM]
     resumed: dict[str, SOM]
     results: dict[tuple[str, str], EvaluationResult]
-    manifolds: dict[str, UKR] = field(default_factory=dict)  # a `--manifold ukr` run's, by object (and "all")
+    manifolds: dict[str, UKR] = field(default_factory=dict)  # a `--experience ukr` run's, by object (and "all")
     resumed_manifolds: dict[str, UKR] = field(default_factory=dict)
 
     @classmethod
@@ -429,7 +429,7 @@ def _landing_and_resuming(objects: dict) -> list[str]:
 
 
 def _manifold_section(summary: dict) -> list[str]:
-    """The report's section on a `--manifold ukr` run's continuous manifolds (none for a SOM-only run)."""
+    """The report's section on a `--experience ukr` run's continuous manifolds (none for a SOM-only run)."""
     manifolds = summary.get("manifolds") or {}
     if not manifolds:
         return []

@@ -84,7 +84,7 @@ class RunSummary:
         comparisons: the paired comparisons of the experience-based methods against the plain controller.
         verdict: does experience beat the plain controller (`study.judge_target`).
         claims: the verdict per claim of the paper (`verdicts.judge_claims`).
-        manifolds: a `--manifold ukr` run's UKR manifolds per object: their fit and resumed learning.
+        manifolds: a `--experience ukr` run's UKR manifolds per object: their fit and resumed learning.
         manifold_comparisons: each UKR method against the SOM method of the same data on the same poses.
     """
 

@@ -1,6 +1,6 @@
 """A dataset's objects as they ship to experience: verified grasps, a map and a comparison of controllers on each.
 
-    graspmanifold dataset FOLDER [--postures 20] [--grid quick] [--poses N] [--scale 1] [--manifold som|ukr|linear]
+    graspmanifold dataset FOLDER [--postures 20] [--grid quick] [--poses N] [--scale 1] [--experience som|ukr|linear]
                                  [--workers 2] [--out dataset]
 
 The objects are the files under FOLDER (`object_files`): its object files (.urdf, MJCF .xml: a robot data package's,
@@ -9,7 +9,7 @@ it comes; nothing outside FOLDER is read (an object file that names a file outsi
 an include or a link, is refused) unless `--outside` says so
 (`make_object`: overlapping pieces joined, holes filled, a convex decomposition kept as its pieces; what was
 repaired is said). On each object that loads: `--postures` verified postures with the generator's defaults (the
-start search first, for an object that ships none), a 25 x 25 map trained on them (`--manifold`: or a UKR or linear
+start search first, for an object that ships none), a 25 x 25 map trained on them (`--experience`: or a UKR or linear
 manifold, `manifold.representations`; kept in OUT/maps/<object>_<manifold>.npz), and three controllers on the same
 grid poses: the plain tactile controller (`none`), the database of the postures and the map (`som`, the paper's, or
 the manifold's name). A progress bar counts the objects; the table at the end gives per object how it loaded, its triangles,
@@ -34,6 +34,7 @@ import numpy as np
 from ..base.checkpoints import result_key
 from ..base.errors import GenerationError, InvalidInput
 from ..base.io import json_text, markdown_table, read_json, software_versions, write_text_atomic
+from ..base.moved import OldFlag
 from ..base.progress import progress_bar
 from ..base.validation import check_int
 from ..manifold.experience import Experience, check_experience
@@ -52,7 +53,7 @@ from .runner import StudyRun, comparison_table, holm_family, run_study
 
 #: the controllers compared on each object, by the experience they recall
 METHODS = ("none", "database", "som")
-#: the grasp manifolds `--manifold` may name instead of the SOM (`manifold.representations.REPRESENTATIONS`)
+#: the grasp manifolds `--experience` may name instead of the SOM (`manifold.representations.REPRESENTATIONS`)
 MANIFOLDS = ("som", "ukr", "linear")
 
 
@@ -197,8 +198,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="metres per unit of the mesh files (an object file "
                         "gives its own)")
     parser.add_argument("--seed", type=int, default=0, help="the generator's and the trials' seed")
-    parser.add_argument("--manifold", choices=MANIFOLDS, default="som", help="the grasp manifold trained on each "
-                        "object's postures: the paper's 25 x 25 SOM, a 2-d UKR or a 5-component linear one (PCA)")
+    parser.add_argument("--experience", dest="manifold", choices=MANIFOLDS, default="som", help="what the "
+                        "controller recalls from, trained on each object's postures: the paper's 25 x 25 SOM, a 2-d UKR "
+                        "or a 5-component linear manifold (PCA)")
+    parser.add_argument("--manifold", dest="manifold", choices=MANIFOLDS, default=argparse.SUPPRESS, action=OldFlag,
+                        new="--experience", help=argparse.SUPPRESS)
     parser.add_argument("--workers", type=int, default=2, help="parallel worker processes")
     parser.add_argument("--outside", action="store_true", help="let object files name files outside the folder "
                         "(through ../, absolute paths, includes or links); without it such an object is refused")
