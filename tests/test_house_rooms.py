@@ -191,3 +191,19 @@ def test_one_flag_names_what_the_controller_recalls_from_and_the_old_ones_answer
         main(["evaluate", "--object", "box", "--experience", "bogus", "--out", str(tmp_path / "run")])
     with pytest.raises(SystemExit, match="both name a trained file"):
         main(["evaluate", "--object", "box", "--experience", "a.npz", "--map", "b.npz", "--out", str(tmp_path / "r")])
+
+
+def test_a_trials_file_of_the_previous_version_loads_and_is_written_back_the_same(tmp_path):
+    """tests/data/v0_2/evaluation.npz was written by main cf58c49, before the trials' columns came from one spec: it
+    loads, and written again its arrays are the same bytes (the file format did not move)."""
+    from graspmanifold.trials.evaluation import EvaluationResult
+
+    old = Path(__file__).parent / "data" / "v0_2" / "evaluation.npz"
+    result = EvaluationResult.load(old)
+    assert len(result.trials) == 2 and sum(t.matches for t in result.trials) > 0
+    again = result.save(tmp_path / "again.npz")
+    before, after = np.load(old, allow_pickle=False), np.load(again, allow_pickle=False)
+    arrays = [name for name in before.files if not name.startswith("__")]
+    assert set(arrays) <= set(after.files)
+    for name in arrays:
+        assert before[name].dtype == after[name].dtype and before[name].tobytes() == after[name].tobytes(), name
