@@ -557,9 +557,8 @@ class BatchController:
             newly_held = self._hold(act, joints, touching)
             self.params.recall.follow(self, act, newly_held, joints)
             self._close(act)
-            if self.params.palm.active:
-                self._steer_palm(act, joints, forces, touching)
-            self._move_palms(act)
+            self._move_palms(*(self._steer_palm(act, joints, forces, touching) if self.params.palm.active
+                                else self._reach(act)))
             self._finish(act, touching, elapsed)
         self.state.previous = joints.copy()
         return self.state.target.copy()
@@ -621,13 +620,26 @@ class BatchController:
             target[np.ix_(free, of)] = bounded_step(self.state.target[np.ix_(free, of)], goal, pace * dt)
         self.state.target[act] = np.clip(target[act], self.limits[:, 0], self.limits[:, 1])
 
-    def _move_palms(self, act: np.ndarray) -> None:
-        """Palms on their way to the recalled grasps' places move on, at the recall rule's reach speed."""
-        moving = np.flatnonzero(act & self.state.reaching)
+    def _move_palms(self, goal: np.ndarray, step: np.ndarray) -> None:
+        """The one palm mechanism: every palm moves towards its goal by at most its step this cycle, whatever set
+        them (the palm's phases, `_steer_palm`, or a recall that reaches, `_reach`); a palm that reached for a recall
+        is no longer reaching once it has arrived.
+
+        Args:
+            goal: (N, 3) m, palm frame, where each palm is going.
+            step: (N,) m, how far it may move this cycle (0: it stays).
+        """
+        moving = np.flatnonzero(step > 0)
         if len(moving):
-            self.palm_offset[moving] = bounded_step(self.palm_offset[moving], self.state.palm_goal[moving],
-                                                     self.params.recall.reach_speed * self.params.control_period)
-            self.state.reaching[moving] = np.any(self.palm_offset[moving] != self.state.palm_goal[moving], axis=1)
+            self.palm_offset[moving] = bounded_step(self.palm_offset[moving], goal[moving], step[moving])
+        reached = moving[self.state.reaching[moving]]
+        self.state.reaching[reached] = np.any(self.palm_offset[reached] != self.state.palm_goal[reached], axis=1)
+
+    def _reach(self, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where a recall that reaches sends the palms on their way to the recalled grasps' places, at the recall
+        rule's reach speed -> (goal (N, 3) m, step (N,) m) for `_move_palms`."""
+        step = np.where(act & self.state.reaching, self.params.recall.reach_speed * self.params.control_period, 0.0)
+        return self.state.palm_goal, step
 
     def _finish(self, act: np.ndarray, touching: np.ndarray, elapsed: np.ndarray) -> None:
         """The grasp's end: the touching set stable this long, every finger touching or closed, the squeeze
@@ -650,7 +662,8 @@ class BatchController:
         self.phase[finished] = PHASES.index("done")
         self.time_to_grasp[finished] = self.time
 
-    def _steer_palm(self, act: np.ndarray, joints: np.ndarray, forces: np.ndarray, touching: np.ndarray) -> None:
+    def _steer_palm(self, act: np.ndarray, joints: np.ndarray, forces: np.ndarray,
+                    touching: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The palm's phases (`PalmSteering`): the guarded approach before the first contact, re-centring on the
         touching segments while the grasp settles, still once every finger touches or is closed.
 
@@ -659,6 +672,9 @@ class BatchController:
             joints: (N, 22) rad, the sensed joints.
             forces: (N, segments) N, the segment forces.
             touching: (N, 5) bool, the touching fingers.
+
+        Returns:
+            (goal (N, 3) m, step (N,) m) for `_move_palms`.
         """
         palm, dt = self.params.palm, self.params.control_period
         any_touch = forces.max(axis=1) > 0.0
@@ -692,9 +708,7 @@ class BatchController:
         centring = centring[~np.isnan(aim[centring, 0])]
         goal[np.ix_(centring, [0, 2])] = aim[centring]
         step[centring] = palm.speed * dt
-        moving = np.flatnonzero(step > 0)
-        if len(moving):
-            self.palm_offset[moving] = bounded_step(self.palm_offset[moving], goal[moving], step[moving])
+        return goal, step
 
     def _regulate_grip(self, forces: np.ndarray, acting: np.ndarray) -> None:
         """The press of the holding fingers regulated to the total grip force `ControllerParams.grip_force`: an
