@@ -20,7 +20,8 @@ from graspmanifold.trials.setup import TrialSetup
 SRC = Path(__file__).resolve().parents[1] / "src" / "graspmanifold"
 
 
-@pytest.mark.parametrize("module", ["judging.replay", "synthesis.generator", "trials.experience_pays"])
+@pytest.mark.parametrize("module", ["judging.replay", "synthesis.generator", "trials.experience_pays",
+                                    "judging.judge", "trials.episode"])
 def test_every_name_that_left_a_hub_answers_there_with_a_warning_as_the_same_object(module):
     import importlib
 
@@ -38,6 +39,7 @@ def test_the_trial_face_gives_the_rooms_objects_without_a_warning():
         from graspmanifold.trials import episode, record, recording, setup, trial
     assert trial.TrialSetup is setup.TrialSetup and trial.Trial is record.Trial
     assert trial.run_trials is episode.run_trials and trial.record_trial is recording.record_trial
+    assert trial.Episodes is episode.EpisodeWorlds
 
 
 def test_the_trial_loop_reads_no_member_of_a_controller_by_getattr():

@@ -81,6 +81,8 @@ MOVED_NAMES: dict[str, dict[str, str]] = {
         **{name: f"trials.open_loop:{name}" for name in ("APPROACH_TARGET_SECONDS", "OpenLoopController", "OpenLoop")},
     },
     "trials.experience_pays": {"compare": "trials.stats:compare"},  # 0.3: with the statistics
+    "judging.judge": {"judge_worlds": "judging.judge:episode_loop"},  # 0.3: the loop named as the loop
+    "trials.episode": {"Episodes": "trials.episode:EpisodeWorlds"},  # 0.3: what it holds, the episodes' worlds
     # 0.3: the spring rig and its walk, and the start cache, left the generator for rooms of their own
     "synthesis.generator": {
         **{name: f"synthesis.springs:{name}" for name in ("SpringRig", "holds_with_neighbours",

@@ -51,7 +51,7 @@ from ..sim.render import THUMB_SIDE
 from ..sim.scene import CAMERAS, Scene
 from ..sim.worlds import CpuWorlds
 from ..trials.grid import check_grid
-from ..trials.episode import Episodes, trial_scene
+from ..trials.episode import EpisodeWorlds, trial_scene
 from ..trials.setup import TrialSetup
 
 #: s of a grasp after which it is judged as it is, done or not
@@ -243,7 +243,7 @@ class _GraspWorlds:
         """
         palm = len(self.palm_reach)
         actions = self.check_actions(actions)
-        acting = Episodes(self.setup, CpuWorlds([self.scenes[w] for w in worlds]), self.period)
+        acting = EpisodeWorlds(self.setup, CpuWorlds([self.scenes[w] for w in worlds]), self.period)
         index = np.arange(len(worlds))
         acting.act(index, np.clip(actions[:, :N_FINGER_JOINTS], self.limits[:, 0], self.limits[:, 1]),
                    actions[:, N_FINGER_JOINTS:N_FINGER_JOINTS + palm] if palm else None)
@@ -258,7 +258,7 @@ class _GraspWorlds:
         judging = np.flatnonzero(done & ~np.isin(index, list(failed)))
         self.ended[worlds[judging]] = True
         if len(judging):
-            judged = Episodes(self.setup, CpuWorlds([self.scenes[worlds[k]] for k in judging]), self.period)
+            judged = EpisodeWorlds(self.setup, CpuWorlds([self.scenes[worlds[k]] for k in judging]), self.period)
             for k, judgement in zip(judging.tolist(), judged.judge()):
                 rewards[k] = float(judgement.hold and not judgement.fault)
                 infos[k].update(self._judged(judgement))

@@ -16,7 +16,7 @@ spring with gravity off, or a table with gravity on); the support is released fi
   moment of release, with the object's friction (the one the simulation uses), above
   `epsilon_threshold`, the paper's measure.
 
-`judge_worlds` is the one judging loop, over N worlds at once, whatever steps them (`CpuWorlds`, or
+`episode_loop` is the one judging loop, over N worlds at once, whatever steps them (`CpuWorlds`, or
 `WarpWorlds` on a GPU): the trials run it while their controller grasps, the open-loop replay
 (`replay.replay_grasp`, the generator's verifier among its callers) once the hand has squeezed. Its
 stages are objects (`stages.py`: the grasp, the hold test, the margin; `JudgingRules.stages` names those after the
@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..base.errors import QualityError
+from ..base.moved import moved_attribute
 from ..sim.flange import FlangeLimits
 from ..sim.grip import row_norms
 from ..sim.hand import SEGMENTS, SHADOW_HAND, HandModel
@@ -114,10 +115,10 @@ def reading_epsilon(reading: TactileReading, centre: np.ndarray, friction: float
 
 def judge_scene(scene: Scene, rules: JudgingRules = JUDGING, period: float = 0.02) -> Judgement:
     """Judge the grasp a scene (from `supported_scene`) holds now, its actuators keeping their targets:
-    `judge_worlds` on one world that only steps; one look at the object every `period` s."""
+    `episode_loop` on one world that only steps; one look at the object every `period` s."""
     worlds = CpuWorlds([scene])
     nstep = max(1, round(period / scene.model.opt.timestep))
-    return judge_worlds(worlds, period, lambda live: worlds.step(live, nstep), friction=scene.object.friction,
+    return episode_loop(worlds, period, lambda live: worlds.step(live, nstep), friction=scene.object.friction,
                         rules=rules)[0]
 
 
@@ -227,10 +228,10 @@ class Judging:
                                        self.worlds.max_penetration(world), why, self.worlds.time(world))
 
 
-def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], dict[int, str]], *,
+def episode_loop(worlds: Worlds, period: float, advance: Callable[[np.ndarray], dict[int, str]], *,
                  friction: float, rules: JudgingRules = JUDGING,
                  ready: Callable[[], np.ndarray] | None = None) -> list[Judgement]:
-    """The judging loop (see the module doc of `stages`): every world goes through the grasp (until `ready()`,
+    """The episode loop (see the module doc of `stages`; `judge_worlds` before 0.3): every world goes through the grasp (until `ready()`,
     (n,) bool, asked once a period while a world grasps; None: all ready from the start) and then the rules'
     stages (`JudgingRules.stages`: the hold test, the margin), all worlds advancing together one control period of
     `period` s at a time until each is judged.
@@ -277,3 +278,8 @@ def judge_worlds(worlds: Worlds, period: float, advance: Callable[[np.ndarray], 
             for world in stage.done(holding, moved) if len(holding) else ():
                 run.finish(world)
     return run.judged  # type: ignore[return-value]
+
+
+def __getattr__(name: str) -> object:
+    """`judge_worlds`, the episode loop's name before 0.3, with a warning (`base.moved.MOVED_NAMES`)."""
+    return moved_attribute(__name__, name)

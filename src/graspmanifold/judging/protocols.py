@@ -1,7 +1,7 @@
 """How a grasp is judged, one value per protocol (`JudgingProtocol`), and the registry of them by name (`PROTOCOLS`).
 
 A protocol is the physics the scene runs under (`PhysicsProfile`; ours: the scene's own), the judging of a
-closed-loop grasp (the rules of the one judging loop, `judge.judge_worlds`) and the judging of an open-loop replay
+closed-loop grasp (the rules of the one judging loop, `judge.episode_loop`) and the judging of an open-loop replay
 (`replay.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
 `DexGraspBenchProtocol`). Registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`; `ours-faded` after a
 fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object
@@ -182,7 +182,7 @@ class JudgingProtocol:
 
     Attributes:
         name: its name (the registry's key for a registered one; part of a trial's key otherwise).
-        rules: the rules of the judging loop after a trial's grasp (`judge.judge_worlds`), and of our hold test
+        rules: the rules of the judging loop after a trial's grasp (`judge.episode_loop`), and of our hold test
             after an open-loop replay.
         push_test: DexGraspBench's external-force test (one version), which judges an open-loop replay in place of
             `rules` and brings its physics profile; None: the scene's own physics, a replay judged by `rules`.

@@ -1,4 +1,4 @@
-"""The rules of judging (`JudgingRules`) and the stages of the judging loop (`judge.judge_worlds`): the grasp, the
+"""The rules of judging (`JudgingRules`) and the stages of the judging loop (`judge.episode_loop`): the grasp, the
 hold test, the disturbance margin.
 
 Every world goes through the stages in turn, each on its own clock of control periods; a stage holds some of
@@ -299,7 +299,7 @@ JUDGING_BOUNDS = {"hold_seconds": Bounds(0.0, 60.0, above_low=True, unit="s"),
 
 @dataclass(frozen=True)
 class JudgingRules:
-    """How every grasp is judged (see `judge`'s module doc), in one place: `judge_worlds` reads it for the
+    """How every grasp is judged (see `judge`'s module doc), in one place: `episode_loop` reads it for the
     trials and for the generator's verifier (a shorter `hold_seconds`, no margin).
 
     Attributes:

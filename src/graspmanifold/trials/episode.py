@@ -1,7 +1,7 @@
 """Grasp trials: place the object at a grid pose, let the controller close the hand, judge the grasp.
 
 A trial puts a free object (gravity off) in front of the open hand at one grid pose (`grid.py`),
-runs the controller until it reports the grasp done, and then judges the grasp (`judge.judge_worlds`:
+runs the controller until it reports the grasp done, and then judges the grasp (`judge.episode_loop`:
 the hold test in six gravity directions, epsilon for force closure, and the disturbance margin where
 `TrialSetup.margin` asks for it).
 `run_trials` is the one trial loop: N grid poses at once, one controller for all (`BatchController`, or
@@ -18,8 +18,8 @@ it counts as neither a success nor a failure of the controller. `record_trial` r
 keeps its states for pictures and animations.
 
 The episode's pieces: where a trial starts (`trial_scene`, one scene per trial; `trial_starts`, all of them as
-arrays), its worlds on the set-up's backend (`start_worlds`), the loop (`run_trials`; `Episodes`, the one episode
-loop it and the Gymnasium environments share) and the flange's set points of moved palms (`flange_targets`).
+arrays), its worlds on the set-up's backend (`start_worlds`), the loop (`run_trials`; `EpisodeWorlds`, the episodes'
+worlds it and the Gymnasium environments share, run by `judge.episode_loop`) and the flange's set points of moved palms (`flange_targets`).
 """
 
 from __future__ import annotations
@@ -32,10 +32,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..base.errors import InvalidInput
+from ..base.moved import moved_attribute
 from ..base.validation import check_data
 from ..control.controller import BatchController, declared_readouts
 from ..control.regrasp import LiftProbe, RestartingController
-from ..judging.judge import Judgement, judge_worlds, supported_scene
+from ..judging.judge import Judgement, episode_loop, supported_scene
 from ..sim.hand import N_FINGER_JOINTS, SEGMENTS
 from ..sim.scene import Scene
 from ..sim.worlds import CpuWorlds, Worlds, WorldStarts
@@ -179,7 +180,7 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     """One trial per grid pose (n, 4), all at once: place the objects, let the controller grasp them, judge the grasps.
 
     Every world runs on its own clock of control periods: its controller acts until it reports the grasp
-    done, then its judging begins (`judge.judge_worlds`) while the other worlds go on grasping. Trial i
+    done, then its judging begins (`judge.episode_loop`) while the other worlds go on grasping. Trial i
     draws its noise from `rngs[i]`; `observer(worlds)` is called after the start and after every control
     period, the judging included (`record_trial` keeps the states it sees).
 
@@ -199,10 +200,10 @@ def run_trials(setup: TrialSetup, poses: np.ndarray, rngs: Sequence[np.random.Ge
     return [loop.trial(world, judged) for world, judged in enumerate(judgements)]
 
 
-class Episodes:
-    """The one episode loop: trials' worlds on one clock of control periods. The scenes a `TrialSetup` made (on its
-    backend), one control period of physics under the targets given, and the judge (`judge.judge_worlds`, the
-    set-up's rules and the object's friction) once a grasp is done. `run_trials` drives it with a controller, the
+class EpisodeWorlds:
+    """The worlds of trials' episodes on one clock of control periods: the scenes a `TrialSetup` made (on its
+    backend), one control period of physics under the targets given, and the episode loop (`judge.episode_loop`: the
+    grasp, then the set-up's judging with the object's friction) that runs them to their judgement. `run_trials` drives it with a controller, the
     Gymnasium environments (`envs.tactile_grasp`) with an agent's actions.
 
     Args:
@@ -251,12 +252,12 @@ class Episodes:
         Returns:
             One `Judgement` per world.
         """
-        return judge_worlds(self.worlds, self.period, advance or self.physics, friction=self.setup.object.friction,
+        return episode_loop(self.worlds, self.period, advance or self.physics, friction=self.setup.object.friction,
                             rules=self.setup.rules, ready=ready)
 
 
 class _TrialLoop:
-    """The trials' side of the judging loop (`judge_worlds` runs it): one control period of every live world
+    """The trials' side of the judging loop (`episode_loop` runs it): one control period of every live world
     (`advance`: the controller, then the physics; the oracle's correction first where it is asked for), which worlds
     go to the judge (`ready`: the regrasp's probe decides), and what each trial records."""
 
@@ -267,7 +268,7 @@ class _TrialLoop:
         self.controller = controller = setup.make_controller(n)
         self.readouts = declared_readouts(controller)  # what the loop reads of it beyond the control step
         self.period = period = controller.control_period
-        self.episodes = Episodes(setup, start_worlds(setup, poses, rngs, controller.initial), period)
+        self.episodes = EpisodeWorlds(setup, start_worlds(setup, poses, rngs, controller.initial), period)
         self.worlds = self.episodes.worlds
         self.grasping = np.ones(n, dtype=bool)  # the worlds whose controller still acts: only their joints are noisy
         self.clock, self.time_to_grasp = 0.0, np.full(n, np.nan)
@@ -393,3 +394,8 @@ def run_trial(setup: TrialSetup, grid_pose: np.ndarray, rng: np.random.Generator
               observer: Callable[[Worlds], None] | None = None) -> Trial:
     """One trial: `run_trials` for one grid pose (4,), m and rad, with its random generator."""
     return run_trials(setup, np.asarray(grid_pose, dtype=float)[None], [rng], observer)[0]
+
+
+def __getattr__(name: str) -> object:
+    """`Episodes`, `EpisodeWorlds`' name before 0.3, with a warning (`base.moved.MOVED_NAMES`)."""
+    return moved_attribute(__name__, name)

@@ -4,13 +4,15 @@ starts, the loop, `run_trials`) and the recording (`recording`: `record_trial`).
 0.3 (`base.moved.REMOVED_IN`).
 """
 
-from .episode import (MAX_GRASP_SECONDS, ORACLE_SETTLE_SECONDS, Episodes, flange_targets, run_trial, run_trials,
+from .episode import (MAX_GRASP_SECONDS, ORACLE_SETTLE_SECONDS, EpisodeWorlds, flange_targets, run_trial, run_trials,
                       start_worlds, trial_scene, trial_starts)
 from .record import FAILURE_FEATURES, FIRST_CONTACT_FEATURES, Trial
 from .recording import RECORDED_POSE, Recording, record_trial
 from .setup import BACKENDS, MAX_NOISE, ORACLES, WARP_BATCH, Noise, TrialSetup, method_name
 
-__all__ = ["MAX_GRASP_SECONDS", "ORACLE_SETTLE_SECONDS", "Episodes", "flange_targets", "run_trial", "run_trials",
+Episodes = EpisodeWorlds  # 0.2's name of EpisodeWorlds, this face's for one release
+
+__all__ = ["MAX_GRASP_SECONDS", "ORACLE_SETTLE_SECONDS", "EpisodeWorlds", "Episodes", "flange_targets", "run_trial", "run_trials",
            "start_worlds", "trial_scene", "trial_starts", "FAILURE_FEATURES", "FIRST_CONTACT_FEATURES", "Trial",
            "RECORDED_POSE", "Recording", "record_trial", "BACKENDS", "MAX_NOISE", "ORACLES", "WARP_BATCH", "Noise",
            "TrialSetup", "method_name"]
