@@ -209,3 +209,24 @@ def test_a_trials_file_of_the_previous_version_loads_and_is_written_back_the_sam
     assert set(arrays) <= set(after.files)
     for name in arrays:
         assert before[name].dtype == after[name].dtype and before[name].tobytes() == after[name].tobytes(), name
+
+
+def test_the_lifts_settings_live_on_its_stage():
+    """`JudgingRules` held the lift stage's height and speed beside every other protocol's rules: a stage's own
+    settings live on the stage now (`LiftStage`), and the arm's check and the protocol's sentence read them there."""
+    from dataclasses import replace
+
+    from graspmanifold.judging.protocols import JudgingProtocol, get_protocol
+    from graspmanifold.judging.judge import JUDGING
+    from graspmanifold.judging.stages import LiftStage
+    from graspmanifold.sim.flange import FlangeLimits
+
+    lift = get_protocol("lift")
+    assert lift.rules.lift == LiftStage() and JUDGING.lift is None and lift.rules.needs_flange
+    higher = JudgingProtocol("higher-lift", replace(lift.rules, stages=(LiftStage(height=0.3, speed=0.2),)))
+    assert "raises the palm 0.3 m at 0.2 m/s" in higher.summary()
+    with pytest.raises(InvalidInput, match="raises the palm 0.3 m, but the arm travels FlangeLimits.travel=0.25"):
+        higher.check_arm(FlangeLimits(travel=0.25), 0.1)
+    for bad in ({"speed": True}, {"height": 0.0}, {"speed": float("nan")}):
+        with pytest.raises(InvalidInput, match="LiftStage"):
+            LiftStage(**bad)

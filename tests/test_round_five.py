@@ -43,7 +43,6 @@ def test_a_step_after_the_end_is_refused_until_reset():
     ("hold_limit", 0.0, r"JudgingRules\.hold_limit must be a finite number > 0"),
     ("epsilon_threshold", math.inf, r"JudgingRules\.epsilon_threshold"),
     ("margin", "yes", r"JudgingRules\.margin must be True or False"),
-    ("lift_speed", True, r"JudgingRules\.lift_speed must be a finite number"),
     ("stages", (), r"JudgingRules\.stages must be a non-empty tuple"),
 ])
 def test_judging_rules_are_checked_when_made(field, value, message):

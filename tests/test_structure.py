@@ -242,7 +242,7 @@ def test_no_module_of_the_trials_the_judging_or_the_synthesis_is_over_600_lines(
 #: the most fields each wide value may have: the counts when the cap was set (0.3). A new feature brings a value of
 #: its own (where a trial starts, a stage's settings on the stage) rather than one more field on these
 FIELD_CAPS = {"trials.setup.TrialSetup": 18, "control.controller.ControllerParams": 19, "control.state.GraspState": 28,
-              "synthesis.springs.GeneratorParams": 22, "judging.stages.JudgingRules": 17}
+              "synthesis.springs.GeneratorParams": 22, "judging.stages.JudgingRules": 15}
 
 
 def test_the_wide_values_stop_widening():

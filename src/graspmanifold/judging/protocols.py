@@ -5,7 +5,7 @@ closed-loop grasp (the rules of the one judging loop, `judge.episode_loop`) and 
 (`replay.replay_grasp`: our hold test by the same rules, or DexGraspBench's external-force test,
 `DexGraspBenchProtocol`). Registered: our hold test (`DEFAULT_PROTOCOL`, `judge.JUDGING`; `ours-faded` after a
 fading support), the lift of the field's closed-loop protocol (`lift`: the arm raises the palm 0.2 m, the object
-held when it rises at least 0.1 m; `stages.Lift`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1
+held when it rises at least 0.1 m; `stages.LiftStage`, a hand on a flange) and DexGraspBench's two versions, `main` (0.1
 kg, 0.05 m, 15 degrees) and `paper` (the BODex paper's: 0.03 kg, 0.10 m, 180 degrees). The physics DexGraspBench
 needs is a named profile: a 4 ms step, implicitfast, elliptic cones with impratio 10, condim 4, two noslip
 iterations, friction 0.6 sliding and 0.02 torsional, gravity off, the object's mass set by rescaling its density.
@@ -29,7 +29,7 @@ from ..base.validation import Bounds, check_choice, check_directions, check_fiel
 from ..sim.flange import FlangeLimits
 from ..sim.scene import GRAVITY, Scene
 from .judge import JUDGING
-from .stages import SIX_DIRECTIONS, JudgingRules, Lift
+from .stages import SIX_DIRECTIONS, JudgingRules, LiftStage
 
 #: MuJoCo's integrators by the names a `PhysicsProfile` takes
 INTEGRATORS = tuple(name.removeprefix("mjINT_").lower() for name in mujoco.mjtIntegrator.__members__)
@@ -253,10 +253,11 @@ class JudgingProtocol:
         if palm is not None and not isinstance(palm, FlangeLimits):
             raise InvalidInput(f"palm must be a FlangeLimits or None, got {type(palm).__name__}")
         check_number(object_mass, "object_mass", Bounds(0.0, 100.0, above_low=True, unit="kg"))
-        if not rules.needs_flange or palm is None:
+        lift = rules.lift
+        if not rules.needs_flange or palm is None or lift is None:
             return
-        if palm.travel < rules.lift_height:
-            raise InvalidInput(f"protocol {self.name!r} raises the palm {rules.lift_height:g} m, but the arm travels "
+        if palm.travel < lift.height:
+            raise InvalidInput(f"protocol {self.name!r} raises the palm {lift.height:g} m, but the arm travels "
                                f"FlangeLimits.travel={palm.travel:g} m: give the arm at least the lift's travel")
         needed = 2.0 * object_mass * GRAVITY
         if palm.force < needed:
@@ -267,8 +268,8 @@ class JudgingProtocol:
         """How it judges a trial's grasp, in a sentence (the reproduction report's)."""
         rules = self.rules
         epsilon = f"force closure: ε > {rules.epsilon_threshold}"
-        if rules.needs_flange:
-            return (f"lift: gravity on, the arm raises the palm {rules.lift_height:g} m at {rules.lift_speed:g} m/s "
+        if rules.lift is not None:
+            return (f"lift: gravity on, the arm raises the palm {rules.lift.height:g} m at {rules.lift.speed:g} m/s "
                     f"and holds it {rules.hold_seconds:g} s, the object within {100 * rules.hold_limit:.0f} cm of the "
                     f"palm's rise; {epsilon}")
         if self.push_test is None:
@@ -306,7 +307,7 @@ HOLD_TEST = JudgingProtocol("hold-test")
 HOLD_TEST_FADED = JudgingProtocol("hold-test-faded", replace(JUDGING, release_seconds=0.3))
 #: the lift of the field's closed-loop protocol (issue 66): the support released, gravity on, the arm raises the palm
 #: 0.2 m at 0.1 m/s and holds it 0.5 s; held when the object kept within 0.1 m of the palm's rise (it rose >= 0.1 m)
-LIFT = JudgingProtocol("lift", replace(JUDGING, hold_limit=0.1, stages=(Lift,)))
+LIFT = JudgingProtocol("lift", replace(JUDGING, hold_limit=0.1, stages=(LiftStage(),)))
 #: every registered protocol by name: our hold test (at once, or after a fading support), the lift, and
 #: DexGraspBench's versions
 PROTOCOLS: dict[str, JudgingProtocol] = {p.name: p for p in (HOLD_TEST, HOLD_TEST_FADED, LIFT, pushed(DEXGRASPBENCH),

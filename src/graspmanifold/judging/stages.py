@@ -17,8 +17,8 @@ model).
   object must stay within `hold_limit` (and `angle_limit`).
 - `MarginRamp` (only where the rules ask for the margin): a grasp that held is pushed along each direction by a
   force that ramps from 0 to `margin_force`; the margin is the force at which the object first leaves the bound.
-- `Lift` (the lift protocol's, in place of the two above): gravity on, the arm raises the palm `lift_height` straight
-  up and holds it there; the object must keep up with the palm within `hold_limit` (it needs a hand on a flange).
+- `Lift` (the lift protocol's, in place of the two above, named with its settings as `LiftStage`): gravity on, the
+  arm raises the palm straight up and holds it there; the object must keep up with the palm within `hold_limit` (it needs a hand on a flange).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 
@@ -236,7 +236,8 @@ class MarginRamp(Stage):
 
 class Lift(Stage):
     """The lift of the field's closed-loop protocol (issue 66): gravity on (world -z), the arm raises the palm
-    `lift_height` straight up at `lift_speed` (bounded by its flange's speed) and keeps it there for `hold_seconds`.
+    `height` m straight up at `speed` m/s (bounded by its flange's speed) and keeps it there for `hold_seconds`. A
+    protocol names it with its settings, `LiftStage(height, speed)`.
     The displacement is how far the object stayed below the palm's rise, at its largest; the grasp holds when that is
     within `hold_limit` (the field's: a 0.2 m lift, held when the object rose at least 0.1 m), and a world is judged
     in the period its object falls further behind. Needs worlds whose hands hang on a flange (`sim.flange`)."""
@@ -244,9 +245,10 @@ class Lift(Stage):
     #: the stage moves the palm: the trial's scenes need a flange (`JudgingRules.needs_flange`)
     needs_flange = True
 
-    def __init__(self, run: JudgingRun):
+    def __init__(self, run: JudgingRun, height: float = 0.2, speed: float = 0.1):
         super().__init__(run)
-        self.rising = run.rules.cycles(run.rules.lift_height / run.rules.lift_speed, run.period)
+        self.height = height
+        self.rising = run.rules.cycles(height / speed, run.period)
         self.cycles = self.rising + run.rules.cycles(run.rules.hold_seconds, run.period)
         self.count = np.zeros(run.n, dtype=int)  # control periods done
         self.up = np.zeros((run.n, 3))  # the world's up in the flange's slide coordinates
@@ -262,7 +264,7 @@ class Lift(Stage):
 
     def step(self, worlds: np.ndarray) -> np.ndarray:
         run = self.run
-        rise = run.rules.lift_height * np.minimum(self.count[worlds] + 1, self.rising) / self.rising
+        rise = self.height * np.minimum(self.count[worlds] + 1, self.rising) / self.rising
         targets = self.home[worlds].copy()
         targets[:, :3] += rise[:, None] * self.up[worlds]
         run.worlds.steer_flanges(worlds, targets, run.period)
@@ -279,6 +281,37 @@ class Lift(Stage):
         return dropped
 
 
+
+@dataclass(frozen=True)
+class LiftStage:
+    """The lift with its settings, as `JudgingRules.stages` names it: the stage's own settings live on the stage,
+    not on the rules (`JudgingRules.lift_height` and `lift_speed` before 0.3).
+
+    Attributes:
+        height: m the `Lift` raises the palm.
+        speed: m/s it raises it at (the flange's `FlangeLimits.speed` bounds it).
+    """
+
+    height: float = 0.2
+    speed: float = 0.1
+    #: the stage moves the palm: the trial's scenes need a flange (`JudgingRules.needs_flange`)
+    needs_flange: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        check_fields(self, {"height": Bounds(0.0, 2.0, above_low=True, unit="m"),
+                            "speed": Bounds(0.0, 10.0, above_low=True, unit="m/s")})
+
+    def __call__(self, run: JudgingRun) -> Lift:
+        """The stage for a judging run.
+
+        Args:
+            run: the judging's worlds and rules.
+
+        Returns:
+            The `Lift`.
+        """
+        return Lift(run, self.height, self.speed)
+
 HOLD_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 #: the same directions as a tuple of tuples, for the frozen rules that hold them
 SIX_DIRECTIONS: tuple[tuple[float, float, float], ...] = tuple(map(tuple, HOLD_DIRECTIONS.tolist()))
@@ -292,9 +325,7 @@ JUDGING_BOUNDS = {"hold_seconds": Bounds(0.0, 60.0, above_low=True, unit="s"),
                   "support_damping": Bounds(0.0, 1e5, unit="N s/m"),
                   "push": Bounds(0.0, 1000.0, unit="N"),
                   "angle_limit": Bounds(0.0, 2 * math.pi, above_low=True, infinite=True, unit="rad"),
-                  "release_seconds": Bounds(0.0, 60.0, unit="s"),
-                  "lift_height": Bounds(0.0, 2.0, above_low=True, unit="m"),
-                  "lift_speed": Bounds(0.0, 10.0, above_low=True, unit="m/s")}
+                  "release_seconds": Bounds(0.0, 60.0, unit="s")}
 
 
 @dataclass(frozen=True)
@@ -323,9 +354,8 @@ class JudgingRules:
             it is released and recorded (0, ours: released at once; the planned-grasp benchmark fades it).
         directions: the disturbance's unit directions, in turn (ours: +x, -x, +y, -y, +z, -z; `HOLD_DIRECTIONS`).
         stages: the judging's stages after the grasp, in turn: each a `stages.Stage` class (or a callable that
-            makes one of a `Judging`); one's own runs without a change to the loop.
-        lift_height: m the `Lift` stage raises the palm.
-        lift_speed: m/s it raises it at (the flange's `FlangeLimits.speed` bounds it).
+            makes one of a `Judging`, with its own settings: `LiftStage(height, speed)`); one's own runs without a
+            change to the loop.
     """
 
     hold_seconds: float = 0.5
@@ -343,8 +373,6 @@ class JudgingRules:
     release_seconds: float = 0.0
     directions: tuple[tuple[float, float, float], ...] = SIX_DIRECTIONS
     stages: tuple[Callable[[JudgingRun], Stage], ...] = (HoldTest, MarginRamp)
-    lift_height: float = 0.2
-    lift_speed: float = 0.1
 
     def __post_init__(self) -> None:
         check_fields(self, JUDGING_BOUNDS, flags=("margin", "from_grasp"))
@@ -359,6 +387,11 @@ class JudgingRules:
     def needs_flange(self) -> bool:
         """Whether a stage moves the palm (`Lift`): the scenes judged need a hand on a flange."""
         return any(getattr(stage, "needs_flange", False) for stage in self.stages)
+
+    @property
+    def lift(self) -> LiftStage | None:
+        """The lift among the stages, with its settings (None: the rules lift nothing)."""
+        return next((stage for stage in self.stages if isinstance(stage, LiftStage)), None)
 
     @staticmethod
     def cycles(seconds: float, period: float) -> int:
