@@ -171,3 +171,15 @@ def test_a_controllers_declaration_is_checked_by_name(readouts, message):
 
     with pytest.raises(gm.InvalidInput, match=message):
         declared_readouts(Declaring())
+
+
+@pytest.mark.parametrize("given, message", [("folder", "is a folder"), ("missing.npz", "does not exist")])
+def test_experience_given_a_folder_or_no_file_names_the_flag(tmp_path, given, message):
+    """Poor: `evaluate --experience FOLDER` (a trained file, new in 0.3) ended in "path: FOLDER is a directory", the
+    flag unnamed, and a missing file in "path: no such file"."""
+    from graspmanifold.cli import main
+
+    (tmp_path / "folder").mkdir()
+    target = str(tmp_path / given)
+    with pytest.raises(SystemExit, match=f"--experience {target} {message}: give none, one of"):
+        main(["evaluate", "--object", "box", "--experience", target, "--out", str(tmp_path / "run")])

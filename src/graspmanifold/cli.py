@@ -192,6 +192,10 @@ def _experience_files(args: argparse.Namespace):
         if args.map:
             raise SystemExit(f"error: --experience {args.experience} and --map {args.map} both name a trained file: "
                              "give one, as --experience FILE.npz")
+        if Path(args.experience).is_dir() or not Path(args.experience).exists():  # a device or FIFO: named on load
+            why = "is a folder" if Path(args.experience).is_dir() else "does not exist"
+            raise SystemExit(f"error: --experience {args.experience} {why}: give none, one of "
+                             f"{', '.join(REPRESENTATIONS)}, or a trained file (FILE.npz)")
         args.map, args.experience = args.experience, None
     if args.map:  # the file says its kind; a kind named beside it must be that one
         if args.experience == "none":
