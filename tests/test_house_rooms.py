@@ -230,3 +230,19 @@ def test_the_lifts_settings_live_on_its_stage():
     for bad in ({"speed": True}, {"height": 0.0}, {"speed": float("nan")}):
         with pytest.raises(InvalidInput, match="LiftStage"):
             LiftStage(**bad)
+
+
+def test_a_som_takes_its_training_schedule_as_one_value():
+    """`SOM(rows, cols, schedule=...)`: the paper's schedules (`PAPER`, `RESUME`) or one's own, as one value; the flat
+    keywords stay, and the two ways at once are refused."""
+    import graspmanifold as gm
+    from graspmanifold.manifold.som import PAPER, RESUME, SOMSchedule
+
+    resumed = gm.SOM(5, 5, schedule=RESUME)
+    assert (resumed.epochs, resumed.learning_rate, resumed.sigma) == (RESUME.epochs, RESUME.learning_rate, RESUME.sigma)
+    mine = gm.SOM(5, 5, schedule=SOMSchedule(7, (0.5, 0.1), (2.0, 0.5)))
+    assert mine.epochs == 7 and gm.SOM(5, 5).epochs == PAPER.epochs
+    with pytest.raises(InvalidInput, match="give the schedule once"):
+        gm.SOM(5, 5, epochs=3, schedule=RESUME)
+    with pytest.raises(InvalidInput, match="schedule must be a SOMSchedule"):
+        gm.SOM(5, 5, schedule=(7, (0.5, 0.1), (2.0, 0.5)))

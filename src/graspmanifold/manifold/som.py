@@ -138,7 +138,7 @@ class SOM(ReferenceMatcher, NpzRecord):
 
     def __init__(self, rows: int, cols: int, dim: int | None = None, *, seed: int = 0, epochs: int = PAPER.epochs,
                  learning_rate: tuple[float, float] = PAPER.learning_rate, sigma: tuple[float, float] = PAPER.sigma,
-                 algorithm: str = "online", random_state: int | None = None):
+                 algorithm: str = "online", random_state: int | None = None, schedule: SOMSchedule | None = None):
         """The lattice, the seed (presentation order) and the training schedule `fit` uses.
 
         Args:
@@ -151,7 +151,16 @@ class SOM(ReferenceMatcher, NpzRecord):
             sigma: neighbourhood width in lattice units, (start, end) (the paper: 6 -> 0.7).
             algorithm: 'online' (the paper's) or 'batch'.
             random_state: another name for `seed`, as scikit-learn users look for it.
+            schedule: the training schedule as one value (`PAPER`, `RESUME` or one's own `SOMSchedule`) instead of
+                `epochs`, `learning_rate` and `sigma` one by one: `SOM(25, 25, schedule=PAPER)`.
         """
+        if schedule is not None:
+            if not isinstance(schedule, SOMSchedule):
+                raise InvalidInput(f"schedule must be a SOMSchedule (som.PAPER, som.RESUME or one's own), got "
+                                   f"{type(schedule).__name__}")
+            if (epochs, learning_rate, sigma) != (PAPER.epochs, PAPER.learning_rate, PAPER.sigma):
+                raise InvalidInput("give the schedule once: schedule=... or epochs, learning_rate and sigma, not both")
+            epochs, learning_rate, sigma = schedule.epochs, schedule.learning_rate, schedule.sigma
         if random_state is not None:
             if seed != 0 and seed != random_state:
                 raise InvalidInput(f"seed ({seed!r}) and random_state ({random_state!r}) name the same thing; give one")
