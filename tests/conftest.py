@@ -41,17 +41,3 @@ def box_plans():
     postures = generate_postures("box", 2, seed=0, workers=1, progress=False,
                                  params=GeneratorParams(designs="grasp_types"))
     return postures, open_loop_grasps(postures)
-
-
-#: the test files that take longest (about a minute of one core or more, measured from a clean clone): they are
-#: handed to the workers first, so that no long file starts last while the other worker has nothing left to do
-#: (`--dist loadfile` hands out files in collection order)
-LONGEST_FIRST = ("test_reproduce.py", "test_meshes.py", "test_readme.py", "test_learning_curve.py",
-                 "test_last_bits.py", "test_uncertainty.py", "test_recipes.py", "test_generator.py", "test_dataset.py",
-                 "test_examples.py", "test_hand_models.py", "test_dexgraspbench.py", "test_flange.py")
-
-
-def pytest_collection_modifyitems(items):
-    """The longest files first, the rest in their order (a stable sort: each file's tests stay together, in order)."""
-    rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
