@@ -67,7 +67,6 @@ class OpenLoopGrasp:
         return self.postures[2] - self.postures[1]
 
 
-
 #: m the pregrasp's palm stands back from the grasp's, away from the object's centre
 PREGRASP_BACK_OFF = 0.02
 

@@ -9,6 +9,7 @@ deeper than 2 mm, every joint is inside its range and the hand is at rest are ca
 generator's verifier (`verifier_of`) says they hold. The generator's settings are `GeneratorParams`; the generator
 itself (waves, jobs, checkpoints) is `generator`.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -31,7 +32,6 @@ from ..sim.hand import DISTAL_SEGMENTS, FINGER_JOINTS, SEGMENTS, SHADOW_HAND, se
 from ..sim.objects import GraspObject
 from ..sim.scene import Scene
 from .starts import CONTACT_GAP, DESIGN_FAMILIES, MAX_PENETRATION, StartingPosture, verified
-
 
 
 #: how candidates are taken along the walk (`GeneratorParams.mode`)
@@ -117,7 +117,6 @@ PRESET_PARAMS: dict[str, GeneratorParams] = {
     "quick": GeneratorParams(verify=False),
     "paper": GeneratorParams(mode="recording", record_every=1, verify=False),
 }
-
 
 
 class SpringRig:
@@ -230,7 +229,6 @@ class SpringRig:
         scene.set_posture(start.posture)
 
 
-
 @dataclass(frozen=True)
 class WalkJob:
     """One job of the walk: a start (its index), a chunk of it (numbered per start) and its quota of candidates."""
@@ -241,7 +239,7 @@ class WalkJob:
 
 
 def walk(obj: GraspObject, start: StartingPosture, job: WalkJob, seed: int, params: GeneratorParams,
-             hand: str = SHADOW_HAND.name) -> dict[str, np.ndarray]:
+         hand: str = SHADOW_HAND.name) -> dict[str, np.ndarray]:
     """Walk around one start until `job.quota` candidates are found (or give up after `max_tries_per_posture` steps
     per candidate: `exhausted`); keep the verified ones. Returns the kept "postures", "hand_poses", "contacts",
     "epsilon", "hold_displacement" and the walk's "tries", "candidates", "faults", "first_fault", "exhausted"."""
@@ -342,8 +340,6 @@ def holds_with_neighbours(obj: GraspObject, start: StartingPosture) -> bool:
         return False
     walked = walk(obj, start, WalkJob(0, 0, NEIGHBOURS), seed=0, params=GeneratorParams(designs="grasp_types"))
     return len(walked["postures"]) > 0 and not bool(walked["exhausted"])
-
-
 
 
 def verifier_of(obj: GraspObject, params: GeneratorParams, hand: str = SHADOW_HAND.name) -> GraspVerifier:

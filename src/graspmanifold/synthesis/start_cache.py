@@ -3,6 +3,7 @@ family, else searched by the generator's own check (`search_starting_postures`: 
 neighbours hold, `springs.holds_with_neighbours`) and stored in `cache_directory()` for the next process. The
 starts themselves (designs, the search, files) are `starts`.
 """
+
 from __future__ import annotations
 
 import os
@@ -10,16 +11,13 @@ import warnings
 from functools import lru_cache, partial
 from pathlib import Path
 
-
 from ..base.checkpoints import result_key
 from ..base.io import load_npz
 from ..base.validation import check_choice
 from ..sim.objects import GraspObject, get_object
 from .starts import (DESIGN_FAMILIES, StartingPosture, find_starting_postures, geometry_params, read_entry,
                      save_starting_postures, shipped_starting_postures)
-
 from .springs import holds_with_neighbours
-
 
 
 def search_starting_postures(obj: str | GraspObject, family: str = "five_fingertip", *, perturbation: float = 0.0,
